@@ -1,0 +1,18 @@
+// Result of configuring or validating something: either ok, or the name of the
+// offending field and a message that states the allowed range. Messages are
+// string literals so a Status can be returned from the tick-free configure
+// paths on the target without any allocation.
+#pragma once
+
+namespace piezoloop {
+
+struct Status {
+    const char* field = nullptr;    // null means ok
+    const char* message = nullptr;  // what is allowed, e.g. "must be in (0, 1]"
+    constexpr bool ok() const { return field == nullptr; }
+};
+
+constexpr Status ok_status() { return {}; }
+constexpr Status error(const char* field, const char* message) { return {field, message}; }
+
+}  // namespace piezoloop
