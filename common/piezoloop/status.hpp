@@ -9,10 +9,14 @@ namespace piezoloop {
 struct Status {
     const char* field = nullptr;    // null means ok
     const char* message = nullptr;  // what is allowed, e.g. "must be in (0, 1]"
+    int index = -1;                 // element of an array field, -1 if none
     constexpr bool ok() const { return field == nullptr; }
 };
 
 constexpr Status ok_status() { return {}; }
-constexpr Status error(const char* field, const char* message) { return {field, message}; }
+constexpr Status error(const char* field, const char* message) { return {field, message, -1}; }
+constexpr Status error(const char* field, int index, const char* message) {
+    return {field, message, index};
+}
 
 }  // namespace piezoloop
