@@ -13,12 +13,15 @@ namespace piezoloop {
 // to 1e-17, then scaled by 2^k. Accurate to a few ulp.
 constexpr double det_exp(double x) {
     constexpr double kLn2 = 0.69314718055994530942;
+    // ln 2 split in two (Cody–Waite) so k * kLn2Hi is exact for |k| < 2^11.
+    constexpr double kLn2Hi = 6.93147180369123816490e-01;
+    constexpr double kLn2Lo = 1.90821492927058770002e-10;
     if (!(x == x)) return x;
     if (x > 709.0) return __builtin_huge_val();
     if (x < -745.0) return 0.0;
     const double kf = x / kLn2;
     const int k = static_cast<int>(kf >= 0.0 ? kf + 0.5 : kf - 0.5);
-    const double r = x - k * kLn2;
+    const double r = (x - k * kLn2Hi) - k * kLn2Lo;
     double term = 1.0, sum = 1.0;
     for (int i = 1; i < 24; ++i) {
         term *= r / i;
