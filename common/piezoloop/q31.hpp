@@ -12,6 +12,7 @@
 // fits in int64 without any overflow check (|sum m*x| <= 2^31 * 2^31 = 2^62).
 #pragma once
 
+#include <compare>
 #include <cstdint>
 #include <limits>
 
