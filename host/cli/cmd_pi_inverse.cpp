@@ -22,11 +22,11 @@ struct PiInverseArgs {
     bool has_p0 = false;
 };
 
-// float printed with 9 significant digits (enough to round-trip a float),
+// float printed with 7 significant digits (the precision a float carries),
 // stored as the double nearest that decimal so the JSON reads naturally.
 double decimal(float x) {
     char text[32];
-    std::snprintf(text, sizeof text, "%.9g", static_cast<double>(x));
+    std::snprintf(text, sizeof text, "%.7g", static_cast<double>(x));
     return std::stod(text);
 }
 
