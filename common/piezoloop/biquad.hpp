@@ -1,0 +1,390 @@
+// Cascade of second-order sections (SPEC §5), the realisation of every linear
+// block of the core: feedback controllers, notch/low-pass filters, the RC Q
+// filter, simulated plants.
+//
+// Per section (a0 = 1):   y = b0 x + b1 x1 + b2 x2 - a1 y1 - a2 y2
+//
+// Sections are designed on the host in double (SosSection) and realised here
+// in one of two ways:
+//
+//  * float: direct form II transposed, float coefficients and float state.
+//    About ten instructions per section on a Cortex-M7 FPU. Single precision
+//    is fine for well-conditioned sections, NOT for poles very close to z = 1
+//    at high sample rates (rounding a1, a2 to 24 bits moves such poles by
+//    ~1e-7, which for the Ahmad2020 controller at 100 kHz changes its gain at
+//    1 Hz by an order of magnitude; see tests/unit/test_biquad.cpp).
+//
+//  * Q31: direct form I, 64-bit accumulation, with the feedback written as an
+//    offset from a double pole at z = 1 plus second-order error feedback, so
+//    that poles at |z| ~ 0.99997 keep their low-frequency gain (formats below).
+//
+// Configuration is kept apart from state: configure() validates everything
+// first and changes nothing when it rejects; apply() never fails.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <type_traits>
+
+#include "piezoloop/det_math.hpp"
+#include "piezoloop/q31.hpp"
+#include "piezoloop/sample.hpp"
+#include "piezoloop/status.hpp"
+
+namespace piezoloop {
+
+// One section, designed on the host in double. a0 = 1.
+struct SosSection {
+    double b0 = 1.0, b1 = 0.0, b2 = 0.0;  // numerator
+    double a1 = 0.0, a2 = 0.0;            // denominator (a0 = 1)
+};
+
+template <class T, int MaxSections>
+class BiquadCascade;
+
+namespace detail {
+
+// Field names "sections[<i>].<coef>" as static strings: a Status must point
+// at storage that outlives the call and the core cannot format at run time.
+// Only the table for the largest MaxSections in use is emitted.
+inline constexpr int kSosFieldLength = 24;
+inline constexpr const char* kSosCoefNames[5] = {"b0", "b1", "b2", "a1", "a2"};
+
+template <int N>
+struct SosFieldNames {
+    std::array<std::array<char, kSosFieldLength>, static_cast<std::size_t>(N) * 5> names{};
+
+    constexpr SosFieldNames() {
+        for (int i = 0; i < N; ++i) {
+            for (int f = 0; f < 5; ++f) {
+                auto& s = names[static_cast<std::size_t>(i * 5 + f)];
+                int n = 0;
+                for (const char* p = "sections["; *p != '\0'; ++p) s[static_cast<std::size_t>(n++)] = *p;
+                char digits[4] = {};
+                int d = 0;
+                int v = i;
+                do {
+                    digits[d++] = static_cast<char>('0' + v % 10);
+                    v /= 10;
+                } while (v > 0);
+                while (d > 0) s[static_cast<std::size_t>(n++)] = digits[--d];
+                s[static_cast<std::size_t>(n++)] = ']';
+                s[static_cast<std::size_t>(n++)] = '.';
+                s[static_cast<std::size_t>(n++)] = kSosCoefNames[f][0];
+                s[static_cast<std::size_t>(n++)] = kSosCoefNames[f][1];
+                s[static_cast<std::size_t>(n)] = '\0';
+            }
+        }
+    }
+};
+
+template <int N>
+inline constexpr SosFieldNames<N> kSosFieldNames{};
+
+enum SosCoef : int { kB0 = 0, kB1 = 1, kB2 = 2, kA1 = 3, kA2 = 4 };
+
+template <int N>
+constexpr const char* sos_field(int section, SosCoef coef) {
+    return kSosFieldNames<N>.names[static_cast<std::size_t>(section * 5 + coef)].data();
+}
+
+// Block exponent for coefficients quantised through their partial sums.
+// block_exponent() gives sum|c| <= 2^e, so a coefficient (or partial sum)
+// equal to +2^e would saturate to 2^31 - 1 and lose an LSB; one more exponent
+// keeps gains like 1, 0.5 or 4 exact.
+constexpr int partial_sum_exponent(const double* c, int n) {
+    int e = block_exponent(c, n);
+    if (e >= 31) return e;
+    double largest = 0.0;  // most positive partial sum
+    double sum = 0.0;
+    for (int i = 0; i < n; ++i) {
+        sum += c[i];
+        largest = sum > largest ? sum : largest;
+    }
+    double top = 2147483647.0;  // largest mantissa, times 2^(e - 31)
+    for (int i = 0; i < e; ++i) top *= 2.0;
+    for (int i = 0; i > e; --i) top *= 0.5;
+    top /= 2147483648.0;
+    return largest > top ? e + 1 : e;
+}
+
+// Checks shared by both realisations. Poles strictly inside the unit circle
+// is the stability triangle |a2| < 1, |a1| < 1 + a2.
+template <int MaxSections>
+constexpr Status validate_sos(const SosSection* sections, int count, SignalScale in, SignalScale out) {
+    static_assert(MaxSections >= 1 && MaxSections <= 999, "MaxSections must be in [1, 999]");
+    if (count < 1 || count > MaxSections) return error("count", "must be in [1, MaxSections]");
+    if (sections == nullptr) return error("sections", "must not be null");
+    if (!is_finite(in.full_scale) || !(in.full_scale > 0.0f))
+        return error("in.full_scale", "must be finite and > 0");
+    if (!is_finite(out.full_scale) || !(out.full_scale > 0.0f))
+        return error("out.full_scale", "must be finite and > 0");
+    for (int i = 0; i < count; ++i) {
+        const SosSection& s = sections[i];
+        const double c[5] = {s.b0, s.b1, s.b2, s.a1, s.a2};
+        for (int f = 0; f < 5; ++f)
+            if (!is_finite(c[f])) return error(sos_field<MaxSections>(i, SosCoef(f)), "must be finite");
+        if (!(s.a2 < 1.0 && s.a2 > -1.0))
+            return error(sos_field<MaxSections>(i, kA2), "poles must be inside the unit circle: |a2| < 1");
+        const double a1_abs = s.a1 < 0.0 ? -s.a1 : s.a1;
+        if (!(a1_abs < 1.0 + s.a2))
+            return error(sos_field<MaxSections>(i, kA1), "poles must be inside the unit circle: |a1| < 1 + a2");
+    }
+    return ok_status();
+}
+
+}  // namespace detail
+
+// ---------------------------------------------------------------------------
+// float: direct form II transposed.
+//
+//   y  = b0 x + s1
+//   s1 = b1 x - a1 y + s2
+//   s2 = b2 x - a2 y
+//
+// Signals are physical values; the SignalScales are validated but do not
+// change the coefficients (SignalScale::sample_gain<float> is the identity).
+template <int MaxSections>
+class BiquadCascade<float, MaxSections> {
+public:
+    static constexpr int kMaxSections = MaxSections;
+
+    // Accepts 1..MaxSections stable, finite sections. On error names the field
+    // (e.g. "sections[2].a2") and leaves configuration and state untouched.
+    // On success the state carries on if the section count is unchanged
+    // (retuning a running filter), and is zeroed if it changed.
+    constexpr Status configure(const SosSection* sections, int count, SignalScale in, SignalScale out) {
+        if (const Status s = detail::validate_sos<MaxSections>(sections, count, in, out); !s.ok()) return s;
+        const double gain = SignalScale::sample_gain<float>(1.0, in, out);
+        std::array<Coef, MaxSections> c{};
+        for (int i = 0; i < count; ++i) {
+            const SosSection& s = sections[i];
+            const double g = i == 0 ? gain : 1.0;
+            Coef& k = c[static_cast<std::size_t>(i)];
+            k = Coef{static_cast<float>(s.b0 * g), static_cast<float>(s.b1 * g),
+                     static_cast<float>(s.b2 * g), static_cast<float>(s.a1), static_cast<float>(s.a2)};
+            // Rounding to float can push a pole that was just inside the unit
+            // circle onto or over it; refuse rather than run an unstable filter.
+            const double a1 = k.a1, a2 = k.a2;
+            const double a1_abs = a1 < 0.0 ? -a1 : a1;
+            if (!(a2 < 1.0 && a2 > -1.0) || !(a1_abs < 1.0 + a2))
+                return error(detail::sos_field<MaxSections>(i, detail::kA2),
+                             "poles leave the unit circle when rounded to float; use the Q31 cascade");
+        }
+        coef_ = c;
+        if (count != count_) state_ = {};
+        count_ = count;
+        return ok_status();
+    }
+
+    // One sample through all sections. Unconfigured (count() == 0) it passes
+    // the input through.
+    constexpr float apply(float x) {
+        for (int i = 0; i < count_; ++i) {
+            const Coef& c = coef_[static_cast<std::size_t>(i)];
+            State& s = state_[static_cast<std::size_t>(i)];
+            const float y = c.b0 * x + s.s1;
+            s.s1 = c.b1 * x - c.a1 * y + s.s2;
+            s.s2 = c.b2 * x - c.a2 * y;
+            x = y;
+        }
+        return x;
+    }
+
+    constexpr void reset() { state_ = {}; }
+    constexpr int count() const { return count_; }
+
+private:
+    struct Coef {
+        float b0 = 0.0f, b1 = 0.0f, b2 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+    };
+    struct State {
+        float s1 = 0.0f, s2 = 0.0f;
+    };
+    std::array<Coef, MaxSections> coef_{};
+    std::array<State, MaxSections> state_{};
+    int count_ = 0;
+};
+
+// ---------------------------------------------------------------------------
+// Q31: direct form I with the feedback taken relative to a double pole at z=1.
+//
+// Why: at 100 kHz a pole pair at |z| ~ 0.99997 (Ahmad2020 K(s)) has
+// 1 + a1 + a2 ~ 1e-9, the quantity that sets the section's low-frequency
+// gain. Plain Q31 a1/a2 with a coefficient shift of 1 resolve 2^-30 ~ 9e-10:
+// the low-frequency gain would be off by ~100 %. Writing
+//
+//   c1 = a1 + 2,  c2 = a2 - 1      (both tiny for poles near z = 1)
+//   y  = b0 x + b1 x1 + b2 x2 + (2 y1 - y2) - c1 y1 - c2 y2
+//
+// makes (2 y1 - y2) exact integer arithmetic and lets c1, c2 use their own
+// block exponent: for the pole pair above |c1| + |c2| ~ 1.3e-4 -> exponent
+// -12, so c1 + c2 = 1 + a1 + a2 is resolved to 2^-43 ~ 1e-13 (relative 1e-4).
+// c2 is quantised so that c1 + c2 is the best-rounded value of 1 + a1 + a2,
+// and b1, b2 so that the partial sums b0 + b1 and b0 + b1 + b2 (DC gain of
+// the numerator) are best-rounded.
+//
+// Formats (Q31 sample: int32 x with value x / 2^31):
+//   input, output, section histories x1, x2, y1, y2: Q31, saturating
+//   numerator mantissas b0..b2:  b = m * 2^(eb - 31), sum|m| <= 2^31 (+1)
+//   feedback mantissas c1, c2:   c = m * 2^(ec - 31), sum|m| <= 2^31 (+1)
+//   accumulator: int64 Q59 (Q31 with kGuardBits = 28 extra fractional bits)
+//     num = sum b_m * x   (int64, <= 2^62; value num * 2^(eb - 62))
+//     fb  = sum c_m * y   (int64, <= 2^62; value fb * 2^(ec - 62))
+//     acc = ((2 y1 - y2) << 28) + (2 e1 - e2) - (fb >> (3 - ec)) + (num >> (3 - eb))
+//     y   = saturate(acc >> 28)  (floor),  e = acc - (y << 28) in [0, 2^28)
+//   Since (y << 28) + e is the previous acc itself, the first two terms are
+//   computed as 2 w1 - w2 from the two previous unrounded accumulators w1, w2
+//   (the only extra state; on saturation w = y << 28, i.e. e = 0).
+//   Range: |2 y1 - y2 - c1 y1 - c2 y2| = |a1 y1 + a2 y2| <= 3, |fb| <= 2^ec
+//   <= 8 (|c1| < 4, |c2| < 2 for a stable section, so ec <= 3), |num| <= 2^eb
+//   <= 8 (configure requires eb <= 3), so |acc| < 12 * 2^59 < 2^63.
+//
+// Error feedback: the residual e dropped when rounding acc to the Q31 output
+// re-enters the next accumulator as 2 e1 - e2, so the output is
+// y = v - (1 - z^-1)^2 e: the truncation noise is shaped by a double zero at
+// z = 1 and never sees the ~1e9 DC gain of 1 / A(z) near z = 1. What remains
+// unshaped is the floor of the two product shifts, at 2^-59 of full scale
+// each (a few Q31 LSB after a 1e9 DC gain).
+//
+// The physical gain in.full_scale / out.full_scale is folded into the first
+// section's numerator: intermediate nodes are normalised by out.full_scale,
+// so the host design must keep every partial cascade within +-out.full_scale
+// for the inputs it expects (per-section scaling, SPEC §5).
+//
+// Cost per section: five 32x32->64 multiply-accumulates, two variable 64-bit
+// shifts, the saturation test and the history moves (~75 Thumb-2
+// instructions on a Cortex-M3 with GCC -O2; CMSIS-DSP's DF1 32x64 is ~120).
+template <int MaxSections>
+class BiquadCascade<Q31, MaxSections> {
+public:
+    static constexpr int kMaxSections = MaxSections;
+    static constexpr int kGuardBits = 28;   // accumulator Q59 = Q31 + 28 bits
+    static constexpr int kMaxNumeratorExponent = 3;  // sum|b| (sample units) < 8
+
+    // Same contract as the float cascade, plus: the numerator of every section
+    // (the first one times in.full_scale / out.full_scale) must have
+    // sum|b| < 8, and the quantised poles must still be strictly inside the
+    // unit circle.
+    constexpr Status configure(const SosSection* sections, int count, SignalScale in, SignalScale out) {
+        if (const Status s = detail::validate_sos<MaxSections>(sections, count, in, out); !s.ok()) return s;
+        const double gain = SignalScale::sample_gain<Q31>(1.0, in, out);
+        std::array<Coef, MaxSections> c{};
+        for (int i = 0; i < count; ++i) {
+            const SosSection& s = sections[i];
+            const double g = i == 0 ? gain : 1.0;
+            const double b[3] = {s.b0 * g, s.b1 * g, s.b2 * g};
+            if (!is_finite(b[0]) || !is_finite(b[1]) || !is_finite(b[2]))
+                return error(detail::sos_field<MaxSections>(i, detail::kB0),
+                             "numerator times in/out full scale must be finite");
+            const int eb = detail::partial_sum_exponent(b, 3);
+            if (eb > kMaxNumeratorExponent)
+                return error(detail::sos_field<MaxSections>(i, detail::kB0),
+                             "sum |b| (first section: times in/out full scale) must be < 8 for Q31");
+            // a1 + 2 and a2 - 1 are exact in double for poles near z = 1
+            // (Sterbenz), and so is their sum up to one rounding.
+            const double fb[2] = {s.a1 + 2.0, s.a2 - 1.0};
+            const double fb_sum = fb[0] + fb[1];  // = 1 + a1 + a2 > 0 for a stable section
+            const int ec = detail::partial_sum_exponent(fb, 2);
+
+            Coef& k = c[static_cast<std::size_t>(i)];
+            const int64_t m0 = quantize_mantissa(b[0], eb);
+            const int64_t m01 = quantize_mantissa(b[0] + b[1], eb);
+            const int64_t m012 = quantize_mantissa(b[0] + b[1] + b[2], eb);
+            k.b0 = clamp_i32(m0);
+            k.b1 = clamp_i32(m01 - m0);
+            k.b2 = clamp_i32(m012 - m01);
+            const int64_t n1 = quantize_mantissa(fb[0], ec);
+            const int64_t n12 = quantize_mantissa(fb_sum, ec);
+            k.c1 = clamp_i32(n1);
+            k.c2 = clamp_i32(n12 - n1);
+            k.num_shift = static_cast<uint8_t>(31 - kGuardBits - eb);  // 0 .. 34
+            k.fb_shift = static_cast<uint8_t>(31 - kGuardBits - ec);   // 0 .. 34
+
+            // Stability of the quantised section, in mantissa units
+            // (one = 2^(31 - ec)): 1 + a1 + a2 = c1 + c2 > 0, a2 = c2 + 1 < 1,
+            // a2 > -1 <=> c2 > -2, 1 - a1 + a2 = 4 - c1 + c2 > 0. The last two
+            // can only fail when ec > 0 (otherwise one >= 2^31 >= |c1|, |c2|).
+            const int64_t q1 = k.c1, q2 = k.c2;
+            const int64_t one = ec > 0 ? int64_t{1} << (31 - ec) : int64_t{1} << 31;
+            if (!(q1 + q2 > 0) || !(4 * one - q1 + q2 > 0))
+                return error(detail::sos_field<MaxSections>(i, detail::kA1),
+                             "poles too close to the unit circle to be represented in Q31");
+            if (!(q2 < 0) || !(q2 > -2 * one))
+                return error(detail::sos_field<MaxSections>(i, detail::kA2),
+                             "poles too close to the unit circle to be represented in Q31");
+        }
+        coef_ = c;
+        if (count != count_) {
+            hist_ = {};
+            wide_ = {};
+        }
+        count_ = count;
+        return ok_status();
+    }
+
+    // One sample through all sections. Unconfigured (count() == 0) it passes
+    // the input through.
+    constexpr Q31 apply(Q31 in) {
+        int32_t x = in.raw();
+        for (int i = 0; i < count_; ++i) {
+            const Coef& c = coef_[static_cast<std::size_t>(i)];
+            // DF1 cascade sharing histories: hist_[i] is the past of section
+            // i's input, hist_[i + 1] the past of its output (= next input).
+            std::array<int32_t, 2>& xh = hist_[static_cast<std::size_t>(i)];
+            const std::array<int32_t, 2>& yh = hist_[static_cast<std::size_t>(i) + 1];
+            std::array<int64_t, 2>& w = wide_[static_cast<std::size_t>(i)];
+
+            const int64_t num = int64_t{c.b0} * x + int64_t{c.b1} * xh[0] + int64_t{c.b2} * xh[1];
+            const int64_t fb = int64_t{c.c1} * yh[0] + int64_t{c.c2} * yh[1];
+            // 2 w1 - w2 = ((2 y1 - y2) << 28) + 2 e1 - e2: the exact double
+            // pole at z = 1 and the error feedback in one step.
+            int64_t acc = 2 * w[0] - w[1];
+            acc -= fb >> c.fb_shift;
+            acc += num >> c.num_shift;
+
+            int64_t y = acc >> kGuardBits;  // floor; the residual stays in acc
+            if (y > Q31::kMaxRaw) {
+                y = Q31::kMaxRaw;
+                acc = y * (int64_t{1} << kGuardBits);  // residual zeroed
+            } else if (y < Q31::kMinRaw) {
+                y = Q31::kMinRaw;
+                acc = y * (int64_t{1} << kGuardBits);
+            }
+            w[1] = w[0];
+            w[0] = acc;
+            xh[1] = xh[0];
+            xh[0] = x;
+            x = static_cast<int32_t>(y);
+        }
+        std::array<int32_t, 2>& last = hist_[static_cast<std::size_t>(count_)];
+        last[1] = last[0];
+        last[0] = x;
+        return Q31::from_raw(x);
+    }
+
+    constexpr void reset() {
+        hist_ = {};
+        wide_ = {};
+    }
+    constexpr int count() const { return count_; }
+
+private:
+    struct Coef {
+        int32_t b0 = 0, b1 = 0, b2 = 0;  // numerator mantissas, exponent eb
+        int32_t c1 = 0, c2 = 0;          // a1 + 2, a2 - 1 mantissas, exponent ec
+        uint8_t num_shift = 0;           // 3 - eb: numerator products -> Q59
+        uint8_t fb_shift = 0;            // 3 - ec: feedback products -> Q59
+    };
+    static constexpr int32_t clamp_i32(int64_t v) {
+        return v > Q31::kMaxRaw ? Q31::kMaxRaw : v < Q31::kMinRaw ? Q31::kMinRaw : static_cast<int32_t>(v);
+    }
+
+    std::array<Coef, MaxSections> coef_{};
+    std::array<std::array<int32_t, 2>, MaxSections + 1> hist_{};  // {z^-1, z^-2} of each node
+    std::array<std::array<int64_t, 2>, MaxSections> wide_{};  // unrounded outputs w1, w2, Q59
+    int count_ = 0;
+};
+
+}  // namespace piezoloop
