@@ -20,6 +20,14 @@ struct ContinuousSection {
 constexpr Status tustin(const ContinuousSection& c, double rate_Hz, SosSection& out) {
     if (!is_finite(rate_Hz) || !(rate_Hz > 0.0)) return error("rate_Hz", "must be > 0");
     const double k = 2.0 * rate_Hz;
+    if (c.a2 == 0.0 && c.b2 == 0.0) {
+        // First order: map with (z - 1) and (z + 1) once, else a spurious
+        // pole-zero pair would sit on the unit circle at z = -1.
+        const double d0 = c.a1 * k + c.a0;
+        if (!is_finite(d0) || d0 == 0.0) return error("a", "denominator vanishes at the Tustin map");
+        out = SosSection{(c.b1 * k + c.b0) / d0, (-c.b1 * k + c.b0) / d0, 0.0, (-c.a1 * k + c.a0) / d0, 0.0};
+        return ok_status();
+    }
     const double k2 = k * k;
     // (z-1)^2 -> [1, -2, 1], (z-1)(z+1) -> [1, 0, -1], (z+1)^2 -> [1, 2, 1]
     const double n0 = c.b2 * k2 + c.b1 * k + c.b0;
