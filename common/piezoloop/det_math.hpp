@@ -7,6 +7,9 @@
 // They are not meant for the tick.
 #pragma once
 
+#include <bit>
+#include <cstdint>
+
 namespace piezoloop {
 
 // e^x for |x| <= ~700: x = k ln2 + r with |r| <= ln2/2, e^r by a Taylor series
@@ -36,7 +39,12 @@ constexpr double det_exp(double x) {
     return sum * scale;
 }
 
-constexpr bool is_finite(float x) { return x == x && x - x == 0.0f; }
-constexpr bool is_finite(double x) { return x == x && x - x == 0.0; }
+// Bit tests rather than x == x, so they hold even under -ffinite-math-only.
+constexpr bool is_finite(float x) {
+    return (std::bit_cast<uint32_t>(x) & 0x7f800000u) != 0x7f800000u;
+}
+constexpr bool is_finite(double x) {
+    return (std::bit_cast<uint64_t>(x) & 0x7ff0000000000000ull) != 0x7ff0000000000000ull;
+}
 
 }  // namespace piezoloop

@@ -48,6 +48,7 @@
 #include <cstdint>
 #include <type_traits>
 
+#include "piezoloop/det_math.hpp"
 #include "piezoloop/q31.hpp"
 #include "piezoloop/sample.hpp"
 #include "piezoloop/status.hpp"
@@ -102,12 +103,6 @@ inline constexpr float kMaxSlew_V_per_s = 1.0e12f;
 inline constexpr float kMaxRate_Hz = 1.0e8f;
 inline constexpr float kMaxTrip_s = 1.0e3f;
 
-// Bit test instead of x == x / x - x == 0, so it also holds if someone
-// compiles with -ffinite-math-only.
-constexpr bool is_finite(float x) {
-    return (std::bit_cast<uint32_t>(x) & 0x7f800000u) != 0x7f800000u;
-}
-
 // Distance from |x| (finite) to the next larger float: the output resolution there.
 constexpr float ulp(float x) {
     const float a = x < 0.0f ? -x : x;
@@ -151,7 +146,6 @@ constexpr int64_t q31_raw_at_or_below(double volts, double full_scale) {
 }  // namespace limits_detail
 
 constexpr Status validate(const HardLimits& h) {
-    using limits_detail::is_finite;
     using limits_detail::kMaxAbsVolt;
     if (!is_finite(h.u_min_V) || h.u_min_V < -kMaxAbsVolt || h.u_min_V > kMaxAbsVolt)
         return error("u_min_V", "hard limit must be finite and within +-1e6 V");
@@ -166,7 +160,6 @@ constexpr Status validate(const HardLimits& h) {
 
 // A runtime setting against the board's hard limits.
 constexpr Status validate(const LimitsConfig& c, const HardLimits& h) {
-    using limits_detail::is_finite;
     if (const Status s = validate(h); !s.ok()) return s;
     if (!is_finite(c.u_min_V) || c.u_min_V < h.u_min_V)
         return error("u_min_V", "must be finite and >= the hard limit u_min_V");
@@ -274,7 +267,7 @@ public:
         Rep x{};
         bool finite = true;
         if constexpr (kFloat) {
-            finite = limits_detail::is_finite(u);
+            finite = is_finite(u);
             x = u;
         } else {
             x = u.raw();
@@ -338,7 +331,7 @@ public:
     constexpr void preset_output(T u_now) {
         if (!hard_status_.ok()) return;
         if constexpr (kFloat) {
-            last_ = limits_detail::is_finite(u_now) ? clamp_rep(u_now, hard_lo_, hard_hi_) : safe_;
+            last_ = is_finite(u_now) ? clamp_rep(u_now, hard_lo_, hard_hi_) : safe_;
         } else {
             last_ = clamp_rep(u_now.raw(), hard_lo_, hard_hi_);
         }
@@ -374,7 +367,7 @@ private:
 
     constexpr Status init_hard() {
         if (const Status s = validate(hard_); !s.ok()) return s;
-        if (!limits_detail::is_finite(rate_Hz_) || !(rate_Hz_ > 0.0f) || rate_Hz_ > limits_detail::kMaxRate_Hz)
+        if (!is_finite(rate_Hz_) || !(rate_Hz_ > 0.0f) || rate_Hz_ > limits_detail::kMaxRate_Hz)
             return error("sample_rate_Hz", "must be in (0, 1e8] Hz");
         const double step_d = static_cast<double>(hard_.slew_max_V_per_s) / static_cast<double>(rate_Hz_);
         if constexpr (kFloat) {
@@ -390,7 +383,7 @@ private:
                 return error("slew_max_V_per_s", "per-sample step (slew / rate) must be >= 4 float ulp of the hard range");
         } else {
             const float fs = scale_.full_scale;
-            if (!limits_detail::is_finite(fs) || !(fs > 0.0f) || fs > limits_detail::kMaxAbsVolt)
+            if (!is_finite(fs) || !(fs > 0.0f) || fs > limits_detail::kMaxAbsVolt)
                 return error("full_scale", "output scale must be in (0, 1e6] V");
             const double fsd = static_cast<double>(fs);
             const int64_t l = limits_detail::q31_raw_at_or_above(hard_.u_min_V, fsd);

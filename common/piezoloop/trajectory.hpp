@@ -49,6 +49,7 @@
 #include <span>
 #include <type_traits>
 
+#include "piezoloop/det_math.hpp"
 #include "piezoloop/q31.hpp"
 #include "piezoloop/sample.hpp"
 #include "piezoloop/sine_table.hpp"
@@ -74,10 +75,6 @@ struct TrajectoryConfig {
 };
 
 namespace trajectory_detail {
-
-constexpr bool is_finite(float x) {
-    return (std::bit_cast<uint32_t>(x) & 0x7f800000u) != 0x7f800000u;
-}
 
 inline constexpr double kTwo32 = 4294967296.0;
 inline constexpr float kMaxAbs_um = 1.0e6f;  // 1 m: anything beyond is a unit error
@@ -363,7 +360,7 @@ private:
     }
 
     static constexpr Status frequency_step(float f_Hz, float rate_Hz, trajectory_detail::PhaseStep& ps) {
-        if (!trajectory_detail::is_finite(f_Hz) || !(f_Hz > 0.0f) ||
+        if (!is_finite(f_Hz) || !(f_Hz > 0.0f) ||
             !(static_cast<double>(f_Hz) < 0.5 * static_cast<double>(rate_Hz)))
             return error("frequency_Hz", "must be in (0, sample_rate_Hz / 2)");
         if (!trajectory_detail::rational_phase_step(static_cast<double>(f_Hz) / static_cast<double>(rate_Hz), ps))

@@ -1,5 +1,5 @@
 // Turns a core Status into the error text the command line prints:
-// "<field>[<index>]: <message>".
+// "<group>.<field>[<index>]: <message>".
 #pragma once
 
 #include <string>
@@ -9,7 +9,8 @@
 namespace piezoloop::cli {
 
 inline std::string describe(const Status& s) {
-    std::string text = s.field ? s.field : "?";
+    std::string text = s.group ? std::string(s.group) + "." : std::string();
+    text += s.field ? s.field : "?";
     if (s.index >= 0) text += "[" + std::to_string(s.index) + "]";
     return text + ": " + (s.message ? s.message : "invalid");
 }

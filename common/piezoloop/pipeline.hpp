@@ -1,0 +1,316 @@
+// The control pipeline: one tick of DESIGN.md "Data flow of one tick".
+//
+//   r    <- wave generator, or the held / streamed setpoint
+//   u_ff <- inverse hysteresis of r (analytic PI inverse, a PI compensator
+//           such as Shan2012's fitted inverse, or Dahl feedforward)
+//   e     = r - y;  e' = e + RC(e) when repetitive control is on
+//   u_fb <- feedback of e' (biquad cascade or PID)
+//   u     = limits(u_ff + u_fb)  -> DAC
+//   recorder <- (r, y, e, u, u_ff, u_fb, u_rc)
+//
+// What the hardware fixes (loop rate, converter full scales, hard output
+// limits) is the PipelineSetup, given once at construction. What users tune is
+// the PipelineParams: validated field by field, configured into the inactive
+// one of two banks outside the tick, and swapped in at the next tick boundary.
+// A rejected set changes nothing. The limiter is not banked: it carries the
+// last output across a swap so the piezo never sees a jump beyond the slew
+// limit, and its hard limits cannot be changed by any parameter set.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <type_traits>
+
+#include "piezoloop/biquad.hpp"
+#include "piezoloop/dahl.hpp"
+#include "piezoloop/limits.hpp"
+#include "piezoloop/pi_inverse.hpp"
+#include "piezoloop/pi_model.hpp"
+#include "piezoloop/pid.hpp"
+#include "piezoloop/recorder.hpp"
+#include "piezoloop/repetitive.hpp"
+#include "piezoloop/sample.hpp"
+#include "piezoloop/status.hpp"
+#include "piezoloop/trajectory.hpp"
+
+namespace piezoloop {
+
+inline constexpr int kMaxControllerSections = 4;
+
+enum class FeedforwardKind : uint8_t {
+    kNone = 0,
+    kPiInverse,      // `pi` is the stage's model (V -> µm); its analytic inverse runs
+    kPiCompensator,  // `pi` is the compensator itself (µm -> V), e.g. Shan2012's inverse
+    kDahl,           // inversion-free Dahl feedforward (float pipeline only)
+};
+
+enum class FeedbackKind : uint8_t { kNone = 0, kSos, kPid };
+
+struct PipelineSetup {
+    HardLimits hard{};            // the piezo's and amplifier's limits: never exceeded
+    float rate_Hz = 100000.0f;    // loop rate
+    SignalScale position{40.0f};  // r, y, e: µm at Q31 full scale
+    SignalScale voltage{150.0f};  // u: V at Q31 full scale
+};
+
+struct PipelineParams {
+    FeedforwardKind feedforward = FeedforwardKind::kNone;
+    PiModel pi{};
+    DahlParams dahl{};
+    FeedbackKind feedback = FeedbackKind::kNone;
+    int sos_count = 0;  // feedback sections: e (µm) -> u_fb (V), discrete at the loop rate
+    std::array<SosSection, kMaxControllerSections> sos{};
+    PidConfig pid{};    // e (µm) -> u_fb (V)
+    bool rc_enabled = false;
+    RepetitiveConfig rc{};
+    LimitsConfig limits{};
+};
+
+// Everything the tick computes, in sample units (µm and V for float).
+template <class T>
+struct TickSignals {
+    T r{}, y{}, e{}, u{}, u_ff{}, u_fb{}, u_rc{};
+};
+
+template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024>
+class Pipeline {
+    static_assert(is_sample_type_v<T>, "Pipeline<T>: T is float or Q31");
+    static constexpr bool kFloat = std::is_same_v<T, float>;
+
+public:
+    using RecorderType = Recorder<T, RecChannels, RecCapacity>;
+    using Trajectory = TrajectoryGenerator<T>;
+
+    explicit Pipeline(const PipelineSetup& setup)
+        : setup_(setup),
+          limiter_(setup.hard, setup.rate_Hz, setup.voltage),
+          trajectory_(setup.position) {}
+
+    // Field-by-field check of a parameter set, without touching anything
+    // (configures a scratch bank on the stack: host and main-loop use).
+    Status validate(const PipelineParams& p) const {
+        Bank scratch{};
+        if (const Status s = configure_bank(p, scratch); !s.ok()) return s;
+        return in_group("limits", piezoloop::validate(p.limits, setup_.hard));
+    }
+
+    // Validates p and configures the inactive bank; the tick swaps it in at
+    // its next boundary. Returns an error (and changes nothing) if p is
+    // invalid or a previous set is still waiting to be swapped in.
+    // Main-loop context.
+    Status stage(const PipelineParams& p) {
+        if (swap_pending_.load(std::memory_order_acquire))
+            return error("params", "previous parameter set not yet swapped in; retry after one tick");
+        Bank& next = banks_[active_ ^ 1u];
+        if (const Status s = configure_bank(p, next); !s.ok()) return s;
+        if (const Status s = in_group("limits", piezoloop::validate(p.limits, setup_.hard)); !s.ok()) return s;
+        params_[active_ ^ 1u] = p;
+        swap_pending_.store(true, std::memory_order_release);
+        return ok_status();
+    }
+    bool swap_pending() const { return swap_pending_.load(std::memory_order_acquire); }
+
+    // Armed: the controller drives the output (its states start from rest at
+    // the first armed tick). Disarmed: the output ramps, at the slew limit, to
+    // the safe value. Requests from the main loop take effect at the next tick.
+    void arm() { armed_.store(true, std::memory_order_release); }
+    void disarm() { armed_.store(false, std::memory_order_release); }
+    bool armed() const { return armed_.load(std::memory_order_acquire); }
+
+    // Setpoint used when no wave is running (streamed or held), µm. One
+    // aligned word: safe to write from the main loop while the tick runs.
+    void set_setpoint(T r) { setpoint_ = r; }
+
+    // The tick touches the generator only while a wave runs, so it is
+    // configured here only while none does.
+    Status start_wave(const TrajectoryConfig& c) {
+        if (wave_running()) return in_group("trajectory", error("waveform", "a wave is running: stop it first"));
+        if (c.sample_rate_Hz != setup_.rate_Hz)
+            return in_group("trajectory", error("sample_rate_Hz", "must equal the loop rate"));
+        if (const Status s = trajectory_.configure(c); !s.ok()) return in_group("trajectory", s);
+        wave_running_.store(true, std::memory_order_release);
+        return ok_status();
+    }
+    // The setpoint holds the wave's last value.
+    void stop_wave() { stop_request_.store(true, std::memory_order_release); }
+    bool wave_running() const { return wave_running_.load(std::memory_order_acquire); }
+
+    // One tick: measured displacement in, command out. Bounded time, no
+    // allocation, never fails.
+    T tick(T y) {
+        if (swap_pending_.load(std::memory_order_acquire)) swap_banks();
+
+        TickSignals<T> s;
+        s.y = y;
+        if (wave_running_.load(std::memory_order_acquire)) {
+            s.r = trajectory_.step();
+            if (trajectory_.done() || stop_request_.exchange(false, std::memory_order_acq_rel)) {
+                setpoint_ = s.r;
+                wave_running_.store(false, std::memory_order_release);
+            }
+        } else {
+            stop_request_.store(false, std::memory_order_relaxed);
+            s.r = setpoint_;
+        }
+        s.e = s.r - s.y;
+        const bool armed = armed_.load(std::memory_order_acquire);
+        if (armed && !was_armed_) bank().reset();
+        was_armed_ = armed;
+        if (armed) {
+            Bank& b = bank();
+            s.u_ff = b.feedforward(s.r);
+            T e_fb = s.e;
+            if (b.rc_enabled) {
+                s.u_rc = b.rc.apply(s.e);
+                e_fb = s.e + s.u_rc;
+            }
+            s.u_fb = b.feedback_apply(e_fb);
+            s.u = limiter_.apply(s.u_ff + s.u_fb);
+        } else {
+            s.u = limiter_.apply(sample_zero<T>());
+        }
+        last_ = s;
+        recorder_.push(tick_count_, {s.r, s.y, s.e, s.u, s.u_ff, s.u_fb, s.u_rc});
+        ++tick_count_;
+        return s.u;
+    }
+
+    const TickSignals<T>& last() const { return last_; }
+    uint32_t tick_count() const { return tick_count_; }
+    uint32_t swaps() const { return swaps_; }
+    const PipelineParams& params() const { return params_[active_]; }
+    const PipelineSetup& setup() const { return setup_; }
+    OutputLimiter<T>& limiter() { return limiter_; }
+    const OutputLimiter<T>& limiter() const { return limiter_; }
+    RecorderType& recorder() { return recorder_; }
+    Trajectory& trajectory() { return trajectory_; }
+
+private:
+    // One complete, configured controller. Two of them make the double buffer.
+    struct Bank {
+        FeedforwardKind ff_kind = FeedforwardKind::kNone;
+        PiOperator<T> pi{};
+        DahlFeedforward dahl{};
+        FeedbackKind fb_kind = FeedbackKind::kNone;
+        BiquadCascade<T, kMaxControllerSections> sos{};
+        Pid<T> pid{};
+        bool rc_enabled = false;
+        RepetitiveController<T, RcCapacity> rc{};
+        SignalScale position{}, voltage{};
+
+        T feedforward(T r) {
+            switch (ff_kind) {
+                case FeedforwardKind::kPiInverse:
+                case FeedforwardKind::kPiCompensator:
+                    return pi.apply(r);
+                case FeedforwardKind::kDahl:
+                    if constexpr (kFloat) return dahl.step(r); else return sample_zero<T>();
+                case FeedforwardKind::kNone:
+                    break;
+            }
+            return sample_zero<T>();
+        }
+        T feedback_apply(T e) {
+            switch (fb_kind) {
+                case FeedbackKind::kSos: return sos.apply(e);
+                case FeedbackKind::kPid: return pid.apply(e);
+                case FeedbackKind::kNone: break;
+            }
+            return sample_zero<T>();
+        }
+        void reset() {
+            pi.reset();
+            if (ff_kind == FeedforwardKind::kDahl) dahl.reset(0.0f);
+            sos.reset();
+            pid.reset();
+            rc.reset();
+        }
+    };
+
+    Status configure_bank(const PipelineParams& p, Bank& b) const {
+        b.position = setup_.position;
+        b.voltage = setup_.voltage;
+        b.ff_kind = p.feedforward;
+        switch (p.feedforward) {
+            case FeedforwardKind::kNone:
+                break;
+            case FeedforwardKind::kPiInverse: {
+                PiModel inverse{};
+                if (const Status s = invert_pi(p.pi, inverse); !s.ok()) return in_group("pi", s);
+                if (const Status s = b.pi.configure(inverse, setup_.position, setup_.voltage); !s.ok())
+                    return in_group("pi", s);
+                break;
+            }
+            case FeedforwardKind::kPiCompensator:
+                if (const Status s = b.pi.configure(p.pi, setup_.position, setup_.voltage); !s.ok())
+                    return in_group("pi", s);
+                break;
+            case FeedforwardKind::kDahl:
+                if constexpr (!kFloat)
+                    return error("feedforward", "Dahl feedforward needs the float pipeline (qemu-m7, stm32h743, host float)");
+                if (const Status s = b.dahl.configure(p.dahl); !s.ok()) return in_group("dahl", s);
+                break;
+            default:
+                return error("feedforward", "must be none, pi_inverse, pi_compensator or dahl");
+        }
+        b.fb_kind = p.feedback;
+        switch (p.feedback) {
+            case FeedbackKind::kNone:
+                break;
+            case FeedbackKind::kSos:
+                if (p.sos_count < 1 || p.sos_count > kMaxControllerSections)
+                    return error("sos_count", "must be in [1, 4]");
+                if (const Status s = b.sos.configure(p.sos.data(), p.sos_count, setup_.position, setup_.voltage);
+                    !s.ok())
+                    return in_group("sos", s);
+                break;
+            case FeedbackKind::kPid:
+                if (const Status s = b.pid.configure(p.pid, setup_.rate_Hz, setup_.position, setup_.voltage);
+                    !s.ok())
+                    return in_group("pid", s);
+                break;
+            default:
+                return error("feedback", "must be none, sos or pid");
+        }
+        b.rc_enabled = p.rc_enabled;
+        if (p.rc_enabled) {
+            if (p.feedback == FeedbackKind::kNone)
+                return error("rc_enabled", "repetitive control plugs into a feedback loop: set feedback");
+            if (const Status s = b.rc.configure(p.rc); !s.ok()) return in_group("rc", s);
+        }
+        b.reset();
+        return ok_status();
+    }
+
+    Bank& bank() { return banks_[active_]; }
+
+    void swap_banks() {
+        active_ ^= 1u;
+        bank().reset();
+        // Validated in stage(): cannot fail here; the limiter keeps its last
+        // output and slews into the new range.
+        (void)limiter_.configure(params_[active_].limits);
+        ++swaps_;
+        swap_pending_.store(false, std::memory_order_release);
+    }
+
+    PipelineSetup setup_;
+    Bank banks_[2]{};
+    PipelineParams params_[2]{};
+    unsigned active_ = 0;
+    std::atomic<bool> swap_pending_{false};
+    OutputLimiter<T> limiter_;
+    Trajectory trajectory_;
+    RecorderType recorder_{};
+    TickSignals<T> last_{};
+    T setpoint_{};
+    std::atomic<bool> armed_{false};
+    bool was_armed_ = false;
+    std::atomic<bool> wave_running_{false};
+    std::atomic<bool> stop_request_{false};
+    uint32_t tick_count_ = 0;
+    uint32_t swaps_ = 0;
+};
+
+}  // namespace piezoloop

@@ -1,0 +1,203 @@
+// The composed pipeline: closed loop on the reference stage, parameter
+// validation and swapping, arming, and the hard limits.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "piezoloop/reference_stage.hpp"
+#include "sim/metrics.hpp"
+
+using namespace piezoloop;
+
+namespace {
+
+template <class T>
+using RefPipeline = Pipeline<T, 1024, 4, 1024>;
+
+TrajectoryConfig triangle_10Hz() {
+    TrajectoryConfig t;
+    t.waveform = Waveform::kTriangle;
+    t.amplitude_um = 15.0f;
+    t.offset_um = 0.0f;
+    t.frequency_Hz = 10.0f;
+    t.sample_rate_Hz = reference::kRate_Hz;
+    return t;
+}
+
+// Runs the loop for `seconds` and returns the tracking metrics of the last
+// period (10 000 ticks of the 10 Hz triangle). One tick of compute delay.
+template <class T>
+sim::TrackingMetrics run(const PipelineParams& p, double seconds = 0.3) {
+    auto pipe = std::make_unique<RefPipeline<T>>(reference::setup());
+    EXPECT_TRUE(pipe->stage(p).ok());
+    pipe->arm();
+    EXPECT_TRUE(pipe->start_wave(triangle_10Hz()).ok());
+    HammersteinPlant plant;
+    EXPECT_TRUE(plant.configure(reference::plant()).ok());
+    const SignalScale pos = reference::setup().position, volt = reference::setup().voltage;
+    const int n = static_cast<int>(seconds * reference::kRate_Hz);
+    std::vector<double> r, y;
+    float y_um = 0.0f;
+    for (int k = 0; k < n; ++k) {
+        const T u = pipe->tick(pos.to_sample<T>(y_um));
+        if (k >= n - 10000) {
+            r.push_back(pos.to_physical(pipe->last().r));
+            y.push_back(y_um);
+        }
+        y_um = plant.step(volt.to_physical(u));
+    }
+    return sim::tracking_metrics(r, y);
+}
+
+}  // namespace
+
+TEST(Pipeline, FeedforwardAndFeedbackTrackTheReferenceStage) {
+    // 10 Hz, 30 µm p-p triangle on the 15-operator stage, whose simulated
+    // weights differ from the model the inverse is built from. Each part must
+    // help, and together they must meet Ahmad2020's specification up to
+    // 10 Hz: peak error < 1 % of the range.
+    const auto open = run<float>(reference::open_loop_params());
+    const auto ff = run<float>(reference::params(true, false));
+    const auto fb = run<float>(reference::params(false, true));
+    const auto both = run<float>(reference::params(true, true));
+    std::printf("e_max%%: open %.3f  ff %.3f  fb %.3f  ff+fb %.3f\n", open.e_max_pct, ff.e_max_pct,
+                fb.e_max_pct, both.e_max_pct);
+    EXPECT_GT(open.e_max_pct, 5.0);  // hysteresis of the bender: several %
+    EXPECT_LT(ff.e_max_pct, open.e_max_pct);
+    EXPECT_LT(fb.e_max_pct, open.e_max_pct);
+    EXPECT_LT(both.e_max_pct, 1.0);
+    EXPECT_LT(both.e_max_pct, ff.e_max_pct);
+    EXPECT_LT(both.e_max_pct, fb.e_max_pct);
+}
+
+TEST(Pipeline, Q31TracksLikeFloat) {
+    // Same loop in Q31 (50 µm / 12 V full scales). Quantisation is ~2e-8 of
+    // full scale, so the metrics agree with float to well under 0.01 %.
+    const auto f = run<float>(reference::params(true, true));
+    const auto q = run<Q31>(reference::params(true, true));
+    EXPECT_NEAR(q.e_max_pct, f.e_max_pct, 0.01);
+    EXPECT_NEAR(q.e_rms_pct, f.e_rms_pct, 0.01);
+}
+
+TEST(Pipeline, SwapHappensAtTheNextTickBoundary) {
+    auto pipe = std::make_unique<RefPipeline<float>>(reference::setup());
+    ASSERT_TRUE(pipe->stage(reference::params()).ok());
+    EXPECT_TRUE(pipe->swap_pending());
+    EXPECT_EQ(pipe->swaps(), 0u);
+    // A second set cannot overwrite one that is not yet live.
+    const Status busy = pipe->stage(reference::params(false, true));
+    EXPECT_STREQ(busy.field, "params");
+    pipe->tick(0.0f);
+    EXPECT_FALSE(pipe->swap_pending());
+    EXPECT_EQ(pipe->swaps(), 1u);
+    EXPECT_EQ(pipe->params().feedforward, FeedforwardKind::kPiInverse);
+    ASSERT_TRUE(pipe->stage(reference::params(false, true)).ok());
+    EXPECT_EQ(pipe->params().feedforward, FeedforwardKind::kPiInverse);  // not yet
+    pipe->tick(0.0f);
+    EXPECT_EQ(pipe->params().feedforward, FeedforwardKind::kNone);
+}
+
+TEST(Pipeline, InvalidSetsAreRejectedFieldByFieldAndChangeNothing) {
+    struct Case {
+        const char* group;
+        const char* field;
+        void (*mutate)(PipelineParams&);
+    };
+    const Case cases[] = {
+        {"pi", "weights", [](PipelineParams& p) { p.pi.weights[2] = -10.0f; }},  // not invertible
+        {"pi", "thresholds", [](PipelineParams& p) { p.pi.thresholds[3] = -1.0f; }},
+        {"pi", "count", [](PipelineParams& p) { p.pi.count = 40; }},
+        {nullptr, "feedforward", [](PipelineParams& p) { p.feedforward = static_cast<FeedforwardKind>(9); }},
+        {nullptr, "sos_count", [](PipelineParams& p) { p.sos_count = 5; }},
+        {"sos", "sections[1].a2", [](PipelineParams& p) { p.sos[1].a2 = 1.5; }},
+        {"sos", "sections[0].b0", [](PipelineParams& p) { p.sos[0].b0 = NAN; }},
+        {"rc", "k_rc", [](PipelineParams& p) { p.rc_enabled = true; p.rc.k_rc = 3.0f; }},
+        {"rc", "period_samples", [](PipelineParams& p) { p.rc_enabled = true; p.rc.period_samples = 5000; }},
+        {nullptr, "rc_enabled", [](PipelineParams& p) { p.rc_enabled = true; p.feedback = FeedbackKind::kNone; }},
+        {"limits", "u_max_V", [](PipelineParams& p) { p.limits.u_max_V = 50.0f; }},
+        {"limits", "u_min_V", [](PipelineParams& p) { p.limits.u_min_V = NAN; }},
+        {"pid", nullptr, [](PipelineParams& p) { p.feedback = FeedbackKind::kPid; p.pid.u_min = 5; p.pid.u_max = -5; }},
+    };
+    // Reference: a pipeline that never sees a bad set. Subject: the same one
+    // offered every bad set between ticks. Their outputs must stay identical.
+    auto ref = std::make_unique<RefPipeline<float>>(reference::setup());
+    auto sub = std::make_unique<RefPipeline<float>>(reference::setup());
+    for (auto* p : {ref.get(), sub.get()}) {
+        ASSERT_TRUE(p->stage(reference::params()).ok());
+        p->arm();
+        ASSERT_TRUE(p->start_wave(triangle_10Hz()).ok());
+    }
+    float y = 0.0f;
+    for (int k = 0; k < 2000; ++k) {
+        if (k % 100 == 50) {
+            const Case& c = cases[(k / 100) % std::size(cases)];
+            PipelineParams bad = reference::params();
+            c.mutate(bad);
+            const Status s = sub->stage(bad);
+            ASSERT_FALSE(s.ok()) << c.field;
+            EXPECT_FALSE(sub->swap_pending());
+            if (c.group) {
+                EXPECT_STREQ(s.group, c.group) << c.field;
+            }
+            if (c.field) {
+                EXPECT_STREQ(s.field, c.field) << (s.field ? s.field : "null");
+            }
+            EXPECT_FALSE(sub->validate(bad).ok());
+        }
+        const float a = ref->tick(y), b = sub->tick(y);
+        ASSERT_EQ(a, b) << "tick " << k;
+        y = 0.9f * y + 0.4f * a;  // a crude plant, identical for both
+    }
+}
+
+TEST(Pipeline, DahlFeedforwardNeedsTheFloatPipeline) {
+    PipelineParams p = reference::params();
+    p.feedforward = FeedforwardKind::kDahl;
+    p.dahl = kAhmad2020Dahl;
+    auto q = std::make_unique<RefPipeline<Q31>>(reference::setup());
+    EXPECT_STREQ(q->validate(p).field, "feedforward");
+    auto f = std::make_unique<RefPipeline<float>>(reference::setup());
+    EXPECT_TRUE(f->validate(p).ok());
+}
+
+TEST(Pipeline, OutputNeverLeavesHardLimitsWhateverTheInput) {
+    // Hostile measurements (NaN, Inf, huge) and hostile references: the
+    // command stays within the board's ±10 V and never steps faster than the
+    // hard slew (2e5 V/s = 2 V per tick).
+    auto pipe = std::make_unique<RefPipeline<float>>(reference::setup());
+    ASSERT_TRUE(pipe->stage(reference::params(true, true, true)).ok());
+    pipe->arm();
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> d(-1e6f, 1e6f);
+    const float specials[] = {NAN, INFINITY, -INFINITY, 3e38f, -3e38f, 1e-40f};
+    float prev = 0.0f;
+    for (int k = 0; k < 200000; ++k) {
+        const float y = (k % 7 == 0) ? specials[k % 6] : d(rng);
+        pipe->set_setpoint((k % 11 == 0) ? specials[(k / 11) % 6] : d(rng));
+        const float u = pipe->tick(y);
+        ASSERT_TRUE(std::isfinite(u));
+        ASSERT_LE(u, 10.0f);
+        ASSERT_GE(u, -10.0f);
+        ASSERT_LE(std::fabs(u - prev), 2.0f + 1e-6f);
+        prev = u;
+        if (pipe->limiter().tripped()) pipe->limiter().clear_trip();
+    }
+}
+
+TEST(Pipeline, DisarmRampsToTheSafeOutput) {
+    auto pipe = std::make_unique<RefPipeline<float>>(reference::setup());
+    ASSERT_TRUE(pipe->stage(reference::params()).ok());
+    pipe->arm();
+    pipe->set_setpoint(30.0f);  // feedforward alone asks for ~6.9 V
+    float u = 0.0f;
+    for (int k = 0; k < 100; ++k) u = pipe->tick(30.0f);
+    EXPECT_GT(u, 5.0f);
+    pipe->disarm();
+    u = pipe->tick(30.0f);
+    EXPECT_GT(u, 0.0f);  // slewing, no jump
+    for (int k = 0; k < 100; ++k) u = pipe->tick(30.0f);
+    EXPECT_EQ(u, 0.0f);
+}
