@@ -42,6 +42,12 @@ public:
         for (int shift = 28; shift >= 0; shift -= 4) put(kDigits[(v >> shift) & 0xFu]);
         return *this;
     }
+    TextLine& hex64(uint64_t v) {
+        static constexpr char kDigits[] = "0123456789abcdef";
+        str("0x");
+        for (int shift = 60; shift >= 0; shift -= 4) put(kDigits[(v >> shift) & 0xFu]);
+        return *this;
+    }
     TextLine& bits(float f) { return hex(std::bit_cast<uint32_t>(f)); }
     // " key=" prefix helpers keep the call sites short.
     TextLine& key(const char* k) { return put(' ').str(k).put('='); }
