@@ -10,7 +10,7 @@
 
 #include "commands.hpp"
 #include "piezoloop/pi_inverse.hpp"
-#include "status_error.hpp"
+#include "status_text.hpp"
 
 namespace piezoloop::cli {
 namespace {

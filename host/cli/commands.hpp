@@ -7,5 +7,6 @@
 namespace piezoloop::cli {
 
 void add_pi_inverse(CLI::App& app);
+void add_demo(CLI::App& app);
 
 }  // namespace piezoloop::cli

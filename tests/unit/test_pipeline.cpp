@@ -9,6 +9,7 @@
 
 #include "piezoloop/reference_stage.hpp"
 #include "sim/metrics.hpp"
+#include "sim/reference_loop.hpp"
 
 using namespace piezoloop;
 
@@ -27,29 +28,11 @@ TrajectoryConfig triangle_10Hz() {
     return t;
 }
 
-// Runs the loop for `seconds` and returns the tracking metrics of the last
-// period (10 000 ticks of the 10 Hz triangle). One tick of compute delay.
+// The last period (10 000 ticks of the 10 Hz triangle) after 0.2 s.
 template <class T>
-sim::TrackingMetrics run(const PipelineParams& p, double seconds = 0.3) {
-    auto pipe = std::make_unique<RefPipeline<T>>(reference::setup());
-    EXPECT_TRUE(pipe->stage(p).ok());
-    pipe->arm();
-    EXPECT_TRUE(pipe->start_wave(triangle_10Hz()).ok());
-    HammersteinPlant plant;
-    EXPECT_TRUE(plant.configure(reference::plant()).ok());
-    const SignalScale pos = reference::setup().position, volt = reference::setup().voltage;
-    const int n = static_cast<int>(seconds * reference::kRate_Hz);
-    std::vector<double> r, y;
-    float y_um = 0.0f;
-    for (int k = 0; k < n; ++k) {
-        const T u = pipe->tick(pos.to_sample<T>(y_um));
-        if (k >= n - 10000) {
-            r.push_back(pos.to_physical(pipe->last().r));
-            y.push_back(y_um);
-        }
-        y_um = plant.step(volt.to_physical(u));
-    }
-    return sim::tracking_metrics(r, y);
+sim::TrackingMetrics run(const PipelineParams& p) {
+    const sim::LoopLog log = sim::run_reference_loop<T>(p, triangle_10Hz(), 30000, 10000);
+    return sim::tracking_metrics(log.r_um, log.y_um);
 }
 
 }  // namespace
