@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# The golden files are scipy/numpy output committed beside the scripts that
+# make them (tools/ref/). This regenerates every one in a scratch tree with
+# Debian's python3 and requires the committed file to be identical, so a
+# test can never run against reference data its script no longer produces.
+set -u
+src=$(cd "$(dirname "$0")/../.." && pwd)
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+mkdir -p "$tmp/tools/ref" "$tmp/tests/golden"
+passed=0 failed=0
+for script in "$src"/tools/ref/*.py; do
+    name=$(basename "$script" .py)
+    cp "$script" "$tmp/tools/ref/"
+    if ! /usr/bin/python3 "$tmp/tools/ref/$name.py"; then
+        echo "FAIL $name: script failed"; failed=$((failed + 1)); continue
+    fi
+    if cmp -s "$tmp/tests/golden/$name.json" "$src/tests/golden/$name.json"; then
+        passed=$((passed + 1))
+    else
+        echo "FAIL $name: tests/golden/$name.json differs from what tools/ref/$name.py makes"
+        failed=$((failed + 1))
+    fi
+done
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
