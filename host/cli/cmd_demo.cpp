@@ -92,4 +92,8 @@ void add_demo(CLI::App& app) {
     });
 }
 
+namespace {
+const bool registered = register_command(90, add_demo);
+}  // namespace
+
 }  // namespace piezoloop::cli

@@ -77,4 +77,8 @@ void add_pi_inverse(CLI::App& app) {
     });
 }
 
+namespace {
+const bool registered = register_command(10, add_pi_inverse);
+}  // namespace
+
 }  // namespace piezoloop::cli

@@ -1,14 +1,41 @@
 // piezoloop: design, simulate and drive piezo servo controllers.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <utility>
+#include <vector>
+
 #include "commands.hpp"
+
+namespace piezoloop::cli {
+namespace {
+
+// Function-local static: safe to use from other files' static initialisers.
+std::vector<std::pair<int, AddCommand>>& registry() {
+    static std::vector<std::pair<int, AddCommand>> commands;
+    return commands;
+}
+
+}  // namespace
+
+bool register_command(int order, AddCommand add) {
+    registry().emplace_back(order, add);
+    return true;
+}
+
+void add_registered_commands(CLI::App& app) {
+    auto commands = registry();
+    std::stable_sort(commands.begin(), commands.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& entry : commands) entry.second(app);
+}
+
+}  // namespace piezoloop::cli
 
 int main(int argc, char** argv) {
     CLI::App app{"piezoloop: open digital servo controller for piezo nanopositioning stages"};
     app.require_subcommand(1);
-    piezoloop::cli::add_pi_inverse(app);
-    piezoloop::cli::add_demo(app);
-
+    piezoloop::cli::add_registered_commands(app);
     CLI11_PARSE(app, argc, argv);
     return 0;
 }
