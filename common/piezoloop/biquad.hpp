@@ -38,6 +38,7 @@ namespace piezoloop {
 struct SosSection {
     double b0 = 1.0, b1 = 0.0, b2 = 0.0;  // numerator
     double a1 = 0.0, a2 = 0.0;            // denominator (a0 = 1)
+    bool operator==(const SosSection&) const = default;
 };
 
 template <class T, int MaxSections>

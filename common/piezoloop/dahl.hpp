@@ -85,6 +85,7 @@ struct DahlParams {
     float beta2;    // output weight on z1
     float gamma_a;  // input gain B_H
     float ga;       // actuator gain, x unit per V, > 0
+    bool operator==(const DahlParams&) const = default;
 };
 
 // Ahmad2020 published identification, as printed (units not stated there;

@@ -28,6 +28,7 @@ struct PiModel {
     int count = 0;    // number of play operators, 0..kMaxPlayOperators
     std::array<float, kMaxPlayOperators> thresholds{};  // ascending, >= 0, units of f
     std::array<float, kMaxPlayOperators> weights{};     // may be negative
+    bool operator==(const PiModel&) const = default;
 };
 
 constexpr Status validate(const PiModel& m) {

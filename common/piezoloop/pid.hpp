@@ -44,6 +44,7 @@ struct PidConfig {
     float derivative_cutoff_Hz = 0.0f;  // derivative low-pass cutoff, in (0, rate / 2)
     float u_min = 0.0f;                 // output limits (physical units of the output)
     float u_max = 0.0f;
+    bool operator==(const PidConfig&) const = default;
 };
 
 namespace pid_detail {

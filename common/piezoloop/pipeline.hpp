@@ -12,9 +12,14 @@
 // limits) is the PipelineSetup, given once at construction. What users tune is
 // the PipelineParams: validated field by field, configured into the inactive
 // one of two banks outside the tick, and swapped in at the next tick boundary.
-// A rejected set changes nothing. The limiter is not banked: it carries the
-// last output across a swap so the piezo never sees a jump beyond the slew
-// limit, and its hard limits cannot be changed by any parameter set.
+// A rejected set changes nothing. At the swap, every block whose parameters
+// did not change carries its state over (so retuning the feedback does not
+// reset the feedforward's play operators, and changing limits resets
+// nothing); changed blocks start from rest. While armed, a set that changes
+// the repetitive controller waits for the RC's period boundary (SPEC §6).
+// The limiter is not banked: it carries the last output across a swap so the
+// piezo never sees a jump beyond the slew limit, and its hard limits cannot
+// be changed by any parameter set.
 #pragma once
 
 #include <array>
@@ -106,6 +111,7 @@ public:
         if (const Status s = configure_bank(p, next); !s.ok()) return s;
         if (const Status s = in_group("limits", piezoloop::validate(p.limits, setup_.hard)); !s.ok()) return s;
         params_[active_ ^ 1u] = p;
+        rc_changes_ = p.rc_enabled != params_[active_].rc_enabled || !(p.rc == params_[active_].rc);
         swap_pending_.store(true, std::memory_order_release);
         return ok_status();
     }
@@ -139,7 +145,9 @@ public:
     // One tick: measured displacement in, command out. Bounded time, no
     // allocation, never fails.
     T tick(T y) {
-        if (swap_pending_.load(std::memory_order_acquire)) swap_banks();
+        if (swap_pending_.load(std::memory_order_acquire) &&
+            (!was_armed_ || !rc_changes_ || bank().rc.at_period_boundary()))
+            swap_banks();
 
         TickSignals<T> s;
         s.y = y;
@@ -286,8 +294,23 @@ private:
     Bank& bank() { return banks_[active_]; }
 
     void swap_banks() {
+        const Bank& old = banks_[active_];
+        const PipelineParams& po = params_[active_];
+        Bank& next = banks_[active_ ^ 1u];
+        const PipelineParams& pn = params_[active_ ^ 1u];
+        // Unchanged blocks continue with their state (configured identically,
+        // so copying the whole block is exact); changed ones start from rest.
+        next.reset();
+        if (pn.feedforward == po.feedforward && pn.pi == po.pi && pn.dahl == po.dahl) {
+            next.pi = old.pi;
+            next.dahl = old.dahl;
+        }
+        if (pn.feedback == po.feedback && pn.sos_count == po.sos_count && pn.sos == po.sos && pn.pid == po.pid) {
+            next.sos = old.sos;
+            next.pid = old.pid;
+        }
+        if (!rc_changes_) next.rc = old.rc;
         active_ ^= 1u;
-        bank().reset();
         // Validated in stage(): cannot fail here; the limiter keeps its last
         // output and slews into the new range.
         (void)limiter_.configure(params_[active_].limits);
@@ -300,6 +323,7 @@ private:
     PipelineParams params_[2]{};
     unsigned active_ = 0;
     std::atomic<bool> swap_pending_{false};
+    bool rc_changes_ = false;  // the pending set changes the RC (written before swap_pending_)
     OutputLimiter<T> limiter_;
     Trajectory trajectory_;
     RecorderType recorder_{};

@@ -27,6 +27,7 @@ struct RepetitiveConfig {
     float k_rc = 0.8f;         // RC gain, (0, 2)
     // Q filter as one section. Published (Shan2012): 0.3558 / (z - 0.6442).
     SosSection q{0.0, 0.3558, 0.0, -0.6442, 0.0};
+    bool operator==(const RepetitiveConfig&) const = default;
 };
 
 template <class T, int Capacity>

@@ -184,3 +184,68 @@ TEST(Pipeline, DisarmRampsToTheSafeOutput) {
     for (int k = 0; k < 100; ++k) u = pipe->tick(30.0f);
     EXPECT_EQ(u, 0.0f);
 }
+
+TEST(Pipeline, UnchangedBlocksKeepTheirStateAcrossASwap) {
+    // Twin pipelines on identical inputs. Mid-run one of them is given the
+    // same controller with only a limit changed (not binding here): nothing
+    // is reset, so their outputs stay bit-identical. Then it is given a new
+    // feedback gain: from that swap on they differ, while the feedforward
+    // (unchanged) keeps its play states — its output equals the twin's.
+    auto a = std::make_unique<RefPipeline<float>>(reference::setup());
+    auto b = std::make_unique<RefPipeline<float>>(reference::setup());
+    for (auto* p : {a.get(), b.get()}) {
+        ASSERT_TRUE(p->stage(reference::params()).ok());
+        p->arm();
+        ASSERT_TRUE(p->start_wave(triangle_10Hz()).ok());
+    }
+    float y = 0.0f;
+    for (int k = 0; k < 6000; ++k) {
+        if (k == 2000) {
+            PipelineParams p = reference::params();
+            p.limits.u_max_V = 9.5f;
+            ASSERT_TRUE(b->stage(p).ok());
+        }
+        if (k == 4000) {
+            PipelineParams p = reference::params();
+            p.limits.u_max_V = 9.5f;
+            p.sos[2].b0 *= 1.01;
+            p.sos[2].b1 *= 1.01;
+            p.sos[2].b2 *= 1.01;
+            ASSERT_TRUE(b->stage(p).ok());
+        }
+        const float ua = a->tick(y), ub = b->tick(y);
+        if (k < 4000) {
+            ASSERT_EQ(ua, ub) << "tick " << k;
+        }
+        ASSERT_EQ(a->last().u_ff, b->last().u_ff) << "tick " << k;
+        y = 0.95f * y + 0.2f * ua;  // same input for both
+    }
+    EXPECT_EQ(b->swaps(), 3u);
+    EXPECT_NE(a->last().u_fb, b->last().u_fb);
+}
+
+TEST(Pipeline, RepetitiveChangeWhileArmedWaitsForThePeriodBoundary) {
+    auto pipe = std::make_unique<RefPipeline<float>>(reference::setup());
+    ASSERT_TRUE(pipe->stage(reference::params(true, true, true)).ok());
+    pipe->arm();
+    for (int k = 0; k < 137; ++k) pipe->tick(0.0f);  // armed from tick 0: the RC runs every tick
+    PipelineParams p = reference::params(true, true, true);
+    p.rc.k_rc = 0.5f;
+    ASSERT_TRUE(pipe->stage(p).ok());
+    int swapped_at = -1;
+    for (int k = 137; k < 400 && swapped_at < 0; ++k) {
+        pipe->tick(0.0f);
+        if (!pipe->swap_pending()) swapped_at = k;
+    }
+    // When tick k starts the RC has run ticks 0..k-1; its phase is 0 again
+    // after 200 of them: the swap happens at tick 200, not at 137.
+    EXPECT_EQ(swapped_at, 200);
+    EXPECT_FLOAT_EQ(pipe->params().rc.k_rc, 0.5f);
+    // Disarmed, a change applies at the next tick.
+    pipe->disarm();
+    pipe->tick(0.0f);
+    p.rc.k_rc = 0.3f;
+    ASSERT_TRUE(pipe->stage(p).ok());
+    pipe->tick(0.0f);
+    EXPECT_FALSE(pipe->swap_pending());
+}
