@@ -107,9 +107,11 @@ public:
     Status stage(const PipelineParams& p) {
         if (swap_pending_.load(std::memory_order_acquire))
             return error("params", "previous parameter set not yet swapped in; retry after one tick");
+        if (const Status s = in_group("limits", piezoloop::validate(p.limits, setup_.hard)); !s.ok()) return s;
+        // Only the inactive bank is written; the tick never reads it until
+        // swap_pending_ is set below.
         Bank& next = banks_[active_ ^ 1u];
         if (const Status s = configure_bank(p, next); !s.ok()) return s;
-        if (const Status s = in_group("limits", piezoloop::validate(p.limits, setup_.hard)); !s.ok()) return s;
         params_[active_ ^ 1u] = p;
         rc_changes_ = p.rc_enabled != params_[active_].rc_enabled || !(p.rc == params_[active_].rc);
         swap_pending_.store(true, std::memory_order_release);
