@@ -1,0 +1,209 @@
+// The whole simulated signal chain around a piezo stage, SPEC §8: what a
+// controller's DAC output goes through before its ADC reads it back.
+//
+//   u (V) -> DAC (bits, range) -> amplifier (input clamp, gain, first-order
+//   bandwidth, output clamp) -> Hammerstein stage (hysteresis, dynamics)
+//   -> sensor (gain, first-order bandwidth, seeded noise) -> ADC (bits,
+//   range) -> y
+//
+// Every part is optional (bits 0 = ideal converter, bandwidth 0 = none).
+// Float, libm-free and seeded, so the host simulator and the emulated boards
+// produce the same bits (DESIGN.md "Determinism"). The loop's one tick of
+// compute delay belongs to whoever runs the loop: the command computed at
+// tick k is applied at tick k + 1.
+#pragma once
+
+#include <cstdint>
+
+#include "piezoloop/det_math.hpp"
+#include "piezoloop/plant.hpp"
+#include "piezoloop/status.hpp"
+
+namespace piezoloop {
+
+struct ConverterConfig {
+    int bits = 0;          // 0: ideal (no quantisation); else 2..24
+    float min = -1e9f;     // input range in physical units; clamped to it
+    float max = 1e9f;
+    bool operator==(const ConverterConfig&) const = default;
+};
+
+struct AmplifierConfig {
+    float gain = 1.0f;            // V/V
+    float input_min_V = -1e9f, input_max_V = 1e9f;
+    float output_min_V = -1e9f, output_max_V = 1e9f;
+    float bandwidth_Hz = 0.0f;    // first-order, 0: none
+};
+
+struct SensorConfig {
+    float gain = 1.0f;            // sensor units per µm (1: reads µm)
+    float bandwidth_Hz = 0.0f;    // first-order, 0: none
+    float noise_rms = 0.0f;       // in sensor units, added before the ADC
+    uint32_t seed = 1;            // noise generator seed (non-zero)
+};
+
+struct StageConfig {
+    float rate_Hz = 100000.0f;
+    ConverterConfig dac{};        // in V (controller output)
+    AmplifierConfig amplifier{};
+    PlantConfig plant{};          // piezo voltage (V) -> displacement (µm)
+    SensorConfig sensor{};
+    ConverterConfig adc{};        // in sensor units
+};
+
+// Quantiser of an ideal converter: clamp to [min, max] and round to the
+// nearest of 2^bits levels spanning the range.
+class Converter {
+public:
+    Status configure(const ConverterConfig& c) {
+        if (c.bits != 0 && (c.bits < 2 || c.bits > 24)) return error("bits", "must be 0 (ideal) or in [2, 24]");
+        if (!is_finite(c.min) || !is_finite(c.max) || !(c.min < c.max))
+            return error("max", "range must be finite with min < max");
+        config_ = c;
+        max_code_ = c.bits == 0 ? 0u : (1u << c.bits) - 1u;
+        lsb_ = c.bits == 0 ? 0.0f : (c.max - c.min) / static_cast<float>(max_code_);
+        return ok_status();
+    }
+    float apply(float x) const {
+        if (!(x == x)) x = config_.min;  // NaN reads as the lowest code, like a railed input
+        const float v = x < config_.min ? config_.min : (x > config_.max ? config_.max : x);
+        if (config_.bits == 0) return v;
+        uint32_t code = static_cast<uint32_t>((v - config_.min) / lsb_ + 0.5f);  // round to nearest
+        if (code > max_code_) code = max_code_;
+        return config_.min + static_cast<float>(code) * lsb_;
+    }
+    float lsb() const { return lsb_; }
+
+private:
+    ConverterConfig config_{};
+    uint32_t max_code_ = 0;
+    float lsb_ = 0.0f;
+};
+
+// First-order low-pass discretised by Tustin (closed form, no libm); a
+// bandwidth of 0 passes the input through.
+class FirstOrderLag {
+public:
+    Status configure(float bandwidth_Hz, float rate_Hz) {
+        if (!is_finite(bandwidth_Hz) || bandwidth_Hz < 0.0f || !(bandwidth_Hz < 0.5f * rate_Hz))
+            return error("bandwidth_Hz", "must be 0 (none) or in (0, rate / 2)");
+        if (bandwidth_Hz == 0.0f) {
+            enabled_ = false;
+            return ok_status();
+        }
+        const double w = 2.0 * 3.14159265358979323846 * bandwidth_Hz;
+        const double k = 2.0 * static_cast<double>(rate_Hz);
+        b_ = static_cast<float>(w / (k + w));          // b0 = b1
+        a_ = static_cast<float>((w - k) / (k + w));    // y = b (x + x1) - a y1
+        enabled_ = true;
+        return ok_status();
+    }
+    void reset(float x0 = 0.0f) { x1_ = y1_ = x0; }
+    float apply(float x) {
+        if (!enabled_) return x;
+        const float y = b_ * (x + x1_) - a_ * y1_;
+        x1_ = x;
+        y1_ = y;
+        return y;
+    }
+
+private:
+    bool enabled_ = false;
+    float b_ = 0.0f, a_ = 0.0f, x1_ = 0.0f, y1_ = 0.0f;
+};
+
+// Seeded noise without libm: xorshift32, and the sum of 4 uniforms (Irwin–
+// Hall) scaled to unit variance — a bell-shaped, bounded (±3.46 sigma)
+// approximation of Gaussian sensor noise, bit-identical on every platform.
+class SeededNoise {
+public:
+    void seed(uint32_t s) { state_ = s == 0 ? 1u : s; }
+    float next_unit() {
+        float sum = 0.0f;
+        for (int i = 0; i < 4; ++i) sum += static_cast<float>(next_u32() >> 8) * (1.0f / 16777216.0f);
+        // Each uniform has variance 1/12; four have 1/3: scale by sqrt(3).
+        return (sum - 2.0f) * 1.7320508f;
+    }
+
+private:
+    uint32_t next_u32() {
+        state_ ^= state_ << 13;
+        state_ ^= state_ >> 17;
+        state_ ^= state_ << 5;
+        return state_;
+    }
+    uint32_t state_ = 1;
+};
+
+class StageModel {
+public:
+    Status configure(const StageConfig& c) {
+        if (!is_finite(c.rate_Hz) || !(c.rate_Hz > 0.0f)) return error("rate_Hz", "must be > 0");
+        Converter dac, adc;
+        if (const Status s = dac.configure(c.dac); !s.ok()) return in_group("dac", s);
+        if (const Status s = adc.configure(c.adc); !s.ok()) return in_group("adc", s);
+        const AmplifierConfig& a = c.amplifier;
+        if (!is_finite(a.gain)) return in_group("amplifier", error("gain", "must be finite"));
+        if (!(a.input_min_V < a.input_max_V))
+            return in_group("amplifier", error("input_max_V", "must be > input_min_V"));
+        if (!(a.output_min_V < a.output_max_V))
+            return in_group("amplifier", error("output_max_V", "must be > output_min_V"));
+        FirstOrderLag amp_lag, sensor_lag;
+        if (const Status s = amp_lag.configure(a.bandwidth_Hz, c.rate_Hz); !s.ok()) return in_group("amplifier", s);
+        if (const Status s = sensor_lag.configure(c.sensor.bandwidth_Hz, c.rate_Hz); !s.ok())
+            return in_group("sensor", s);
+        if (!is_finite(c.sensor.gain) || c.sensor.gain == 0.0f)
+            return in_group("sensor", error("gain", "must be finite and non-zero"));
+        if (!is_finite(c.sensor.noise_rms) || c.sensor.noise_rms < 0.0f)
+            return in_group("sensor", error("noise_rms", "must be finite and >= 0"));
+        HammersteinPlant plant;
+        if (const Status s = plant.configure(c.plant); !s.ok()) return in_group("plant", s);
+        config_ = c;
+        dac_ = dac;
+        adc_ = adc;
+        amp_lag_ = amp_lag;
+        sensor_lag_ = sensor_lag;
+        plant_ = plant;
+        reset();
+        return ok_status();
+    }
+
+    void reset() {
+        amp_lag_.reset();
+        sensor_lag_.reset();
+        plant_.reset();
+        noise_.seed(config_.sensor.seed);
+        v_piezo_V_ = x_um_ = 0.0f;
+    }
+
+    // One sample: the controller's command (V) in, the ADC reading out (in
+    // sensor units; divide by sensor.gain for µm).
+    float step(float u_V) {
+        const AmplifierConfig& a = config_.amplifier;
+        float v = dac_.apply(u_V);
+        v = clamp(v, a.input_min_V, a.input_max_V);
+        v = amp_lag_.apply(a.gain * v);
+        v_piezo_V_ = clamp(v, a.output_min_V, a.output_max_V);
+        x_um_ = plant_.step(v_piezo_V_);
+        float s = sensor_lag_.apply(config_.sensor.gain * x_um_);
+        if (config_.sensor.noise_rms > 0.0f) s = s + config_.sensor.noise_rms * noise_.next_unit();
+        return adc_.apply(s);
+    }
+
+    float piezo_voltage_V() const { return v_piezo_V_; }  // last sample
+    float displacement_um() const { return x_um_; }       // true position, last sample
+    const StageConfig& config() const { return config_; }
+
+private:
+    static float clamp(float x, float lo, float hi) { return x < lo ? lo : (x > hi ? hi : x); }
+
+    StageConfig config_{};
+    Converter dac_{}, adc_{};
+    FirstOrderLag amp_lag_{}, sensor_lag_{};
+    HammersteinPlant plant_{};
+    SeededNoise noise_{};
+    float v_piezo_V_ = 0.0f;
+    float x_um_ = 0.0f;
+};
+
+}  // namespace piezoloop
