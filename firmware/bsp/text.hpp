@@ -14,7 +14,7 @@ namespace piezoloop::bsp {
 
 class TextLine {
 public:
-    static constexpr std::size_t kCapacity = 240;
+    static constexpr std::size_t kCapacity = 640;  // a self-test JSON line fits
 
     TextLine& str(const char* s) {
         while (*s != '\0') put(*s++);
@@ -46,6 +46,29 @@ public:
         static constexpr char kDigits[] = "0123456789abcdef";
         str("0x");
         for (int shift = 60; shift >= 0; shift -= 4) put(kDigits[(v >> shift) & 0xFu]);
+        return *this;
+    }
+    // Decimal with a fixed number of decimals (0..9), rounded half away
+    // from zero; "null" for NaN or beyond +-9.2e18 / 10^decimals. Plain
+    // double arithmetic, the same on every target.
+    TextLine& fixed(double v, int decimals) {
+        double scale = 1.0;
+        for (int i = 0; i < decimals; ++i) scale *= 10.0;
+        const double s = v * scale;
+        if (!(s == s) || s >= 9.2e18 || s <= -9.2e18) return str("null");
+        const int64_t q = static_cast<int64_t>(s >= 0.0 ? s + 0.5 : s - 0.5);
+        const uint64_t m = q < 0 ? uint64_t{0} - static_cast<uint64_t>(q) : static_cast<uint64_t>(q);
+        const uint64_t unit = static_cast<uint64_t>(scale);
+        if (q < 0) put('-');
+        udec(m / unit);
+        if (decimals > 0) {
+            put('.');
+            uint64_t frac = m % unit;
+            for (uint64_t d = unit / 10u; d > 0u; d /= 10u) {
+                put(static_cast<char>('0' + frac / d));
+                frac %= d;
+            }
+        }
         return *this;
     }
     TextLine& bits(float f) { return hex(std::bit_cast<uint32_t>(f)); }

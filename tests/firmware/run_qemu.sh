@@ -13,7 +13,8 @@
 #              QEMU_SYSTEM_ARM (default qemu-system-arm).
 #
 # -icount shift=0: one virtual nanosecond per instruction, so timing read
-# by the firmware is deterministic. -semihosting: the firmware leaves QEMU
+# by the firmware is deterministic; sleep=off never ties virtual time to the
+# host clock. -semihosting: the firmware leaves QEMU
 # with SYS_EXIT, whose status becomes QEMU's exit status.
 # Exit status: 0 only if the line appeared and QEMU exited 0.
 set -u
@@ -43,7 +44,7 @@ trap 'rm -f "$out"' EXIT
 
 # stdin from /dev/null: -nographic puts the UART and the monitor on stdio.
 timeout --kill-after=5 "$timeout_s" \
-    "$qemu" -M "$machine" -nographic -semihosting -icount shift=0 -kernel "$elf" \
+    "$qemu" -M "$machine" -nographic -semihosting -icount shift=0,sleep=off -kernel "$elf" \
     </dev/null >"$out" 2>&1
 status=$?
 

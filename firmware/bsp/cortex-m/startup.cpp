@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "board_irqs.hpp"  // bsp/<board>/board_irqs.hpp: kIrqBindings
 #include "bsp/bsp.hpp"
 #include "bsp/cortex-m/scb.hpp"
 
@@ -54,9 +55,13 @@ struct VectorTable {
     std::array<Handler, PIEZOLOOP_NUM_IRQ> irqs;
 };
 
-constexpr std::array<Handler, PIEZOLOOP_NUM_IRQ> default_irqs() {
+// Every line goes to the default handler except those the board binds.
+// A binding outside the table is a compile error (constant evaluation of an
+// out-of-range std::array index).
+constexpr std::array<Handler, PIEZOLOOP_NUM_IRQ> board_irqs() {
     std::array<Handler, PIEZOLOOP_NUM_IRQ> table{};
     for (auto& h : table) h = piezoloop_default_handler;
+    for (const auto& b : piezoloop::bsp::kIrqBindings) table.at(static_cast<std::size_t>(b.irq)) = b.handler;
     return table;
 }
 
@@ -83,7 +88,7 @@ constinit const VectorTable piezoloop_vectors = {
         PendSV_Handler,      // 14 PendSV
         SysTick_Handler,     // 15 SysTick
     },
-    default_irqs(),
+    board_irqs(),
 };
 
 static_assert(sizeof(VectorTable) == (16 + PIEZOLOOP_NUM_IRQ) * sizeof(uint32_t),

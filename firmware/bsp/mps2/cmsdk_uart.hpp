@@ -22,6 +22,13 @@ public:
         reg(kBaudDiv) = pclk_Hz / baud;
         reg(kCtrl) = reg(kCtrl) | kCtrlTxEnable;
     }
+    void enable_rx() const { reg(kCtrl) = reg(kCtrl) | kCtrlRxEnable; }
+    // Non-blocking: true and the byte if one has arrived.
+    bool try_get(char& c) const {
+        if ((reg(kState) & kStateRxFull) == 0u) return false;
+        c = static_cast<char>(reg(kData) & 0xFFu);
+        return true;
+    }
     void put(char c) const {
         while ((reg(kState) & kStateTxFull) != 0u) {
         }
@@ -34,7 +41,9 @@ private:
     static constexpr uintptr_t kCtrl = 0x008;
     static constexpr uintptr_t kBaudDiv = 0x010;
     static constexpr uint32_t kStateTxFull = 1u << 0;
+    static constexpr uint32_t kStateRxFull = 1u << 1;
     static constexpr uint32_t kCtrlTxEnable = 1u << 0;
+    static constexpr uint32_t kCtrlRxEnable = 1u << 1;
 
     volatile uint32_t& reg(uintptr_t offset) const {
         return *reinterpret_cast<volatile uint32_t*>(base_ + offset);

@@ -10,9 +10,12 @@
 // USART2/3/4/5/7/8 kernel clock = rcc_pclk1 = 64 MHz.
 #include <cstdint>
 
+#include "board_config.hpp"
 #include "bsp/bsp.hpp"
+#include "bsp/cortex-m/nvic.hpp"
 #include "bsp/cortex-m/scb.hpp"
 #include "bsp/cortex-m/semihosting.hpp"
+#include "bsp/emulated_stage.hpp"
 
 namespace piezoloop::bsp {
 
@@ -37,6 +40,9 @@ constexpr uintptr_t kUsart3Isr = 0x40004800 + 0x1C;
 constexpr uintptr_t kUsart3Tdr = 0x40004800 + 0x28;
 constexpr uint32_t kCr1Ue = 1u << 0;   // USART enable
 constexpr uint32_t kCr1Te = 1u << 3;   // transmitter enable
+constexpr uint32_t kCr1Re = 1u << 2;   // receiver enable
+constexpr uintptr_t kUsart3Rdr = 0x40004800 + 0x24;
+constexpr uint32_t kIsrRxne = 1u << 5;  // RX data register not empty
 constexpr uint32_t kIsrTc = 1u << 6;   // transmission complete
 constexpr uint32_t kIsrTxe = 1u << 7;  // TX data register empty (TXFNF with FIFO)
 
@@ -45,6 +51,23 @@ constexpr uint32_t kConsoleBaud = 115'200;
 
 // A fault before init() must not poll an unclocked USART forever.
 bool g_console_ready = false;
+
+// TIM6 (APB1L, 0x40001000): the control tick.
+constexpr uintptr_t kRccApb1lEnrTim6 = 1u << 4;
+constexpr uintptr_t kTim6 = 0x40001000;
+constexpr uintptr_t kTimCr1 = 0x00, kTimDier = 0x0C, kTimSr = 0x10, kTimEgr = 0x14, kTimPsc = 0x28,
+                    kTimArr = 0x2C;
+constexpr uint32_t kCr1Cen = 1u << 0, kCr1Urs = 1u << 2, kDierUie = 1u << 0, kSrUif = 1u << 0, kEgrUg = 1u << 0;
+
+// DWT cycle counter (ARMv7-M ARM C1.8): DEMCR.TRCENA, DWT_CTRL.CYCCNTENA;
+// the Cortex-M7 DWT is locked until the CoreSight key is written to LAR.
+constexpr uintptr_t kDemcr = 0xE000EDFC;
+constexpr uintptr_t kDwtCtrl = 0xE0001000, kDwtCyccnt = 0xE0001004, kDwtLar = 0xE0001FB0;
+
+TickHandler g_tick_handler = nullptr;
+bool g_loopback = false;
+uint32_t g_stopwatch_offset = 0;
+fw::EmulatedStage g_stage{config::kPositionFullScale_um, config::kVoltageFullScale_V};
 
 }  // namespace
 
@@ -63,8 +86,20 @@ void init() {
     // 115200 8N1, oversampling by 16: BRR = f_ck / baud, rounded.
     reg(kUsart3Cr1) = 0;
     reg(kUsart3Brr) = (kPclk1_Hz + kConsoleBaud / 2) / kConsoleBaud;
-    reg(kUsart3Cr1) = kCr1Ue | kCr1Te;
+    reg(kUsart3Cr1) = kCr1Ue | kCr1Te | kCr1Re;
     g_console_ready = true;
+
+    reg(kDemcr) = reg(kDemcr) | (1u << 24);
+    reg(kDwtLar) = 0xC5ACCE55u;
+    reg(kDwtCyccnt) = 0;
+    reg(kDwtCtrl) = reg(kDwtCtrl) | 1u;
+    // The stopwatch's own cost: two reads of CYCCNT around nothing.
+    const uint32_t s = stopwatch_start();
+    g_stopwatch_offset = stopwatch_elapsed(s);
+
+    reg(kRccApb1lEnr) = reg(kRccApb1lEnr) | kRccApb1lEnrTim6;
+    const uint32_t readback2 = reg(kRccApb1lEnr);  // the enable must land first
+    (void)readback2;
 }
 
 void console_write(const char* text, std::size_t length) {
@@ -74,6 +109,60 @@ void console_write(const char* text, std::size_t length) {
         }
         reg(kUsart3Tdr) = static_cast<uint8_t>(text[i]);
     }
+}
+
+bool console_read(char& c) {
+    if (!g_console_ready || (reg(kUsart3Isr) & kIsrRxne) == 0u) return false;
+    c = static_cast<char>(reg(kUsart3Rdr) & 0xFFu);
+    return true;
+}
+
+bool tick_timer_start(uint32_t rate_Hz, TickHandler handler) {
+    if (rate_Hz == 0 || handler == nullptr || config::kTickTimerClock_Hz % rate_Hz != 0u) return false;
+    const uint32_t period = config::kTickTimerClock_Hz / rate_Hz;
+    if (period < 2u || period > 65536u) return false;
+    tick_timer_stop();
+    g_tick_handler = handler;
+    reg(kTim6 + kTimPsc) = 0;
+    reg(kTim6 + kTimArr) = period - 1u;
+    reg(kTim6 + kTimCr1) = kCr1Urs;      // only overflow sets UIF, not the UG below
+    reg(kTim6 + kTimEgr) = kEgrUg;       // load PSC/ARR now
+    reg(kTim6 + kTimSr) = 0;
+    reg(kTim6 + kTimDier) = kDierUie;
+    nvic::set_priority(config::kTickIrq, 0x00);
+    nvic::clear_pending(config::kTickIrq);
+    nvic::enable(config::kTickIrq);
+    reg(kTim6 + kTimCr1) = kCr1Urs | kCr1Cen;
+    return true;
+}
+
+void tick_timer_stop() {
+    reg(kTim6 + kTimCr1) = 0;
+    reg(kTim6 + kTimDier) = 0;
+    reg(kTim6 + kTimSr) = 0;
+    nvic::disable(config::kTickIrq);
+    nvic::clear_pending(config::kTickIrq);
+}
+
+bool tick_timer_running() { return (reg(kTim6 + kTimCr1) & kCr1Cen) != 0u; }
+
+void wait_for_interrupt() { asm volatile("dsb\n\twfi" ::: "memory"); }
+
+uint32_t timestamp() { return reg(kDwtCyccnt); }
+uint32_t stopwatch_start() { return reg(kDwtCyccnt); }
+uint32_t stopwatch_elapsed(uint32_t start) { return reg(kDwtCyccnt) - start - g_stopwatch_offset; }
+
+// Real converters come with the analog front end; until then only the
+// loopback (emulated stage) is wired.
+int32_t adc_read() { return g_stage.adc_code(); }
+void dac_write(int32_t code) { g_stage.dac_write(code); }
+fw::EmulatedStage& emulated_stage() { return g_stage; }
+void emulated_stage_step() {
+    if (g_loopback) g_stage.step();
+}
+bool set_loopback(bool on) {
+    g_loopback = on;
+    return true;
 }
 
 void exit(int status) {
@@ -88,3 +177,9 @@ void exit(int status) {
 }
 
 }  // namespace piezoloop::bsp
+
+extern "C" void piezoloop_tick_timer_isr() noexcept {
+    using namespace piezoloop::bsp;
+    reg(kTim6 + kTimSr) = 0;  // clear UIF first: an overrun re-pends the interrupt
+    g_tick_handler();
+}

@@ -1,0 +1,65 @@
+// What the firmware's control loop is built from: the pipeline type, its
+// setup (the board's converters and hard limits), the recorder selection.
+// Shared with the host build of the self-test (tests/firmware/), which must
+// run the identical pipeline to reproduce the board's log hash.
+#pragma once
+
+#include <cstdint>
+
+#include "bsp/converter16.hpp"
+#include "piezoloop/limits.hpp"
+#include "piezoloop/pipeline.hpp"
+#include "piezoloop/recorder.hpp"
+#include "piezoloop/sample.hpp"
+
+namespace piezoloop::fw {
+
+inline constexpr float kLoopRate_Hz = 100000.0f;
+inline constexpr uint32_t kLoopRateInt_Hz = 100000;
+
+// RC delay line: N up to 128 (the reference N = 100); recorder: the three
+// signals the log hash covers, 1024 frames (10 ms at 100 kHz) of slack for
+// the main loop that drains it.
+inline constexpr int kRcCapacity = 128;
+inline constexpr std::size_t kRecChannels = 3;
+inline constexpr std::size_t kRecCapacity = 1024;
+
+template <class T>
+using FwPipeline = Pipeline<T, kRcCapacity, kRecChannels, kRecCapacity>;
+
+// The board's side of the pipeline: hard limits and converter full scales
+// are facts of the hardware (bsp/<board>/board_config.hpp), given once.
+struct BoardAnalog {
+    HardLimits hard;
+    float position_full_scale_um;
+    float voltage_full_scale_V;
+};
+
+constexpr PipelineSetup pipeline_setup(const BoardAnalog& b) {
+    PipelineSetup s{};
+    s.hard = b.hard;
+    s.rate_Hz = kLoopRate_Hz;
+    s.position = SignalScale{b.position_full_scale_um};
+    s.voltage = SignalScale{b.voltage_full_scale_V};
+    return s;
+}
+
+// Frames {r, y, u}: the log hash is over exactly these.
+template <class T>
+constexpr RecorderConfig<kRecChannels> log_recorder_config() {
+    RecorderConfig<kRecChannels> c{};
+    c.channels = {signal_index(SignalId::kR), signal_index(SignalId::kY), signal_index(SignalId::kU)};
+    c.decimation = 1;
+    c.mode = RecordMode::kContinuous;
+    c.trigger = TriggerMode::kImmediate;
+    return c;
+}
+
+// One control step as the tick does it: ADC code in, DAC code out.
+template <class T, class PipelineT>
+inline int32_t control_step(PipelineT& pipe, const Converter16& adc, const Converter16& dac, int32_t adc_code) {
+    const T u = pipe.tick(adc.sample_from_code<T>(adc_code));
+    return dac.code_from_sample(u);
+}
+
+}  // namespace piezoloop::fw

@@ -1,0 +1,99 @@
+#include "app/control_loop.hpp"
+
+#include <new>
+
+#include "board_config.hpp"
+#include "bsp/bsp.hpp"
+#include "bsp/converter16.hpp"
+
+namespace piezoloop::fw {
+
+namespace {
+
+constexpr BoardAnalog kBoardAnalog{bsp::config::kHardLimits, bsp::config::kPositionFullScale_um,
+                                   bsp::config::kVoltageFullScale_V};
+constexpr Converter16 kAdc{bsp::config::kPositionFullScale_um};
+constexpr Converter16 kDac{bsp::config::kVoltageFullScale_V};
+
+alignas(BoardPipeline) unsigned char g_pipeline_storage[sizeof(BoardPipeline)];
+ControlLoop g_loop;
+
+}  // namespace
+
+BoardAnalog board_analog() { return kBoardAnalog; }
+ControlLoop& control_loop() { return g_loop; }
+
+BoardPipeline& ControlLoop::rebuild() {
+    if (pipe_ != nullptr) pipe_->~BoardPipeline();
+    pipe_ = new (g_pipeline_storage) BoardPipeline(pipeline_setup(kBoardAnalog));
+    return *pipe_;
+}
+
+bool ControlLoop::start(uint32_t rate_Hz, uint32_t max_ticks) {
+    if (pipe_ == nullptr || rate_Hz == 0 || bsp::config::kTimestamp_Hz % rate_Hz != 0u) return false;
+    stop();
+    max_ticks_ = max_ticks;
+    ticks_ = 0;
+    control_ = WorkStats{};
+    reconfigure_ = WorkStats{};
+    plant_ = WorkStats{};
+    last_swaps_ = pipe_->swaps();
+    last_armed_ = false;
+    monitor_.reset(bsp::config::kTimestamp_Hz / rate_Hz, bsp::config::kTimestampMask);
+    running_ = true;
+    if (bsp::tick_timer_start(rate_Hz, &ControlLoop::tick)) return true;
+    running_ = false;
+    return false;
+}
+
+void ControlLoop::stop() {
+    bsp::tick_timer_stop();
+    running_ = false;
+}
+bool ControlLoop::running() const { return running_; }
+
+LoopStatus ControlLoop::status() const {
+    TickLock lock;
+    LoopStatus s;
+    s.ticks = ticks_;
+    s.control = control_;
+    s.reconfigure = reconfigure_;
+    s.plant = plant_;
+    s.late = monitor_.late();
+    s.missed = monitor_.missed();
+    s.running = running_;
+    return s;
+}
+
+// The interrupt. Everything between the two stopwatch reads is the
+// controller's tick as the budget counts it.
+void ControlLoop::tick() {
+    ControlLoop& loop = g_loop;
+    BoardPipeline& pipe = *loop.pipe_;
+    loop.monitor_.on_entry(bsp::timestamp());
+    const bool armed = pipe.armed();
+
+    const uint32_t t_control = bsp::stopwatch_start();
+    const int32_t adc = bsp::adc_read();
+    bsp::dac_write(control_step<CoreSample>(pipe, kAdc, kDac, adc));
+    const uint32_t work = bsp::stopwatch_elapsed(t_control);
+    loop.monitor_.on_output(bsp::timestamp());
+
+    const uint32_t swaps = pipe.swaps();
+    const bool reconfigured = swaps != loop.last_swaps_ || (armed && !loop.last_armed_);
+    loop.last_swaps_ = swaps;
+    loop.last_armed_ = armed;
+    (reconfigured ? loop.reconfigure_ : loop.control_).add(work);
+
+    const uint32_t t_plant = bsp::stopwatch_start();
+    bsp::emulated_stage_step();
+    loop.plant_.add(bsp::stopwatch_elapsed(t_plant));
+
+    ++loop.ticks_;
+    if (loop.max_ticks_ != 0u && loop.ticks_ == loop.max_ticks_) {
+        bsp::tick_timer_stop();
+        loop.running_ = false;
+    }
+}
+
+}  // namespace piezoloop::fw

@@ -1,0 +1,95 @@
+// The 100 kHz control tick on a board: in the timer interrupt,
+//   ADC read -> pipeline.tick -> DAC write
+// then, on boards whose converters are an emulated stage, one sample of the
+// plant model. Both parts are timed with the board's stopwatch (bsp.hpp),
+// kept apart: the controller's work is "ADC read to DAC write", the plant's
+// is not part of the budget. Timeliness is kept by a TickMonitor
+// (tick_stats.hpp): late ticks and missed periods are counted.
+//
+// The pipeline lives in static storage (it is tens of KiB: two banks with
+// their RC delay lines, and the recorder) and is rebuilt in place by
+// rebuild() -- only while the tick is stopped. Everything else the main loop
+// does with it while the tick runs goes through the pipeline's own
+// tick-safe interface (stage / arm / disarm / set_setpoint / start_wave /
+// recorder read), which hands changes over at a tick boundary.
+#pragma once
+
+#include <cstdint>
+
+#include "app/control_config.hpp"
+#include "app/core_sample.hpp"
+#include "app/tick_stats.hpp"
+
+namespace piezoloop::fw {
+
+using BoardPipeline = FwPipeline<CoreSample>;
+
+// The board's analog side (bsp/<board>/board_config.hpp).
+BoardAnalog board_analog();
+
+struct LoopStatus {
+    uint32_t ticks = 0;
+    WorkStats control{};  // ADC read to DAC write, steady ticks
+    // The same for ticks that reconfigure: a parameter set swapped in, or
+    // the pipeline armed (its states reset). Rare, and costlier: kept apart
+    // so the steady figures are not hidden behind them.
+    WorkStats reconfigure{};
+    WorkStats plant{};    // the emulated stage's sample (zero on real converters)
+    uint32_t late = 0;
+    uint32_t missed = 0;
+    bool running = false;
+};
+
+class ControlLoop {
+public:
+    // Fresh pipeline with the board's setup. The tick must be stopped.
+    BoardPipeline& rebuild();
+    BoardPipeline& pipeline() { return *pipe_; }
+    bool built() const { return pipe_ != nullptr; }
+
+    // Starts the tick at rate_Hz; after max_ticks ticks (0: never) the tick
+    // stops the timer itself, so a run has an exact length. Statistics are
+    // reset. False if the board cannot make that rate or nothing is built.
+    bool start(uint32_t rate_Hz, uint32_t max_ticks);
+    void stop();
+    bool running() const;
+
+    // Consistent snapshot (the tick is held off for the copy).
+    LoopStatus status() const;
+
+    // The interrupt handler (bsp::TickHandler).
+    static void tick();
+
+private:
+    BoardPipeline* pipe_ = nullptr;
+    // Set by start(), cleared by stop() or by the tick that ends a run. A
+    // RAM flag: the main loop polls it (on QEMU a peripheral read per poll
+    // would end every translation block).
+    volatile bool running_ = false;
+    uint32_t max_ticks_ = 0;
+    uint32_t ticks_ = 0;
+    WorkStats control_{};
+    WorkStats reconfigure_{};
+    WorkStats plant_{};
+    uint32_t last_swaps_ = 0;
+    bool last_armed_ = false;
+    TickMonitor monitor_{};
+};
+
+ControlLoop& control_loop();
+
+// Critical section against the tick (PRIMASK), for short copies only.
+class TickLock {
+public:
+    TickLock() {
+        asm volatile("mrs %0, primask\n\tcpsid i" : "=r"(primask_)::"memory");
+    }
+    ~TickLock() { asm volatile("msr primask, %0" ::"r"(primask_) : "memory"); }
+    TickLock(const TickLock&) = delete;
+    TickLock& operator=(const TickLock&) = delete;
+
+private:
+    uint32_t primask_;
+};
+
+}  // namespace piezoloop::fw
