@@ -3,6 +3,7 @@
 #include <new>
 
 #include "board_config.hpp"
+#include "board_io.hpp"
 #include "bsp/bsp.hpp"
 #include "bsp/converter16.hpp"
 

@@ -7,9 +7,13 @@
 //   {"board","block","<unit>_min","<unit>_mean","<unit>_max"}
 // then {"board","block":"sum_of_blocks",...} and the difference to the
 // whole tick ("pipeline_overhead": what Pipeline::tick adds around its
-// blocks: atomics, the signal vector, dispatch). Not part of the budget
-// check: a measurement aid (docs/boards.md, "Budget").
+// blocks: atomics, the signal vector, dispatch). Also timed: one of the RC's
+// two Q filters alone, and the candidate play loops of profile_variants.hpp
+// with the number of ticks on which their output differed from the core's
+// ("mismatches_vs_core", must be 0 for a drop-in change). Not part of the
+// budget check: a measurement aid (docs/boards.md, "Budget").
 #include <array>
+#include <bit>
 #include <cstdint>
 #include <new>
 #include <span>
@@ -17,6 +21,7 @@
 #include "app/control_config.hpp"
 #include "app/core_sample.hpp"
 #include "app/json_line.hpp"
+#include "app/profile_variants.hpp"
 #include "app/selftest_cases.hpp"
 #include "app/tick_stats.hpp"
 #include "board_config.hpp"
@@ -43,11 +48,28 @@ Recorder<T, kRecChannels, kRecCapacity> g_rec;
 TrajectoryGenerator<T> g_traj{SignalScale{kEmulatedAnalog.position_full_scale_um}};
 OutputLimiter<T> g_lim{kEmulatedAnalog.hard, kLoopRate_Hz, SignalScale{kEmulatedAnalog.voltage_full_scale_V}};
 
-enum Block { kWhole, kAdc, kDac, kTraj, kPi, kSos, kRc, kLim, kRec, kPlant, kBlocks };
+// The RC's Q filter alone (one of the two the RC runs per tick).
+BiquadCascade<T, 1> g_q;
+
+enum Block { kWhole, kAdc, kDac, kTraj, kPi, kSos, kRc, kLim, kRec, kPlant, kQ, kVarA, kVarB, kVarC, kBlocks };
 constexpr const char* kNames[kBlocks] = {"pipeline_tick", "adc_to_sample",  "sample_to_dac",
                                          "trajectory",    "pi_inverse_15",  "feedback_sos_3",
                                          "rc_n100",       "limiter",        "recorder_push",
-                                         "plant_model"};
+                                         "plant_model",   "rc_q_filter_one", "proposal_a",
+                                         "proposal_b",    "proposal_c"};
+// Proposals for the play loop (profile_variants.hpp): names and mismatch
+// counts against the core's operator.
+#if PIEZOLOOP_FW_SAMPLE_Q31
+constexpr const char* kVarNames[3] = {"pi_inverse_15_q31_int32_clamp", "", ""};
+variants::PiQ31Clamp g_var_a;
+#else
+constexpr const char* kVarNames[3] = {"pi_inverse_15_minmaxnum", "pi_inverse_15_minmaxnum_unrolled",
+                                      "feedback_sos_3_unrolled"};
+variants::PiFloatMinMax g_var_a;
+variants::PiFloatMinMaxUnrolled<14> g_var_b;  // the reference inverse: p0 + 14 play operators
+variants::SosFloatUnrolled<3> g_var_c;
+#endif
+uint32_t g_mismatch[3] = {0, 0, 0};
 WorkStats g_stats[kBlocks];
 
 // Times f() (the result is kept alive so the call is not optimised away).
@@ -63,6 +85,14 @@ __attribute__((always_inline)) inline auto timed(Block b, F&& f) {
 bool configure(const PipelineParams& p, const SignalScale pos, const SignalScale volt) {
     PiModel inverse{};
     if (!invert_pi(p.pi, inverse).ok() || !g_pi.configure(inverse, pos, volt).ok()) return false;
+#if PIEZOLOOP_FW_SAMPLE_Q31
+    if (!g_var_a.configure(inverse, pos, volt)) return false;
+#else
+    if (!g_var_a.configure(inverse) || !g_var_b.configure(inverse)) return false;
+    if (!g_var_c.configure(p.sos.data(), p.sos_count)) return false;
+#endif
+    const SignalScale unit{1.0f};
+    if (!g_q.configure(&p.rc.q, 1, unit, unit).ok()) return false;
     if (!g_sos.configure(p.sos.data(), p.sos_count, pos, volt).ok()) return false;
     if (!g_rc.configure(p.rc).ok()) return false;
     if (!g_lim.configure(p.limits).ok()) return false;
@@ -103,9 +133,23 @@ int app_main() {
         // The blocks alone, on the signals the pipeline's blocks saw.
         const TickSignals<T>& s = pipe.last();
         timed(kTraj, [&] { return g_traj.step(); });
-        timed(kPi, [&] { return g_pi.apply(s.r); });
+        const T ff = timed(kPi, [&] { return g_pi.apply(s.r); });
+        const T va = timed(kVarA, [&] { return g_var_a.apply(s.r); });
+#if PIEZOLOOP_FW_SAMPLE_Q31
+        if (!(va == ff)) ++g_mismatch[0];
+#endif
+#if !PIEZOLOOP_FW_SAMPLE_Q31
+        const T vb = timed(kVarB, [&] { return g_var_b.apply(s.r); });
+        if (std::bit_cast<uint32_t>(va) != std::bit_cast<uint32_t>(ff)) ++g_mismatch[0];
+        if (std::bit_cast<uint32_t>(vb) != std::bit_cast<uint32_t>(ff)) ++g_mismatch[1];
+#endif
+        timed(kQ, [&] { return g_q.apply(s.e); });
         timed(kRc, [&] { return g_rc.apply(s.e); });
-        timed(kSos, [&] { return g_sos.apply(s.e + s.u_rc); });
+        [[maybe_unused]] const T fb = timed(kSos, [&] { return g_sos.apply(s.e + s.u_rc); });
+#if !PIEZOLOOP_FW_SAMPLE_Q31
+        const T vc = timed(kVarC, [&] { return g_var_c.apply(s.e + s.u_rc); });
+        if (std::bit_cast<uint32_t>(vc) != std::bit_cast<uint32_t>(fb)) ++g_mismatch[2];
+#endif
         timed(kLim, [&] { return g_lim.apply(s.u_ff + s.u_fb); });
         timed(kRec, [&] {
             g_rec.push(k, {s.r, s.y, s.e, s.u, s.u_ff, s.u_fb, s.u_rc});
@@ -119,11 +163,15 @@ int app_main() {
     uint64_t sum_tenths = 0;
     for (int b = 0; b < kBlocks; ++b) {
         const WorkStats& w = g_stats[b];
+        if (w.count == 0) continue;
         JsonLine j;
-        j.str("board", bsp::kBoardName).str("sample", kCoreSampleName).str("block", kNames[b]);
+        const bool proposal = b >= kVarA;
+        j.str("board", bsp::kBoardName).str("sample", kCoreSampleName);
+        j.str("block", proposal ? kVarNames[b - kVarA] : kNames[b]);
+        if (proposal) j.uint("mismatches_vs_core", g_mismatch[b - kVarA]);
         j.uint({unit, "_min"}, w.min).fixed({unit, "_mean"}, static_cast<double>(w.mean_tenths()) / 10.0, 1);
         j.uint({unit, "_max"}, w.max).flush();
-        if (b >= kTraj && b <= kRec) sum_tenths += w.mean_tenths();
+        if (b >= kTraj && b <= kRec) sum_tenths += w.mean_tenths();  // the blocks inside pipeline.tick
     }
     const uint64_t whole = g_stats[kWhole].mean_tenths();
     JsonLine j;

@@ -98,6 +98,11 @@ int run_case(ControlLoop& loop, const SelfTestCase& c) {
     j.fixed({"plant_", unit, "_per_tick_mean"}, static_cast<double>(st.plant.mean_tenths()) / 10.0, 1);
     j.uint({"plant_", unit, "_per_tick_max"}, st.plant.max);
     j.uint("budget", bsp::config::kTickBudget).boolean("within_budget", within);
+    // The highest loop rate the controller's tick alone allows at the
+    // board's CPU clock: one instruction per cycle on the QEMU boards (their
+    // nominal 25 MHz), measured cycles on hardware.
+    j.uint("cpu_clock_Hz", bsp::config::kCpuClock_Hz);
+    j.uint("loop_rate_max_Hz", st.control.max == 0 ? 0 : bsp::config::kCpuClock_Hz / st.control.max);
     add_log_fields(j, c, acc);
     j.flush();
 

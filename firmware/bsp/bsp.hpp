@@ -75,12 +75,14 @@ uint32_t timestamp();
 uint32_t stopwatch_start();
 uint32_t stopwatch_elapsed(uint32_t start);
 
-// 16-bit converters, signed two's-complement codes in [-32768, 32767]
-// spanning [-full scale, +full scale) of config::kPositionFullScale_um (ADC,
-// displacement sensor) and config::kVoltageFullScale_V (DAC, amplifier input
-// referred to the piezo voltage). See bsp/converter16.hpp.
-int32_t adc_read();
-void dac_write(int32_t code);
+// The converters of the tick are in bsp/<board>/board_io.hpp, inline (they
+// sit inside the measured tick):
+//   int32_t adc_read();          the displacement sensor's latest sample
+//   void dac_write(int32_t code);  the amplifier's input
+// 16-bit two's-complement codes in [-32768, 32767] spanning [-full scale,
+// +full scale) of config::kPositionFullScale_um (ADC) and
+// config::kVoltageFullScale_V (DAC, referred to the piezo voltage); see
+// bsp/converter16.hpp.
 
 // Boards without converters (QEMU) connect the DAC to an emulated stage,
 // the plant model of common/, whose displacement the next adc_read()

@@ -7,10 +7,11 @@
 // pipeline's SignalScales (PipelineSetup.position / .voltage), so a code maps
 // onto a Q31 sample by a shift and onto a float sample by one multiply.
 //
-// Rounding is spelled out (no libm, no FPU rounding mode) so that the
-// firmware, the emulated stage and the host build of the self-test produce
-// the same codes bit for bit:
-//   physical -> code: nearest, ties away from zero, saturated; NaN -> 0
+// Rounding is IEEE-exact so that the firmware, the emulated stage and the
+// host build of the self-test produce the same codes bit for bit:
+//   physical -> code: nearest, ties away from zero (lroundf, which is exact
+//                     everywhere: one VCVTA on the FPv5 boards, libm
+//                     elsewhere), saturated; NaN -> 0
 //   float sample -> code: the same on u * (32768 / FS)
 //   Q31 sample -> code: (raw + 2^15) >> 16, saturated (ties towards +inf)
 //   code -> float sample: c * (FS / 32768)   (exact when FS / 32768 is, e.g.
@@ -30,13 +31,14 @@ inline constexpr int32_t kCodeMin = -32768;
 inline constexpr int32_t kCodeMax = 32767;
 inline constexpr float kCodesPerFullScale = 32768.0f;
 
-// x in LSB units (already scaled) -> code.
-constexpr int32_t code_from_lsb(float x) {
+// x in LSB units (already scaled) -> code. The range tests come first so
+// that lroundf only ever sees values it can represent (its result for
+// NaN or beyond long is unspecified on the host).
+inline int32_t code_from_lsb(float x) {
     if (!(x == x)) return 0;  // NaN
     if (x >= 32767.5f) return kCodeMax;
     if (x <= -32768.5f) return kCodeMin;
-    const float r = x >= 0.0f ? x + 0.5f : x - 0.5f;
-    return static_cast<int32_t>(r);  // truncation: |r| < 32769, in range
+    return static_cast<int32_t>(__builtin_lroundf(x));
 }
 
 class Converter16 {
@@ -49,7 +51,7 @@ public:
     constexpr float full_scale() const { return full_scale_; }
     constexpr float lsb() const { return lsb_; }
 
-    constexpr int32_t code_from_physical(float x) const { return code_from_lsb(x * per_unit_); }
+    int32_t code_from_physical(float x) const { return code_from_lsb(x * per_unit_); }
     constexpr float physical_from_code(int32_t c) const { return static_cast<float>(c) * lsb_; }
 
     // The core's sample type (float: physical units; Q31: normalised to the
@@ -63,7 +65,7 @@ public:
         }
     }
     template <class T>
-    constexpr int32_t code_from_sample(T s) const {
+    int32_t code_from_sample(T s) const {
         if constexpr (std::is_same_v<T, float>) {
             return code_from_physical(s);
         } else {

@@ -5,6 +5,7 @@
 // Both FPGA images put UART0 at 0x40004000, TIMER0 at 0x40000000 (IRQ 8)
 // and clock the APB at 25 MHz (AN385/AN500; QEMU hw/arm/mps2.c SYSCLK_FRQ).
 #include "board_config.hpp"
+#include "board_io.hpp"
 #include "bsp/bsp.hpp"
 #include "bsp/cortex-m/nvic.hpp"
 #include "bsp/cortex-m/semihosting.hpp"
@@ -15,6 +16,10 @@
 
 namespace piezoloop::bsp {
 
+namespace mps2 {
+fw::EmulatedStage g_emulated_stage{config::kPositionFullScale_um, config::kVoltageFullScale_V};
+}  // namespace mps2
+
 namespace {
 constexpr mps2::CmsdkUart kUart0{0x40004000};
 constexpr mps2::CmsdkTimer kTimer0{0x40000000};
@@ -24,7 +29,6 @@ constexpr uint8_t kTickPriority = 0x00;
 
 TickHandler g_tick_handler = nullptr;
 int32_t g_stopwatch_offset = 0;
-fw::EmulatedStage g_stage{config::kPositionFullScale_um, config::kVoltageFullScale_V};
 
 }  // namespace
 
@@ -113,10 +117,8 @@ uint32_t stopwatch_elapsed(uint32_t start) {
     return n < 0 ? 0u : static_cast<uint32_t>(n);  // only while calibrating can n be < 0
 }
 
-int32_t adc_read() { return g_stage.adc_code(); }
-void dac_write(int32_t code) { g_stage.dac_write(code); }
-fw::EmulatedStage& emulated_stage() { return g_stage; }
-void emulated_stage_step() { g_stage.step(); }
+fw::EmulatedStage& emulated_stage() { return mps2::g_emulated_stage; }
+void emulated_stage_step() { mps2::g_emulated_stage.step(); }
 bool set_loopback(bool on) { return on; }  // no real converters: always emulated
 
 }  // namespace piezoloop::bsp

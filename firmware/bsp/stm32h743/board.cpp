@@ -11,6 +11,7 @@
 #include <cstdint>
 
 #include "board_config.hpp"
+#include "board_io.hpp"
 #include "bsp/bsp.hpp"
 #include "bsp/cortex-m/nvic.hpp"
 #include "bsp/cortex-m/scb.hpp"
@@ -18,6 +19,11 @@
 #include "bsp/emulated_stage.hpp"
 
 namespace piezoloop::bsp {
+
+namespace stm32 {
+fw::EmulatedStage g_emulated_stage{config::kPositionFullScale_um, config::kVoltageFullScale_V};
+bool g_loopback = false;
+}  // namespace stm32
 
 namespace {
 
@@ -65,9 +71,7 @@ constexpr uintptr_t kDemcr = 0xE000EDFC;
 constexpr uintptr_t kDwtCtrl = 0xE0001000, kDwtCyccnt = 0xE0001004, kDwtLar = 0xE0001FB0;
 
 TickHandler g_tick_handler = nullptr;
-bool g_loopback = false;
 uint32_t g_stopwatch_offset = 0;
-fw::EmulatedStage g_stage{config::kPositionFullScale_um, config::kVoltageFullScale_V};
 
 }  // namespace
 
@@ -152,16 +156,12 @@ uint32_t timestamp() { return reg(kDwtCyccnt); }
 uint32_t stopwatch_start() { return reg(kDwtCyccnt); }
 uint32_t stopwatch_elapsed(uint32_t start) { return reg(kDwtCyccnt) - start - g_stopwatch_offset; }
 
-// Real converters come with the analog front end; until then only the
-// loopback (emulated stage) is wired.
-int32_t adc_read() { return g_stage.adc_code(); }
-void dac_write(int32_t code) { g_stage.dac_write(code); }
-fw::EmulatedStage& emulated_stage() { return g_stage; }
+fw::EmulatedStage& emulated_stage() { return stm32::g_emulated_stage; }
 void emulated_stage_step() {
-    if (g_loopback) g_stage.step();
+    if (stm32::g_loopback) stm32::g_emulated_stage.step();
 }
 bool set_loopback(bool on) {
-    g_loopback = on;
+    stm32::g_loopback = on;
     return true;
 }
 

@@ -1,0 +1,184 @@
+// NOT USED BY THE FIRMWARE. Candidate rewrites of the play-operator loop of
+// common/piezoloop/pi_model.hpp (PiOperator<T>::apply), kept here only so
+// that profile_blocks.elf can measure what they would save and check, tick
+// by tick on the reference run, that they give bit-identical outputs. They
+// are proposals for the core's owner (docs/boards.md, "Budget"); common/ is
+// not changed by the firmware.
+//
+// Float: max/min of the play operator as IEEE maxNum/minNum
+// (__builtin_fmaxf/fminf), which the FPv5 FPU of the Cortex-M7 executes as
+// one VMAXNM/VMINNM each instead of VCMP + VMRS + IT + VMOV. Identical to
+// the `a < b ? b : a` form for every non-NaN input: the two can only differ
+// on the sign of a zero result when both operands are zeros of opposite
+// sign, and with thresholds r >= 0 and the state starting at +0 no -0 ever
+// reaches max/min unless the input itself is -0 with r = 0, where both
+// forms return -0. (On x86 the builtins are libm calls: the host would keep
+// the ternary, under a per-target macro.)
+//
+// Q31: the same operator without the int64 saturating Q31 operators:
+// u + r and u - r in wrapping int32, saturated by a wrap test (r >= 0), then
+// clamp(w, lo, hi) -- exactly max(u - r, min(u + r, w)) with saturating
+// arithmetic, since lo <= hi. Keeping everything int32 also lets GCC use
+// one SMLAL for the weighted sum (with an int64 clamp it multiplies 64x64).
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "piezoloop/biquad.hpp"
+#include "piezoloop/pi_model.hpp"
+
+namespace piezoloop::fw::variants {
+
+// Float, runtime operator count (same loop shape as the core).
+class PiFloatMinMax {
+public:
+    bool configure(const PiModel& m) {
+        m_ = m;
+        w_.fill(0.0f);
+        return true;
+    }
+    float apply(float x) {
+        const float f = m_.input_gain * x + m_.input_offset;
+        float y = m_.p0 * f;
+        for (int j = 0; j < m_.count; ++j) {
+            const unsigned i = static_cast<unsigned>(j);
+            w_[i] = __builtin_fmaxf(f - m_.thresholds[i], __builtin_fminf(f + m_.thresholds[i], w_[i]));
+            y = y + m_.weights[i] * w_[i];
+        }
+        return y;
+    }
+
+private:
+    PiModel m_{};
+    std::array<float, kMaxPlayOperators> w_{};
+};
+
+// Float, compile-time operator count: fully unrolled, no loop overhead.
+template <int N>
+class PiFloatMinMaxUnrolled {
+public:
+    bool configure(const PiModel& m) {
+        if (m.count != N) return false;
+        gain_ = m.input_gain;
+        offset_ = m.input_offset;
+        p0_ = m.p0;
+        for (int j = 0; j < N; ++j) {
+            r_[static_cast<unsigned>(j)] = m.thresholds[static_cast<unsigned>(j)];
+            p_[static_cast<unsigned>(j)] = m.weights[static_cast<unsigned>(j)];
+        }
+        w_.fill(0.0f);
+        return true;
+    }
+    float apply(float x) {
+        const float f = gain_ * x + offset_;
+        float y = p0_ * f;
+#pragma GCC unroll 16
+        for (int j = 0; j < N; ++j) {
+            const unsigned i = static_cast<unsigned>(j);
+            w_[i] = __builtin_fmaxf(f - r_[i], __builtin_fminf(f + r_[i], w_[i]));
+            y = y + p_[i] * w_[i];
+        }
+        return y;
+    }
+
+private:
+    float gain_ = 1.0f, offset_ = 0.0f, p0_ = 1.0f;
+    std::array<float, N> r_{}, p_{}, w_{};
+};
+
+// Q31 with the int64 clamp; coefficients taken from a configured core
+// operator so the comparison is exact (same mantissas and exponent).
+class PiQ31Clamp {
+public:
+    bool configure(const PiModel& m, SignalScale in, SignalScale out) {
+        // Mirror PiOperator<Q31>::configure (identity input only).
+        if (m.input_gain != 1.0f || m.input_offset != 0.0f) return false;
+        count_ = m.count;
+        const double gain = SignalScale::sample_gain<Q31>(1.0, in, out);
+        std::array<double, kMaxPlayOperators + 1> c{};
+        c[0] = m.p0 * gain;
+        for (int j = 0; j < m.count; ++j) {
+            const unsigned i = static_cast<unsigned>(j);
+            c[i + 1] = m.weights[i] * gain;
+            r_[i] = Q31::from_double(static_cast<double>(m.thresholds[i]) / in.full_scale).raw();
+        }
+        exponent_ = block_exponent(c.data(), m.count + 1);
+        p0_ = quantize_mantissa(c[0], exponent_);
+        for (int j = 0; j < m.count; ++j)
+            p_[static_cast<unsigned>(j)] = quantize_mantissa(c[static_cast<unsigned>(j) + 1], exponent_);
+        w_.fill(0);
+        return true;
+    }
+    Q31 apply(Q31 x) {
+        const int32_t u = x.raw();
+        int64_t acc = int64_t{p0_} * u;
+        for (int j = 0; j < count_; ++j) {
+            const unsigned i = static_cast<unsigned>(j);
+            // u + r and u - r in wrapping 32-bit arithmetic (r >= 0), then
+            // saturated by the wrap test: only int32 values, so the
+            // product below stays one 32x32->64 multiply-accumulate.
+            const int32_t r = r_[i];
+            int32_t hi = static_cast<int32_t>(static_cast<uint32_t>(u) + static_cast<uint32_t>(r));
+            int32_t lo = static_cast<int32_t>(static_cast<uint32_t>(u) - static_cast<uint32_t>(r));
+            if (hi < u) hi = Q31::kMaxRaw;
+            if (lo > u) lo = Q31::kMinRaw;
+            int32_t w = w_[i];
+            if (w < lo) w = lo;
+            if (w > hi) w = hi;
+            w_[i] = w;
+            acc += int64_t{p_[i]} * w;
+        }
+        return q31_from_accumulator(acc, exponent_);
+    }
+
+private:
+    int count_ = 0;
+    int exponent_ = 0;
+    int32_t p0_ = 0;
+    std::array<int32_t, kMaxPlayOperators> p_{}, r_{}, w_{};
+};
+
+// Float biquad cascade with the section count fixed at compile time (the
+// core loops over a runtime count_ of up to kMaxControllerSections): the
+// same DF2T arithmetic, unrolled. The core could dispatch once per tick on
+// its count to such instances.
+template <int N>
+class SosFloatUnrolled {
+public:
+    bool configure(const SosSection* sections, int count) {
+        if (count != N) return false;
+        for (int i = 0; i < N; ++i) {
+            const SosSection& q = sections[i];
+            c_[static_cast<unsigned>(i)] = {static_cast<float>(q.b0), static_cast<float>(q.b1),
+                                            static_cast<float>(q.b2), static_cast<float>(q.a1),
+                                            static_cast<float>(q.a2)};
+        }
+        s_ = {};
+        return true;
+    }
+    float apply(float x) {
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            const Coef& c = c_[static_cast<unsigned>(i)];
+            State& st = s_[static_cast<unsigned>(i)];
+            const float y = c.b0 * x + st.s1;
+            st.s1 = c.b1 * x - c.a1 * y + st.s2;
+            st.s2 = c.b2 * x - c.a2 * y;
+            x = y;
+        }
+        return x;
+    }
+
+private:
+    struct Coef {
+        float b0, b1, b2, a1, a2;
+    };
+    struct State {
+        float s1 = 0.0f, s2 = 0.0f;
+    };
+    std::array<Coef, N> c_{};
+    std::array<State, N> s_{};
+};
+
+}  // namespace piezoloop::fw::variants
