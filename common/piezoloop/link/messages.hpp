@@ -1,0 +1,638 @@
+// Message layouts of the link protocol (docs/protocol.md has them as tables).
+//
+// Every message is a struct with its type id (kType), write(Writer&) and
+// read(Reader&) that follow its layout field by field, little-endian, with no
+// padding and no optional fields: the layout of a type is fixed for a protocol
+// version (variable-length arrays travel with their count and only that many
+// elements). Requests come from the host, replies echo the request's sequence
+// id, log blocks are sent by the device unasked.
+//
+// The codec checks form only (lengths, booleans, counts within their arrays).
+// Values go to the core's validation unchanged, so a NaN or an out-of-range
+// parameter comes back as an error reply naming the field the core names.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "piezoloop/biquad.hpp"
+#include "piezoloop/dahl.hpp"
+#include "piezoloop/limits.hpp"
+#include "piezoloop/link/framing.hpp"
+#include "piezoloop/link/wire.hpp"
+#include "piezoloop/pi_model.hpp"
+#include "piezoloop/pid.hpp"
+#include "piezoloop/pipeline.hpp"
+#include "piezoloop/recorder.hpp"
+#include "piezoloop/repetitive.hpp"
+#include "piezoloop/trajectory.hpp"
+
+namespace piezoloop::link {
+
+// Version 1. A device answers Hello in any version (with its own version in
+// the reply) and refuses every other message whose header version differs.
+inline constexpr uint8_t kProtocolVersion = 1;
+
+enum class MsgType : uint8_t {
+    // Requests, host -> device.
+    kHello = 0x01,
+    kGetStatus = 0x02,
+    kGetParams = 0x03,
+    kSetParams = 0x04,
+    kArm = 0x05,
+    kDisarm = 0x06,
+    kClearTrip = 0x07,
+    kStartWave = 0x08,
+    kStopWave = 0x09,
+    kStreamStart = 0x0A,
+    kSetpoints = 0x0B,
+    kStreamStop = 0x0C,
+    kRecorderArm = 0x0D,
+    kRecorderStop = 0x0E,
+    // Replies, device -> host, with the request's sequence id.
+    kAck = 0x80,
+    kHelloReply = 0x81,
+    kStatusReply = 0x82,
+    kParamsReply = 0x83,
+    kSetpointAck = 0x84,
+    kError = 0xFF,
+    // Device -> host, unasked.
+    kLogBlock = 0xC0,
+};
+
+constexpr bool is_request(uint8_t t) { return t >= 0x01 && t <= 0x0E; }
+
+enum class ErrorCode : uint8_t {
+    kNone = 0,
+    kUnknownType = 1,    // message type not handled by the receiver
+    kBadVersion = 2,     // header version differs from the device's
+    kMalformed = 3,      // body length or form does not match the layout
+    kInvalidParam = 4,   // rejected by validation: group/field/index/message say why
+    kArmed = 5,          // limit-critical change, or clear-trip, while armed
+    kBusy = 6,           // previous parameter set not yet swapped in, wave or stream running
+    kSequence = 7,       // setpoint block out of sequence (dropped)
+    kNoSpace = 8,        // setpoint block does not fit the FIFO (dropped)
+    kNotConfigured = 9,  // recorder arm before a recorder configuration
+    kUnsupported = 10,   // feature absent on this device (see capabilities)
+    kTripped = 11,       // arm refused: the limiter is tripped (clear it first)
+    kBadGroup = 12,      // unknown parameter group
+};
+
+constexpr const char* error_code_name(ErrorCode c) {
+    switch (c) {
+        case ErrorCode::kNone: return "none";
+        case ErrorCode::kUnknownType: return "unknown_type";
+        case ErrorCode::kBadVersion: return "bad_version";
+        case ErrorCode::kMalformed: return "malformed";
+        case ErrorCode::kInvalidParam: return "invalid_param";
+        case ErrorCode::kArmed: return "armed";
+        case ErrorCode::kBusy: return "busy";
+        case ErrorCode::kSequence: return "sequence";
+        case ErrorCode::kNoSpace: return "no_space";
+        case ErrorCode::kNotConfigured: return "not_configured";
+        case ErrorCode::kUnsupported: return "unsupported";
+        case ErrorCode::kTripped: return "tripped";
+        case ErrorCode::kBadGroup: return "bad_group";
+    }
+    return "?";
+}
+
+enum class ParamGroup : uint8_t {
+    kFeedforward = 1,  // kind, PI model, Dahl
+    kFeedback = 2,     // kind, SOS sections, PID
+    kRepetitive = 3,   // RC on/off and its configuration
+    kLimits = 4,       // runtime output limits (within the hard limits)
+    kTrajectory = 5,   // wave generator
+    kRecorder = 6,     // recorder configuration
+};
+
+constexpr const char* group_name(ParamGroup g) {
+    switch (g) {
+        case ParamGroup::kFeedforward: return "feedforward";
+        case ParamGroup::kFeedback: return "feedback";
+        case ParamGroup::kRepetitive: return "rc";
+        case ParamGroup::kLimits: return "limits";
+        case ParamGroup::kTrajectory: return "trajectory";
+        case ParamGroup::kRecorder: return "recorder";
+    }
+    return "?";
+}
+
+// Capability bits of the hello reply.
+namespace cap {
+inline constexpr uint32_t kFloat = 1u << 0;           // float pipeline (samples in physical units)
+inline constexpr uint32_t kQ31 = 1u << 1;             // Q31 pipeline
+inline constexpr uint32_t kDahl = 1u << 2;            // Dahl feedforward available
+inline constexpr uint32_t kRepetitive = 1u << 3;
+inline constexpr uint32_t kSetpointStream = 1u << 4;
+inline constexpr uint32_t kRecorder = 1u << 5;
+inline constexpr uint32_t kWaveTable = 1u << 6;       // kSteps / kTable waveforms
+}  // namespace cap
+
+enum class SampleFormat : uint8_t { kFloat32 = 0, kQ31 = 1 };
+
+inline constexpr std::size_t kNameSize = 16;          // board, firmware version
+inline constexpr std::size_t kSerialSize = 24;
+inline constexpr std::size_t kGroupTextSize = 16;     // error reply texts
+inline constexpr std::size_t kFieldTextSize = 32;
+inline constexpr std::size_t kMessageTextSize = 96;
+inline constexpr std::size_t kMaxWaveTable = 96;      // points of a kSteps/kTable wave
+inline constexpr std::size_t kMaxLogChannels = 8;
+inline constexpr std::size_t kMaxSetpointsPerBlock = 120;
+inline constexpr std::size_t kLogBlockHeader = 28;    // body bytes before the samples
+// Samples per log block: 480 bytes of samples whatever the channel count.
+constexpr std::size_t log_frames_per_block(std::size_t channels) {
+    return channels == 0 ? 0 : ((kMaxBody - kLogBlockHeader) / (4 * channels) > 255
+                                    ? 255
+                                    : (kMaxBody - kLogBlockHeader) / (4 * channels));
+}
+
+// ---- parameter groups ------------------------------------------------------
+
+namespace wire_detail {
+inline void write(Writer& w, const SosSection& s) { w.f64(s.b0); w.f64(s.b1); w.f64(s.b2); w.f64(s.a1); w.f64(s.a2); }
+inline void read(Reader& r, SosSection& s) { s.b0 = r.f64(); s.b1 = r.f64(); s.b2 = r.f64(); s.a1 = r.f64(); s.a2 = r.f64(); }
+}  // namespace wire_detail
+
+struct FeedforwardParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kFeedforward;
+    FeedforwardKind kind = FeedforwardKind::kNone;
+    PiModel pi{};
+    DahlParams dahl{};
+    bool operator==(const FeedforwardParams&) const = default;
+
+    void write(Writer& w) const {
+        w.u8(static_cast<uint8_t>(kind));
+        w.f32(pi.input_gain); w.f32(pi.input_offset); w.f32(pi.p0);
+        const int n = pi.count < 0 ? 0 : (pi.count > kMaxPlayOperators ? kMaxPlayOperators : pi.count);
+        w.u8(static_cast<uint8_t>(n));
+        for (int j = 0; j < n; ++j) w.f32(pi.thresholds[static_cast<unsigned>(j)]);
+        for (int j = 0; j < n; ++j) w.f32(pi.weights[static_cast<unsigned>(j)]);
+        w.f32(dahl.alpha1); w.f32(dahl.alpha2); w.f32(dahl.beta1); w.f32(dahl.beta2); w.f32(dahl.gamma_a); w.f32(dahl.ga);
+    }
+    void read(Reader& r) {
+        kind = static_cast<FeedforwardKind>(r.u8());
+        pi = PiModel{};
+        pi.input_gain = r.f32(); pi.input_offset = r.f32(); pi.p0 = r.f32();
+        const uint8_t n = r.u8();
+        if (n > kMaxPlayOperators) { r.mark_bad(); return; }
+        pi.count = n;
+        for (unsigned j = 0; j < n; ++j) pi.thresholds[j] = r.f32();
+        for (unsigned j = 0; j < n; ++j) pi.weights[j] = r.f32();
+        dahl.alpha1 = r.f32(); dahl.alpha2 = r.f32(); dahl.beta1 = r.f32(); dahl.beta2 = r.f32(); dahl.gamma_a = r.f32(); dahl.ga = r.f32();
+    }
+};
+
+struct FeedbackParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kFeedback;
+    FeedbackKind kind = FeedbackKind::kNone;
+    int sos_count = 0;
+    std::array<SosSection, kMaxControllerSections> sos{};
+    PidConfig pid{};
+    bool operator==(const FeedbackParams&) const = default;
+
+    void write(Writer& w) const {
+        w.u8(static_cast<uint8_t>(kind));
+        // All kMaxControllerSections sections travel (fixed layout); sos_count
+        // is sent as is so the device validates it.
+        w.u8(static_cast<uint8_t>(sos_count));
+        for (const SosSection& s : sos) wire_detail::write(w, s);
+        w.f32(pid.kp); w.f32(pid.ki_per_s); w.f32(pid.kd_s); w.f32(pid.derivative_cutoff_Hz); w.f32(pid.u_min); w.f32(pid.u_max);
+    }
+    void read(Reader& r) {
+        kind = static_cast<FeedbackKind>(r.u8());
+        sos_count = r.u8();
+        for (SosSection& s : sos) wire_detail::read(r, s);
+        pid.kp = r.f32(); pid.ki_per_s = r.f32(); pid.kd_s = r.f32(); pid.derivative_cutoff_Hz = r.f32(); pid.u_min = r.f32(); pid.u_max = r.f32();
+    }
+};
+
+struct RepetitiveParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kRepetitive;
+    bool enabled = false;
+    RepetitiveConfig rc{};
+    bool operator==(const RepetitiveParams&) const = default;
+
+    void write(Writer& w) const {
+        w.boolean(enabled);
+        w.i32(rc.period_samples); w.i32(rc.m1); w.i32(rc.m2); w.f32(rc.k_rc);
+        wire_detail::write(w, rc.q);
+    }
+    void read(Reader& r) {
+        enabled = r.boolean();
+        rc.period_samples = r.i32(); rc.m1 = r.i32(); rc.m2 = r.i32(); rc.k_rc = r.f32();
+        wire_detail::read(r, rc.q);
+    }
+};
+
+struct LimitsParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kLimits;
+    LimitsConfig limits{};
+    bool operator==(const LimitsParams& o) const {
+        return limits.u_min_V == o.limits.u_min_V && limits.u_max_V == o.limits.u_max_V &&
+               limits.slew_V_per_s == o.limits.slew_V_per_s && limits.saturation_trip_s == o.limits.saturation_trip_s;
+    }
+
+    void write(Writer& w) const { w.f32(limits.u_min_V); w.f32(limits.u_max_V); w.f32(limits.slew_V_per_s); w.f32(limits.saturation_trip_s); }
+    void read(Reader& r) { limits.u_min_V = r.f32(); limits.u_max_V = r.f32(); limits.slew_V_per_s = r.f32(); limits.saturation_trip_s = r.f32(); }
+};
+
+// The wave generator's settings; its sample rate is the device's loop rate.
+struct TrajectoryParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kTrajectory;
+    Waveform waveform = Waveform::kSine;
+    float amplitude_um = 0.0f;
+    float offset_um = 0.0f;
+    float frequency_Hz = 1.0f;
+    uint32_t cycles = 0;
+    float start_phase_cycles = 0.0f;
+    float return_fraction = 0.1f;
+    float duty = 0.5f;
+    uint16_t table_count = 0;
+    std::array<float, kMaxWaveTable> table{};
+    bool operator==(const TrajectoryParams&) const = default;
+
+    void write(Writer& w) const {
+        w.u8(static_cast<uint8_t>(waveform));
+        w.f32(amplitude_um); w.f32(offset_um); w.f32(frequency_Hz); w.u32(cycles);
+        w.f32(start_phase_cycles); w.f32(return_fraction); w.f32(duty);
+        const uint16_t n = table_count > kMaxWaveTable ? static_cast<uint16_t>(kMaxWaveTable) : table_count;
+        w.u16(n);
+        for (std::size_t i = 0; i < n; ++i) w.f32(table[i]);
+    }
+    void read(Reader& r) {
+        waveform = static_cast<Waveform>(r.u8());
+        amplitude_um = r.f32(); offset_um = r.f32(); frequency_Hz = r.f32(); cycles = r.u32();
+        start_phase_cycles = r.f32(); return_fraction = r.f32(); duty = r.f32();
+        table_count = r.u16();
+        if (table_count > kMaxWaveTable) { r.mark_bad(); return; }
+        table = {};
+        for (std::size_t i = 0; i < table_count; ++i) table[i] = r.f32();
+    }
+};
+
+struct RecorderParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kRecorder;
+    uint8_t channel_count = 0;
+    std::array<uint8_t, kMaxLogChannels> channels{};  // SignalId values, first channel_count used
+    uint32_t decimation = 1;
+    RecordMode mode = RecordMode::kContinuous;
+    TriggerMode trigger = TriggerMode::kImmediate;
+    uint8_t trigger_signal = 0;
+    float trigger_level = 0.0f;  // physical units of the trigger signal (µm or V)
+    uint32_t pre_trigger = 0;
+    uint32_t length = 0;
+    bool operator==(const RecorderParams&) const = default;
+
+    void write(Writer& w) const {
+        w.u8(channel_count);
+        for (const uint8_t c : channels) w.u8(c);
+        w.u32(decimation);
+        w.u8(static_cast<uint8_t>(mode)); w.u8(static_cast<uint8_t>(trigger)); w.u8(trigger_signal);
+        w.f32(trigger_level); w.u32(pre_trigger); w.u32(length);
+    }
+    void read(Reader& r) {
+        channel_count = r.u8();
+        for (uint8_t& c : channels) c = r.u8();
+        if (channel_count > kMaxLogChannels) r.mark_bad();
+        decimation = r.u32();
+        mode = static_cast<RecordMode>(r.u8()); trigger = static_cast<TriggerMode>(r.u8()); trigger_signal = r.u8();
+        trigger_level = r.f32(); pre_trigger = r.u32(); length = r.u32();
+    }
+};
+
+// ---- messages -----------------------------------------------------------------
+
+// Requests with no body.
+template <MsgType Type>
+struct EmptyMessage {
+    static constexpr MsgType kType = Type;
+    bool operator==(const EmptyMessage&) const = default;
+    void write(Writer&) const {}
+    void read(Reader&) {}
+};
+using Hello = EmptyMessage<MsgType::kHello>;
+using GetStatus = EmptyMessage<MsgType::kGetStatus>;
+using Arm = EmptyMessage<MsgType::kArm>;
+using Disarm = EmptyMessage<MsgType::kDisarm>;
+using ClearTrip = EmptyMessage<MsgType::kClearTrip>;
+using StartWave = EmptyMessage<MsgType::kStartWave>;  // runs the trajectory group's wave
+using StopWave = EmptyMessage<MsgType::kStopWave>;
+using RecorderArm = EmptyMessage<MsgType::kRecorderArm>;
+using RecorderStop = EmptyMessage<MsgType::kRecorderStop>;
+
+struct GetParams {
+    static constexpr MsgType kType = MsgType::kGetParams;
+    ParamGroup group = ParamGroup::kLimits;
+    bool operator==(const GetParams&) const = default;
+    void write(Writer& w) const { w.u8(static_cast<uint8_t>(group)); }
+    void read(Reader& r) { group = static_cast<ParamGroup>(r.u8()); }
+};
+
+// SetParams<G> (request) and ParamsReply<G> (reply to GetParams): the group
+// id, then the group's layout.
+template <MsgType Type, class G>
+struct GroupMessage {
+    static constexpr MsgType kType = Type;
+    G value{};
+    bool operator==(const GroupMessage&) const = default;
+    void write(Writer& w) const { w.u8(static_cast<uint8_t>(G::kGroup)); value.write(w); }
+    void read(Reader& r) {
+        if (r.u8() != static_cast<uint8_t>(G::kGroup)) r.mark_bad();
+        value.read(r);
+    }
+};
+template <class G> using SetParams = GroupMessage<MsgType::kSetParams, G>;
+template <class G> using ParamsReply = GroupMessage<MsgType::kParamsReply, G>;
+
+// Group id of a SetParams / ParamsReply body (0 if empty).
+constexpr uint8_t body_group(std::span<const uint8_t> body) { return body.empty() ? 0 : body[0]; }
+
+struct StreamStart {
+    static constexpr MsgType kType = MsgType::kStreamStart;
+    uint16_t prefill = 0;  // setpoints buffered before the tick starts consuming
+    bool operator==(const StreamStart&) const = default;
+    void write(Writer& w) const { w.u16(prefill); }
+    void read(Reader& r) { prefill = r.u16(); }
+};
+
+struct StreamStop {
+    static constexpr MsgType kType = MsgType::kStreamStop;
+    bool drain = true;  // consume what is buffered first (no underrun at the end)
+    bool operator==(const StreamStop&) const = default;
+    void write(Writer& w) const { w.boolean(drain); }
+    void read(Reader& r) { drain = r.boolean(); }
+};
+
+// A block of setpoints (µm), consumed one per tick.
+struct SetpointBlock {
+    static constexpr MsgType kType = MsgType::kSetpoints;
+    uint32_t block_seq = 0;  // 0 for the first block after StreamStart, +1 per block
+    uint8_t count = 0;
+    std::array<float, kMaxSetpointsPerBlock> setpoint_um{};
+    bool operator==(const SetpointBlock&) const = default;
+    void write(Writer& w) const {
+        w.u32(block_seq);
+        const uint8_t n = count > kMaxSetpointsPerBlock ? static_cast<uint8_t>(kMaxSetpointsPerBlock) : count;
+        w.u8(n);
+        for (std::size_t i = 0; i < n; ++i) w.f32(setpoint_um[i]);
+    }
+    void read(Reader& r) {
+        block_seq = r.u32();
+        count = r.u8();
+        if (count > kMaxSetpointsPerBlock) { r.mark_bad(); return; }
+        setpoint_um = {};
+        for (std::size_t i = 0; i < count; ++i) setpoint_um[i] = r.f32();
+    }
+};
+
+struct SetpointAck {
+    static constexpr MsgType kType = MsgType::kSetpointAck;
+    uint32_t next_block_seq = 0;  // the block the device expects next
+    uint16_t free = 0;            // free FIFO slots (setpoints) after this block
+    uint16_t capacity = 0;
+    uint32_t underruns = 0;       // ticks that found the FIFO empty since StreamStart
+    uint32_t consumed = 0;        // setpoints consumed since StreamStart
+    bool operator==(const SetpointAck&) const = default;
+    void write(Writer& w) const { w.u32(next_block_seq); w.u16(free); w.u16(capacity); w.u32(underruns); w.u32(consumed); }
+    void read(Reader& r) { next_block_seq = r.u32(); free = r.u16(); capacity = r.u16(); underruns = r.u32(); consumed = r.u32(); }
+};
+
+struct Ack {
+    static constexpr MsgType kType = MsgType::kAck;
+    uint8_t request_type = 0;
+    bool operator==(const Ack&) const = default;
+    void write(Writer& w) const { w.u8(request_type); }
+    void read(Reader& r) { request_type = r.u8(); }
+};
+
+// Error reply. group/field/message are the core's Status texts (group empty
+// for top-level fields), index the array element or -1.
+struct ErrorReply {
+    static constexpr MsgType kType = MsgType::kError;
+    uint8_t request_type = 0;
+    ErrorCode code = ErrorCode::kNone;
+    std::array<char, kGroupTextSize> group{};
+    std::array<char, kFieldTextSize> field{};
+    int16_t index = -1;
+    std::array<char, kMessageTextSize> message{};
+    bool operator==(const ErrorReply&) const = default;
+
+    void write(Writer& w) const {
+        w.u8(request_type); w.u8(static_cast<uint8_t>(code));
+        w.text(group.data(), kGroupTextSize); w.text(field.data(), kFieldTextSize);
+        w.i16(index);
+        w.text(message.data(), kMessageTextSize);
+    }
+    void read(Reader& r) {
+        request_type = r.u8(); code = static_cast<ErrorCode>(r.u8());
+        r.text(group.data(), group.size(), kGroupTextSize); r.text(field.data(), field.size(), kFieldTextSize);
+        index = r.i16();
+        r.text(message.data(), message.size(), kMessageTextSize);
+    }
+};
+
+// Copies a C string into a fixed text array (cut, zero-terminated).
+template <std::size_t N>
+constexpr void set_text(std::array<char, N>& out, const char* s) {
+    out = {};
+    if (s == nullptr) return;
+    for (std::size_t i = 0; i + 1 < N && s[i] != '\0'; ++i) out[i] = s[i];
+}
+
+constexpr ErrorReply make_error(uint8_t request_type, ErrorCode code, const Status& s) {
+    ErrorReply e;
+    e.request_type = request_type;
+    e.code = code;
+    set_text(e.group, s.group);
+    set_text(e.field, s.field);
+    e.index = static_cast<int16_t>(s.index < -1 ? -1 : (s.index > 32767 ? 32767 : s.index));
+    set_text(e.message, s.message);
+    return e;
+}
+
+struct HelloReply {
+    static constexpr MsgType kType = MsgType::kHelloReply;
+    uint8_t protocol_version = kProtocolVersion;
+    std::array<char, kNameSize> board{};
+    std::array<char, kNameSize> firmware_version{};
+    std::array<char, kSerialSize> serial{};
+    float loop_rate_Hz = 0.0f;
+    uint32_t capabilities = 0;
+    SampleFormat sample_format = SampleFormat::kFloat32;
+    float hard_u_min_V = 0.0f, hard_u_max_V = 0.0f, hard_slew_max_V_per_s = 0.0f;
+    float position_full_scale_um = 0.0f;  // Q31 full scales of r, y, e (µm) and u, u_ff, u_fb, u_rc (V)
+    float voltage_full_scale_V = 0.0f;
+    uint16_t max_payload = static_cast<uint16_t>(kMaxPayload);
+    uint16_t setpoint_capacity = 0;
+    uint8_t recorder_channels = 0;  // channel count the recorder group must use
+    uint32_t recorder_capacity = 0;
+    uint8_t max_sos_sections = kMaxControllerSections;
+    uint8_t max_play_operators = kMaxPlayOperators;
+    uint16_t max_wave_table = static_cast<uint16_t>(kMaxWaveTable);
+    uint32_t rc_capacity = 0;  // largest RC period, samples
+    bool operator==(const HelloReply&) const = default;
+
+    void write(Writer& w) const {
+        w.u8(protocol_version);
+        w.text(board.data(), kNameSize); w.text(firmware_version.data(), kNameSize); w.text(serial.data(), kSerialSize);
+        w.f32(loop_rate_Hz); w.u32(capabilities); w.u8(static_cast<uint8_t>(sample_format));
+        w.f32(hard_u_min_V); w.f32(hard_u_max_V); w.f32(hard_slew_max_V_per_s);
+        w.f32(position_full_scale_um); w.f32(voltage_full_scale_V);
+        w.u16(max_payload); w.u16(setpoint_capacity); w.u8(recorder_channels); w.u32(recorder_capacity);
+        w.u8(max_sos_sections); w.u8(max_play_operators); w.u16(max_wave_table); w.u32(rc_capacity);
+    }
+    void read(Reader& r) {
+        protocol_version = r.u8();
+        r.text(board.data(), board.size(), kNameSize); r.text(firmware_version.data(), firmware_version.size(), kNameSize);
+        r.text(serial.data(), serial.size(), kSerialSize);
+        loop_rate_Hz = r.f32(); capabilities = r.u32(); sample_format = static_cast<SampleFormat>(r.u8());
+        hard_u_min_V = r.f32(); hard_u_max_V = r.f32(); hard_slew_max_V_per_s = r.f32();
+        position_full_scale_um = r.f32(); voltage_full_scale_V = r.f32();
+        max_payload = r.u16(); setpoint_capacity = r.u16(); recorder_channels = r.u8(); recorder_capacity = r.u32();
+        max_sos_sections = r.u8(); max_play_operators = r.u8(); max_wave_table = r.u16(); rc_capacity = r.u32();
+    }
+};
+
+// Fault bits of the status reply.
+namespace fault {
+inline constexpr uint32_t kHardLimitsInvalid = 1u << 0;  // limiter permanently tripped
+inline constexpr uint32_t kTickOverrun = 1u << 1;        // the tick missed a period at least once
+inline constexpr uint32_t kSetpointUnderrun = 1u << 2;   // streamed setpoints ran out at least once
+inline constexpr uint32_t kRecorderOverrun = 1u << 3;    // log frames dropped since recorder arm
+inline constexpr uint32_t kLinkErrors = 1u << 4;         // link counters show dropped frames
+inline constexpr uint32_t kBoardFault = 1u << 8;         // bits 8..31: board-specific (TickStats::board_faults)
+}  // namespace fault
+
+// Tick timing the firmware measures; handed to the dispatcher (set_tick_stats).
+struct TickStats {
+    uint32_t overruns = 0;       // periods the loop did not serve on time
+    uint32_t time_min = 0;       // per-tick execution time, in counter units
+    uint32_t time_max = 0;
+    float time_mean = 0.0f;
+    float counter_Hz = 0.0f;     // counter units per second (0: unknown)
+    uint32_t board_faults = 0;   // board-specific fault bits (shifted into bits 8..31)
+    bool operator==(const TickStats&) const = default;
+};
+
+struct StatusReply {
+    static constexpr MsgType kType = MsgType::kStatusReply;
+    bool armed = false;
+    bool tripped = false;
+    TripReason trip_reason = TripReason::kNone;
+    bool wave_running = false;
+    bool streaming = false;
+    bool swap_pending = false;
+    RecorderState recorder_state = RecorderState::kIdle;
+    uint32_t faults = 0;
+    uint32_t tick_count = 0;
+    uint32_t swaps = 0;
+    TickStats tick{};
+    uint32_t setpoint_underruns = 0;
+    uint16_t setpoint_free = 0;
+    uint32_t setpoint_next_seq = 0;  // the setpoint block the device expects next
+    uint32_t recorder_overruns = 0;
+    uint32_t log_blocks = 0;  // log blocks sent since recorder arm
+    LinkCounters link{};
+    float r_um = 0.0f, y_um = 0.0f, u_V = 0.0f;  // last tick's signals
+    bool operator==(const StatusReply&) const = default;
+
+    void write(Writer& w) const {
+        w.boolean(armed); w.boolean(tripped); w.u8(static_cast<uint8_t>(trip_reason));
+        w.boolean(wave_running); w.boolean(streaming); w.boolean(swap_pending);
+        w.u8(static_cast<uint8_t>(recorder_state));
+        w.u32(faults); w.u32(tick_count); w.u32(swaps);
+        w.u32(tick.overruns); w.u32(tick.time_min); w.u32(tick.time_max); w.f32(tick.time_mean); w.f32(tick.counter_Hz);
+        w.u32(tick.board_faults);
+        w.u32(setpoint_underruns); w.u16(setpoint_free); w.u32(setpoint_next_seq); w.u32(recorder_overruns); w.u32(log_blocks);
+        w.u32(link.frames_ok); w.u32(link.bad_cobs); w.u32(link.bad_crc); w.u32(link.truncated); w.u32(link.oversize);
+        w.u32(link.unknown_type); w.u32(link.bad_version); w.u32(link.bad_length); w.u32(link.bad_value);
+        w.u32(link.error_replies);
+        w.f32(r_um); w.f32(y_um); w.f32(u_V);
+    }
+    void read(Reader& r) {
+        armed = r.boolean(); tripped = r.boolean(); trip_reason = static_cast<TripReason>(r.u8());
+        wave_running = r.boolean(); streaming = r.boolean(); swap_pending = r.boolean();
+        recorder_state = static_cast<RecorderState>(r.u8());
+        faults = r.u32(); tick_count = r.u32(); swaps = r.u32();
+        tick.overruns = r.u32(); tick.time_min = r.u32(); tick.time_max = r.u32(); tick.time_mean = r.f32(); tick.counter_Hz = r.f32();
+        tick.board_faults = r.u32();
+        setpoint_underruns = r.u32(); setpoint_free = r.u16(); setpoint_next_seq = r.u32(); recorder_overruns = r.u32(); log_blocks = r.u32();
+        link.frames_ok = r.u32(); link.bad_cobs = r.u32(); link.bad_crc = r.u32(); link.truncated = r.u32(); link.oversize = r.u32();
+        link.unknown_type = r.u32(); link.bad_version = r.u32(); link.bad_length = r.u32(); link.bad_value = r.u32();
+        link.error_replies = r.u32();
+        r_um = r.f32(); y_um = r.f32(); u_V = r.f32();
+    }
+};
+
+// Recorder frames, sent by the device. Frame i was recorded at tick
+// first_tick + i * tick_stride (a gap in the ticks starts a new block).
+// Samples are frame-major: frame 0 channel 0, frame 0 channel 1, ...
+// float32 in physical units (µm, V), or Q31 raw (times the full scale of the
+// hello reply / 2^31 gives µm or V).
+struct LogBlock {
+    static constexpr MsgType kType = MsgType::kLogBlock;
+    uint32_t block_seq = 0;         // 0 for the first block after recorder arm, +1 per block
+    uint32_t first_tick = 0;
+    uint32_t tick_stride = 1;       // the recorder decimation
+    uint32_t recorder_overruns = 0; // frames the recorder dropped since arm (cumulative)
+    uint8_t channel_count = 0;
+    SampleFormat format = SampleFormat::kFloat32;
+    uint8_t frame_count = 0;
+    uint8_t flags = 0;              // bit 0: last block of a single-shot record
+    std::array<uint8_t, kMaxLogChannels> channels{};  // SignalId of each channel
+    std::array<uint32_t, (kMaxBody - kLogBlockHeader) / 4> samples{};  // raw 32-bit patterns
+    bool operator==(const LogBlock&) const = default;
+
+    static constexpr uint8_t kFlagLast = 1;
+
+    void write(Writer& w) const {
+        w.u32(block_seq); w.u32(first_tick); w.u32(tick_stride); w.u32(recorder_overruns);
+        w.u8(channel_count); w.u8(static_cast<uint8_t>(format)); w.u8(frame_count); w.u8(flags);
+        for (const uint8_t c : channels) w.u8(c);
+        const std::size_t n = std::size_t{channel_count} * frame_count;
+        for (std::size_t i = 0; i < n && i < samples.size(); ++i) w.u32(samples[i]);
+    }
+    void read(Reader& r) {
+        block_seq = r.u32(); first_tick = r.u32(); tick_stride = r.u32(); recorder_overruns = r.u32();
+        channel_count = r.u8(); format = static_cast<SampleFormat>(r.u8()); frame_count = r.u8(); flags = r.u8();
+        for (uint8_t& c : channels) c = r.u8();
+        const std::size_t n = std::size_t{channel_count} * frame_count;
+        if (channel_count > kMaxLogChannels || n > samples.size()) { r.mark_bad(); return; }
+        samples = {};
+        for (std::size_t i = 0; i < n; ++i) samples[i] = r.u32();
+    }
+};
+
+// ---- whole frames --------------------------------------------------------------
+
+// Encodes message m with sequence id seq into out (at least kMaxFrameSize
+// bytes is always enough). Returns the frame length, 0 if it does not fit.
+template <class M>
+std::size_t encode_message(const M& m, uint16_t seq, std::span<uint8_t> out, uint8_t version = kProtocolVersion) {
+    std::array<uint8_t, kMaxPayload + kCrcSize> scratch{};
+    Writer w(std::span<uint8_t>(scratch.data(), kMaxPayload));
+    w.u8(static_cast<uint8_t>(M::kType));
+    w.u8(version);
+    w.u16(seq);
+    m.write(w);
+    if (!w.ok()) return 0;
+    return seal_frame(scratch, w.size(), out);
+}
+
+enum class DecodeResult : uint8_t { kOk, kTruncated, kTooLong, kBadValue };
+
+// Decodes a message body (the payload after the header) into m.
+template <class M>
+DecodeResult decode_body(std::span<const uint8_t> body, M& m) {
+    Reader r(body);
+    m.read(r);
+    if (!r.ok()) return DecodeResult::kTruncated;
+    if (r.bad_value()) return DecodeResult::kBadValue;
+    if (r.remaining() != 0) return DecodeResult::kTooLong;
+    return DecodeResult::kOk;
+}
+
+}  // namespace piezoloop::link
