@@ -1,0 +1,554 @@
+// The device-side dispatcher against a real Pipeline<float> and Pipeline<Q31>
+// with the reference setup: every request gets its reply, rejected requests
+// name the offending field and leave the state unchanged (checked by
+// read-back), and hostile input is counted and dropped while the device keeps
+// running. Exact comparisons throughout: the link moves bit patterns, and the
+// read-back returns the stored parameter set, not a recomputation.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "test_link_client.hpp"
+
+using namespace link_test;
+
+namespace {
+
+template <class T>
+class LinkDevice : public ::testing::Test {
+protected:
+    Rig<T> rig;
+
+    // Limits and the reference controller in place, one tick to swap them in.
+    void configure_reference() {
+        const PipelineParams p = reference::params(true, true, false);
+        ASSERT_EQ(rig.set(LimitsParams{p.limits}).type(), MsgType::kAck);
+        rig.tick();
+        ASSERT_EQ(rig.set(FeedforwardParams{p.feedforward, p.pi, p.dahl}).type(), MsgType::kAck);
+        rig.tick();
+        ASSERT_EQ(rig.set(FeedbackParams{p.feedback, p.sos_count, p.sos, p.pid}).type(), MsgType::kAck);
+        rig.tick();
+    }
+
+    void expect_error(const Reply& r, ErrorCode code, const char* group, const char* field, int index = -1) {
+        ASSERT_EQ(r.type(), MsgType::kError);
+        const ErrorReply e = r.template as<ErrorReply>();
+        EXPECT_EQ(e.code, code) << error_code_name(e.code) << ": " << e.message.data();
+        if (group != nullptr) {
+            EXPECT_STREQ(e.group.data(), group);
+        }
+        if (field != nullptr) {
+            EXPECT_STREQ(e.field.data(), field);
+        }
+        EXPECT_EQ(e.index, index);
+        EXPECT_GT(std::strlen(e.message.data()), 0u);
+    }
+
+    // Everything a read-back can see, as encoded bytes.
+    std::vector<std::vector<uint8_t>> snapshot() {
+        std::vector<std::vector<uint8_t>> s;
+        for (int g = 1; g <= 6; ++g) {
+            const Reply r = rig.request(GetParams{static_cast<ParamGroup>(g)});
+            EXPECT_EQ(r.type(), MsgType::kParamsReply);
+            s.push_back(r.body);
+        }
+        const StatusReply st = rig.request(GetStatus{}).template as<StatusReply>();
+        s.push_back({st.armed, st.tripped, static_cast<uint8_t>(st.trip_reason), st.wave_running, st.streaming});
+        return s;
+    }
+};
+
+using SampleTypes = ::testing::Types<float, Q31>;
+TYPED_TEST_SUITE(LinkDevice, SampleTypes);
+
+}  // namespace
+
+TYPED_TEST(LinkDevice, HelloStatesIdentityAndLimits) {
+    const Reply r = this->rig.request(Hello{});
+    const HelloReply h = r.template as<HelloReply>();
+    EXPECT_EQ(h.protocol_version, kProtocolVersion);
+    EXPECT_STREQ(h.board.data(), "test-board");
+    EXPECT_STREQ(h.firmware_version.data(), "1.2.3");
+    EXPECT_STREQ(h.serial.data(), "SN0001");
+    const PipelineSetup s = reference::setup();
+    EXPECT_EQ(h.loop_rate_Hz, s.rate_Hz);
+    EXPECT_EQ(h.hard_u_min_V, s.hard.u_min_V);
+    EXPECT_EQ(h.hard_u_max_V, s.hard.u_max_V);
+    EXPECT_EQ(h.hard_slew_max_V_per_s, s.hard.slew_max_V_per_s);
+    EXPECT_EQ(h.position_full_scale_um, s.position.full_scale);
+    EXPECT_EQ(h.voltage_full_scale_V, s.voltage.full_scale);
+    constexpr bool is_float = std::is_same_v<TypeParam, float>;
+    EXPECT_EQ(h.sample_format, is_float ? SampleFormat::kFloat32 : SampleFormat::kQ31);
+    EXPECT_EQ((h.capabilities & cap::kDahl) != 0, is_float);
+    EXPECT_EQ(h.recorder_channels, 4);
+    // A hello in a future version is still answered, in ours.
+    std::vector<uint8_t> raw(kMaxFrameSize);
+    const std::size_t n = encode_message(Hello{}, 9, raw, 7);
+    raw.resize(n);
+    const auto rs = this->rig.send_bytes(raw);
+    ASSERT_EQ(rs.size(), 1u);
+    EXPECT_EQ(rs[0].type(), MsgType::kHelloReply);
+    EXPECT_EQ(rs[0].header.version, kProtocolVersion);
+}
+
+TYPED_TEST(LinkDevice, SetAndReadBackEveryGroup) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const PipelineParams p = reference::params(true, true, false);
+    EXPECT_EQ(r_.template get<LimitsParams>(ParamGroup::kLimits), LimitsParams{p.limits});
+    EXPECT_EQ(r_.template get<FeedforwardParams>(ParamGroup::kFeedforward), (FeedforwardParams{p.feedforward, p.pi, p.dahl}));
+    EXPECT_EQ(r_.template get<FeedbackParams>(ParamGroup::kFeedback), (FeedbackParams{p.feedback, p.sos_count, p.sos, p.pid}));
+    // What the pipeline runs is what was sent.
+    EXPECT_EQ(r_.pipeline->params().pi, p.pi);
+    EXPECT_EQ(r_.pipeline->params().sos, p.sos);
+
+    RepetitiveParams rc{true, reference::params(true, true, true).rc};
+    EXPECT_EQ(r_.set(rc).type(), MsgType::kAck);
+    r_.tick();
+    EXPECT_EQ(r_.template get<RepetitiveParams>(ParamGroup::kRepetitive), rc);
+
+    TrajectoryParams tp;
+    tp.waveform = Waveform::kTable;
+    tp.amplitude_um = 12.0f;
+    tp.offset_um = 1.0f;
+    tp.frequency_Hz = 10.0f;
+    tp.cycles = 3;
+    tp.table_count = 5;
+    tp.table = {0.0f, 0.5f, 1.0f, -0.5f, -1.0f};
+    EXPECT_EQ(r_.set(tp).type(), MsgType::kAck);
+    EXPECT_EQ(r_.template get<TrajectoryParams>(ParamGroup::kTrajectory), tp);
+
+    RecorderParams rp;
+    rp.channel_count = 4;
+    rp.channels = {0, 1, 2, 3};
+    rp.decimation = 2;
+    rp.mode = RecordMode::kSingleShot;
+    rp.trigger = TriggerMode::kRising;
+    rp.trigger_signal = 0;
+    rp.trigger_level = 0.5f;
+    rp.pre_trigger = 10;
+    rp.length = 100;
+    EXPECT_EQ(r_.set(rp).type(), MsgType::kAck);
+    EXPECT_EQ(r_.template get<RecorderParams>(ParamGroup::kRecorder), rp);
+
+    // Unknown groups are refused, by get and by set.
+    this->expect_error(r_.request(GetParams{static_cast<ParamGroup>(9)}), ErrorCode::kBadGroup, nullptr, "group");
+}
+
+TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const auto before = this->snapshot();
+    const PipelineParams p = reference::params(true, true, false);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+
+    FeedforwardParams ff{p.feedforward, p.pi, p.dahl};
+    ff.pi.weights[3] = nan;
+    this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "pi", "weights", 3);
+    ff = {p.feedforward, p.pi, p.dahl};
+    ff.pi.thresholds[5] = ff.pi.thresholds[4];  // not ascending
+    this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "pi", "thresholds", 5);
+
+    FeedbackParams fb{p.feedback, p.sos_count, p.sos, p.pid};
+    fb.sos[1].a2 = std::numeric_limits<double>::quiet_NaN();
+    this->expect_error(r_.set(fb), ErrorCode::kInvalidParam, "sos", "sections", 1);
+    fb = {p.feedback, p.sos_count, p.sos, p.pid};
+    fb.sos[0].a2 = 1.5;  // a pole outside the unit circle
+    const Reply unstable = r_.set(fb);
+    this->expect_error(unstable, ErrorCode::kInvalidParam, "sos", nullptr, -1);
+
+    LimitsParams lim{p.limits};
+    lim.limits.u_max_V = 11.0f;  // above the hard limit of 10 V
+    this->expect_error(r_.set(lim), ErrorCode::kInvalidParam, "limits", "u_max_V");
+    lim = LimitsParams{p.limits};
+    lim.limits.slew_V_per_s = nan;
+    this->expect_error(r_.set(lim), ErrorCode::kInvalidParam, "limits", "slew_V_per_s");
+
+    RepetitiveParams rc{true, p.rc};
+    rc.rc.k_rc = 2.5f;
+    this->expect_error(r_.set(rc), ErrorCode::kInvalidParam, "rc", "k_rc");
+    rc = {true, p.rc};
+    rc.rc.q.b1 = std::numeric_limits<double>::infinity();
+    this->expect_error(r_.set(rc), ErrorCode::kInvalidParam, "rc", "q");
+
+    TrajectoryParams tp;
+    tp.frequency_Hz = 60000.0f;  // above Nyquist
+    this->expect_error(r_.set(tp), ErrorCode::kInvalidParam, "trajectory", "frequency_Hz");
+    tp = TrajectoryParams{};
+    tp.amplitude_um = nan;
+    this->expect_error(r_.set(tp), ErrorCode::kInvalidParam, "trajectory", "amplitude_um");
+
+    RecorderParams rp;
+    rp.channel_count = 4;
+    rp.channels = {0, 1, 2, 9};
+    this->expect_error(r_.set(rp), ErrorCode::kInvalidParam, "recorder", "channels");
+    rp.channel_count = 3;
+    this->expect_error(r_.set(rp), ErrorCode::kUnsupported, "recorder", "channel_count");
+
+    if constexpr (!std::is_same_v<TypeParam, float>) {
+        FeedforwardParams dahl{FeedforwardKind::kDahl, p.pi, kAhmad2020Dahl};
+        this->expect_error(r_.set(dahl), ErrorCode::kInvalidParam, "feedforward", "feedforward");
+    }
+    r_.tick(3);
+    EXPECT_EQ(this->snapshot(), before);
+    EXPECT_EQ(r_.pipeline->swaps(), 3u);  // the three accepted sets of configure_reference()
+}
+
+TYPED_TEST(LinkDevice, LimitCriticalChangesOnlyWhileDisarmed) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const PipelineParams p = reference::params(true, true, false);
+    EXPECT_EQ(r_.request(Arm{}).type(), MsgType::kAck);
+    r_.tick(10);
+    const auto before = this->snapshot();
+
+    LimitsParams lim{p.limits};
+    lim.limits.u_max_V = 5.0f;  // even narrowing: limits are refused while armed
+    this->expect_error(r_.set(lim), ErrorCode::kArmed, "limits", "u_max_V");
+    // Resending the same limits is harmless.
+    EXPECT_EQ(r_.set(LimitsParams{p.limits}).type(), MsgType::kAck);
+    FeedbackParams fb{FeedbackKind::kPid, p.sos_count, p.sos, p.pid};
+    this->expect_error(r_.set(fb), ErrorCode::kArmed, "feedback", "kind");
+    fb = {p.feedback, 2, p.sos, p.pid};
+    this->expect_error(r_.set(fb), ErrorCode::kArmed, "feedback", "sos_count");
+    fb = {p.feedback, p.sos_count, p.sos, p.pid};
+    fb.pid.u_max = 100.0f;
+    this->expect_error(r_.set(fb), ErrorCode::kArmed, "pid", "u_max");
+    FeedforwardParams ff{FeedforwardKind::kNone, p.pi, p.dahl};
+    this->expect_error(r_.set(ff), ErrorCode::kArmed, "feedforward", "kind");
+    this->expect_error(r_.set(RepetitiveParams{true, p.rc}), ErrorCode::kArmed, "rc", "enabled");
+    this->expect_error(r_.request(ClearTrip{}), ErrorCode::kArmed, "limits", "trip");
+    r_.tick(10);
+    EXPECT_EQ(this->snapshot(), before);
+    EXPECT_TRUE(r_.pipeline->armed());
+
+    // Tuning is allowed while armed: a changed SOS gain is swapped in.
+    fb = {p.feedback, p.sos_count, p.sos, p.pid};
+    fb.sos[0].b0 *= 0.5;
+    fb.sos[0].b1 *= 0.5;
+    fb.sos[0].b2 *= 0.5;
+    EXPECT_EQ(r_.set(fb).type(), MsgType::kAck);
+    // A second set before the swap is refused as busy, and changes nothing.
+    this->expect_error(r_.set(FeedbackParams{p.feedback, p.sos_count, p.sos, p.pid}), ErrorCode::kBusy, "feedback", "params");
+    r_.tick();
+    EXPECT_EQ(r_.template get<FeedbackParams>(ParamGroup::kFeedback), fb);
+
+    // Disarmed, the limits change.
+    EXPECT_EQ(r_.request(Disarm{}).type(), MsgType::kAck);
+    lim.limits.u_max_V = 5.0f;
+    EXPECT_EQ(r_.set(lim).type(), MsgType::kAck);
+    r_.tick();
+    EXPECT_EQ(r_.template get<LimitsParams>(ParamGroup::kLimits), lim);
+    EXPECT_EQ(r_.pipeline->limiter().config().u_max_V, 5.0f);
+}
+
+TYPED_TEST(LinkDevice, ArmRefusedWhileTripped) {
+    auto& r_ = this->rig;
+    // No limits yet: the limiter is tripped (not configured).
+    this->expect_error(r_.request(Arm{}), ErrorCode::kTripped, "limits", "trip");
+    EXPECT_FALSE(r_.pipeline->armed());
+    this->configure_reference();
+    EXPECT_EQ(r_.request(Arm{}).type(), MsgType::kAck);
+    r_.tick();
+    r_.pipeline->limiter().trip();
+    EXPECT_EQ(r_.request(Disarm{}).type(), MsgType::kAck);
+    this->expect_error(r_.request(Arm{}), ErrorCode::kTripped, "limits", "trip");
+    EXPECT_EQ(r_.request(ClearTrip{}).type(), MsgType::kAck);
+    EXPECT_EQ(r_.request(Arm{}).type(), MsgType::kAck);
+    const StatusReply st = r_.request(GetStatus{}).template as<StatusReply>();
+    EXPECT_TRUE(st.armed);
+    EXPECT_FALSE(st.tripped);
+}
+
+TYPED_TEST(LinkDevice, UnknownVersionAndMalformedRequestsGetErrorsAndAreCounted) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const auto before = this->snapshot();
+    std::vector<uint8_t> f(kMaxFrameSize);
+
+    for (const uint8_t type : {uint8_t{0x00}, uint8_t{0x0F}, uint8_t{0x42}, uint8_t{0x80}, uint8_t{0xC0}, uint8_t{0xFF}}) {
+        const std::size_t n = encode_frame(type, kProtocolVersion, 77, {}, f);
+        const auto rs = r_.send_bytes(std::span<const uint8_t>(f.data(), n));
+        ASSERT_EQ(rs.size(), 1u);
+        EXPECT_EQ(rs[0].header.seq, 77);
+        this->expect_error(rs[0], ErrorCode::kUnknownType, nullptr, "type");
+        EXPECT_EQ(rs[0].template as<ErrorReply>().request_type, type);
+    }
+    EXPECT_EQ(r_.device->counters().unknown_type, 6u);
+
+    std::size_t n = encode_message(GetStatus{}, 5, f, 2);
+    auto rs = r_.send_bytes(std::span<const uint8_t>(f.data(), n));
+    ASSERT_EQ(rs.size(), 1u);
+    this->expect_error(rs[0], ErrorCode::kBadVersion, nullptr, "version");
+    EXPECT_EQ(r_.device->counters().bad_version, 1u);
+
+    const std::vector<uint8_t> extra{1, 2, 3};
+    n = encode_frame(static_cast<uint8_t>(MsgType::kArm), kProtocolVersion, 6, extra, f);
+    rs = r_.send_bytes(std::span<const uint8_t>(f.data(), n));
+    ASSERT_EQ(rs.size(), 1u);
+    this->expect_error(rs[0], ErrorCode::kMalformed, nullptr, "body");
+    EXPECT_EQ(r_.device->counters().bad_length, 1u);
+    EXPECT_FALSE(r_.pipeline->armed());
+
+    const std::vector<uint8_t> short_limits{static_cast<uint8_t>(ParamGroup::kLimits), 0, 0};
+    n = encode_frame(static_cast<uint8_t>(MsgType::kSetParams), kProtocolVersion, 8, short_limits, f);
+    rs = r_.send_bytes(std::span<const uint8_t>(f.data(), n));
+    ASSERT_EQ(rs.size(), 1u);
+    this->expect_error(rs[0], ErrorCode::kMalformed, nullptr, "body");
+    EXPECT_EQ(r_.device->counters().truncated, 1u);
+
+    const std::vector<uint8_t> bad_group{0x33, 1, 2};
+    n = encode_frame(static_cast<uint8_t>(MsgType::kSetParams), kProtocolVersion, 9, bad_group, f);
+    rs = r_.send_bytes(std::span<const uint8_t>(f.data(), n));
+    ASSERT_EQ(rs.size(), 1u);
+    this->expect_error(rs[0], ErrorCode::kBadGroup, nullptr, "group");
+
+    // Bad CRC and garbage: no reply, counted.
+    n = encode_message(Arm{}, 10, f);
+    f[3] ^= 0x40;
+    if (f[3] == 0) f[3] = 0x11;
+    EXPECT_TRUE(r_.send_bytes(std::span<const uint8_t>(f.data(), n)).empty());
+    EXPECT_EQ(r_.device->counters().bad_crc + r_.device->counters().bad_cobs, 1u);
+    EXPECT_FALSE(r_.pipeline->armed());
+
+    EXPECT_EQ(this->snapshot(), before);
+    const StatusReply st = r_.request(GetStatus{}).template as<StatusReply>();
+    EXPECT_EQ(st.link, r_.device->counters());
+    EXPECT_NE(st.faults & fault::kLinkErrors, 0u);
+}
+
+TYPED_TEST(LinkDevice, SetpointStreamWithFlowControl) {
+    using T = TypeParam;
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const SignalScale pos = reference::setup().position;
+    auto ack = r_.request(StreamStart{100}).template as<SetpointAck>();
+    EXPECT_EQ(ack.next_block_seq, 0u);
+    EXPECT_EQ(ack.free, 1024);
+    r_.tick(5);  // priming: nothing consumed, no underrun
+    EXPECT_EQ(r_.device->setpoint_underruns(), 0u);
+
+    std::vector<float> sent;
+    uint32_t seq = 0;
+    auto block = [&](int count) {
+        SetpointBlock b;
+        b.block_seq = seq;
+        b.count = static_cast<uint8_t>(count);
+        for (int i = 0; i < count; ++i) {
+            b.setpoint_um[i] = 0.01f * static_cast<float>(sent.size());
+            sent.push_back(b.setpoint_um[i]);
+        }
+        return b;
+    };
+    ack = r_.request(block(60)).template as<SetpointAck>();
+    ++seq;
+    EXPECT_EQ(ack.next_block_seq, 1u);
+    EXPECT_EQ(ack.free, 1024 - 60);
+    r_.tick();
+    EXPECT_EQ(r_.pipeline->last().r, sample_zero<T>());  // still priming (60 < 100)
+    ack = r_.request(block(60)).template as<SetpointAck>();
+    ++seq;
+    // Consumed one per tick, in order, converted to the sample type.
+    for (std::size_t i = 0; i < 120; ++i) {
+        r_.tick();
+        ASSERT_EQ(r_.pipeline->last().r, pos.to_sample<T>(sent[i])) << i;
+    }
+    EXPECT_EQ(r_.device->setpoint_underruns(), 0u);
+    r_.tick(3);  // ran dry: counted, the setpoint holds
+    EXPECT_EQ(r_.device->setpoint_underruns(), 3u);
+    EXPECT_EQ(r_.pipeline->last().r, pos.to_sample<T>(sent.back()));
+
+    // Out of sequence, NaN, and too many: error, block dropped, sequence kept.
+    SetpointBlock wrong = block(10);
+    wrong.block_seq = 7;
+    this->expect_error(r_.request(wrong), ErrorCode::kSequence, nullptr, "block_seq");
+    SetpointBlock bad = block(10);
+    bad.setpoint_um[4] = std::numeric_limits<float>::quiet_NaN();
+    this->expect_error(r_.request(bad), ErrorCode::kInvalidParam, nullptr, "setpoint_um", 4);
+    for (int i = 0; i < 8; ++i) {
+        ack = r_.request(block(120)).template as<SetpointAck>();
+        ++seq;
+    }
+    EXPECT_EQ(ack.free, 1024 - 960);
+    this->expect_error(r_.request(block(120)), ErrorCode::kNoSpace, nullptr, "count");
+    const StatusReply st = r_.request(GetStatus{}).template as<StatusReply>();
+    EXPECT_EQ(st.setpoint_next_seq, seq);
+    EXPECT_EQ(st.setpoint_underruns, 3u);
+    EXPECT_TRUE(st.streaming);
+
+    // Drain: the buffered setpoints are consumed, then the stream ends without underruns.
+    EXPECT_EQ(r_.request(StreamStop{true}).type(), MsgType::kAck);
+    r_.tick(970);
+    EXPECT_FALSE(r_.device->streaming());
+    EXPECT_EQ(r_.device->setpoint_underruns(), 3u);
+    this->expect_error(r_.request(block(1)), ErrorCode::kNotConfigured, nullptr, "stream");
+}
+
+TYPED_TEST(LinkDevice, WaveStartStop) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    this->expect_error(r_.request(StartWave{}), ErrorCode::kNotConfigured, "trajectory", "waveform");
+    TrajectoryParams tp;
+    tp.waveform = Waveform::kTriangle;
+    tp.amplitude_um = 12.0f;
+    tp.frequency_Hz = 10.0f;
+    EXPECT_EQ(r_.set(tp).type(), MsgType::kAck);
+    EXPECT_EQ(r_.request(StartWave{}).type(), MsgType::kAck);
+    r_.tick(2500);  // a quarter period: r at the triangle's midpoint rising
+    EXPECT_TRUE(r_.pipeline->wave_running());
+    const float r = reference::setup().position.to_physical(r_.pipeline->last().r);
+    EXPECT_NEAR(r, 0.0f, 0.01f);  // triangle from -A at phase 0: 0 at 1/4 (one sample = 0.0048 µm)
+    this->expect_error(r_.request(StartWave{}), ErrorCode::kBusy, "trajectory", "waveform");
+    this->expect_error(r_.request(StreamStart{}), ErrorCode::kBusy, nullptr, "stream");
+    EXPECT_EQ(r_.request(StopWave{}).type(), MsgType::kAck);
+    r_.tick();
+    EXPECT_FALSE(r_.pipeline->wave_running());
+}
+
+TYPED_TEST(LinkDevice, RecorderLogStreamCarriesEveryFrame) {
+    using T = TypeParam;
+    auto& r_ = this->rig;
+    this->configure_reference();
+    this->expect_error(r_.request(RecorderArm{}), ErrorCode::kNotConfigured, "recorder", "channels");
+    RecorderParams rp;
+    rp.channel_count = 4;
+    rp.channels = {0, 1, 2, 3};
+    rp.decimation = 3;
+    rp.mode = RecordMode::kContinuous;
+    EXPECT_EQ(r_.set(rp).type(), MsgType::kAck);
+    TrajectoryParams tp;
+    tp.waveform = Waveform::kSine;
+    tp.amplitude_um = 5.0f;
+    tp.frequency_Hz = 100.0f;
+    ASSERT_EQ(r_.set(tp).type(), MsgType::kAck);
+    ASSERT_EQ(r_.request(StartWave{}).type(), MsgType::kAck);
+    ASSERT_EQ(r_.request(Arm{}).type(), MsgType::kAck);
+    EXPECT_EQ(r_.request(RecorderArm{}).type(), MsgType::kAck);
+
+    std::vector<Reply> blocks;
+    std::vector<std::array<T, 4>> expected;  // r, y, e, u of every kept tick
+    std::vector<uint32_t> ticks;
+    auto poll = [&] {
+        r_.replies.clear();
+        while (r_.device->poll_log(r_.sink())) {}
+        blocks.insert(blocks.end(), r_.replies.begin(), r_.replies.end());
+    };
+    for (int i = 0; i < 3000; ++i) {
+        const uint32_t tick = r_.pipeline->tick_count();
+        r_.tick();
+        const auto& s = r_.pipeline->last();
+        if (i % 3 == 0) { expected.push_back({s.r, s.y, s.e, s.u}); ticks.push_back(tick); }
+        if (i % 200 == 0) poll();
+    }
+    EXPECT_EQ(r_.request(RecorderStop{}).type(), MsgType::kAck);
+    poll();
+    std::size_t k = 0;
+    for (std::size_t bi = 0; bi < blocks.size(); ++bi) {
+        const LogBlock b = blocks[bi].template as<LogBlock>();
+        EXPECT_EQ(b.block_seq, bi);
+        EXPECT_EQ(b.channel_count, 4);
+        EXPECT_EQ(b.tick_stride, 3u);
+        EXPECT_EQ(b.format, (std::is_same_v<T, float> ? SampleFormat::kFloat32 : SampleFormat::kQ31));
+        EXPECT_EQ(b.recorder_overruns, 0u);
+        ASSERT_LT(k, ticks.size());
+        EXPECT_EQ(b.first_tick, ticks[k]);
+        for (std::size_t f = 0; f < b.frame_count; ++f, ++k)
+            for (std::size_t c = 0; c < 4; ++c) {
+                T v;
+                if constexpr (std::is_same_v<T, float>) v = std::bit_cast<float>(b.samples[f * 4 + c]);
+                else v = Q31::from_raw(static_cast<int32_t>(b.samples[f * 4 + c]));
+                ASSERT_EQ(v, expected[k][c]) << "frame " << k << " channel " << c;
+            }
+    }
+    EXPECT_EQ(k, expected.size());
+    EXPECT_GE(blocks.size(), expected.size() / Device<T>::kFramesPerBlock);
+}
+
+TYPED_TEST(LinkDevice, HostileStreamIsCountedAndTheDeviceKeepsRunning) {
+    // Property test: 1e5 frames, each random garbage, a well-framed request of
+    // random type and random body, or a damaged copy of a valid request.
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const auto before = this->snapshot();
+    const LinkCounters c0 = r_.device->counters();
+    std::mt19937 rng(2026);
+    std::size_t chunks = 0, replies = 0, good_frames = 0;
+    std::vector<uint8_t> f(kMaxFrameSize), body;
+    std::vector<uint8_t> stream;
+    constexpr int kFrames = 100000;
+    for (int i = 0; i < kFrames; ++i) {
+        stream.clear();
+        const int kind = static_cast<int>(rng() % 3);
+        if (kind == 0) {
+            const std::size_t n = 1 + rng() % (rng() % 8 == 0 ? 1500 : 40);
+            for (std::size_t j = 0; j < n; ++j) stream.push_back(static_cast<uint8_t>(1 + rng() % 255));
+            stream.push_back(0);
+        } else {
+            body.resize(rng() % 2 == 0 ? rng() % 24 : rng() % (kMaxBody + 1));
+            for (auto& b : body) b = static_cast<uint8_t>(rng());
+            // Random request types, but never a SetParams that could be valid by chance.
+            uint8_t type = static_cast<uint8_t>(rng() % 3 == 0 ? rng() : 1 + rng() % 14);
+            if (type == static_cast<uint8_t>(MsgType::kSetParams) && !body.empty() && rng() % 2 == 0) body[0] = 0x77;
+            // Requests whose valid form is this short would change the state:
+            // keep them malformed (the valid ones are tested above).
+            const MsgType mt = static_cast<MsgType>(type);
+            if (mt == MsgType::kArm || mt == MsgType::kDisarm || mt == MsgType::kClearTrip || mt == MsgType::kStartWave ||
+                mt == MsgType::kStopWave || mt == MsgType::kRecorderArm || mt == MsgType::kRecorderStop ||
+                mt == MsgType::kStreamStart || mt == MsgType::kStreamStop) {
+                if (body.size() < 3) body.resize(3, 0xEE);
+            }
+            const std::size_t n = encode_frame(type, rng() % 16 == 0 ? 3 : kProtocolVersion, static_cast<uint16_t>(i), body, f);
+            stream.assign(f.begin(), f.begin() + static_cast<long>(n));
+            if (kind == 2) {
+                // Damage: flip, drop or insert a byte (not the delimiter).
+                const std::size_t at = rng() % (n - 1);
+                const int how = static_cast<int>(rng() % 3);
+                if (how == 0) stream[at] = static_cast<uint8_t>(stream[at] ^ (1u << (rng() % 8)));
+                else if (how == 1) stream.erase(stream.begin() + static_cast<long>(at));
+                else stream.insert(stream.begin() + static_cast<long>(at), static_cast<uint8_t>(1 + rng() % 255));
+                // Keep exactly one frame per chunk: no zero inside, one at the end.
+                if (stream.back() != 0) stream.push_back(0);
+                for (std::size_t j = 0; j + 1 < stream.size(); ++j)
+                    if (stream[j] == 0) stream[j] = 0x5A;
+            } else {
+                ++good_frames;
+            }
+        }
+        ++chunks;
+        // Feed in random pieces.
+        std::size_t at = 0;
+        r_.replies.clear();
+        while (at < stream.size()) {
+            const std::size_t n = std::min<std::size_t>(1 + rng() % 64, stream.size() - at);
+            r_.device->receive(std::span<const uint8_t>(stream).subspan(at, n), r_.sink());
+            at += n;
+        }
+        replies += r_.replies.size();
+        for (const Reply& r : r_.replies) {
+            ASSERT_NE(r.type(), MsgType::kAck) << "a random request was accepted: " << int(r.header.type);
+        }
+        if (i % 64 == 0) r_.tick();
+    }
+    const LinkCounters& c = r_.device->counters();
+    // Every chunk is accounted for: delivered, or dropped by framing for a reason.
+    const uint32_t framing_drops = (c.bad_cobs - c0.bad_cobs) + (c.bad_crc - c0.bad_crc) + (c.oversize - c0.oversize) +
+                                   (c.truncated - c0.truncated);
+    const uint32_t delivered = c.frames_ok - c0.frames_ok;
+    // Every delivered frame got exactly one reply (a truncated body counts
+    // as truncated and is replied to, hence <= on the framing side).
+    EXPECT_EQ(delivered, replies);
+    EXPECT_GE(delivered, good_frames);
+    EXPECT_LE(delivered + framing_drops, chunks + (c.truncated - c0.truncated));
+    EXPECT_GE(delivered + framing_drops, chunks);
+    EXPECT_GT(c.bad_crc - c0.bad_crc, 1000u);
+    EXPECT_GT(c.oversize - c0.oversize, 100u);
+    EXPECT_GT(c.unknown_type - c0.unknown_type, 1000u);
+    EXPECT_GT(c.bad_version - c0.bad_version, 1000u);
+
+    // Still alive, and the state is what it was.
+    EXPECT_EQ(r_.request(Hello{}).type(), MsgType::kHelloReply);
+    EXPECT_EQ(this->snapshot(), before);
+}
