@@ -7,50 +7,13 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "design/lti_convert.hpp"
+
 namespace piezoloop::design {
 namespace {
 
 using CMat = Eigen::MatrixXcd;
 using CVec = Eigen::VectorXcd;
-
-// Parlett–Reinsch balancing: returns d with D^-1 A D better scaled
-// (D = diag(d), powers of two, so the scaling itself is exact).
-Eigen::VectorXd balancing_scales(Eigen::MatrixXd a) {
-    const int n = static_cast<int>(a.rows());
-    Eigen::VectorXd d = Eigen::VectorXd::Ones(n);
-    bool converged = false;
-    for (int sweep = 0; sweep < 100 && !converged; ++sweep) {
-        converged = true;
-        for (int i = 0; i < n; ++i) {
-            double c = 0.0, r = 0.0;
-            for (int j = 0; j < n; ++j)
-                if (j != i) {
-                    c += std::fabs(a(j, i));
-                    r += std::fabs(a(i, j));
-                }
-            if (c == 0.0 || r == 0.0) continue;
-            const double s = c + r;
-            double f = 1.0;
-            double g = r / 2.0;
-            while (c < g) {
-                f *= 2.0;
-                c *= 4.0;
-            }
-            g = r * 2.0;
-            while (c >= g) {
-                f /= 2.0;
-                c /= 4.0;
-            }
-            if ((c + r) / f < 0.95 * s) {
-                converged = false;
-                d(i) *= f;
-                a.row(i) /= f;
-                a.col(i) *= f;
-            }
-        }
-    }
-    return d;
-}
 
 void check_model(const Ss& sys) {
     const auto n = sys.A.rows();
@@ -99,11 +62,11 @@ struct Factors {
 
 Factors factors(const Ss& sys) {
     check_model(sys);
-    const Eigen::VectorXd d = balancing_scales(sys.A);
+    const Ss bal = balance(sys);
     Factors f;
-    f.a = d.cwiseInverse().asDiagonal() * sys.A * d.asDiagonal();
-    f.b = d.cwiseInverse().asDiagonal() * sys.B;
-    f.c = sys.C * d.asDiagonal();
+    f.a = bal.A;
+    f.b = bal.B;
+    f.c = bal.C;
     const Eigen::MatrixXd bb = f.b * f.b.transpose();
     const Eigen::MatrixXd cc = f.c.transpose() * f.c;
     Eigen::MatrixXd p, q;

@@ -4,8 +4,9 @@
 //
 // Method (square-root balanced truncation):
 //  1. A is scaled by a diagonal power-of-two similarity (Parlett–Reinsch
-//     balancing); the transfer function and the Hankel singular values are
-//     unchanged, and the Lyapunov solves see comparable row/column norms.
+//     balancing, lti_convert's balance()); the transfer function and the
+//     Hankel singular values are unchanged, and the Lyapunov solves see
+//     comparable row/column norms.
 //  2. Gramians from the Lyapunov equations
 //       continuous: A P + P A' + B B' = 0,  A' Q + Q A + C' C = 0
 //       discrete:   A P A' - P + B B' = 0,  A' Q A - Q + C' C = 0

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "design/csv_data.hpp"
+#include "design/lti_convert.hpp"
 
 namespace piezoloop::design {
 
@@ -32,36 +33,6 @@ double Rls::update(const Eigen::VectorXd& theta, double y) {
 }
 
 namespace {
-
-// Roots of a polynomial in descending powers (leading coefficient non-zero)
-// as eigenvalues of its companion matrix. Only used for low orders here:
-// stability of an identified A/F and reflecting an unstable F.
-std::vector<cplx> poly_roots(const std::vector<double>& c) {
-    const int n = static_cast<int>(c.size()) - 1;
-    if (n < 1) return {};
-    Eigen::MatrixXd comp = Eigen::MatrixXd::Zero(n, n);
-    for (int j = 0; j < n; ++j) comp(0, j) = -c[static_cast<std::size_t>(j + 1)] / c[0];
-    for (int i = 1; i < n; ++i) comp(i, i - 1) = 1.0;
-    Eigen::EigenSolver<Eigen::MatrixXd> es(comp, false);
-    std::vector<cplx> r;
-    for (int i = 0; i < n; ++i) r.push_back(es.eigenvalues()(i));
-    return r;
-}
-
-std::vector<double> poly_from_roots(const std::vector<cplx>& roots) {
-    std::vector<cplx> p{1.0};
-    for (const cplx& r : roots) {
-        std::vector<cplx> q(p.size() + 1, 0.0);
-        for (std::size_t i = 0; i < p.size(); ++i) {
-            q[i] += p[i];
-            q[i + 1] -= r * p[i];
-        }
-        p = q;
-    }
-    std::vector<double> out;
-    for (const cplx& v : p) out.push_back(v.real());
-    return out;
-}
 
 // 1 + a1 q^-1 + ... with every root outside the unit circle reflected to
 // 1/conj(root): the same magnitude response up to a gain, and stable.
