@@ -167,7 +167,7 @@ Zpk load_model_file(const std::string& filename, const ModelParseOptions& opt) {
     json j;
     try {
         j = json::parse(buf.str());
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse errors, numbers out of double range
         throw std::invalid_argument(cat(filename, ": not valid JSON: ", e.what()));
     }
     try {
