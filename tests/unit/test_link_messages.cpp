@@ -226,3 +226,37 @@ TEST(LinkMessages, IllFormedBodiesAreRejected) {
     buf[0] = static_cast<uint8_t>(ParamGroup::kFeedback);
     EXPECT_EQ(decode_body(std::span<const uint8_t>(buf.data(), w.size()), lp), DecodeResult::kBadValue);
 }
+
+TEST(LinkMessages, UsbFullSpeedLogBudget) {
+    // docs/protocol.md section 8, computed from the real encoder: a full log
+    // block whose fields contain no zero byte (the largest COBS overhead),
+    // 100 kHz, against the USB full-speed bulk ceiling of 19 packets of 64
+    // bytes per 1 ms frame.
+    constexpr double kUsbBytesPerSecond = 19.0 * 64.0 * 1000.0;
+    constexpr double kRate_Hz = 100000.0;
+    std::size_t fit = 0;
+    for (std::size_t ch = 1; ch <= kMaxLogChannels; ++ch) {
+        LogBlock b;
+        b.block_seq = b.first_tick = b.tick_stride = b.recorder_overruns = 0x01010101u;
+        b.channel_count = static_cast<uint8_t>(ch);
+        b.format = SampleFormat::kQ31;
+        b.frame_count = static_cast<uint8_t>(log_frames_per_block(ch));
+        b.flags = LogBlock::kFlagLast;
+        b.channels = {1, 2, 3, 4, 5, 6, 7, 8};
+        for (auto& s : b.samples) s = 0x3F8CCCCDu;  // 1.1f: no zero bytes
+        std::vector<uint8_t> f(kMaxFrameSize);
+        std::size_t wire = encode_message(b, 0x0101, f);
+        // 520 unless the CRC itself holds a zero byte (which saves one).
+        if (std::size_t{b.frame_count} * ch * 4 == 480) {  // not 7 channels: 17 frames, 476 bytes
+            EXPECT_GE(wire, 519u) << ch;
+        }
+        EXPECT_LE(wire, kMaxFrameSize);
+        if (ch <= 4) {
+            EXPECT_EQ(std::size_t{b.frame_count} * ch * 4, 480u);
+        }
+        wire = kMaxFrameSize;  // budget on the worst case
+        const double bytes_per_s = kRate_Hz / static_cast<double>(b.frame_count) * static_cast<double>(wire);
+        if (bytes_per_s <= kUsbBytesPerSecond) fit = ch;
+    }
+    EXPECT_EQ(fit, 2u);
+}

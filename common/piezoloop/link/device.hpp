@@ -162,7 +162,7 @@ public:
                 fifo_head_ = fifo_tail_ = 0;
                 next_block_seq_ = 0;
                 underruns_ = consumed_ = 0;
-                drain_ = false;
+                __atomic_store_n(&drain_, false, __ATOMIC_RELEASE);
                 prefill_ = m.prefill;
                 set_stream_state(m.prefill == 0 ? kStreamRunning : kStreamPriming);
                 // Running with an empty FIFO counts underruns from now on:
@@ -174,7 +174,7 @@ public:
                 StreamStop m;
                 if (!decode(h, body, m, send)) return;
                 if (m.drain && stream_state() != kStreamIdle) {
-                    drain_ = true;
+                    __atomic_store_n(&drain_, true, __ATOMIC_RELEASE);
                     if (stream_state() == kStreamPriming) set_stream_state(kStreamRunning);
                 } else {
                     set_stream_state(kStreamIdle);
@@ -539,8 +539,12 @@ private:
         if (v.enabled) {
             // Validate even when the pipeline would not yet (it checks RC
             // only with feedback on), so the error names the RC field.
-            RepetitiveController<T, RcCapacity> scratch;
-            if (const Status s = scratch.configure(v.rc); !s.ok()) return invalid(s);
+            // (No scratch RepetitiveController: its delay line would put
+            // RcCapacity samples on the main loop's stack.)
+            if (const Status s = RepetitiveController<T, RcCapacity>::validate(v.rc); !s.ok()) return invalid(s);
+            BiquadCascade<T, 1> q;
+            const SignalScale unit{1.0f};
+            if (const Status s = q.configure(&v.rc.q, 1, unit, unit); !s.ok()) return invalid(error("q", s.message));
         }
         PipelineParams p = cur;
         p.rc_enabled = v.enabled;
