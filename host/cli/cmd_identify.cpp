@@ -1,0 +1,307 @@
+// `piezoloop identify rls|pi|dahl --data FILE.csv ...` and
+// `piezoloop reduce --model M.json --order N`: identification from CSV data
+// and balanced truncation (host/design/rls, pi_fit, dahl_fit, balred). JSON
+// on stdout; a bad file, column, option or unidentifiable data gives
+// "error: <field>: <why>" on stderr and exit code 2.
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "design/balred.hpp"
+#include "design/csv_data.hpp"
+#include "design/dahl_fit.hpp"
+#include "design/lti_convert.hpp"
+#include "design/model_json.hpp"
+#include "design/pi_fit.hpp"
+#include "design/rls.hpp"
+
+namespace piezoloop::cli {
+namespace {
+
+using nlohmann::json;
+namespace d = piezoloop::design;
+
+// Non-finite numbers (e.g. the fit of a diverging model) as JSON null.
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+struct DataArgs {
+    std::string file;
+    std::string input;
+    std::string output;
+};
+
+void add_data_options(CLI::App* cmd, DataArgs& a, const char* in_default, const char* out_default) {
+    a.input = in_default;
+    a.output = out_default;
+    cmd->add_option("--data", a.file, "CSV file with a header row naming the columns")->required();
+    cmd->add_option("--input", a.input, "input column name")->capture_default_str();
+    cmd->add_option("--output", a.output, "output column name")->capture_default_str();
+}
+
+// Runs body, turning the library's invalid_argument into exit code 2.
+template <class F>
+void guarded(F body) {
+    int rc = 0;
+    try {
+        body();
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        rc = 2;
+    } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        rc = 3;
+    }
+    if (rc != 0) throw CLI::RuntimeError(rc);
+}
+
+// ---------------------------------------------------------------- rls
+
+struct RlsArgs {
+    DataArgs data;
+    std::string time = "t";
+    double ts = 0.0;
+    std::string structure = "arx";
+    d::LinearIdentSpec spec;
+};
+
+void run_rls(const RlsArgs& a) {
+    const d::CsvData csv = d::read_csv(a.data.file);
+    const std::vector<double>& u = csv.column(a.data.input);
+    const std::vector<double>& y = csv.column(a.data.output);
+    double ts = a.ts;
+    if (ts == 0.0) {
+        if (!csv.has(a.time))
+            throw std::invalid_argument("ts: " + a.data.file + " has no time column '" + a.time +
+                                        "'; give --time NAME or --ts SECONDS");
+        ts = d::uniform_sample_period(csv, a.time);
+    }
+    d::LinearIdentSpec spec = a.spec;
+    spec.structure = a.structure == "oe" ? d::LinearStructure::kOutputError : d::LinearStructure::kArx;
+    spec.input_name = a.data.input;
+    spec.output_name = a.data.output;
+    const d::LinearIdentResult r = d::identify_linear(u, y, ts, spec);
+    json out;
+    out["method"] = r.method;
+    out["structure"] = a.structure;
+    out["na"] = spec.na;
+    out["nb"] = spec.nb;
+    out["delay"] = spec.delay;
+    out["forgetting"] = spec.forgetting;
+    out["model"] = d::to_json(r.model);
+    out["a"] = r.a;
+    out["b"] = r.b;
+    out["stable"] = r.stable;
+    out["iterations"] = r.iterations;
+    out["converged"] = r.converged;
+    out["fit"] = {{"fit_percent", number(r.fit_percent)},
+                  {"simulation_rms", number(r.simulation_rms)},
+                  {"prediction_rms", number(r.prediction_rms)},
+                  {"regressor_condition", number(r.regressor_condition)},
+                  {"samples", r.samples_used}};
+    std::cout << out.dump(1) << "\n";
+}
+
+void add_rls(CLI::App* parent) {
+    auto a = std::make_shared<RlsArgs>();
+    CLI::App* cmd = parent->add_subcommand(
+        "rls",
+        "Discrete linear model by recursive least squares (Ahmad2020 eq. 1-3): ARX, or output-error by "
+        "Steiglitz-McBride iterations");
+    add_data_options(cmd, a->data, "u", "y");
+    cmd->add_option("--time", a->time, "time column (seconds), gives the sample period")->capture_default_str();
+    cmd->add_option("--ts", a->ts, "sample period in seconds (instead of a time column)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--structure", a->structure, "model structure")
+        ->check(CLI::IsMember({"arx", "oe"}))
+        ->capture_default_str();
+    cmd->add_option("--na", a->spec.na, "poles (A or F order)")->check(CLI::Range(0, 20))->capture_default_str();
+    cmd->add_option("--nb", a->spec.nb, "numerator coefficients")->check(CLI::Range(1, 20))->capture_default_str();
+    cmd->add_option("--delay", a->spec.delay, "input delay in samples")
+        ->check(CLI::Range(0, 1000))
+        ->capture_default_str();
+    cmd->add_option("--forgetting", a->spec.forgetting, "RLS forgetting factor in (0, 1]")
+        ->check(CLI::Range(1e-6, 1.0))
+        ->capture_default_str();
+    cmd->add_option("--max-iter", a->spec.max_iterations, "Steiglitz-McBride passes (oe)")
+        ->check(CLI::Range(1, 10000))
+        ->capture_default_str();
+    cmd->callback([a] { guarded([&] { run_rls(*a); }); });
+}
+
+// ---------------------------------------------------------------- pi
+
+struct PiArgs {
+    DataArgs data;
+    std::string grid = "uniform";
+    d::PiFitOptions options;
+};
+
+void run_pi(const PiArgs& a) {
+    const d::CsvData csv = d::read_csv(a.data.file);
+    const std::vector<double>& u = csv.column(a.data.input);
+    const std::vector<double>& y = csv.column(a.data.output);
+    d::PiFitOptions o = a.options;
+    o.grid = a.grid == "shan" ? d::ThresholdGrid::kShan : d::ThresholdGrid::kUniform;
+    o.input_name = a.data.input;
+    o.output_name = a.data.output;
+    const d::PiFitResult r = d::fit_pi(u, y, o);
+    json out;
+    // Same layout as `piezoloop pi-inverse` takes and prints: the first
+    // entry is the threshold-0 (linear) term p0.
+    std::vector<double> thresholds{0.0};
+    thresholds.insert(thresholds.end(), r.thresholds.begin(), r.thresholds.end());
+    out["thresholds"] = thresholds;
+    out["weights"] = r.weights;
+    out["slopes"] = r.slopes;
+    out["grid"] = o.thresholds.empty() ? a.grid : "explicit";
+    out["monotone"] = o.monotone;
+    if (o.monotone) {
+        out["min_slope"] = r.min_slope;
+        out["active_constraints"] = r.active_constraints;
+    }
+    out["invertible"] = r.invertible;
+    out["invertibility"] = r.invertibility;
+    out["fit"] = {{"rms_error", r.rms_error},
+                  {"max_error", r.max_error},
+                  {"nrmse_percent", number(r.nrmse_percent)},
+                  {"regressor_condition", r.regressor_condition},
+                  {"samples", u.size()}};
+    std::cout << out.dump(1) << "\n";
+}
+
+void add_pi(CLI::App* parent) {
+    auto a = std::make_shared<PiArgs>();
+    CLI::App* cmd = parent->add_subcommand(
+        "pi", "Prandtl-Ishlinskii weights by least squares on play-operator regressors");
+    add_data_options(cmd, a->data, "u", "y");
+    cmd->add_option("--operators", a->options.operators, "play operators besides the linear term")
+        ->check(CLI::Range(1, 16))
+        ->capture_default_str();
+    cmd->add_option("--grid", a->grid,
+                    "thresholds: uniform (j*max|u|/(n+1)) or shan (rho*j, Shan2012)")
+        ->check(CLI::IsMember({"uniform", "shan"}))
+        ->capture_default_str();
+    cmd->add_option("--rho", a->options.rho, "threshold spacing of the shan grid")->check(CLI::PositiveNumber);
+    cmd->add_option("--thresholds", a->options.thresholds, "explicit thresholds r1,r2,... (> 0, ascending)")
+        ->delimiter(',');
+    cmd->add_flag("--monotone", a->options.monotone,
+                  "constrain the loading-curve slopes P_j >= min-slope (invertible result)");
+    cmd->add_option("--min-slope", a->options.min_slope,
+                    "smallest slope in the monotone fit (default 1e-3 * output range / input range)");
+    cmd->callback([a] { guarded([&] { run_pi(*a); }); });
+}
+
+// ---------------------------------------------------------------- dahl
+
+struct DahlArgs {
+    DataArgs data;
+    double gamma_a = 1.0;
+    std::vector<double> start;
+    int max_evaluations = 4000;
+};
+
+json dahl_json(const d::DahlParamsD& p) {
+    return {{"alpha1", p.alpha1}, {"alpha2", p.alpha2}, {"beta1", p.beta1},
+            {"beta2", p.beta2},   {"gamma_a", p.gamma_a}, {"ga", p.ga}};
+}
+
+void run_dahl(const DahlArgs& a) {
+    const d::CsvData csv = d::read_csv(a.data.file);
+    const std::vector<double>& v = csv.column(a.data.input);
+    const std::vector<double>& x = csv.column(a.data.output);
+    d::DahlFitOptions o;
+    o.gamma_a = a.gamma_a;
+    o.max_evaluations = a.max_evaluations;
+    o.input_name = a.data.input;
+    o.output_name = a.data.output;
+    if (!a.start.empty()) {
+        if (a.start.size() != 5)
+            throw std::invalid_argument("start: needs 5 values alpha1,alpha2,beta1,beta2,ga (got " +
+                                        std::to_string(a.start.size()) + ")");
+        o.start = d::DahlParamsD{a.start[0], a.start[1], a.start[2], a.start[3], a.gamma_a, a.start[4]};
+    }
+    const d::DahlFitResult r = d::fit_dahl(v, x, o);
+    json out;
+    out["params"] = dahl_json(r.params);
+    out["std_errors"] = {{"alpha1", r.std_errors[0]}, {"alpha2", r.std_errors[1]}, {"beta1", r.std_errors[2]},
+                         {"beta2", r.std_errors[3]},  {"ga", r.std_errors[4]}};
+    out["beta1_gamma_a"] = r.beta1_gamma_a;
+    out["beta2_gamma_a"] = r.beta2_gamma_a;
+    out["gamma_a_held"] = true;
+    out["fit"] = {{"rms_error", r.rms_error},
+                  {"max_error", r.max_error},
+                  {"nrmse_percent", r.nrmse_percent},
+                  {"samples", v.size()}};
+    out["lm"] = {{"termination", r.termination},
+                 {"evaluations", r.evaluations},
+                 {"starts", r.starts},
+                 {"jacobian_condition", r.jacobian_condition}};
+    std::cout << out.dump(1) << "\n";
+}
+
+void add_dahl(CLI::App* parent) {
+    auto a = std::make_shared<DahlArgs>();
+    CLI::App* cmd = parent->add_subcommand(
+        "dahl",
+        "Dahl model (alpha1, alpha2, beta1, beta2, ga) by Levenberg-Marquardt; gamma_a is held (only "
+        "beta*gamma_a is identifiable)");
+    add_data_options(cmd, a->data, "v", "x");
+    cmd->add_option("--gamma-a", a->gamma_a, "gamma_a, held during the fit")->capture_default_str();
+    cmd->add_option("--start", a->start, "starting point alpha1,alpha2,beta1,beta2,ga (default: grid search)")
+        ->delimiter(',');
+    cmd->add_option("--max-evaluations", a->max_evaluations, "model simulations per LM run")
+        ->check(CLI::Range(10, 1000000))
+        ->capture_default_str();
+    cmd->callback([a] { guarded([&] { run_dahl(*a); }); });
+}
+
+void add_identify(CLI::App& app) {
+    CLI::App* cmd = app.add_subcommand("identify", "Identify models from measured or simulated CSV data");
+    cmd->require_subcommand(1);
+    add_rls(cmd);
+    add_pi(cmd);
+    add_dahl(cmd);
+}
+
+// ---------------------------------------------------------------- reduce
+
+struct ReduceArgs {
+    std::string model;
+    int order = 0;
+};
+
+void run_reduce(const ReduceArgs& a) {
+    const d::Zpk full = d::load_model_file(a.model);
+    const d::BalancedTruncation bt = d::balanced_truncation(d::zpk2ss(full), a.order);
+    json out;
+    out["model"] = d::to_json(d::ss2zpk(bt.reduced));
+    out["order"] = bt.order;
+    out["original_order"] = bt.hsv.size();
+    out["hsv"] = bt.hsv;
+    out["error_bound"] = bt.error_bound;
+    std::cout << out.dump(1) << "\n";
+}
+
+void add_reduce(CLI::App& app) {
+    auto a = std::make_shared<ReduceArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "reduce",
+        "Balanced truncation of a stable model: Hankel singular values, reduced model, error bound "
+        "2*sum(sigma_i, i > order)");
+    cmd->add_option("--model", a->model, "model JSON file (num/den, zeros/poles/gain or series; optional ts)")
+        ->required();
+    cmd->add_option("--order", a->order, "states to keep")->required()->check(CLI::Range(1, 200));
+    cmd->callback([a] { guarded([&] { run_reduce(*a); }); });
+}
+
+const bool registered_identify = register_command(50, add_identify);
+const bool registered_reduce = register_command(55, add_reduce);
+
+}  // namespace
+}  // namespace piezoloop::cli
