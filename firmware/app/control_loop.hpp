@@ -56,6 +56,8 @@ public:
 
     // Consistent snapshot (the tick is held off for the copy).
     LoopStatus status() const;
+    // Ticks since start() (one aligned word, written by the tick only).
+    uint32_t ticks() const { return __atomic_load_n(&ticks_, __ATOMIC_RELAXED); }
 
     // The interrupt handler (bsp::TickHandler).
     static void tick();

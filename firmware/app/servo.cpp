@@ -66,8 +66,23 @@ void wait_ticks(ControlLoop& loop, uint32_t n) {
     }
 }
 
+// LEDs: the heartbeat toggles every 0.5 s of ticks (so it stops when the
+// loop stops), the fault LED shows a tripped output limiter.
+void update_leds(ControlLoop& loop, uint32_t& last_toggle, bool& on) {
+    const uint32_t t = loop.ticks();
+    if (t - last_toggle >= kLoopRateInt_Hz / 2) {
+        on = !on;
+        last_toggle = t;
+        bsp::set_led(bsp::Led::kHeartbeat, on);
+    }
+    bsp::set_led(bsp::Led::kFault, loop.pipeline().limiter().tripped());
+}
+
 [[noreturn]] void serve(ControlLoop& loop) {
+    uint32_t last_toggle = 0;
+    bool heartbeat = false;
     for (;;) {
+        update_leds(loop, last_toggle, heartbeat);
         char c = 0;
         if (!bsp::console_read(c)) {
             // The tick wakes the core at least once per period.
@@ -90,7 +105,9 @@ void wait_ticks(ControlLoop& loop, uint32_t n) {
             case 't': {
                 loop.stop();
                 const int failures = run_selftest();
+                (void)bsp::set_loopback(false);  // back to the converters (hardware boards)
                 const bool restarted = start_servo(loop);
+                last_toggle = 0;
                 begin(j).str("reply", "selftest").uint("failures", static_cast<uint64_t>(failures));
                 j.boolean("servo_restarted", restarted).flush();
                 break;

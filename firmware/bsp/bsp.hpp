@@ -55,6 +55,10 @@ bool tick_timer_start(uint32_t rate_Hz, TickHandler handler);
 void tick_timer_stop();
 bool tick_timer_running();
 
+// Status LEDs (NUCLEO: LD1 green, LD3 red; MPS2: FPGA LEDs 0 and 1).
+enum class Led : uint8_t { kHeartbeat, kFault };
+void set_led(Led led, bool on);
+
 // Idle until an interrupt (WFI) where that keeps time; a no-op on the QEMU
 // boards, whose main loops busy-poll: QEMU 7.2 under -icount sleep=off
 // skips every other 100 kHz timer period while the core sleeps (seen as a

@@ -15,7 +15,10 @@ Stack: the worst call chain, in bytes, from two roots:
 plus the exception frame the core pushes when the tick interrupts the main
 loop (8 words, + 18 FPU words on the FPU boards (lazy stacking reserves
 them), + 4 bytes of alignment). Worst total = main + frame + tick: the tick
-can preempt the main loop at its deepest point (nothing else interrupts).
+can preempt the main loop at its deepest point. On the STM32 the tick is
+the ADC's end-of-conversion interrupt (or TIM6's in loopback), whichever is
+deeper, and the USB interrupt, below the tick in priority, can sit between
+the two: main + frame + USB + frame + tick.
 A fault taken at that point adds another frame and the fault report
 (piezoloop_fault_report: one console line built on the stack); that sum is
 printed as "with a fault" and must fit too.
@@ -244,7 +247,16 @@ def main():
         cis = [c for c in cis if os.path.isfile(c)]
         g = StackGraph(cis, elf)
         main_bytes, main_chain = g.worst("piezoloop_start")
+        # The tick: the timer interrupt or (STM32, converters live) the ADC's.
         tick_bytes, tick_chain = g.worst("piezoloop_tick_timer_isr", "piezoloop_tick_timer_isr")
+        if "piezoloop_adc_isr" in g.asm:
+            adc_bytes, adc_chain = g.worst("piezoloop_adc_isr", "piezoloop_adc_isr")
+            if adc_bytes is None or (tick_bytes is not None and adc_bytes > tick_bytes):
+                tick_bytes, tick_chain = adc_bytes, adc_chain
+        # Interrupts below the tick (USB): they nest between main and tick.
+        low_bytes, low_chain = (0, [])
+        if "piezoloop_usb_otg_fs_isr" in g.asm:
+            low_bytes, low_chain = g.worst("piezoloop_usb_otg_fs_isr")
         fault_bytes, _ = g.worst("piezoloop_fault_report")
         has_tick = TICK_HANDLER in g.asm
         ok = True
@@ -255,19 +267,22 @@ def main():
         if rom_region is None or rom > rom_region[2] or ram_region is None or ram > ram_region[2]:
             ok = False
             print(f"  FAIL {image}: does not fit its memory")
-        if main_bytes is None or tick_bytes is None or fault_bytes is None:
+        if main_bytes is None or tick_bytes is None or fault_bytes is None or low_bytes is None:
             ok = False
             print(f"  FAIL {image}: unbounded stack: {main_chain if main_bytes is None else tick_chain}")
         else:
-            total = main_bytes + (frame + tick_bytes if has_tick else 0)
+            total = main_bytes + (frame + tick_bytes if has_tick else 0) + (frame + low_bytes if low_chain else 0)
             with_fault = total + frame + fault_bytes
             print(f"  stack: main {main_bytes} B"
+                  + (f" + USB interrupt {low_bytes} B + frame {frame} B" if low_chain else "")
                   + (f" + tick {tick_bytes} B + frame {frame} B" if has_tick else " (no control tick in this image)")
                   + f" = {total} B worst of {stack_reserve} B reserved"
                   + f" ({with_fault} B with a fault report on top)")
             print(f"    main path: {' > '.join(demangle(main_chain[:8]))}{' > ...' if len(main_chain) > 8 else ''}")
             if has_tick:
                 print(f"    tick path: {' > '.join(demangle(tick_chain))}")
+            if low_chain:
+                print(f"    USB path: {' > '.join(demangle(low_chain[:8]))}{' > ...' if len(low_chain) > 8 else ''}")
             if with_fault > stack_reserve:
                 ok = False
                 print(f"  FAIL {image}: worst stack {with_fault} B exceeds the reserved {stack_reserve} B")

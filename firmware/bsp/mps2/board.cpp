@@ -108,6 +108,13 @@ bool tick_timer_running() { return kTimer0.running(); }
 
 void wait_for_interrupt() {}  // busy-poll: see bsp.hpp
 
+// FPGAIO (0x40028000) LED register: bit 0 LED0, bit 1 LED1.
+void set_led(Led led, bool on) {
+    volatile uint32_t& leds = *reinterpret_cast<volatile uint32_t*>(uintptr_t{0x40028000});
+    const uint32_t bit = led == Led::kHeartbeat ? 1u : 2u;
+    leds = on ? (leds | bit) : (leds & ~bit);
+}
+
 uint32_t timestamp() { return systick::up_count(); }
 
 uint32_t stopwatch_start() { return systick::sync_to_edge(); }

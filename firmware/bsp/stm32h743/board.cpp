@@ -1,13 +1,26 @@
-// NUCLEO-H743ZI2 board support, minimal: console on USART3 (PD8 TX, PD9 RX,
-// AF7), which the board routes to the ST-LINK virtual COM port; clocks left
-// at their reset state. Full clock tree (PLL, 480 MHz), caches, ADC/DAC and
-// the tick timer come with the full firmware.
+// NUCLEO-H743ZI2 board support (STM32H743ZI, rev V): written from RM0433 and
+// UM2407; no vendor headers. NOT RUN HERE: there is no hardware and no QEMU
+// model of this part; it builds, links and fits, and the register values
+// are checked by review only. docs/boards.md says how to flash and wire it.
 //
-// NOT RUN HERE (no hardware, no QEMU model): addresses are from RM0433 and
-// the STM32H743 device header, checked by review only.
-//
-// Reset clocks (RM0433, RCC): sys_ck = HSI = 64 MHz, all bus prescalers 1,
-// USART2/3/4/5/7/8 kernel clock = rcc_pclk1 = 64 MHz.
+//   clocks    clock.cpp: HSE 8 MHz bypass (ST-LINK MCO) -> PLL1 480 MHz, VOS0
+//   caches    I-cache on (code runs from flash); D-cache off: data, bss and
+//             the stack are in DTCM, which is never cached
+//   console   USART3 on PD8/PD9 (AF7) -> ST-LINK virtual COM port, 115200 8N1
+//   tick      TIM6 at 100 kHz: TRGO (update) starts an ADC1 conversion; the
+//             end-of-conversion interrupt runs the tick (sample, compute,
+//             DAC). In loopback (self-test, no stage) the TIM6 update
+//             interrupt runs it against the emulated stage instead.
+//   ADC       ADC1, 16 bit, channel INP15 on PA3 (Zio A0), 8.5-cycle
+//             sampling, offset binary: code = raw - 32768
+//   DAC       DAC1 channel 1 on PA4, 12 bit, buffered: dac = (code + 32768) >> 4,
+//             written immediately (no trigger): the output changes one APB
+//             cycle after the tick writes it
+//   timing    DWT CYCCNT (480 MHz) for timestamps and the stopwatch
+//   LEDs      LD1 green PB0: heartbeat; LD3 red PB14: fault / trip
+//   USB       usb_otg_fs.cpp: vendor device on CN13, bulk EP1 OUT/IN; the
+//             console is mirrored to EP1 IN and commands are also read from
+//             EP1 OUT (until the link protocol has its own framing)
 #include <cstdint>
 
 #include "board_config.hpp"
@@ -17,108 +30,179 @@
 #include "bsp/cortex-m/scb.hpp"
 #include "bsp/cortex-m/semihosting.hpp"
 #include "bsp/emulated_stage.hpp"
+#include "bsp/stm32h743/regs.hpp"
+#include "bsp/stm32h743/usb_otg_fs.hpp"
 
 namespace piezoloop::bsp {
 
 namespace stm32 {
 fw::EmulatedStage g_emulated_stage{config::kPositionFullScale_um, config::kVoltageFullScale_V};
 bool g_loopback = false;
+bool clock_init();  // clock.cpp
 }  // namespace stm32
 
 namespace {
 
-volatile uint32_t& reg(uintptr_t address) { return *reinterpret_cast<volatile uint32_t*>(address); }
+using namespace stm32;
 
-// RCC (D3 AHB4, 0x58024400)
-constexpr uintptr_t kRccAhb4Enr = 0x58024400 + 0x0E0;
-constexpr uintptr_t kRccApb1lEnr = 0x58024400 + 0x0E8;
-constexpr uint32_t kRccAhb4EnrGpioD = 1u << 3;
-constexpr uint32_t kRccApb1lEnrUsart3 = 1u << 18;
-
-// GPIOD (D3 AHB4, 0x58020C00)
-constexpr uintptr_t kGpioDModer = 0x58020C00 + 0x00;
-constexpr uintptr_t kGpioDAfrh = 0x58020C00 + 0x24;  // alternate function, pins 8..15
-
-// USART3 (D2 APB1, 0x40004800)
-constexpr uintptr_t kUsart3Cr1 = 0x40004800 + 0x00;
-constexpr uintptr_t kUsart3Brr = 0x40004800 + 0x0C;
-constexpr uintptr_t kUsart3Isr = 0x40004800 + 0x1C;
-constexpr uintptr_t kUsart3Tdr = 0x40004800 + 0x28;
-constexpr uint32_t kCr1Ue = 1u << 0;   // USART enable
-constexpr uint32_t kCr1Te = 1u << 3;   // transmitter enable
-constexpr uint32_t kCr1Re = 1u << 2;   // receiver enable
-constexpr uintptr_t kUsart3Rdr = 0x40004800 + 0x24;
-constexpr uint32_t kIsrRxne = 1u << 5;  // RX data register not empty
-constexpr uint32_t kIsrTc = 1u << 6;   // transmission complete
-constexpr uint32_t kIsrTxe = 1u << 7;  // TX data register empty (TXFNF with FIFO)
-
-constexpr uint32_t kPclk1_Hz = 64'000'000;
 constexpr uint32_t kConsoleBaud = 115'200;
-
-// A fault before init() must not poll an unclocked USART forever.
-bool g_console_ready = false;
-
-// TIM6 (APB1L, 0x40001000): the control tick.
-constexpr uintptr_t kRccApb1lEnrTim6 = 1u << 4;
-constexpr uintptr_t kTim6 = 0x40001000;
-constexpr uintptr_t kTimCr1 = 0x00, kTimDier = 0x0C, kTimSr = 0x10, kTimEgr = 0x14, kTimPsc = 0x28,
-                    kTimArr = 0x2C;
-constexpr uint32_t kCr1Cen = 1u << 0, kCr1Urs = 1u << 2, kDierUie = 1u << 0, kSrUif = 1u << 0, kEgrUg = 1u << 0;
-
-// DWT cycle counter (ARMv7-M ARM C1.8): DEMCR.TRCENA, DWT_CTRL.CYCCNTENA;
-// the Cortex-M7 DWT is locked until the CoreSight key is written to LAR.
-constexpr uintptr_t kDemcr = 0xE000EDFC;
-constexpr uintptr_t kDwtCtrl = 0xE0001000, kDwtCyccnt = 0xE0001004, kDwtLar = 0xE0001FB0;
+constexpr uint8_t kTickPriority = 0x00;
 
 TickHandler g_tick_handler = nullptr;
 uint32_t g_stopwatch_offset = 0;
+bool g_console_ready = false;
+bool g_usb_ready = false;
+bool g_timer_running = false;
+
+void enable_clocks() {
+    using namespace rcc;
+    reg(kAhb4enr) = reg(kAhb4enr) | kAhb4GpioAEn | kAhb4GpioBEn | kAhb4GpioDEn | kAhb4GpioEEn;
+    reg(kAhb1enr) = reg(kAhb1enr) | kAhb1Adc12En;
+    reg(kApb1lenr) = reg(kApb1lenr) | kApb1lTim6En | kApb1lUsart3En | kApb1lDac12En;
+    // Read back: the enables cross bus bridges and must land before the
+    // peripherals are touched (RM0433, RCC: "peripheral clock enable").
+    const uint32_t readback = reg(kAhb4enr) | reg(kAhb1enr) | reg(kApb1lenr);
+    (void)readback;
+}
+
+void console_init(uint32_t pclk1_Hz) {
+    gpio::alternate(gpio::kPortD, 8, 7);  // USART3_TX
+    gpio::alternate(gpio::kPortD, 9, 7);  // USART3_RX
+    reg(usart3::kCr1) = 0;
+    reg(usart3::kBrr) = (pclk1_Hz + kConsoleBaud / 2) / kConsoleBaud;
+    reg(usart3::kCr1) = usart3::kCr1Ue | usart3::kCr1Te | usart3::kCr1Re;
+    g_console_ready = true;
+}
+
+void icache_enable() {
+    asm volatile("dsb\n\tisb" ::: "memory");
+    reg(core::kScbIciallu) = 0;
+    asm volatile("dsb\n\tisb" ::: "memory");
+    reg(core::kScbCcr) = reg(core::kScbCcr) | (1u << 17);
+    asm volatile("dsb\n\tisb" ::: "memory");
+}
+
+void dwt_init() {
+    reg(core::kDemcr) = reg(core::kDemcr) | (1u << 24);  // TRCENA
+    reg(core::kDwtLar) = 0xC5ACCE55u;                     // CoreSight unlock (Cortex-M7)
+    reg(core::kDwtCyccnt) = 0;
+    reg(core::kDwtCtrl) = reg(core::kDwtCtrl) | 1u;       // CYCCNTENA
+}
+
+void leds_init() {
+    gpio::mode(gpio::kPortB, 0, gpio::kModeOutput);   // LD1 green
+    gpio::mode(gpio::kPortB, 14, gpio::kModeOutput);  // LD3 red
+    gpio::set(gpio::kPortB, 0, false);
+    gpio::set(gpio::kPortB, 14, false);
+}
+
+// Busy wait on CYCCNT (start-up only).
+void delay_us(uint32_t us) {
+    const uint32_t start = reg(core::kDwtCyccnt);
+    const uint32_t cycles = us * (config::kCpuClock_Hz / 1'000'000u);
+    while (reg(core::kDwtCyccnt) - start < cycles) {
+    }
+}
+
+// ADC1 on PA3 (INP15), triggered by TIM6 TRGO, end-of-conversion interrupt.
+bool adc_init() {
+    using namespace adc;
+    const uintptr_t a = kAdc1;
+    gpio::mode(gpio::kPortA, 3, gpio::kModeAnalog);
+    // per_ck (HSI 64 MHz) / 2 = 32 MHz: within the 16-bit limit of rev V.
+    reg(kCommon12 + kCcr) = kCcrPrescDiv2;
+    reg(a + kCr) = 0;                        // leave deep power-down
+    reg(a + kCr) = kCrAdvregen;              // regulator on
+    delay_us(20);                            // TADCVREG_STUP is 10 µs
+    reg(a + kCr) = kCrAdvregen | kCrBoost25To50MHz;
+    reg(a + kCr) = kCrAdvregen | kCrBoost25To50MHz | kCrAdcallin | kCrAdcal;  // single-ended + linearity
+    for (uint32_t i = 0; (reg(a + kCr) & kCrAdcal) != 0u; ++i)
+        if (i > 10'000'000) return false;
+    reg(a + kIsr) = kIsrAdrdy;
+    reg(a + kCr) = reg(a + kCr) | kCrAden;
+    for (uint32_t i = 0; (reg(a + kIsr) & kIsrAdrdy) == 0u; ++i)
+        if (i > 10'000'000) return false;
+    reg(a + kCfgr) = (kExtselTim6Trgo << kCfgrExtselShift) | kCfgrExtenRising | kCfgrOvrmod;  // 16 bit
+    reg(a + kPcsel) = 1u << 15;
+    reg(a + kSmpr2) = 2u << 15;  // SMP15 = 8.5 cycles
+    reg(a + kSqr1) = 15u << 6;   // one conversion: channel 15
+    reg(a + kIsr) = kIsrEoc | kIsrOvr;
+    reg(a + kIer) = kIerEocie;
+    reg(a + kCr) = reg(a + kCr) | kCrAdstart;  // waits for triggers
+    return true;
+}
+
+// DAC1 channel 1 on PA4, buffered output, mid-scale (0 V command) at start.
+void dac_init() {
+    gpio::mode(gpio::kPortA, 4, gpio::kModeAnalog);
+    reg(dac::kMcr) = 0;  // channel 1: normal mode, buffer on, to the pin
+    reg(dac::kDhr12r1) = 2048;
+    reg(dac::kCr) = dac::kCrEn1;
+}
 
 }  // namespace
 
 void init() {
-    reg(kRccAhb4Enr) = reg(kRccAhb4Enr) | kRccAhb4EnrGpioD;
-    reg(kRccApb1lEnr) = reg(kRccApb1lEnr) | kRccApb1lEnrUsart3;
-    // Read back: the enable crosses a bus bridge and must land before the
-    // peripheral is accessed (RM0433, RCC peripheral clock enable).
-    const uint32_t readback = reg(kRccAhb4Enr) | reg(kRccApb1lEnr);
-    (void)readback;
-
-    // PD8, PD9: alternate function mode (0b10), AF7 = USART3.
-    reg(kGpioDModer) = (reg(kGpioDModer) & ~(0xFu << 16)) | (0xAu << 16);
-    reg(kGpioDAfrh) = (reg(kGpioDAfrh) & ~0xFFu) | 0x77u;
-
-    // 115200 8N1, oversampling by 16: BRR = f_ck / baud, rounded.
-    reg(kUsart3Cr1) = 0;
-    reg(kUsart3Brr) = (kPclk1_Hz + kConsoleBaud / 2) / kConsoleBaud;
-    reg(kUsart3Cr1) = kCr1Ue | kCr1Te | kCr1Re;
-    g_console_ready = true;
-
-    reg(kDemcr) = reg(kDemcr) | (1u << 24);
-    reg(kDwtLar) = 0xC5ACCE55u;
-    reg(kDwtCyccnt) = 0;
-    reg(kDwtCtrl) = reg(kDwtCtrl) | 1u;
+    const bool clocks = clock_init();
+    enable_clocks();
+    // Without the PLL the APB1 clock is still HSI 64 MHz (reset prescalers).
+    console_init(clocks ? config::kApb1Clock_Hz : 64'000'000u);
+    dwt_init();
+    if (!clocks) {
+        const char msg[] = "fault clock: HSE or PLL1 not ready (is the ST-LINK MCO on PH0?); loop not started\n";
+        console_write(msg, sizeof msg - 1);
+        exit(kExitFault);
+    }
+    icache_enable();
+    leds_init();
     // The stopwatch's own cost: two reads of CYCCNT around nothing.
     const uint32_t s = stopwatch_start();
     g_stopwatch_offset = stopwatch_elapsed(s);
-
-    reg(kRccApb1lEnr) = reg(kRccApb1lEnr) | kRccApb1lEnrTim6;
-    const uint32_t readback2 = reg(kRccApb1lEnr);  // the enable must land first
-    (void)readback2;
+    dac_init();
+    const bool adc_ok = adc_init();
+    g_usb_ready = stm32::usbfs::init();
+    if (!adc_ok) {
+        const char msg[] = "fault adc: calibration or enable timed out\n";
+        console_write(msg, sizeof msg - 1);
+        exit(kExitFault);
+    }
 }
 
 void console_write(const char* text, std::size_t length) {
     if (!g_console_ready) return;
     for (std::size_t i = 0; i < length; ++i) {
-        while ((reg(kUsart3Isr) & kIsrTxe) == 0u) {
+        while ((reg(usart3::kIsr) & usart3::kIsrTxe) == 0u) {
         }
-        reg(kUsart3Tdr) = static_cast<uint8_t>(text[i]);
+        reg(usart3::kTdr) = static_cast<uint8_t>(text[i]);
     }
+    // Mirror to the USB link (dropped when the host is not reading).
+    if (g_usb_ready && stm32::usbfs::configured())
+        (void)stm32::usbfs::write(reinterpret_cast<const uint8_t*>(text), length);
 }
 
 bool console_read(char& c) {
-    if (!g_console_ready || (reg(kUsart3Isr) & kIsrRxne) == 0u) return false;
-    c = static_cast<char>(reg(kUsart3Rdr) & 0xFFu);
+    uint8_t b = 0;
+    if (g_usb_ready && stm32::usbfs::read(&b, 1) == 1) {
+        c = static_cast<char>(b);
+        return true;
+    }
+    if (!g_console_ready || (reg(usart3::kIsr) & usart3::kIsrRxne) == 0u) return false;
+    c = static_cast<char>(reg(usart3::kRdr) & 0xFFu);
     return true;
+}
+
+void exit(int status) {
+    if (g_console_ready) {
+        while ((reg(usart3::kIsr) & usart3::kIsrTc) == 0u) {
+        }
+    }
+    tick_timer_stop();
+    reg(dac::kDhr12r1) = 2048;  // 0 V command
+    gpio::set(gpio::kPortB, 14, status != 0);
+    // Semihosting only with a debugger attached: without one, BKPT would
+    // escalate to a HardFault.
+    if ((scb::reg(scb::kDhcsr) & scb::kDhcsrDebugEnabled) != 0u) semihosting::exit(status);
+    for (;;) asm volatile("wfi");
 }
 
 bool tick_timer_start(uint32_t rate_Hz, TickHandler handler) {
@@ -127,59 +211,69 @@ bool tick_timer_start(uint32_t rate_Hz, TickHandler handler) {
     if (period < 2u || period > 65536u) return false;
     tick_timer_stop();
     g_tick_handler = handler;
-    reg(kTim6 + kTimPsc) = 0;
-    reg(kTim6 + kTimArr) = period - 1u;
-    reg(kTim6 + kTimCr1) = kCr1Urs;      // only overflow sets UIF, not the UG below
-    reg(kTim6 + kTimEgr) = kEgrUg;       // load PSC/ARR now
-    reg(kTim6 + kTimSr) = 0;
-    reg(kTim6 + kTimDier) = kDierUie;
-    nvic::set_priority(config::kTickIrq, 0x00);
-    nvic::clear_pending(config::kTickIrq);
-    nvic::enable(config::kTickIrq);
-    reg(kTim6 + kTimCr1) = kCr1Urs | kCr1Cen;
+    using namespace tim6;
+    reg(kPsc) = 0;
+    reg(kArr) = period - 1u;
+    reg(kCr2) = kCr2MmsUpdate;  // TRGO on update: starts the ADC conversion
+    reg(kCr1) = kCr1Urs;        // only overflow sets UIF (not the UG below)
+    reg(kEgr) = kEgrUg;         // load PSC/ARR now
+    reg(kSr) = 0;
+    const int irq = g_loopback ? config::kTickIrq : config::kAdcIrq;
+    reg(kDier) = g_loopback ? kDierUie : 0u;
+    reg(adc::kAdc1 + adc::kIsr) = adc::kIsrEoc | adc::kIsrOvr;
+    nvic::set_priority(irq, kTickPriority);
+    nvic::clear_pending(irq);
+    nvic::enable(irq);
+    g_timer_running = true;
+    reg(kCr1) = kCr1Urs | kCr1Cen;
     return true;
 }
 
 void tick_timer_stop() {
-    reg(kTim6 + kTimCr1) = 0;
-    reg(kTim6 + kTimDier) = 0;
-    reg(kTim6 + kTimSr) = 0;
+    using namespace tim6;
+    reg(kCr1) = 0;
+    reg(kDier) = 0;
+    reg(kSr) = 0;
     nvic::disable(config::kTickIrq);
+    nvic::disable(config::kAdcIrq);
     nvic::clear_pending(config::kTickIrq);
+    nvic::clear_pending(config::kAdcIrq);
+    g_timer_running = false;
 }
 
-bool tick_timer_running() { return (reg(kTim6 + kTimCr1) & kCr1Cen) != 0u; }
+bool tick_timer_running() { return g_timer_running; }
 
 void wait_for_interrupt() { asm volatile("dsb\n\twfi" ::: "memory"); }
 
-uint32_t timestamp() { return reg(kDwtCyccnt); }
-uint32_t stopwatch_start() { return reg(kDwtCyccnt); }
-uint32_t stopwatch_elapsed(uint32_t start) { return reg(kDwtCyccnt) - start - g_stopwatch_offset; }
+uint32_t timestamp() { return reg(core::kDwtCyccnt); }
+uint32_t stopwatch_start() { return reg(core::kDwtCyccnt); }
+uint32_t stopwatch_elapsed(uint32_t start) { return reg(core::kDwtCyccnt) - start - g_stopwatch_offset; }
 
-fw::EmulatedStage& emulated_stage() { return stm32::g_emulated_stage; }
+fw::EmulatedStage& emulated_stage() { return g_emulated_stage; }
 void emulated_stage_step() {
-    if (stm32::g_loopback) stm32::g_emulated_stage.step();
+    if (g_loopback) g_emulated_stage.step();
 }
 bool set_loopback(bool on) {
-    stm32::g_loopback = on;
+    if (g_timer_running) return false;  // the interrupt source follows the mode
+    g_loopback = on;
     return true;
 }
 
-void exit(int status) {
-    if (g_console_ready) {
-        while ((reg(kUsart3Isr) & kIsrTc) == 0u) {
-        }
-    }
-    // Semihosting only with a debugger attached: without one, BKPT would
-    // escalate to a HardFault.
-    if ((scb::reg(scb::kDhcsr) & scb::kDhcsrDebugEnabled) != 0u) semihosting::exit(status);
-    for (;;) asm volatile("wfi");
-}
+void set_led(Led led, bool on) { gpio::set(gpio::kPortB, led == Led::kHeartbeat ? 0 : 14, on); }
 
 }  // namespace piezoloop::bsp
 
 extern "C" void piezoloop_tick_timer_isr() noexcept {
     using namespace piezoloop::bsp;
-    reg(kTim6 + kTimSr) = 0;  // clear UIF first: an overrun re-pends the interrupt
+    // Clear UIF first: an overrun re-pends the interrupt (then counted).
+    stm32::reg(stm32::tim6::kSr) = 0;
+    g_tick_handler();
+}
+
+extern "C" void piezoloop_adc_isr() noexcept {
+    using namespace piezoloop::bsp;
+    // EOC is cleared by the tick's read of ADC_DR (adc_read); a conversion
+    // that overran an unread one is counted by the tick monitor as missed.
+    stm32::reg(stm32::adc::kAdc1 + stm32::adc::kIsr) = stm32::adc::kIsrOvr;
     g_tick_handler();
 }

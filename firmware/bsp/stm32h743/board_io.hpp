@@ -1,11 +1,12 @@
-// The tick's converters on the NUCLEO-H743ZI2. Inline: they are part of the
-// measured tick. Until the analog front end is wired (board.cpp) they go to
-// the emulated stage; in loopback (self-test without a stage) always.
+// The tick's converters on the NUCLEO-H743ZI2 (see board.cpp). Inline: they
+// are part of the measured tick. In loopback (self-test without a stage)
+// both go to the emulated stage instead.
 #pragma once
 
 #include <cstdint>
 
 #include "bsp/emulated_stage.hpp"
+#include "bsp/stm32h743/regs.hpp"
 
 namespace piezoloop::bsp {
 
@@ -14,7 +15,21 @@ extern fw::EmulatedStage g_emulated_stage;  // board.cpp
 extern bool g_loopback;
 }  // namespace stm32
 
-inline int32_t adc_read() { return stm32::g_emulated_stage.adc_code(); }
-inline void dac_write(int32_t code) { stm32::g_emulated_stage.dac_write(code); }
+// ADC1 data register: 16-bit unsigned, offset binary around mid-scale.
+// Reading it clears the end-of-conversion flag.
+inline int32_t adc_read() {
+    if (stm32::g_loopback) return stm32::g_emulated_stage.adc_code();
+    return static_cast<int32_t>(stm32::reg(stm32::adc::kAdc1 + stm32::adc::kDr) & 0xFFFFu) - 32768;
+}
+
+// DAC1 channel 1, 12-bit right aligned: the 16-bit code's top 12 bits,
+// offset binary.
+inline void dac_write(int32_t code) {
+    if (stm32::g_loopback) {
+        stm32::g_emulated_stage.dac_write(code);
+        return;
+    }
+    stm32::reg(stm32::dac::kDhr12r1) = static_cast<uint32_t>(code + 32768) >> 4;
+}
 
 }  // namespace piezoloop::bsp

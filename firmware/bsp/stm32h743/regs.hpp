@@ -1,0 +1,164 @@
+// STM32H743 registers used by this BSP, written from the reference manual
+// RM0433 (rev 8): memory map (§2.3.2), PWR (§6.8), RCC (§8.7), FLASH (§4.9),
+// SYSCFG (§12.3), GPIO (§11.4), TIM6/7 (§39.4), ADC (§25.6), DAC (§26.7),
+// USART (§48.8), OTG (§57.14). No vendor header is used. Only what the
+// firmware touches is named; offsets are from each peripheral's base.
+//
+// NOT VERIFIED ON HARDWARE HERE (no board, no emulator for this part).
+#pragma once
+
+#include <cstdint>
+
+namespace piezoloop::bsp::stm32 {
+
+inline volatile uint32_t& reg(uintptr_t address) { return *reinterpret_cast<volatile uint32_t*>(address); }
+
+// Read-modify-write of a field: clear `mask`, set `value` (already shifted).
+inline void modify(uintptr_t address, uint32_t mask, uint32_t value) {
+    reg(address) = (reg(address) & ~mask) | value;
+}
+
+// ---- power, clocks, flash -------------------------------------------------
+namespace pwr {
+inline constexpr uintptr_t kBase = 0x58024800;
+inline constexpr uintptr_t kCsr1 = kBase + 0x04;  // ACTVOSRDY bit 13
+inline constexpr uintptr_t kCr3 = kBase + 0x0C;   // BYPASS 0, LDOEN 1, SCUEN 2, USB33DEN 24, USB33RDY 26
+inline constexpr uintptr_t kD3cr = kBase + 0x18;  // VOS[15:14], VOSRDY 13
+inline constexpr uint32_t kCsr1ActVosRdy = 1u << 13;
+inline constexpr uint32_t kCr3Bypass = 1u << 0, kCr3LdoEn = 1u << 1, kCr3ScuEn = 1u << 2;
+inline constexpr uint32_t kCr3Usb33Den = 1u << 24, kCr3Usb33Rdy = 1u << 26;
+inline constexpr uint32_t kD3crVosMask = 3u << 14, kD3crVos1 = 3u << 14, kD3crVosRdy = 1u << 13;
+}  // namespace pwr
+
+namespace syscfg {
+inline constexpr uintptr_t kBase = 0x58000400;
+inline constexpr uintptr_t kPwrcr = kBase + 0x2C;  // ODEN bit 0: VOS0 (overdrive) on top of VOS1
+inline constexpr uint32_t kPwrcrOden = 1u << 0;
+}  // namespace syscfg
+
+namespace rcc {
+inline constexpr uintptr_t kBase = 0x58024400;
+inline constexpr uintptr_t kCr = kBase + 0x00;
+inline constexpr uintptr_t kCfgr = kBase + 0x10;
+inline constexpr uintptr_t kD1cfgr = kBase + 0x18;
+inline constexpr uintptr_t kD2cfgr = kBase + 0x1C;
+inline constexpr uintptr_t kD3cfgr = kBase + 0x20;
+inline constexpr uintptr_t kPllckselr = kBase + 0x28;
+inline constexpr uintptr_t kPllcfgr = kBase + 0x2C;
+inline constexpr uintptr_t kPll1divr = kBase + 0x30;
+inline constexpr uintptr_t kD1ccipr = kBase + 0x4C;
+inline constexpr uintptr_t kD2ccip2r = kBase + 0x54;
+inline constexpr uintptr_t kD3ccipr = kBase + 0x58;
+inline constexpr uintptr_t kAhb1enr = kBase + 0xD8;
+inline constexpr uintptr_t kAhb4enr = kBase + 0xE0;
+inline constexpr uintptr_t kApb1lenr = kBase + 0xE8;
+inline constexpr uintptr_t kApb4enr = kBase + 0xF4;
+
+inline constexpr uint32_t kCrHseOn = 1u << 16, kCrHseRdy = 1u << 17, kCrHseByp = 1u << 18;
+inline constexpr uint32_t kCrPll1On = 1u << 24, kCrPll1Rdy = 1u << 25;
+inline constexpr uint32_t kCfgrSwMask = 7u, kCfgrSwPll1 = 3u, kCfgrSwsShift = 3, kCfgrSwsMask = 7u << 3;
+// PLLCKSELR: PLLSRC[1:0] (2 = HSE), DIVM1[9:4].
+inline constexpr uint32_t kPllSrcHse = 2u;
+inline constexpr uint32_t kDivm1Shift = 4, kDivm1Mask = 0x3Fu << 4;
+// PLLCFGR: PLL1FRACEN 0, PLL1VCOSEL 1 (0 = wide VCO 192..960 MHz), PLL1RGE[3:2], DIVP1EN 16, DIVQ1EN 17, DIVR1EN 18.
+inline constexpr uint32_t kPll1CfgMask = 0xFu | (7u << 16);
+inline constexpr uint32_t kPll1Rge2To4MHz = 1u << 2;
+inline constexpr uint32_t kDivp1En = 1u << 16, kDivq1En = 1u << 17, kDivr1En = 1u << 18;
+// D1CFGR: HPRE[3:0] (8 = /2), D1PPRE[6:4] (4 = /2), D1CPRE[11:8] (0 = /1).
+inline constexpr uint32_t kHpreDiv2 = 8u, kD1ppreDiv2 = 4u << 4;
+// D2CFGR: D2PPRE1[6:4], D2PPRE2[10:8]; D3CFGR: D3PPRE[6:4] (4 = /2).
+inline constexpr uint32_t kD2ppre1Div2 = 4u << 4, kD2ppre2Div2 = 4u << 8, kD3ppreDiv2 = 4u << 4;
+// D2CCIP2R: USBSEL[21:20] (1 = pll1_q_ck), USART234578SEL[2:0] (0 = rcc_pclk1).
+inline constexpr uint32_t kUsbSelMask = 3u << 20, kUsbSelPll1Q = 1u << 20;
+// D3CCIPR: ADCSEL[17:16] (2 = per_ck); D1CCIPR: CKPERSEL[29:28] (0 = hsi_ker_ck).
+inline constexpr uint32_t kAdcSelMask = 3u << 16, kAdcSelPerCk = 2u << 16;
+inline constexpr uint32_t kCkperSelMask = 3u << 28;
+
+inline constexpr uint32_t kAhb1Adc12En = 1u << 5, kAhb1Usb2OtgFsEn = 1u << 27;
+inline constexpr uint32_t kAhb4GpioAEn = 1u << 0, kAhb4GpioBEn = 1u << 1, kAhb4GpioDEn = 1u << 3,
+                          kAhb4GpioEEn = 1u << 4;
+inline constexpr uint32_t kApb1lTim6En = 1u << 4, kApb1lUsart3En = 1u << 18, kApb1lDac12En = 1u << 29;
+inline constexpr uint32_t kApb4SyscfgEn = 1u << 1;
+}  // namespace rcc
+
+namespace flash {
+inline constexpr uintptr_t kAcr = 0x52002000;  // LATENCY[3:0], WRHIGHFREQ[5:4]
+inline constexpr uint32_t kLatencyMask = 0xFu, kWrHighFreqMask = 3u << 4;
+}  // namespace flash
+
+// ---- GPIO -------------------------------------------------------------------
+namespace gpio {
+inline constexpr uintptr_t kPortA = 0x58020000;
+inline constexpr uintptr_t kPortB = 0x58020400;
+inline constexpr uintptr_t kPortD = 0x58020C00;
+inline constexpr uintptr_t kPortE = 0x58021000;
+inline constexpr uintptr_t kModer = 0x00, kOtyper = 0x04, kOspeedr = 0x08, kPupdr = 0x0C, kIdr = 0x10,
+                           kOdr = 0x14, kBsrr = 0x18, kAfrl = 0x20, kAfrh = 0x24;
+inline constexpr uint32_t kModeInput = 0, kModeOutput = 1, kModeAlternate = 2, kModeAnalog = 3;
+
+inline void mode(uintptr_t port, int pin, uint32_t m) {
+    modify(port + kModer, 3u << (2 * pin), m << (2 * pin));
+}
+inline void alternate(uintptr_t port, int pin, uint32_t af) {
+    const uintptr_t r = port + (pin < 8 ? kAfrl : kAfrh);
+    const int shift = 4 * (pin & 7);
+    modify(r, 0xFu << shift, af << shift);
+    mode(port, pin, kModeAlternate);
+}
+inline void speed_very_high(uintptr_t port, int pin) { modify(port + kOspeedr, 3u << (2 * pin), 3u << (2 * pin)); }
+inline void set(uintptr_t port, int pin, bool on) { reg(port + kBsrr) = on ? (1u << pin) : (1u << (pin + 16)); }
+}  // namespace gpio
+
+// ---- TIM6 (basic timer): the tick and the ADC trigger ------------------------
+namespace tim6 {
+inline constexpr uintptr_t kBase = 0x40001000;
+inline constexpr uintptr_t kCr1 = kBase + 0x00, kCr2 = kBase + 0x04, kDier = kBase + 0x0C, kSr = kBase + 0x10,
+                           kEgr = kBase + 0x14, kCnt = kBase + 0x24, kPsc = kBase + 0x28, kArr = kBase + 0x2C;
+inline constexpr uint32_t kCr1Cen = 1u << 0, kCr1Urs = 1u << 2, kCr1Arpe = 1u << 7;
+inline constexpr uint32_t kCr2MmsUpdate = 2u << 4;  // TRGO = update event
+inline constexpr uint32_t kDierUie = 1u << 0, kSrUif = 1u << 0, kEgrUg = 1u << 0;
+}  // namespace tim6
+
+// ---- ADC1 (16-bit) ----------------------------------------------------------
+namespace adc {
+inline constexpr uintptr_t kAdc1 = 0x40022000;
+inline constexpr uintptr_t kCommon12 = 0x40022300;
+inline constexpr uintptr_t kIsr = 0x00, kIer = 0x04, kCr = 0x08, kCfgr = 0x0C, kCfgr2 = 0x10, kSmpr1 = 0x14,
+                           kSmpr2 = 0x18, kPcsel = 0x1C, kSqr1 = 0x30, kDr = 0x40;
+inline constexpr uintptr_t kCcr = 0x08;  // common: CKMODE[17:16], PRESC[21:18]
+inline constexpr uint32_t kIsrAdrdy = 1u << 0, kIsrEoc = 1u << 2, kIsrOvr = 1u << 4;
+inline constexpr uint32_t kIerEocie = 1u << 2;
+inline constexpr uint32_t kCrAden = 1u << 0, kCrAddis = 1u << 1, kCrAdstart = 1u << 2, kCrBoostMask = 3u << 8,
+                          kCrBoost25To50MHz = 3u << 8, kCrAdcallin = 1u << 16, kCrAdvregen = 1u << 28,
+                          kCrDeeppwd = 1u << 29, kCrAdcal = 1u << 31;
+// CFGR: RES[4:2] (0 = 16 bit), EXTSEL[9:5], EXTEN[11:10] (1 = rising), OVRMOD 12.
+inline constexpr uint32_t kCfgrExtselShift = 5, kCfgrExtenRising = 1u << 10, kCfgrOvrmod = 1u << 12;
+inline constexpr uint32_t kExtselTim6Trgo = 13;  // adc_ext_trg13 = tim6_trgo (RM0433, ADC1/2 external triggers)
+inline constexpr uint32_t kCcrPrescDiv2 = 1u << 18;
+}  // namespace adc
+
+// ---- DAC1 (12-bit) ----------------------------------------------------------
+namespace dac {
+inline constexpr uintptr_t kBase = 0x40007400;
+inline constexpr uintptr_t kCr = kBase + 0x00, kDhr12r1 = kBase + 0x08, kMcr = kBase + 0x3C;
+inline constexpr uint32_t kCrEn1 = 1u << 0;
+}  // namespace dac
+
+// ---- USART3 (ST-LINK virtual COM port) -------------------------------------
+namespace usart3 {
+inline constexpr uintptr_t kBase = 0x40004800;
+inline constexpr uintptr_t kCr1 = kBase + 0x00, kBrr = kBase + 0x0C, kIsr = kBase + 0x1C, kRdr = kBase + 0x24,
+                           kTdr = kBase + 0x28;
+inline constexpr uint32_t kCr1Ue = 1u << 0, kCr1Re = 1u << 2, kCr1Te = 1u << 3;
+inline constexpr uint32_t kIsrRxne = 1u << 5, kIsrTc = 1u << 6, kIsrTxe = 1u << 7;
+}  // namespace usart3
+
+// ---- Cortex-M7 core: DWT cycle counter, caches ------------------------------
+namespace core {
+inline constexpr uintptr_t kDemcr = 0xE000EDFC;  // TRCENA bit 24
+inline constexpr uintptr_t kDwtCtrl = 0xE0001000, kDwtCyccnt = 0xE0001004, kDwtLar = 0xE0001FB0;
+inline constexpr uintptr_t kScbCcr = 0xE000ED14;      // IC bit 17, DC bit 16
+inline constexpr uintptr_t kScbIciallu = 0xE000EF50;  // invalidate all I-cache
+}  // namespace core
+
+}  // namespace piezoloop::bsp::stm32
