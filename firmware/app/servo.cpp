@@ -61,8 +61,8 @@ void print_status(ControlLoop& loop, const char* reply) {
 }
 
 void wait_ticks(ControlLoop& loop, uint32_t n) {
-    const uint32_t start = loop.status().ticks;
-    while (loop.running() && loop.status().ticks - start < n) {
+    const uint32_t start = loop.ticks();
+    while (loop.running() && loop.ticks() - start < n) {
     }
 }
 
