@@ -1,0 +1,239 @@
+// `piezoloop sim`: one closed-loop run of a scenario case (configs/*.json)
+// on the host, with the SPEC §9 figures of its last (steady-state) period as
+// JSON on stdout.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "sim/build_case.hpp"
+#include "sim/experiments.hpp"
+#include "sim/plotting.hpp"
+#include "sim/scenario.hpp"
+
+namespace piezoloop::cli {
+namespace {
+
+struct SimArgs {
+    std::string scenario;
+    std::string case_name;
+    std::string trajectory = "triangle";
+    double frequency_Hz = 10.0;
+    double amplitude_um = 0.0;
+    double amplitude_V = 0.0;
+    std::string offset;  // unipolar | bipolar (default: the scenario's)
+    double duration_s = 0.0;
+    std::string fidelity = "float";
+    int substeps = 10;
+    std::string sample;  // float | q31 (default: the case's)
+    std::string out_csv;
+    int log_every = 0;
+    std::string plot;
+    bool hash_only = false;
+    bool list = false;
+};
+
+// A progress bar on stderr, only on a terminal and only once a run has
+// taken more than a second.
+class Progress {
+public:
+    Progress() : tty_(isatty(STDERR_FILENO) != 0), t0_(std::chrono::steady_clock::now()) {}
+    void update(double fraction) {
+        if (!tty_) return;
+        const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+        if (el < 1.0 && fraction < 1.0) return;
+        if (el < 1.0 && !shown_) return;
+        const int width = 40;
+        const int filled = static_cast<int>(fraction * width + 0.5);
+        std::string bar(static_cast<size_t>(filled), '#');
+        bar.resize(width, ' ');
+        const double eta = fraction > 0.0 ? el * (1.0 - fraction) / fraction : 0.0;
+        std::fprintf(stderr, "\r[%s] %3.0f%%  %.1f s left ", bar.c_str(), 100.0 * fraction, eta);
+        std::fflush(stderr);
+        shown_ = true;
+        if (fraction >= 1.0) std::fprintf(stderr, "\n");
+    }
+
+private:
+    bool tty_;
+    bool shown_ = false;
+    std::chrono::steady_clock::time_point t0_;
+};
+
+int run(const SimArgs& a) {
+    const sim::Scenario s = sim::load_scenario(a.scenario);
+    if (a.list) {
+        nlohmann::json out;
+        out["scenario"] = s.name;
+        for (const sim::CaseSpec& c : s.cases) out["cases"].push_back({{"name", c.name}, {"label", c.label}});
+        for (const sim::ExperimentSpec& e : s.experiments)
+            out["experiments"].push_back({{"name", e.name}, {"kind", e.kind}, {"title", e.title}});
+        std::cout << out.dump(1) << "\n";
+        return 0;
+    }
+    if (a.case_name.empty()) throw std::invalid_argument("--case: required (see --list)");
+    sim::CaseSpec c = s.find_case(a.case_name);
+    if (a.sample == "q31") c.sample = sim::SampleType::kQ31;
+    if (a.sample == "float") c.sample = sim::SampleType::kFloat;
+    if (c.sample == sim::SampleType::kQ31 && c.feedforward.kind == "dahl")
+        throw std::invalid_argument("--sample q31: this case uses Dahl feedforward, which runs only in the float core");
+
+    sim::TrajectoryRequest t;
+    t.waveform = a.trajectory == "sine" ? Waveform::kSine : Waveform::kTriangle;
+    t.frequency_Hz = a.frequency_Hz;
+    if ((a.amplitude_um > 0.0) == (a.amplitude_V > 0.0))
+        throw std::invalid_argument("give exactly one of --amplitude-um and --amplitude-v");
+    t.range_um = a.amplitude_um > 0.0 ? a.amplitude_um : a.amplitude_V * s.nominal_um_per_V;
+    t.unipolar = (a.offset.empty() ? s.offset : a.offset) == "unipolar";
+    const double period_s = 1.0 / a.frequency_Hz;
+    const double duration = a.duration_s > 0.0 ? a.duration_s : 2.0 * period_s;
+    if (duration < period_s * (1.0 - 1e-9))
+        throw std::invalid_argument("--duration-s: must cover at least one period (" + std::to_string(period_s) + " s)");
+    t.periods = std::max(1, static_cast<int>(std::floor(duration / period_s + 1e-9)));
+
+    sim::BuildOptions bo;
+    bo.reference_frequency_Hz = a.frequency_Hz;
+    bo.substeps = a.substeps;
+    sim::BuiltCase b = sim::build_case(s, c, bo);
+
+    const bool want_log = !a.out_csv.empty() || !a.plot.empty();
+    sim::RunOptions o = sim::plan_run(s.rate_Hz, t, 0, false);
+    if (want_log) {
+        o.log_start = 0;
+        o.log_every = a.log_every > 0 ? static_cast<uint64_t>(a.log_every) : std::max<uint64_t>(1, o.ticks / 200000);
+    }
+    o.fidelity = a.fidelity == "double" ? sim::Fidelity::kDouble : sim::Fidelity::kFloat;
+    auto progress = std::make_shared<Progress>();
+    o.progress = [progress](double f) { progress->update(f); };
+    const sim::RunResult r = sim::run_loop(b.model, o);
+
+    if (a.hash_only) {
+        std::cout << sim::hex64(r.log_hash) << "\n";
+    } else {
+        nlohmann::json out;
+        out["scenario"] = s.name;
+        out["case"] = c.name;
+        out["label"] = c.label;
+        out["fidelity"] = sim::to_string(o.fidelity);
+        if (o.fidelity == sim::Fidelity::kDouble) out["substeps"] = a.substeps;
+        out["sample"] = sim::to_string(c.sample);
+        out["loop_rate_Hz"] = s.rate_Hz;
+        out["trajectory"] = {{"waveform", a.trajectory},
+                             {"frequency_Hz", a.frequency_Hz},
+                             {"range_um", t.range_um},
+                             {"offset_um", o.wave.offset_um},
+                             {"periods", static_cast<double>(o.ticks) / static_cast<double>(o.period_ticks)}};
+        if (a.amplitude_V > 0.0) out["trajectory"]["range_piezo_V"] = a.amplitude_V;
+        out["ticks"] = r.ticks;
+        out["window_ticks"] = r.ticks - o.window_start;
+        out["hysteresis_pct"] = r.hysteresis_pct >= 0.0 ? nlohmann::json(r.hysteresis_pct) : nlohmann::json();
+        out["e_max_pct"] = r.tracking.e_max_pct;
+        out["e_rms_pct"] = r.tracking.e_rms_pct;
+        out["e_max_um"] = r.tracking.e_max_um;
+        out["e_rms_um"] = r.tracking.e_rms_um;
+        out["e_pp_um"] = r.tracking.e_pp_um;
+        out["realtime_factor"] = r.realtime_factor;
+        out["wall_s"] = r.wall_s;
+        out["log_hash"] = sim::hex64(r.log_hash);
+        out["limiter"] = {{"trip", trip_reason_name(r.trip)}, {"clamped_samples", r.clamped_samples}};
+        for (const std::string& n : b.notes) out["notes"].push_back(n);
+        if (b.dahl) {
+            const DahlParams& d = b.dahl->params;
+            out["dahl_identified"] = {{"alpha1", d.alpha1}, {"alpha2", d.alpha2}, {"beta1", d.beta1},
+                                      {"beta2", d.beta2},   {"gamma_a", d.gamma_a}, {"ga", d.ga},
+                                      {"nrmse_percent", b.dahl->fit.nrmse_percent}};
+        }
+        std::cout << out.dump(1) << "\n";
+    }
+
+    if (!a.out_csv.empty()) {
+        std::ofstream f(a.out_csv);
+        if (!f) throw std::runtime_error("--out: cannot write " + a.out_csv);
+        f << "tick,t_s,r_um,y_um,e_um,u_V,u_ff_V,u_fb_V,v_piezo_V,x_um\n";
+        const sim::RunLog& l = r.log;
+        char line[256];
+        for (size_t i = 0; i < l.tick.size(); ++i) {
+            std::snprintf(line, sizeof line, "%llu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n",
+                          static_cast<unsigned long long>(l.tick[i]), static_cast<double>(l.tick[i]) / s.rate_Hz,
+                          l.r_um[i], l.y_um[i], l.r_um[i] - l.y_um[i], l.u_V[i], l.u_ff_V[i], l.u_fb_V[i],
+                          l.v_piezo_V[i], l.x_um[i]);
+            f << line;
+        }
+    }
+    if (!a.plot.empty()) {
+        nlohmann::json spec;
+        spec["kind"] = "sim";
+        spec["output"] = std::filesystem::absolute(a.plot).string();
+        spec["title"] = s.name + ": " + c.label + ", " + a.trajectory + " " + std::to_string(a.frequency_Hz) + " Hz";
+        const sim::RunLog& l = r.log;
+        nlohmann::json t_s = nlohmann::json::array();
+        for (const uint64_t k : l.tick) t_s.push_back(static_cast<double>(k) / s.rate_Hz);
+        spec["t_s"] = t_s;
+        spec["r_um"] = l.r_um;
+        spec["y_um"] = l.y_um;
+        spec["u_V"] = l.u_V;
+        spec["window_start_s"] = static_cast<double>(o.window_start) / s.rate_Hz;
+        const std::filesystem::path tmp = std::filesystem::path(a.plot).replace_extension(".plot.json");
+        {
+            std::ofstream f(tmp);
+            f << spec.dump();
+        }
+        sim::run_plot_script(tmp);
+        std::filesystem::remove(tmp);
+    }
+    return 0;
+}
+
+}  // namespace
+
+void add_sim(CLI::App& app) {
+    auto a = std::make_shared<SimArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "sim", "Closed-loop simulation of a scenario case: SPEC §9 figures of the last period as JSON");
+    cmd->add_option("--scenario", a->scenario, "scenario file (configs/*.json)")->required()->check(CLI::ExistingFile);
+    cmd->add_option("--case", a->case_name, "controller case of the scenario (see --list)");
+    cmd->add_flag("--list", a->list, "list the scenario's cases and experiments");
+    cmd->add_option("--trajectory", a->trajectory, "reference waveform")->check(CLI::IsMember({"triangle", "sine"}));
+    cmd->add_option("--frequency-hz", a->frequency_Hz, "reference frequency")->check(CLI::Range(1e-4, 5e5));
+    cmd->add_option("--amplitude-um", a->amplitude_um, "reference range, peak-to-peak (um)")
+        ->check(CLI::Range(1e-6, 1e3));
+    cmd->add_option("--amplitude-v", a->amplitude_V,
+                    "reference range as peak-to-peak piezo voltage (V), converted at the stage's mean slope")
+        ->check(CLI::Range(1e-6, 1e4));
+    cmd->add_option("--offset", a->offset, "unipolar: from 0 up; bipolar: centred on 0 (default: the scenario's)")
+        ->check(CLI::IsMember({"unipolar", "bipolar"}));
+    cmd->add_option("--duration-s", a->duration_s, "simulated time (default two periods; the last full period is measured)")
+        ->check(CLI::Range(1e-6, 1e4));
+    cmd->add_option("--fidelity", a->fidelity, "float: the boards' stage model; double: continuous sub-steps")
+        ->check(CLI::IsMember({"float", "double"}));
+    cmd->add_option("--substeps", a->substeps, "double fidelity: sub-steps per tick")->check(CLI::Range(1, 10000));
+    cmd->add_option("--sample", a->sample, "core sample type (default: the case's)")
+        ->check(CLI::IsMember({"float", "q31"}));
+    cmd->add_option("--out", a->out_csv, "write the log as CSV");
+    cmd->add_option("--log-every", a->log_every, "log every N-th tick (default: at most 200000 rows)")
+        ->check(CLI::Range(1, 1 << 30));
+    cmd->add_option("--plot", a->plot, "draw r, y, e and the loop to a PNG (tools/plot_sim.py)");
+    cmd->add_flag("--hash", a->hash_only, "print only the log hash of r, y, u (compare with the board self-test)");
+    cmd->callback([a] {
+        try {
+            run(*a);
+        } catch (const std::exception& e) {
+            std::fprintf(stderr, "error: %s\n", e.what());
+            throw CLI::RuntimeError(1);
+        }
+    });
+}
+
+namespace {
+const bool registered = register_command(40, add_sim);
+}  // namespace
+
+}  // namespace piezoloop::cli

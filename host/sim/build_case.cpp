@@ -1,0 +1,341 @@
+#include "sim/build_case.hpp"
+
+#include <cmath>
+#include <complex>
+#include <sstream>
+#include <stdexcept>
+
+#include "piezoloop/pi_inverse.hpp"
+#include "sim/design_bridge.hpp"
+#include "status_text.hpp"
+
+namespace piezoloop::sim {
+
+namespace {
+
+float f32(double x) { return static_cast<float>(x); }
+
+std::string num(double x, int digits = 4) {
+    std::ostringstream s;
+    s.precision(digits);
+    s << x;
+    return s.str();
+}
+
+[[noreturn]] void fail(const std::string& path, const Status& s) {
+    std::string text = path;
+    if (!text.empty()) text += ".";
+    text += describe(s);
+    throw ScenarioError(text);
+}
+
+PlantConfig hysteresis_config(const HysteresisSpec& h) {
+    PlantConfig p{};
+    p.hysteresis = h.core;
+    p.pi = h.pi;
+    p.dahl = h.dahl;
+    p.linear_gain_um_per_V = f32(h.gain_um_per_V);
+    return p;
+}
+
+std::complex<double> sos_response(const PipelineParams& p, double f_Hz, double rate_Hz, bool as_float) {
+    const std::complex<double> z1 = std::polar(1.0, -2.0 * M_PI * f_Hz / rate_Hz);
+    std::complex<double> h = 1.0;
+    for (int i = 0; i < p.sos_count; ++i) {
+        SosSection c = p.sos[static_cast<size_t>(i)];
+        if (as_float) {
+            c = SosSection{static_cast<float>(c.b0), static_cast<float>(c.b1), static_cast<float>(c.b2),
+                           static_cast<float>(c.a1), static_cast<float>(c.a2)};
+        }
+        h *= (c.b0 + c.b1 * z1 + c.b2 * z1 * z1) / (1.0 + c.a1 * z1 + c.a2 * z1 * z1);
+    }
+    return h;
+}
+
+// How far the float32 coefficients move the controller's response from the
+// double-precision sections (the float core's realisation error).
+std::string realisation_note(const PipelineParams& p, double rate_Hz) {
+    std::string worst;
+    double worst_err = 0.0;
+    std::string text = "float32 sections against the double design:";
+    for (const double f : {1.0, 10.0, 100.0, 1000.0}) {
+        if (!(f < 0.5 * rate_Hz)) continue;
+        const auto hd = sos_response(p, f, rate_Hz, false), hf = sos_response(p, f, rate_Hz, true);
+        const double err = std::abs(hf - hd) / std::abs(hd);
+        text += " " + num(100.0 * err, 2) + " % at " + num(f) + " Hz,";
+        worst_err = std::max(worst_err, err);
+    }
+    text.back() = '.';
+    if (worst_err > 0.01)
+        text += " (poles close to z = 1 are moved by the rounding of a1, a2; the Q31 core keeps them, see "
+                "tests/unit/test_biquad.cpp)";
+    return text;
+}
+
+}  // namespace
+
+PiModel inverse_compensator(const HysteresisSpec& h, double amplifier_gain, std::string& note) {
+    if (h.core == HysteresisKind::kDahl) throw ScenarioError(h.path + ": pi_inverse needs a PI (or linear) hysteresis");
+    PiModel inv{};
+    if (h.core == HysteresisKind::kNone) {
+        inv.p0 = f32(1.0);
+    } else if (const Status s = invert_pi(h.plain, inv); !s.ok()) {
+        fail(h.path, s);
+    }
+    // x = out * plain(a v + b), v = G u  =>  u = (plain^-1(x / out) - b) / (a G)
+    const double a = h.in_gain, g = amplifier_gain;
+    PiModel c = inv;
+    c.input_gain = f32(1.0 / h.out_gain);
+    c.input_offset = 0.0f;
+    c.p0 = f32(inv.p0 / (a * g));
+    for (int j = 0; j < c.count; ++j) c.weights[static_cast<size_t>(j)] = f32(inv.weights[static_cast<size_t>(j)] / (a * g));
+    if (h.in_offset != 0.0)
+        note = "the inverse omits the model's constant input offset (" + num(-h.in_offset / (a * g)) +
+               " V of command); the feedback's integral action takes it up";
+    return c;
+}
+
+void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& out, int* sections) {
+    const PlantSpec& p = s.plant;
+    const HysteresisSpec& h = c && c->plant_hysteresis ? *c->plant_hysteresis : p.hysteresis;
+    StageConfig st{};
+    st.rate_Hz = f32(s.rate_Hz);
+    st.dac = p.dac;
+    st.amplifier = p.amplifier;
+    st.sensor = p.sensor;
+    st.adc = p.adc;
+    st.plant = hysteresis_config(h);
+    DoubleStageConfig d{};
+    d.rate_Hz = s.rate_Hz;
+    d.substeps = substeps;
+    d.dac = p.dac;
+    d.amplifier = p.amplifier;
+    d.hysteresis = h.core;
+    d.pi = h.pi;
+    d.dahl = h.dahl;
+    d.linear_gain_um_per_V = h.gain_um_per_V;
+    d.sensor = p.sensor;
+    d.adc = p.adc;
+    if (p.dynamics) {
+        const std::string where = p.dynamics->path.empty() ? "plant.dynamics" : p.dynamics->path;
+        const bool advance = p.discretisation != "tustin";
+        const std::vector<SosSection> sos =
+            discretise_sos(p.dynamics->zpk, s.rate_Hz, p.discretisation, 0.0, advance, where, kMaxPlantSections);
+        if (sos.size() > static_cast<size_t>(kMaxPlantSections))
+            throw ScenarioError(where + ": at most " + std::to_string(kMaxPlantSections) +
+                                " biquad sections (order 12) in the float stage");
+        st.plant.sections = static_cast<int>(sos.size());
+        for (size_t i = 0; i < sos.size(); ++i) st.plant.dynamics[i] = sos[i];
+        d.dynamics = state_space(p.dynamics->zpk);
+        if (sections) *sections = static_cast<int>(sos.size());
+    }
+    StageModel probe;
+    if (const Status e = probe.configure(st); !e.ok()) fail("plant", e);
+    out.stage = st;
+    out.stage_double = d;
+}
+
+const DahlIdentification& DahlCache::get(const Scenario& s, const CaseSpec& c, int substeps) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const std::string key = s.name + "/" + c.name;
+    if (const auto it = done_.find(key); it != done_.end()) return it->second;
+    const DahlIdentifySpec& id = *c.feedforward.identify;
+    // Open loop on the case's stage: the command is a triangle from 0 V to
+    // A / G (A peak-to-peak on the piezo), the reading is the measured
+    // displacement. The core's trajectory generator makes the triangle, a
+    // unit gain "feedforward" passes it to the DAC (r read as volts).
+    LoopModel m;
+    build_stage(s, &c, substeps, m);
+    m.setup = s.setup;
+    m.setup.position = SignalScale{1.0f};
+    m.params = PipelineParams{};
+    m.params.feedforward = FeedforwardKind::kPiCompensator;
+    m.params.pi = PiModel{};
+    m.params.pi.p0 = 1.0f;
+    m.params.limits = s.limits;
+    m.sample = SampleType::kFloat;
+    std::vector<double> u, y;
+    const double g = s.plant.amplifier.gain;
+    const uint64_t period = static_cast<uint64_t>(std::llround(s.rate_Hz / id.frequency_Hz));
+    for (const double a : id.amplitudes_V) {
+        RunOptions o;
+        o.wave.waveform = Waveform::kTriangle;
+        o.wave.frequency_Hz = f32(id.frequency_Hz);
+        o.wave.amplitude_um = f32(0.5 * a / g);
+        o.wave.offset_um = f32(0.5 * a / g);
+        o.ticks = period * static_cast<uint64_t>(id.cycles);
+        o.window_start = 0;
+        o.log_start = 0;
+        o.log_every = 1;
+        const RunResult r = run_loop(m, o);
+        // u_k is applied during tick k and read back at tick k + 1: pair
+        // (u_k, y_{k+1}), every `decimate`-th tick.
+        for (size_t k = 0; k + 1 < r.log.u_V.size(); k += static_cast<size_t>(id.decimate)) {
+            u.push_back(r.log.u_V[k]);
+            y.push_back(r.log.y_um[k + 1]);
+        }
+    }
+    design::DahlFitOptions fo;
+    fo.gamma_a = id.gamma_a;
+    fo.input_name = "u";
+    fo.output_name = "y";
+    DahlIdentification d;
+    try {
+        d.fit = design::fit_dahl(u, y, fo);
+    } catch (const std::exception& e) {
+        throw ScenarioError(c.feedforward.path + ".identify: the Dahl fit refused the loops: " + e.what());
+    }
+    d.params = d.fit.params_float;
+    d.samples = u.size();
+    std::string amps;
+    for (const double a : id.amplitudes_V) amps += (amps.empty() ? "" : ", ") + num(a);
+    d.data = num(id.frequency_Hz) + " Hz triangles of " + amps + " V peak-to-peak on the piezo, " +
+             std::to_string(id.cycles) + " cycles each from rest, every " + std::to_string(id.decimate) +
+             "th tick (" + std::to_string(u.size()) + " samples of command u and measured y)";
+    return done_.emplace(key, d).first->second;
+}
+
+BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o, DahlCache* cache) {
+    BuiltCase b;
+    LoopModel& m = b.model;
+    build_stage(s, &c, o.substeps, m, &b.plant_sections);
+    m.setup = s.setup;
+    m.sample = c.sample;
+    PipelineParams& p = m.params;
+    p = PipelineParams{};
+    p.limits = s.limits;
+    const double g = s.plant.amplifier.gain;
+
+    // Feedforward.
+    const FeedforwardSpec& ff = c.feedforward;
+    if (ff.kind == "gain") {
+        p.feedforward = FeedforwardKind::kPiCompensator;
+        p.pi = PiModel{};
+        p.pi.p0 = f32(ff.V_per_um);
+    } else if (ff.kind == "pi_inverse") {
+        const HysteresisSpec& h = ff.of == "plant" && c.plant_hysteresis ? *c.plant_hysteresis : s.plant.hysteresis;
+        std::string note;
+        const PiModel inv = inverse_compensator(h, g, note);
+        if (!note.empty()) b.notes.push_back(note);
+        if (ff.placement == "series") {
+            // u = P^-1(r + slope * u_fb): the pipeline passes r through and
+            // its feedback works in µm (volts at the mean slope); the inverse
+            // runs after it on the host.
+            m.series = true;
+            m.series_pi = inv;
+            m.series_u_min_V = s.limits.u_min_V;
+            m.series_u_max_V = s.limits.u_max_V;
+            p.feedforward = FeedforwardKind::kPiCompensator;
+            p.pi = PiModel{};
+            p.pi.p0 = 1.0f;
+            b.notes.push_back("inverse in series after the controller (Shan2012's structure): u = P^-1(r + " +
+                              num(s.command_um_per_V()) +
+                              " um/V * u_fb); the core's pipeline has no such placement, so the inverse runs "
+                              "on the host after the pipeline (same PiOperator code)");
+        } else {
+            p.feedforward = FeedforwardKind::kPiCompensator;
+            p.pi = inv;
+        }
+    } else if (ff.kind == "pi_compensator") {
+        p.feedforward = FeedforwardKind::kPiCompensator;
+        p.pi = ff.pi;
+    } else if (ff.kind == "dahl") {
+        p.feedforward = FeedforwardKind::kDahl;
+        if (ff.dahl) {
+            p.dahl = *ff.dahl;
+        } else {
+            DahlCache local;
+            DahlCache& dc = cache ? *cache : local;
+            const DahlIdentification& d = dc.get(s, c, o.substeps);
+            p.dahl = d.params;
+            b.dahl = d;
+        }
+    }
+
+    // Feedback, in the controller's error unit: gains scaled to µm.
+    const FeedbackSpec& fb = c.feedback;
+    // In series placement the controller's volts become µm at the mean slope.
+    const double out = m.series ? s.command_um_per_V() : 1.0;
+    const double k = fb.error_per_um * out;
+    if (fb.kind == "pid") {
+        p.feedback = FeedbackKind::kPid;
+        p.pid = fb.pid;
+        p.pid.kp = f32(fb.pid.kp * k);
+        p.pid.ki_per_s = f32(fb.pid.ki_per_s * k);
+        p.pid.kd_s = f32(fb.pid.kd_s * k);
+        p.pid.u_min = f32(fb.pid.u_min * out);
+        p.pid.u_max = f32(fb.pid.u_max * out);
+        // Without derivative action its filter is idle; give it a valid cutoff.
+        if (p.pid.kd_s == 0.0f && p.pid.derivative_cutoff_Hz == 0.0f) p.pid.derivative_cutoff_Hz = f32(0.25 * s.rate_Hz);
+    } else if (fb.kind == "lti") {
+        design::Zpk z = fb.model->zpk;
+        z.gain *= k;
+        const std::vector<SosSection> sos =
+            discretise_sos(z, s.rate_Hz, fb.method, fb.prewarp_Hz, false, fb.path + ".model", kMaxControllerSections);
+        if (sos.size() > static_cast<size_t>(kMaxControllerSections))
+            throw ScenarioError(fb.path + ".model: at most " + std::to_string(kMaxControllerSections) +
+                                " biquad sections (order 8) in the core's feedback");
+        p.feedback = FeedbackKind::kSos;
+        p.sos_count = static_cast<int>(sos.size());
+        for (size_t i = 0; i < sos.size(); ++i) p.sos[i] = sos[i];
+        b.controller_sections = p.sos_count;
+        if (c.sample == SampleType::kFloat) b.notes.push_back(realisation_note(p, s.rate_Hz));
+    }
+
+    // Repetitive control.
+    if (c.rc.enabled) {
+        p.rc_enabled = true;
+        p.rc = c.rc.rc;
+        int n = c.rc.period_samples;
+        if (n == 0) {
+            if (!(o.reference_frequency_Hz > 0.0))
+                throw ScenarioError(c.rc.path + ".period_samples: \"auto\" needs a periodic reference");
+            const double exact = s.rate_Hz / o.reference_frequency_Hz;
+            n = static_cast<int>(std::llround(exact));
+            if (std::fabs(exact - n) > 1e-6 * exact)
+                throw ScenarioError(c.rc.path + ".period_samples: rate / reference frequency = " + num(exact, 8) +
+                                    " is not a whole number of ticks");
+            if (n < 2 || n > kSimRcCapacity)
+                throw ScenarioError(c.rc.path + ".period_samples: rate / reference frequency = " +
+                                    std::to_string(n) + " must be in [2, " + std::to_string(kSimRcCapacity) + "]");
+        }
+        p.rc.period_samples = n;
+        if (const Status e = RepetitiveController<float, kSimRcCapacity>::validate(p.rc); !e.ok()) fail(c.rc.path, e);
+    }
+
+    if (m.series) {
+        // The pipeline's limiter now bounds the displacement command; the
+        // real voltage limits are applied after the inverse.
+        const double sl = s.command_um_per_V();
+        m.setup.hard = HardLimits{f32(s.setup.hard.u_min_V * sl), f32(s.setup.hard.u_max_V * sl),
+                                  f32(s.setup.hard.slew_max_V_per_s * sl)};
+        m.setup.voltage = SignalScale{f32(s.setup.voltage.full_scale * sl)};
+        p.limits = LimitsConfig{f32(s.limits.u_min_V * sl), f32(s.limits.u_max_V * sl),
+                                f32(s.limits.slew_V_per_s * sl), s.limits.saturation_trip_s};
+    }
+
+    // Whole-set validation by the core (e.g. float rounding of sections);
+    // its groups named as the scenario file names them.
+    auto check = [&](auto* pipe) {
+        Status e = pipe->validate(p);
+        if (e.ok()) return;
+        const std::string group = e.group ? e.group : "";
+        std::string where = c.path + ".controller";
+        if (group == "pid" || group == "sos") where += ".feedback";
+        else if (group == "pi" || group == "dahl") where += ".feedforward";
+        else if (group == "rc") where += ".rc";
+        else if (group == "limits") where = "loop.limits";
+        if (where != c.path + ".controller" || group.empty()) e.group = nullptr;
+        fail(where, e);
+    };
+    if (c.sample == SampleType::kQ31) {
+        auto pipe = std::make_unique<Pipeline<Q31, kSimRcCapacity>>(m.setup);
+        check(pipe.get());
+    } else {
+        auto pipe = std::make_unique<Pipeline<float, kSimRcCapacity>>(m.setup);
+        check(pipe.get());
+    }
+    return b;
+}
+
+}  // namespace piezoloop::sim

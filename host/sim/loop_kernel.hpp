@@ -1,0 +1,64 @@
+// The inner loop of a closed-loop simulation, header-only and built from the
+// core alone, so that the simulator (sim/closed_loop.cpp) and the benchmark
+// (bench/bench_sim.cpp) time exactly the same code.
+//
+//   tick k:  y_k -> Pipeline::tick -> u_k  [-> series inverse] -> stage.step
+//            -> reading latched -> y_{k+1} = reading / sensor gain
+//
+// One tick of compute delay, as on the emulated boards. y_0 = 0.
+#pragma once
+
+#include <cstdint>
+
+#include "piezoloop/pi_model.hpp"
+#include "piezoloop/pipeline.hpp"
+#include "piezoloop/reference_run.hpp"
+#include "piezoloop/sample.hpp"
+
+namespace piezoloop::sim {
+
+// Shan2012's placement of the inverse: in series after the controller,
+// u_V = clamp(P^-1(u_c)), where u_c is the pipeline's output read as a
+// displacement command (µm). Runs the core's PiOperator<float> on the host.
+struct SeriesInverse {
+    PiOperator<float>* op = nullptr;  // null: none
+    float u_min_V = 0.0f, u_max_V = 0.0f;
+};
+
+struct TickView {
+    uint64_t k;
+    float r_um, y_um;  // reference and the reading the controller used
+    float u_V;         // command applied to the stage during this tick
+};
+
+// Runs `ticks` ticks. observe(const TickView&, const TickSignals<T>&, const
+// Stage&) is called after the stage has been stepped with u_k (so the
+// stage's piezo voltage and displacement are those of tick k). With `hash`,
+// r, y, u of every tick (core sample type, u as the pipeline output) are
+// folded into it.
+template <class T, class PipelineT, class Stage, class Observer>
+inline void run_ticks(PipelineT& pipe, Stage& stage, float sensor_gain, uint64_t ticks, SeriesInverse series,
+                      reference::LogHash* hash, Observer&& observe) {
+    const SignalScale pos = pipe.setup().position, volt = pipe.setup().voltage;
+    float y_um = 0.0f;
+    for (uint64_t k = 0; k < ticks; ++k) {
+        const T y = pos.to_sample<T>(y_um);
+        const T u = pipe.tick(y);
+        const TickSignals<T>& sig = pipe.last();
+        if (hash) {
+            hash->add_sample(sig.r);
+            hash->add_sample(y);
+            hash->add_sample(u);
+        }
+        float u_V = volt.to_physical(u);
+        if (series.op) {
+            u_V = series.op->apply(u_V);
+            u_V = u_V < series.u_min_V ? series.u_min_V : (u_V > series.u_max_V ? series.u_max_V : u_V);
+        }
+        const float reading = stage.step(u_V);
+        observe(TickView{k, pos.to_physical(sig.r), pos.to_physical(y), u_V}, sig, stage);
+        y_um = sensor_gain == 1.0f ? reading : reading / sensor_gain;
+    }
+}
+
+}  // namespace piezoloop::sim

@@ -1,0 +1,446 @@
+#include "sim/scenario.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "piezoloop/pi_generalized.hpp"
+#include "piezoloop/pi_inverse.hpp"
+#include "sim/design_bridge.hpp"
+
+namespace piezoloop::sim {
+
+namespace {
+
+float f32(double x) { return static_cast<float>(x); }
+
+// ---- plant ---------------------------------------------------------------
+
+ConverterConfig parse_converter(const Field& f) {
+    f.only({"bits", "min", "max"});
+    ConverterConfig c{};
+    c.bits = f["bits"].integer(0, 24);
+    c.min = f32(f["min"].number());
+    c.max = f32(f["max"].number());
+    Converter probe;
+    f.check(probe.configure(c));
+    return c;
+}
+
+AmplifierConfig parse_amplifier(const Field& f) {
+    f.only({"gain", "input_min_V", "input_max_V", "output_min_V", "output_max_V", "bandwidth_Hz"});
+    AmplifierConfig a{};
+    a.gain = f32(f["gain"].number());
+    if (!(a.gain > 0.0f)) f["gain"].fail("must be > 0");
+    a.input_min_V = f32(f["input_min_V"].number());
+    a.input_max_V = f32(f["input_max_V"].number());
+    if (!(a.input_min_V < a.input_max_V)) f["input_max_V"].fail("must be > input_min_V");
+    a.output_min_V = f32(f["output_min_V"].number());
+    a.output_max_V = f32(f["output_max_V"].number());
+    if (!(a.output_min_V < a.output_max_V)) f["output_max_V"].fail("must be > output_min_V");
+    a.bandwidth_Hz = f32(f.number("bandwidth_Hz", 0.0));
+    if (a.bandwidth_Hz < 0.0f) f["bandwidth_Hz"].fail("must be >= 0 (0: none)");
+    return a;
+}
+
+SensorConfig parse_sensor(const Field& f) {
+    f.only({"gain_per_um", "bandwidth_Hz", "noise_rms", "seed"});
+    SensorConfig s{};
+    s.gain = f32(f["gain_per_um"].number());
+    if (s.gain == 0.0f) f["gain_per_um"].fail("must be non-zero");
+    s.bandwidth_Hz = f32(f.number("bandwidth_Hz", 0.0));
+    if (s.bandwidth_Hz < 0.0f) f["bandwidth_Hz"].fail("must be >= 0 (0: none)");
+    s.noise_rms = f32(f.number("noise_rms", 0.0));
+    if (s.noise_rms < 0.0f) f["noise_rms"].fail("must be >= 0");
+    if (const auto seed = f.get("seed")) s.seed = static_cast<uint32_t>(seed->integer(1, 2147483647));
+    return s;
+}
+
+PiModel scaled(PiModel m, double out_gain) {
+    m.p0 = f32(m.p0 * out_gain);
+    for (int j = 0; j < m.count; ++j)
+        m.weights[static_cast<size_t>(j)] = f32(m.weights[static_cast<size_t>(j)] * out_gain);
+    return m;
+}
+
+}  // namespace
+
+HysteresisSpec parse_hysteresis(const Field& f) {
+    HysteresisSpec h;
+    h.path = f.path();
+    h.kind = f["kind"].choice({"none", "pi", "shan_pi", "dahl"});
+    if (h.kind == "none") {
+        f.only({"kind", "gain_um_per_V", "note"});
+        h.core = HysteresisKind::kNone;
+        h.gain_um_per_V = f["gain_um_per_V"].number();
+        h.plain.p0 = 1.0f;
+        h.out_gain = h.gain_um_per_V;
+    } else if (h.kind == "pi") {
+        // Thresholds in piezo volts, weights in µm/V; without p0 the SPEC §3
+        // rule applies (a first threshold above 0 is the linear term).
+        f.only({"kind", "thresholds_V", "weights_um_per_V", "p0_um_per_V", "note"});
+        const std::vector<double> r = f["thresholds_V"].numbers();
+        const std::vector<double> p = f["weights_um_per_V"].numbers();
+        if (r.size() != p.size()) f["weights_um_per_V"].fail("must have as many entries as thresholds_V");
+        if (r.size() > static_cast<size_t>(kMaxPlayOperators) + 1)
+            f["thresholds_V"].fail("at most 16 play operators (17 without p0)");
+        std::vector<float> rf(r.begin(), r.end()), pf(p.begin(), p.end());
+        float p0 = 0.0f;
+        const auto p0f = f.get("p0_um_per_V");
+        if (p0f) p0 = f32(p0f->number());
+        PiModel m{};
+        f.check(pi_model_from_lists(rf.data(), pf.data(), static_cast<int>(rf.size()), p0f ? &p0 : nullptr, m));
+        h.core = HysteresisKind::kPi;
+        h.pi = m;
+        h.plain = m;
+    } else if (h.kind == "shan_pi") {
+        // Shan2012 eq. 4-5 in its own units: model input = input_per_V * piezo
+        // voltage, displacement = output_um * model output.
+        f.only({"kind", "g0", "g1", "lambda", "delta", "rho", "count", "input_per_V", "output_um", "note"});
+        GeneralizedPi g{};
+        g.g0 = f["g0"].number();
+        g.g1 = f["g1"].number();
+        g.lambda = f["lambda"].number();
+        g.delta = f["delta"].number();
+        g.rho = f["rho"].number();
+        g.count = f["count"].integer(1, kMaxPlayOperators);
+        const double in = f["input_per_V"].number();
+        const double out = f["output_um"].number();
+        if (!(in > 0.0)) f["input_per_V"].fail("must be > 0");
+        if (!(out > 0.0)) f["output_um"].fail("must be > 0");
+        PiModel m{};
+        f.check(shan_forward_model(g, m));
+        h.plain = m;
+        h.plain.input_gain = 1.0f;
+        h.plain.input_offset = 0.0f;
+        h.in_gain = g.g0 * in;
+        h.in_offset = g.g1;
+        h.out_gain = out;
+        m.input_gain = f32(g.g0 * in);
+        h.pi = scaled(m, out);
+        h.core = HysteresisKind::kPi;
+    } else {
+        f.only({"kind", "alpha1", "alpha2", "beta1", "beta2", "gamma_a", "ga", "note"});
+        DahlParams d{};
+        d.alpha1 = f32(f["alpha1"].number());
+        d.alpha2 = f32(f["alpha2"].number());
+        d.beta1 = f32(f["beta1"].number());
+        d.beta2 = f32(f["beta2"].number());
+        d.gamma_a = f32(f["gamma_a"].number());
+        d.ga = f32(f["ga"].number());
+        f.check(validate(d));
+        h.core = HysteresisKind::kDahl;
+        h.dahl = d;
+    }
+    return h;
+}
+
+namespace {
+
+PlantSpec parse_plant(const Field& f, const std::filesystem::path& base) {
+    f.only({"dac", "amplifier", "hysteresis", "dynamics", "sensor", "adc", "note"});
+    PlantSpec p;
+    p.dac = parse_converter(f["dac"]);
+    p.amplifier = parse_amplifier(f["amplifier"]);
+    p.hysteresis = parse_hysteresis(f["hysteresis"]);
+    if (const auto d = f.get("dynamics")) {
+        d->only({"model", "normalise_dc", "discretisation", "note"});
+        LinearSpec lin = read_linear_model((*d)["model"], base);
+        if (design::is_discrete(lin.zpk.ts)) (*d)["model"].fail("the plant dynamics must be continuous (no ts)");
+        const bool normalise = d->get("normalise_dc") ? (*d)["normalise_dc"].boolean() : false;
+        if (normalise) lin.zpk = normalise_dc_gain(lin.zpk, (*d)["model"]);
+        p.dynamics = lin;
+        if (const auto m = d->get("discretisation")) p.discretisation = m->choice({"zoh", "tustin", "matched"});
+    }
+    p.sensor = parse_sensor(f["sensor"]);
+    p.adc = parse_converter(f["adc"]);
+    return p;
+}
+
+// ---- controller ----------------------------------------------------------
+
+FeedforwardSpec parse_feedforward(const Field& f) {
+    FeedforwardSpec s;
+    s.path = f.path();
+    s.kind = f["kind"].choice({"none", "gain", "pi_inverse", "pi_compensator", "dahl"});
+    if (s.kind == "none") {
+        f.only({"kind"});
+    } else if (s.kind == "gain") {
+        f.only({"kind", "V_per_um"});
+        s.V_per_um = f["V_per_um"].number();
+    } else if (s.kind == "pi_inverse") {
+        f.only({"kind", "of", "placement"});
+        if (const auto o = f.get("of")) s.of = o->choice({"base", "plant"});
+        if (const auto p = f.get("placement")) s.placement = p->choice({"feedforward", "series"});
+    } else if (s.kind == "pi_compensator") {
+        // A compensator given directly, r (µm) -> u (V).
+        f.only({"kind", "thresholds_um", "weights_V_per_um", "p0_V_per_um"});
+        const std::vector<double> r = f["thresholds_um"].numbers();
+        const std::vector<double> p = f["weights_V_per_um"].numbers();
+        if (r.size() != p.size()) f["weights_V_per_um"].fail("must have as many entries as thresholds_um");
+        if (r.size() > static_cast<size_t>(kMaxPlayOperators)) f["thresholds_um"].fail("at most 16 play operators");
+        std::vector<float> rf(r.begin(), r.end()), pf(p.begin(), p.end());
+        const float p0 = f32(f["p0_V_per_um"].number());
+        f.check(pi_model_from_lists(rf.data(), pf.data(), static_cast<int>(rf.size()), &p0, s.pi));
+    } else {
+        f.only({"kind", "params", "identify"});
+        const auto params = f.get("params");
+        const auto ident = f.get("identify");
+        if (!!params == !!ident) f.fail("dahl feedforward needs exactly one of params or identify");
+        if (params) {
+            HysteresisSpec h = parse_hysteresis(*params);
+            if (h.kind != "dahl") (*params)["kind"].fail("must be dahl");
+            s.dahl = h.dahl;
+        } else {
+            const Field& i = *ident;
+            i.only({"frequency_Hz", "amplitudes_V", "cycles", "gamma_a", "decimate"});
+            DahlIdentifySpec d;
+            d.frequency_Hz = i["frequency_Hz"].number_in(1e-3, 1e4);
+            d.amplitudes_V = i["amplitudes_V"].numbers();
+            if (d.amplitudes_V.empty()) i["amplitudes_V"].fail("must not be empty");
+            for (size_t k = 0; k < d.amplitudes_V.size(); ++k)
+                if (!(d.amplitudes_V[k] > 0.0)) i["amplitudes_V"].at(k).fail("must be > 0");
+            if (const auto c = i.get("cycles")) d.cycles = c->integer(1, 100);
+            if (const auto g = i.get("gamma_a")) d.gamma_a = g->number();
+            if (const auto dd = i.get("decimate")) d.decimate = dd->integer(1, 10000);
+            s.identify = d;
+        }
+    }
+    return s;
+}
+
+FeedbackSpec parse_feedback(const Field& f, const std::filesystem::path& base) {
+    FeedbackSpec s;
+    s.path = f.path();
+    s.kind = f["kind"].choice({"none", "pid", "lti"});
+    if (s.kind == "none") {
+        f.only({"kind"});
+        return s;
+    }
+    if (const auto e = f.get("error_per_um")) {
+        s.error_per_um = e->number();
+        if (!(s.error_per_um > 0.0)) e->fail("must be > 0");
+    }
+    if (s.kind == "pid") {
+        f.only({"kind", "error_per_um", "kp", "ki_per_s", "kd_s", "derivative_cutoff_Hz", "u_min_V", "u_max_V"});
+        s.pid.kp = f32(f["kp"].number());
+        s.pid.ki_per_s = f32(f.number("ki_per_s", 0.0));
+        s.pid.kd_s = f32(f.number("kd_s", 0.0));
+        s.pid.derivative_cutoff_Hz = f32(f.number("derivative_cutoff_Hz", 0.0));
+        s.pid.u_min = f32(f["u_min_V"].number());
+        s.pid.u_max = f32(f["u_max_V"].number());
+    } else {
+        f.only({"kind", "error_per_um", "model", "method", "prewarp_Hz"});
+        s.model = read_linear_model(f["model"], base);
+        if (design::is_discrete(s.model->zpk.ts)) f["model"].fail("must be continuous (no ts): it is discretised at the loop rate");
+        if (const auto m = f.get("method")) s.method = m->choice({"tustin", "zoh", "matched"});
+        if (const auto w = f.get("prewarp_Hz")) s.prewarp_Hz = w->number_in(0.0, 1e9);
+    }
+    return s;
+}
+
+RcSpec parse_rc(const Field& f) {
+    f.only({"period_samples", "m1", "m2", "k_rc", "q"});
+    RcSpec s;
+    s.path = f.path();
+    s.enabled = true;
+    s.rc = RepetitiveConfig{};
+    if (const auto n = f.get("period_samples")) {
+        if (n->is_string()) {
+            if (n->string() != "auto") n->fail("must be an integer or \"auto\" (loop rate / reference frequency)");
+        } else {
+            s.period_samples = n->integer(2, kSimRcCapacity);
+        }
+    }
+    if (const auto m = f.get("m1")) s.rc.m1 = m->integer(0, kSimRcCapacity);
+    if (const auto m = f.get("m2")) s.rc.m2 = m->integer(0, kSimRcCapacity);
+    if (const auto k = f.get("k_rc")) s.rc.k_rc = f32(k->number());
+    if (!(s.rc.k_rc > 0.0f && s.rc.k_rc < 2.0f)) f["k_rc"].fail("must be in (0, 2)");
+    if (const auto q = f.get("q")) {
+        q->only({"b0", "b1", "b2", "a1", "a2"});
+        s.rc.q = SosSection{q->number("b0", 0.0), q->number("b1", 0.0), q->number("b2", 0.0), q->number("a1", 0.0),
+                            q->number("a2", 0.0)};
+    }
+    // Everything but N is checked now; N (when auto) at build time.
+    RepetitiveConfig probe = s.rc;
+    probe.period_samples = s.period_samples != 0 ? s.period_samples : kSimRcCapacity;
+    f.check(RepetitiveController<float, kSimRcCapacity>::validate(probe));
+    return s;
+}
+
+CaseSpec parse_case(const Field& f, const std::filesystem::path& base) {
+    f.only({"name", "label", "sample", "plant", "controller", "note"});
+    CaseSpec c;
+    c.path = f.path();
+    c.name = f["name"].string();
+    if (c.name.empty()) f["name"].fail("must not be empty");
+    c.label = f.string("label", c.name);
+    c.note = f.string("note", "");
+    if (const auto s = f.get("sample")) c.sample = s->choice({"float", "q31"}) == "q31" ? SampleType::kQ31 : SampleType::kFloat;
+    if (const auto p = f.get("plant")) {
+        p->only({"hysteresis"});
+        c.plant_hysteresis = parse_hysteresis((*p)["hysteresis"]);
+    }
+    const Field ctl = f["controller"];
+    ctl.only({"feedforward", "feedback", "rc"});
+    if (const auto ff = ctl.get("feedforward")) c.feedforward = parse_feedforward(*ff);
+    if (const auto fb = ctl.get("feedback")) c.feedback = parse_feedback(*fb, base);
+    if (const auto rc = ctl.get("rc")) c.rc = parse_rc(*rc);
+    if (c.rc.enabled && c.feedback.kind == "none")
+        ctl["rc"].fail("repetitive control plugs into a feedback loop: give controller.feedback");
+    if (c.sample == SampleType::kQ31 && c.feedforward.kind == "dahl")
+        f["sample"].fail("Dahl feedforward runs only in the float core");
+    return c;
+}
+
+// ---- experiments -----------------------------------------------------------
+
+ExperimentSpec parse_experiment(const Field& f, const Scenario& sc) {
+    f.only({"name", "kind", "title", "note", "cases", "waveform", "frequency_Hz", "frequencies_Hz", "amplitudes_V",
+            "amplitude_um", "amplitudes_um", "offset", "periods", "min_duration_s", "steps_um", "hold_s"});
+    ExperimentSpec e;
+    e.path = f.path();
+    e.name = f["name"].string();
+    e.kind = f["kind"].choice({"loops", "tracking", "bode", "steps", "growth"});
+    e.title = f.string("title", e.name);
+    e.note = f.string("note", "");
+    const Field cases = f["cases"];
+    for (size_t i = 0; i < cases.size(); ++i) {
+        const std::string n = cases.at(i).string();
+        bool found = false;
+        for (const CaseSpec& c : sc.cases) found = found || c.name == n;
+        if (!found) cases.at(i).fail("no case named \"" + n + "\" in cases[]");
+        e.cases.push_back(n);
+    }
+    if (e.cases.empty()) cases.fail("must name at least one case");
+    if (const auto w = f.get("waveform")) {
+        e.waveform_name = w->choice({"triangle", "sine"});
+        e.waveform = e.waveform_name == "sine" ? Waveform::kSine : Waveform::kTriangle;
+    }
+    const double nyquist = 0.5 * sc.rate_Hz;
+    if (const auto fr = f.get("frequency_Hz")) e.frequencies_Hz = {fr->number_in(1e-4, nyquist)};
+    if (const auto fr = f.get("frequencies_Hz")) {
+        e.frequencies_Hz = fr->numbers();
+        for (size_t i = 0; i < e.frequencies_Hz.size(); ++i)
+            if (!(e.frequencies_Hz[i] >= 1e-4 && e.frequencies_Hz[i] < nyquist))
+                fr->at(i).fail("must be in [1e-4, rate / 2)");
+    }
+    if (const auto a = f.get("amplitudes_V")) e.amplitudes_V = a->numbers();
+    if (const auto a = f.get("amplitude_um")) e.amplitudes_um = {a->number_in(1e-6, 1e3)};
+    if (const auto a = f.get("amplitudes_um")) e.amplitudes_um = a->numbers();
+    e.offset = sc.offset;
+    if (const auto o = f.get("offset")) e.offset = o->choice({"unipolar", "bipolar"});
+    if (const auto p = f.get("periods")) e.periods = p->integer(1, 100000);
+    if (const auto d = f.get("min_duration_s")) e.min_duration_s = d->number_in(0.0, 1e3);
+    if (const auto s = f.get("steps_um")) e.steps_um = s->numbers();
+    if (const auto h = f.get("hold_s")) e.hold_s = h->number_in(1e-5, 100.0);
+    if (e.kind == "steps") {
+        if (e.steps_um.empty()) f["steps_um"].fail("required for kind steps");
+        if (e.steps_um.size() > 256) f["steps_um"].fail("at most 256 levels");
+    } else {
+        if (e.frequencies_Hz.empty()) f["frequencies_Hz"].fail("required (or frequency_Hz) for this kind");
+        if (e.kind == "loops" && e.amplitudes_V.empty() && e.amplitudes_um.empty())
+            f["amplitudes_V"].fail("required (or amplitudes_um) for kind loops");
+        if (e.kind != "loops" && e.amplitudes_um.empty())
+            f["amplitude_um"].fail("required (or amplitudes_um) for this kind");
+        if (e.kind == "loops" && e.frequencies_Hz.size() != 1) f["frequency_Hz"].fail("loops use one frequency");
+    }
+    for (size_t i = 0; i < e.amplitudes_V.size(); ++i)
+        if (!(e.amplitudes_V[i] > 0.0)) f["amplitudes_V"].at(i).fail("must be > 0");
+    for (size_t i = 0; i < e.amplitudes_um.size(); ++i)
+        if (!(e.amplitudes_um[i] > 0.0)) f.get("amplitudes_um") ? f["amplitudes_um"].at(i).fail("must be > 0")
+                                                                 : f["amplitude_um"].fail("must be > 0");
+    return e;
+}
+
+}  // namespace
+
+const CaseSpec& Scenario::find_case(const std::string& n) const {
+    for (const CaseSpec& c : cases)
+        if (c.name == n) return c;
+    std::string list;
+    for (const CaseSpec& c : cases) {
+        if (!list.empty()) list += ", ";
+        list += c.name;
+    }
+    throw ScenarioError("case \"" + n + "\": no such case in " + name + " (cases: " + list + ")");
+}
+
+Scenario parse_scenario(const nlohmann::json& j, const std::filesystem::path& base_dir) {
+    const Field top(j, "");
+    top.only({"scenario", "title", "source", "notes", "loop", "plant", "reference", "cases", "experiments"});
+    Scenario s;
+    s.name = top["scenario"].string();
+    s.title = top.string("title", s.name);
+    s.source = top.string("source", "");
+    if (const auto n = top.get("notes"))
+        for (size_t i = 0; i < n->size(); ++i) s.notes.push_back(n->at(i).string());
+
+    const Field loop = top["loop"];
+    loop.only({"rate_Hz", "position_full_scale_um", "voltage_full_scale_V", "hard_limits", "limits"});
+    s.rate_Hz = loop["rate_Hz"].number_in(100.0, 1e7);
+    s.setup.rate_Hz = f32(s.rate_Hz);
+    s.setup.position = SignalScale{f32(loop["position_full_scale_um"].number_in(1e-3, 1e6))};
+    s.setup.voltage = SignalScale{f32(loop["voltage_full_scale_V"].number_in(1e-3, 1e6))};
+    const Field hard = loop["hard_limits"];
+    hard.only({"u_min_V", "u_max_V", "slew_V_per_s"});
+    s.setup.hard = HardLimits{f32(hard["u_min_V"].number()), f32(hard["u_max_V"].number()),
+                              f32(hard["slew_V_per_s"].number())};
+    {
+        OutputLimiter<float> probe(s.setup.hard, s.setup.rate_Hz, s.setup.voltage);
+        hard.check(probe.hard_status());
+    }
+    s.limits = LimitsConfig{s.setup.hard.u_min_V, s.setup.hard.u_max_V, s.setup.hard.slew_max_V_per_s, 0.0f};
+    if (const auto l = loop.get("limits")) {
+        l->only({"u_min_V", "u_max_V", "slew_V_per_s", "saturation_trip_s"});
+        s.limits.u_min_V = f32(l->number("u_min_V", s.limits.u_min_V));
+        s.limits.u_max_V = f32(l->number("u_max_V", s.limits.u_max_V));
+        s.limits.slew_V_per_s = f32(l->number("slew_V_per_s", s.limits.slew_V_per_s));
+        s.limits.saturation_trip_s = f32(l->number("saturation_trip_s", 0.0));
+        l->check(validate(s.limits, s.setup.hard));
+    }
+
+    s.plant = parse_plant(top["plant"], base_dir);
+    if (s.plant.amplifier.bandwidth_Hz >= 0.5f * s.setup.rate_Hz)
+        top["plant"]["amplifier"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
+    if (s.plant.sensor.bandwidth_Hz >= 0.5f * s.setup.rate_Hz)
+        top["plant"]["sensor"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
+
+    const Field ref = top["reference"];
+    ref.only({"nominal_um_per_V", "offset"});
+    s.nominal_um_per_V = ref["nominal_um_per_V"].number();
+    if (!(s.nominal_um_per_V > 0.0)) ref["nominal_um_per_V"].fail("must be > 0");
+    if (const auto o = ref.get("offset")) s.offset = o->choice({"unipolar", "bipolar"});
+
+    const Field cases = top["cases"];
+    for (size_t i = 0; i < cases.size(); ++i) {
+        CaseSpec c = parse_case(cases.at(i), base_dir);
+        for (const CaseSpec& other : s.cases)
+            if (other.name == c.name) cases.at(i)["name"].fail("duplicate case name \"" + c.name + "\"");
+        s.cases.push_back(std::move(c));
+    }
+    if (s.cases.empty()) cases.fail("must hold at least one case");
+    if (const auto ex = top.get("experiments"))
+        for (size_t i = 0; i < ex->size(); ++i) s.experiments.push_back(parse_experiment(ex->at(i), s));
+    return s;
+}
+
+Scenario load_scenario(const std::filesystem::path& file) {
+    std::ifstream in(file);
+    if (!in) throw ScenarioError(file.string() + ": cannot open");
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(in);
+    } catch (const nlohmann::json::parse_error& e) {
+        throw ScenarioError(file.string() + ": not valid JSON: " + e.what());
+    }
+    try {
+        Scenario s = parse_scenario(j, file.parent_path());
+        s.file = file;
+        return s;
+    } catch (const ScenarioError& e) {
+        throw ScenarioError(file.filename().string() + ": " + e.what());
+    }
+}
+
+}  // namespace piezoloop::sim

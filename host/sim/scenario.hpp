@@ -1,0 +1,145 @@
+// Scenario files (configs/*.json, format in configs/scenarios.md): a
+// Hammerstein stage (DAC, amplifier, hysteresis, linear dynamics, sensor,
+// ADC), the controller cases of a source, and its experiments. Parsing
+// validates everything and names the offending field path, e.g.
+// "cases[2].controller.rc.k_rc: must be in (0, 2)".
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "design/lti.hpp"
+#include "piezoloop/pipeline.hpp"
+#include "piezoloop/stage_model.hpp"
+#include "sim/closed_loop.hpp"
+#include "sim/json_field.hpp"
+
+namespace piezoloop::sim {
+
+// A continuous (or discrete) linear model read from a model file or inline,
+// in the design toolkit's JSON model format.
+struct LinearSpec {
+    design::Zpk zpk;
+    std::string source;  // file it came from, or "inline"
+    std::string path;    // field path (for messages)
+};
+
+// Static hysteresis of the stage, piezo voltage (V) -> displacement (µm).
+// Every kind is also held in the factored form used to invert it:
+//   f = in_gain * v + in_offset,   x = out_gain * plain(f)
+// with `plain` a plain PI model (input gain 1, offset 0).
+struct HysteresisSpec {
+    std::string kind = "none";  // none | pi | shan_pi | dahl
+    HysteresisKind core = HysteresisKind::kNone;
+    PiModel pi{};               // pi, shan_pi: the model as the stage runs it
+    DahlParams dahl{};          // dahl
+    double gain_um_per_V = 1.0; // none
+    PiModel plain{};            // pi, shan_pi (factored form)
+    double in_gain = 1.0, in_offset = 0.0, out_gain = 1.0;
+    std::string path;
+};
+
+struct PlantSpec {
+    ConverterConfig dac{};
+    AmplifierConfig amplifier{};
+    HysteresisSpec hysteresis{};
+    std::optional<LinearSpec> dynamics;  // continuous, normalised to unit DC gain if asked
+    std::string discretisation = "zoh";  // float fidelity: zoh | tustin | matched
+    SensorConfig sensor{};
+    ConverterConfig adc{};
+};
+
+struct DahlIdentifySpec {
+    double frequency_Hz = 10.0;
+    std::vector<double> amplitudes_V;  // peak-to-peak piezo voltage of each triangle, from 0
+    int cycles = 3;
+    double gamma_a = 30.0;
+    int decimate = 5;
+};
+
+struct FeedforwardSpec {
+    std::string kind = "none";  // none | gain | pi_inverse | pi_compensator | dahl
+    double V_per_um = 0.0;      // gain
+    std::string of = "base";    // pi_inverse: base | plant (the case's plant)
+    std::string placement = "feedforward";  // pi_inverse: feedforward (core) | series (host only)
+    PiModel pi{};               // pi_compensator: r (µm) -> u (V)
+    std::optional<DahlParams> dahl;  // dahl with given parameters
+    std::optional<DahlIdentifySpec> identify;  // dahl identified from the plant's loops
+    std::string path;
+};
+
+struct FeedbackSpec {
+    std::string kind = "none";  // none | pid | lti
+    double error_per_um = 1.0;  // the controller's error unit per µm (e.g. sensor V/µm)
+    PidConfig pid{};            // in the controller's units (gains scaled at build)
+    std::optional<LinearSpec> model;  // lti: continuous controller, error unit -> V
+    std::string method = "tustin";    // lti: tustin | zoh | matched
+    double prewarp_Hz = 0.0;
+    std::string path;
+};
+
+struct RcSpec {
+    bool enabled = false;
+    int period_samples = 0;  // 0: rate / reference frequency
+    RepetitiveConfig rc{};
+    std::string path;
+};
+
+struct CaseSpec {
+    std::string name, label;
+    SampleType sample = SampleType::kFloat;
+    std::optional<HysteresisSpec> plant_hysteresis;  // overrides the scenario's
+    FeedforwardSpec feedforward;
+    FeedbackSpec feedback;
+    RcSpec rc;
+    std::string note;
+    std::string path;
+};
+
+struct ExperimentSpec {
+    std::string name, kind, title, note;  // kind: loops | tracking | bode | steps | growth
+    std::vector<std::string> cases;
+    Waveform waveform = Waveform::kTriangle;
+    std::string waveform_name = "triangle";
+    std::vector<double> frequencies_Hz;  // tracking, bode (one entry for loops)
+    std::vector<double> amplitudes_V;    // loops: peak-to-peak piezo voltage
+    std::vector<double> amplitudes_um;   // loops/tracking: peak-to-peak displacement
+    std::string offset = "unipolar";     // unipolar (from 0 up) | bipolar (around 0)
+    int periods = 2;                     // simulated periods; the last is measured
+    double min_duration_s = 0.0;         // at least this long (RC convergence)
+    std::vector<double> steps_um;        // steps: levels, each held hold_s
+    double hold_s = 0.01;
+    std::string path;
+};
+
+struct Scenario {
+    std::string name, title, source;
+    std::vector<std::string> notes;
+    std::filesystem::path file;
+    double rate_Hz = 100000.0;
+    PipelineSetup setup{};
+    LimitsConfig limits{};
+    PlantSpec plant;
+    double nominal_um_per_V = 1.0;  // piezo V -> µm at the loading curve's mean slope
+    std::string offset = "unipolar";
+    std::vector<CaseSpec> cases;
+    std::vector<ExperimentSpec> experiments;
+
+    const CaseSpec& find_case(const std::string& name) const;  // throws ScenarioError
+    // Command (V) -> µm at the mean slope: nominal_um_per_V * amplifier gain.
+    double command_um_per_V() const { return nominal_um_per_V * plant.amplifier.gain; }
+};
+
+// One hysteresis object (the plant's, or a case's override).
+HysteresisSpec parse_hysteresis(const Field& f);
+
+// Parses and validates; model files are resolved relative to `base_dir`.
+Scenario parse_scenario(const nlohmann::json& j, const std::filesystem::path& base_dir);
+// Reads the file (errors name the file for I/O and JSON syntax problems).
+Scenario load_scenario(const std::filesystem::path& file);
+
+}  // namespace piezoloop::sim

@@ -1,0 +1,172 @@
+#include "sim/stage_double.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include <unsupported/Eigen/MatrixFunctions>
+
+#include "status_text.hpp"
+
+namespace piezoloop::sim {
+
+void PiModelDouble::configure(const PiModel& m) {
+    m_ = m;
+    w_.assign(static_cast<size_t>(m.count), 0.0);
+}
+
+void PiModelDouble::reset() { std::fill(w_.begin(), w_.end(), 0.0); }
+
+double PiModelDouble::apply(double x) {
+    const double f = static_cast<double>(m_.input_gain) * x + static_cast<double>(m_.input_offset);
+    double y = static_cast<double>(m_.p0) * f;
+    for (int j = 0; j < m_.count; ++j) {
+        const size_t i = static_cast<size_t>(j);
+        const double r = m_.thresholds[i];
+        w_[i] = std::max(f - r, std::min(f + r, w_[i]));
+        y += static_cast<double>(m_.weights[i]) * w_[i];
+    }
+    return y;
+}
+
+namespace {
+
+[[noreturn]] void fail(const char* group, const Status& s) {
+    std::string text = "double stage: ";
+    text += group;
+    text += ".";
+    text += describe(s);
+    throw std::invalid_argument(text);
+}
+
+}  // namespace
+
+void DoubleStage::configure(const DoubleStageConfig& c) {
+    if (!(c.rate_Hz > 0.0) || !std::isfinite(c.rate_Hz))
+        throw std::invalid_argument("double stage: rate_Hz: must be finite and > 0");
+    if (c.substeps < 1 || c.substeps > 10000)
+        throw std::invalid_argument("double stage: substeps: must be in [1, 10000]");
+    if (const Status s = dac_.configure(c.dac); !s.ok()) fail("dac", s);
+    if (const Status s = adc_.configure(c.adc); !s.ok()) fail("adc", s);
+    if (!(c.amplifier.bandwidth_Hz >= 0.0f) || !(c.sensor.bandwidth_Hz >= 0.0f))
+        throw std::invalid_argument("double stage: bandwidth_Hz: must be >= 0");
+    switch (c.hysteresis) {
+        case HysteresisKind::kPi:
+            if (const Status s = validate(c.pi); !s.ok()) fail("pi", s);
+            pi_.configure(c.pi);
+            break;
+        case HysteresisKind::kDahl:
+            if (const Status s = dahl_.configure(c.dahl); !s.ok()) fail("dahl", s);
+            break;
+        case HysteresisKind::kNone:
+            break;
+    }
+    c_ = c;
+    const double h = 1.0 / (c.rate_Hz * c.substeps);
+    if (c.amplifier.bandwidth_Hz > 0.0f) {
+        const double w = 2.0 * M_PI * c.amplifier.bandwidth_Hz;
+        amp_decay_half_ = std::exp(-0.5 * w * h);
+        amp_decay_full_ = std::exp(-w * h);
+    } else {
+        amp_decay_half_ = amp_decay_full_ = 0.0;
+    }
+
+    // Continuous model of the dynamics followed by the sensor's lag.
+    Eigen::MatrixXd a(0, 0);
+    Eigen::VectorXd b(0);
+    Eigen::RowVectorXd cc(0);
+    double d = 1.0;
+    if (c.dynamics) {
+        const design::Ss& s = *c.dynamics;
+        if (design::is_discrete(s.ts)) throw std::invalid_argument("double stage: dynamics: must be continuous");
+        a = s.A;
+        b = s.B;
+        cc = s.C;
+        d = s.D;
+    }
+    Eigen::RowVectorXd c_disp = cc;  // the displacement, before the sensor
+    const double d_disp = d;
+    if (c.sensor.bandwidth_Hz > 0.0f) {
+        c_disp.conservativeResize(cc.size() + 1);
+        c_disp(cc.size()) = 0.0;
+        const double w = 2.0 * M_PI * c.sensor.bandwidth_Hz;
+        const Eigen::Index n = a.rows();
+        Eigen::MatrixXd a2 = Eigen::MatrixXd::Zero(n + 1, n + 1);
+        a2.topLeftCorner(n, n) = a;
+        a2.block(n, 0, 1, n) = w * cc;
+        a2(n, n) = -w;
+        Eigen::VectorXd b2(n + 1);
+        b2.head(n) = b;
+        b2(n) = w * d;
+        Eigen::RowVectorXd c2 = Eigen::RowVectorXd::Zero(n + 1);
+        c2(n) = 1.0;
+        a = a2;
+        b = b2;
+        cc = c2;
+        d = 0.0;
+    }
+    const Eigen::Index n = a.rows();
+    has_states_ = n > 0;
+    if (has_states_) {
+        Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n + 1, n + 1);
+        m.topLeftCorner(n, n) = a * h;
+        m.block(0, n, n, 1) = b * h;
+        const Eigen::MatrixXd e = m.exp();
+        ad_ = e.topLeftCorner(n, n);
+        bd_ = e.block(0, n, n, 1);
+        if (!ad_.allFinite() || !bd_.allFinite())
+            throw std::invalid_argument("double stage: dynamics: matrix exponential is not finite");
+    }
+    c_out_ = cc;
+    d_out_ = d;
+    c_disp_ = c_disp;
+    d_disp_ = d_disp;
+    x_ = Eigen::VectorXd::Zero(n);
+    x_next_ = Eigen::VectorXd::Zero(n);
+    reset();
+}
+
+void DoubleStage::reset() {
+    pi_.reset();
+    dahl_.reset(0.0f);
+    noise_.seed(c_.sensor.seed);
+    v_amp_ = v_piezo_ = x_um_ = 0.0;
+    x_.setZero();
+}
+
+double DoubleStage::hysteresis(double v) {
+    switch (c_.hysteresis) {
+        case HysteresisKind::kPi: return pi_.apply(v);
+        case HysteresisKind::kDahl: return dahl_.step(static_cast<float>(v));
+        case HysteresisKind::kNone: break;
+    }
+    return c_.linear_gain_um_per_V * v;
+}
+
+float DoubleStage::step(float u_V) {
+    const AmplifierConfig& a = c_.amplifier;
+    double v_in = dac_.apply(u_V);
+    v_in = std::clamp(v_in, static_cast<double>(a.input_min_V), static_cast<double>(a.input_max_V));
+    const double target = static_cast<double>(a.gain) * v_in;
+    const double lo = a.output_min_V, hi = a.output_max_V;
+    double s = 0.0;  // hysteresis output held over the sub-step
+    for (int k = 0; k < c_.substeps; ++k) {
+        const double v_mid = target + (v_amp_ - target) * amp_decay_half_;
+        v_amp_ = target + (v_amp_ - target) * amp_decay_full_;
+        v_piezo_ = std::clamp(v_mid, lo, hi);
+        s = hysteresis(v_piezo_);
+        if (has_states_) {
+            x_next_.noalias() = ad_ * x_;
+            x_next_ += bd_ * s;
+            x_.swap(x_next_);
+        }
+    }
+    x_um_ = has_states_ ? c_disp_.dot(x_) + d_disp_ * s : s;
+    const double sensed = has_states_ ? c_out_.dot(x_) + d_out_ * s : s;
+    const double reading = static_cast<double>(c_.sensor.gain) * sensed;
+    float out = static_cast<float>(reading);
+    if (c_.sensor.noise_rms > 0.0f) out = out + c_.sensor.noise_rms * noise_.next_unit();
+    return adc_.apply(out);
+}
+
+}  // namespace piezoloop::sim
