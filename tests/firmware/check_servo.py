@@ -1,7 +1,9 @@
 #!/usr/bin/python3
 """The servo image's minimal link service, driven through QEMU's console.
 
-Sends  h s a w z z s d z s q  and requires, in order: ready, help, status
+Waits for the ready line (QEMU's CMSDK UART accepts and drops bytes while
+the firmware has not yet enabled its receiver), then sends
+h s a w z z s d z s q  and requires, in order: ready, help, status
 (running, disarmed), armed, wave ok, two waits of >= 1000 ticks each while
 the wave runs armed (the stage moves: y changes), status, disarmed, a wait
 after which the output has ramped to 0 V, status, bye, and exit status 0;
@@ -14,6 +16,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 
 COMMANDS = "h s a w z z s d z s q"
 EXPECTED = ["ready", "help", "status", "armed", "wave", "waited", "waited", "status", "disarmed", "waited",
@@ -30,14 +33,31 @@ def main():
         return 2
     qemu = os.environ.get("QEMU_SYSTEM_ARM", "qemu-system-arm")
     cmd = [qemu, "-M", machine, "-nographic", "-semihosting", "-icount", "shift=0,sleep=off", "-kernel", elf]
+    timeout_s = float(os.environ.get("PIEZOLOOP_QEMU_TIMEOUT", "60"))
+    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    timer = threading.Timer(timeout_s, proc.kill)
+    timer.start()
+    lines = []
+    for line in proc.stdout:  # until the firmware says it is listening
+        lines.append(line)
+        if '"reply":"ready"' in line:
+            break
     try:
-        run = subprocess.run(cmd, input=COMMANDS, capture_output=True, text=True,
-                             timeout=float(os.environ.get("PIEZOLOOP_QEMU_TIMEOUT", "60")))
-    except subprocess.TimeoutExpired:
-        print("FAIL: QEMU timed out")
+        proc.stdin.write(COMMANDS)
+        proc.stdin.close()
+    except BrokenPipeError:
+        pass
+    lines.extend(proc.stdout)
+    returncode = proc.wait()
+    timed_out = not timer.is_alive()
+    timer.cancel()
+    out = "".join(lines)
+    print(out, end="")
+    if timed_out:
+        print(f"FAIL: QEMU killed after {timeout_s} s")
         return 1
-    print(run.stdout, end="")
-    replies = [json.loads(l) for l in run.stdout.replace("\r", "").splitlines() if l.startswith("{")]
+    replies = [json.loads(l) for l in out.replace("\r", "").splitlines() if l.startswith("{")]
     failed = []
 
     def check(ok, what):
@@ -45,7 +65,7 @@ def main():
             failed.append(what)
             print(f"FAIL: {what}")
 
-    check(run.returncode == 0, f"exit status {run.returncode}")
+    check(returncode == 0, f"exit status {returncode}")
     names = [r.get("reply") for r in replies]
     check(names == EXPECTED, f"replies {names} != {EXPECTED}")
     if names == EXPECTED:
