@@ -77,7 +77,10 @@ public:
     float apply(float x) {
         const float f = model_.input_gain * x + model_.input_offset;
         float y = model_.p0 * f;
-        for (int j = 0; j < model_.count; ++j) {
+        // A local bound lets GCC vectorise the play updates; reading
+        // model_.count in the condition makes it reload it every iteration.
+        const int n = model_.count;
+        for (int j = 0; j < n; ++j) {
             const unsigned i = static_cast<unsigned>(j);
             w_[i] = play(f, model_.thresholds[i], w_[i]);
             y = y + model_.weights[i] * w_[i];

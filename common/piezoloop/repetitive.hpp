@@ -76,7 +76,8 @@ public:
     T apply(T e) {
         const int n = config_.period_samples;
         const T x = q_generator_.apply(line_.past(n - config_.m1));
-        const T lead = q_output_.apply(line_.past(n - config_.m1 - config_.m2));
+        // With m2 = 0 both Q instances see the same sequence: skip the second.
+        const T lead = config_.m2 == 0 ? x : q_output_.apply(line_.past(n - config_.m1 - config_.m2));
         line_.push(e + x);
         if (++phase_ == n) phase_ = 0;
         if constexpr (std::is_same_v<T, float>) {
