@@ -20,8 +20,8 @@
 //   reference_ff_fb       reference::params(true, true, false): the same
 //                         without RC, a stable loop; its tracking figures
 //                         are the reference ones (e_max ~0.23 µm).
-// Scenario cases: one per source scenario in configs/ -- there are none yet,
-// so none is run (docs/boards.md).
+// Scenario cases (the full controller case of each scenario in configs/)
+// are not run yet: docs/boards.md, "Self-test", says what they need.
 //
 // Tracking metrics over the recorded frames from tick kMetricSkipTicks on
 // (the start transient excluded, as in reference_run.hpp):
