@@ -1,0 +1,305 @@
+// `piezoloop design`: from a continuous model (or a standard filter) to the
+// biquad sections the core runs, with the realisation check (SPEC §5).
+//
+//   design c2d --model M.json --rate-hz F [--method tustin|zoh|matched]
+//              [--prewarp-hz F] [--format float|q31] [scaling options]
+//   design notch   --rate-hz F --frequency-hz f --depth-db d --width-hz w
+//   design lowpass --rate-hz F --frequency-hz f [--q Q | --zeta z]
+//   design leadlag --rate-hz F --zero-hz fz --pole-hz fp [--gain g]
+//
+// JSON on stdout: the continuous and discrete models, the sections
+// (b0, b1, b2, a1, a2; a0 = 1) scaled for the format, the scaling report and
+// the realisation check. Warnings also go to stderr. Bad input: "error:
+// <field>: <what>" on stderr, exit code 2, nothing on stdout. With --strict
+// an unfit realisation exits with code 3 (after printing the JSON).
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "design/c2d.hpp"
+#include "design/filters.hpp"
+#include "design/model_json.hpp"
+#include "design/realisation.hpp"
+#include "design/sos.hpp"
+
+namespace piezoloop::cli {
+namespace {
+
+using namespace piezoloop::design;
+using nlohmann::json;
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+// Thrown for bad input; main path prints it and exits 2.
+struct InputError : std::invalid_argument {
+    using std::invalid_argument::invalid_argument;
+};
+
+struct Common {
+    double rate_hz = 0.0;
+    std::string format = "q31";
+    std::string scaling = "l1";
+    double in_full_scale = 1.0;
+    double out_full_scale = 1.0;
+    double headroom = 1.0;
+    bool strict = false;
+    bool no_check = false;
+};
+
+struct C2dArgs : Common {
+    std::string model;
+    std::string method = "tustin";
+    std::optional<double> prewarp_hz;
+};
+
+struct NotchArgs : Common {
+    double frequency_hz = 0.0, depth_db = 0.0, width_hz = 0.0;
+};
+
+struct LowpassArgs : Common {
+    double frequency_hz = 0.0;
+    std::optional<double> q, zeta;
+};
+
+struct LeadLagArgs : Common {
+    double zero_hz = 0.0, pole_hz = 0.0, gain = 1.0;
+};
+
+std::string num(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
+void require(bool ok, const std::string& field, const std::string& what) {
+    if (!ok) throw InputError(field + ": " + what);
+}
+
+void check_common(const Common& c) {
+    require(std::isfinite(c.rate_hz) && c.rate_hz > 0.0, "rate_hz", "must be finite and > 0");
+    require(std::isfinite(c.in_full_scale) && c.in_full_scale > 0.0, "in_full_scale", "must be finite and > 0");
+    require(std::isfinite(c.out_full_scale) && c.out_full_scale > 0.0, "out_full_scale", "must be finite and > 0");
+    require(c.headroom > 0.0 && c.headroom <= 1.0, "headroom", "must be in (0, 1]");
+}
+
+json sections_json(const std::vector<SosSection>& s) {
+    json a = json::array();
+    for (const SosSection& x : s) a.push_back({{"b0", x.b0}, {"b1", x.b1}, {"b2", x.b2}, {"a1", x.a1}, {"a2", x.a2}});
+    return a;
+}
+
+// Discrete design -> scaled sections -> realisation check, into `out`.
+// Returns false if the realisation is unfit.
+bool realise(const Zpk& discrete, const Common& c, json& out) {
+    const SampleFormat format = parse_sample_format(c.format);
+    SosScaling sc;
+    sc.norm = parse_sos_norm(c.scaling);
+    sc.in_full_scale = c.in_full_scale;
+    sc.out_full_scale = c.out_full_scale;
+    sc.headroom = c.headroom;
+    SosScalingReport rep;
+    const std::vector<SosSection> sos = scale_sos(zpk2sos(discrete), sc, &rep);
+    out["format"] = c.format;
+    out["sections"] = sections_json(sos);
+    out["scaling"] = {{"norm", sos_norm_name(sc.norm)},
+                      {"in_full_scale", sc.in_full_scale},
+                      {"out_full_scale", sc.out_full_scale},
+                      {"headroom", sc.headroom},
+                      {"partial_norms", rep.partial_norms},
+                      {"output_may_saturate", rep.output_may_saturate},
+                      {"order", "scipy zpk2sos 'nearest': poles nearest the unit circle last"}};
+    std::vector<std::string> warnings;
+    if (!std::isfinite(rep.partial_norms.back()))
+        warnings.push_back("a pole on or outside the unit circle makes the cascade's norms infinite; nothing was "
+                           "scaled (an integrator belongs in the core's PID block, not in a biquad)");
+    else if (rep.output_may_saturate)
+        warnings.push_back("the output's " + std::string(sos_norm_name(sc.norm)) + " norm times in/out full scale is " +
+                           num(rep.partial_norms.back()) +
+                           " > 1: a full-scale input can saturate the output (raise out_full_scale)");
+    bool fit = true;
+    if (!c.no_check) {
+        RealisationOptions o;
+        o.format = format;
+        o.in_full_scale = c.in_full_scale;
+        o.out_full_scale = c.out_full_scale;
+        const RealisationReport r = check_realisation(discrete, sos, o);
+        out["realisation"] = to_json(r);
+        fit = r.fit;
+        for (const std::string& w : r.warnings) warnings.push_back(w);
+    }
+    out["warnings"] = warnings;
+    for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
+    return fit;
+}
+
+int finish(const json& out, bool fit, const Common& c) {
+    std::cout << out.dump(1) << "\n";
+    return (c.strict && !fit) ? 3 : 0;
+}
+
+int run_c2d(const C2dArgs& a) {
+    check_common(a);
+    const double ts = 1.0 / a.rate_hz;
+    const Zpk model = load_model_file(a.model);
+    json out;
+    out["command"] = "c2d";
+    out["model_file"] = a.model;
+    out["rate_hz"] = a.rate_hz;
+    Zpk discrete;
+    if (is_discrete(model.ts)) {
+        require(std::fabs(model.ts - ts) <= 1e-12 * ts, "model.ts",
+                "the model is discrete with ts = " + num(model.ts) + " s, not 1 / rate_hz = " + num(ts) + " s");
+        require(!a.prewarp_hz, "prewarp_hz", "the model is already discrete");
+        out["method"] = "none (the model is already discrete at this rate)";
+        discrete = model;
+    } else {
+        const C2dMethod method = parse_c2d_method(a.method);
+        double prewarp = 0.0;
+        if (a.prewarp_hz) {
+            require(method == C2dMethod::kTustin, "prewarp_hz", "applies to --method tustin only");
+            require(std::isfinite(*a.prewarp_hz) && *a.prewarp_hz > 0.0 && *a.prewarp_hz < 0.5 * a.rate_hz,
+                    "prewarp_hz", "must be in (0, rate_hz / 2)");
+            prewarp = kTwoPi * *a.prewarp_hz;
+        }
+        out["method"] = c2d_method_name(method);
+        out["prewarp_hz"] = a.prewarp_hz ? *a.prewarp_hz : 0.0;
+        out["continuous"] = to_json(model);
+        discrete = c2d(model, ts, method, prewarp);
+    }
+    out["discrete"] = to_json(discrete);
+    const bool fit = realise(discrete, a, out);
+    return finish(out, fit, a);
+}
+
+int run_filter(const std::string& type, const Zpk& continuous, const Zpk& discrete, const json& params,
+               const Common& c) {
+    json out;
+    out["command"] = type;
+    out["filter"] = params;
+    out["rate_hz"] = c.rate_hz;
+    out["method"] = "tustin, pre-warped at the filter's frequency";
+    out["continuous"] = to_json(continuous);
+    out["discrete"] = to_json(discrete);
+    const bool fit = realise(discrete, c, out);
+    return finish(out, fit, c);
+}
+
+// Runs f, turning every exception into "error: …" and exit code 2.
+template <class F>
+void guarded(F f) {
+    int rc = 0;
+    try {
+        rc = f();
+    } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        rc = 2;
+    }
+    if (rc != 0) throw CLI::RuntimeError(rc);
+}
+
+void add_common(CLI::App* cmd, Common& c) {
+    cmd->add_option("--rate-hz", c.rate_hz, "loop rate (Hz)")->required();
+    cmd->add_option("--format", c.format, "core sample type the sections are checked for")
+        ->check(CLI::IsMember({"float", "q31"}));
+    cmd->add_option("--scaling", c.scaling,
+                    "per-section scaling of the partial cascades: l1 (no overflow for any full-scale input), "
+                    "linf (sinusoids), none")
+        ->check(CLI::IsMember({"l1", "linf", "none"}));
+    cmd->add_option("--in-full-scale", c.in_full_scale, "physical input at Q31 full scale (default 1)");
+    cmd->add_option("--out-full-scale", c.out_full_scale,
+                    "physical output (and internal nodes) at Q31 full scale (default 1)");
+    cmd->add_option("--headroom", c.headroom, "target norm of the internal nodes, (0, 1] (default 1)");
+    cmd->add_flag("--strict", c.strict, "exit with code 3 if the realisation is unfit");
+    cmd->add_flag("--no-check", c.no_check, "skip the realisation check");
+}
+
+void add_design(CLI::App& app) {
+    CLI::App* design = app.add_subcommand(
+        "design", "Controller and filter design: continuous model -> discrete -> biquad sections, with the "
+                  "realisation check for the float or Q31 core");
+    design->require_subcommand(1);
+
+    auto c2d_args = std::make_shared<C2dArgs>();
+    CLI::App* c2d_cmd = design->add_subcommand(
+        "c2d", "Discretise a model file (JSON: num/den, zeros/poles/gain or series) and split it into sections");
+    c2d_cmd->add_option("--model", c2d_args->model, "model file (JSON)")->required();
+    c2d_cmd->add_option("--method", c2d_args->method, "tustin (default), zoh or matched")
+        ->check(CLI::IsMember({"tustin", "zoh", "matched"}));
+    c2d_cmd->add_option("--prewarp-hz", c2d_args->prewarp_hz, "Tustin pre-warp frequency (Hz)");
+    add_common(c2d_cmd, *c2d_args);
+    c2d_cmd->callback([c2d_args] { guarded([&] { return run_c2d(*c2d_args); }); });
+
+    auto notch_args = std::make_shared<NotchArgs>();
+    CLI::App* notch_cmd = design->add_subcommand("notch", "Notch filter from frequency, depth and -3 dB width");
+    notch_cmd->add_option("--frequency-hz", notch_args->frequency_hz, "notch centre (Hz)")->required();
+    notch_cmd->add_option("--depth-db", notch_args->depth_db, "gain at the centre (dB, < -3.01)")->required();
+    notch_cmd->add_option("--width-hz", notch_args->width_hz, "distance between the -3 dB points (Hz)")->required();
+    add_common(notch_cmd, *notch_args);
+    notch_cmd->callback([notch_args] {
+        guarded([&] {
+            const NotchArgs& a = *notch_args;
+            check_common(a);
+            const NotchSpec s{a.frequency_hz, a.depth_db, a.width_hz};
+            return run_filter("notch", notch_continuous(s), notch(s, a.rate_hz),
+                              {{"frequency_hz", a.frequency_hz}, {"depth_db", a.depth_db}, {"width_hz", a.width_hz}},
+                              a);
+        });
+    });
+
+    auto lp_args = std::make_shared<LowpassArgs>();
+    CLI::App* lp_cmd = design->add_subcommand("lowpass", "Second-order low-pass from corner frequency and Q (or zeta)");
+    lp_cmd->add_option("--frequency-hz", lp_args->frequency_hz, "corner (natural) frequency (Hz)")->required();
+    auto* q_opt = lp_cmd->add_option("--q", lp_args->q, "quality factor (default 0.7071, Butterworth)");
+    auto* z_opt = lp_cmd->add_option("--zeta", lp_args->zeta, "damping ratio (= 1 / (2 Q))");
+    q_opt->excludes(z_opt);
+    add_common(lp_cmd, *lp_args);
+    lp_cmd->callback([lp_args] {
+        guarded([&] {
+            const LowpassArgs& a = *lp_args;
+            check_common(a);
+            double q = 1.0 / std::numbers::sqrt2;
+            if (a.q) q = *a.q;
+            if (a.zeta) {
+                require(std::isfinite(*a.zeta) && *a.zeta > 0.0, "zeta", "must be finite and > 0");
+                q = 0.5 / *a.zeta;
+            }
+            const LowpassSpec s{a.frequency_hz, q};
+            return run_filter("lowpass", lowpass_continuous(s), lowpass(s, a.rate_hz),
+                              {{"frequency_hz", a.frequency_hz}, {"q", q}, {"zeta", 0.5 / q}}, a);
+        });
+    });
+
+    auto ll_args = std::make_shared<LeadLagArgs>();
+    CLI::App* ll_cmd = design->add_subcommand(
+        "leadlag", "First-order lead (zero below pole) or lag (zero above pole) with DC gain");
+    ll_cmd->add_option("--zero-hz", ll_args->zero_hz, "zero frequency (Hz)")->required();
+    ll_cmd->add_option("--pole-hz", ll_args->pole_hz, "pole frequency (Hz)")->required();
+    ll_cmd->add_option("--gain", ll_args->gain, "DC gain (default 1)");
+    add_common(ll_cmd, *ll_args);
+    ll_cmd->callback([ll_args] {
+        guarded([&] {
+            const LeadLagArgs& a = *ll_args;
+            check_common(a);
+            const LeadLagSpec s{a.zero_hz, a.pole_hz, a.gain};
+            return run_filter("leadlag", leadlag_continuous(s), leadlag(s, a.rate_hz),
+                              {{"zero_hz", a.zero_hz}, {"pole_hz", a.pole_hz}, {"gain", a.gain}}, a);
+        });
+    });
+}
+
+}  // namespace
+
+namespace {
+const bool registered = register_command(20, add_design);
+}  // namespace
+
+}  // namespace piezoloop::cli
