@@ -128,7 +128,19 @@ public:
 
     // Setpoint used when no wave is running (streamed or held), µm. One
     // aligned word: safe to write from the main loop while the tick runs.
-    void set_setpoint(T r) { setpoint_ = r; }
+    // A non-finite setpoint is refused (and counted): the hysteresis
+    // operators never see NaN.
+    bool set_setpoint(T r) {
+        if constexpr (kFloat) {
+            if (!is_finite(r)) {
+                ++rejected_setpoints_;
+                return false;
+            }
+        }
+        setpoint_ = r;
+        return true;
+    }
+    uint32_t rejected_setpoints() const { return rejected_setpoints_; }
 
     // The tick touches the generator only while a wave runs, so it is
     // configured here only while none does.
@@ -155,7 +167,11 @@ public:
         s.y = y;
         if (wave_running_.load(std::memory_order_acquire)) {
             s.r = trajectory_.step();
-            if (trajectory_.done() || stop_request_.exchange(false, std::memory_order_acq_rel)) {
+            // Load before exchanging: the read-modify-write (and its barriers)
+            // only happens on the tick a stop was actually requested.
+            if (trajectory_.done() ||
+                (stop_request_.load(std::memory_order_relaxed) &&
+                 stop_request_.exchange(false, std::memory_order_acq_rel))) {
                 setpoint_ = s.r;
                 wave_running_.store(false, std::memory_order_release);
             }
@@ -337,6 +353,7 @@ private:
     std::atomic<bool> stop_request_{false};
     uint32_t tick_count_ = 0;
     uint32_t swaps_ = 0;
+    uint32_t rejected_setpoints_ = 0;
 };
 
 }  // namespace piezoloop

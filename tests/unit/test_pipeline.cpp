@@ -168,6 +168,7 @@ TEST(Pipeline, OutputNeverLeavesHardLimitsWhateverTheInput) {
         prev = u;
         if (pipe->limiter().tripped()) pipe->limiter().clear_trip();
     }
+    EXPECT_GT(pipe->rejected_setpoints(), 0u);  // the NaN/Inf setpoints, counted
 }
 
 TEST(Pipeline, DisarmRampsToTheSafeOutput) {
