@@ -121,7 +121,7 @@ bool realise(const Zpk& discrete, const Common& c, json& out) {
     if (!std::isfinite(rep.partial_norms.back()))
         warnings.push_back("a pole on or outside the unit circle makes the cascade's norms infinite; nothing was "
                            "scaled (an integrator belongs in the core's PID block, not in a biquad)");
-    else if (rep.output_may_saturate)
+    else if (rep.output_may_saturate && format == SampleFormat::kQ31)  // float samples do not saturate
         warnings.push_back("the output's " + std::string(sos_norm_name(sc.norm)) + " norm times in/out full scale is " +
                            num(rep.partial_norms.back()) +
                            " > 1: a full-scale input can saturate the output (raise out_full_scale)");
