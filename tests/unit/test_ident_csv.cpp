@@ -7,21 +7,12 @@
 #include <string>
 
 #include "design/csv_data.hpp"
+#include "test_support.hpp"
 
 using namespace piezoloop::design;
+using piezoloop::test::error_of;
 
 namespace {
-
-// The message of the invalid_argument that f throws ("" if none).
-template <class F>
-std::string error_of(F f) {
-    try {
-        f();
-    } catch (const std::invalid_argument& e) {
-        return e.what();
-    }
-    return "";
-}
 
 TEST(IdentCsv, ParsesHeaderCommentsBlankLinesAndCrlf) {
     const CsvData d = parse_csv(

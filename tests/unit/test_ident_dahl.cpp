@@ -16,21 +16,13 @@
 #include <vector>
 
 #include "design/dahl_fit.hpp"
+#include "test_support.hpp"
 
 using namespace piezoloop;
 using namespace piezoloop::design;
+using piezoloop::test::error_of;
 
 namespace {
-
-template <class F>
-std::string error_of(F f) {
-    try {
-        f();
-    } catch (const std::invalid_argument& e) {
-        return e.what();
-    }
-    return "";
-}
 
 const DahlParamsD kVisible = DahlParamsD::from(dahl_params_in_units(kAhmad2020Dahl, 1e-5, 1.0));
 // beta1 != 0 (H jumps at reversals), as in test_dahl.cpp.

@@ -14,28 +14,17 @@
 #include <vector>
 
 #include "design/pi_fit.hpp"
+#include "test_support.hpp"
 #include "piezoloop/pi_inverse.hpp"
 
 using namespace piezoloop;
 using namespace piezoloop::design;
+using piezoloop::test::error_of;
 
 namespace {
 
-template <class F>
-std::string error_of(F f) {
-    try {
-        f();
-    } catch (const std::invalid_argument& e) {
-        return e.what();
-    }
-    return "";
-}
-
 const nlohmann::json& golden() {
-    static const nlohmann::json g = [] {
-        std::ifstream f(std::string(PIEZOLOOP_GOLDEN_DIR) + "/ident_pi.json");
-        return nlohmann::json::parse(f);
-    }();
+    static const nlohmann::json g = piezoloop::test::load_golden("ident_pi");
     return g;
 }
 

@@ -14,20 +14,12 @@
 #include <vector>
 
 #include "design/rls.hpp"
+#include "test_support.hpp"
 
 using namespace piezoloop::design;
+using piezoloop::test::error_of;
 
 namespace {
-
-template <class F>
-std::string error_of(F f) {
-    try {
-        f();
-    } catch (const std::invalid_argument& e) {
-        return e.what();
-    }
-    return "";
-}
 
 nlohmann::json golden() {
     std::ifstream f(std::string(PIEZOLOOP_GOLDEN_DIR) + "/ident_rls.json");
