@@ -14,7 +14,16 @@
 // contains a midpoint). The answer satisfies lower <= ||G||∞ <= upper with
 // upper / lower - 1 <= 2 tol, and lower is a value |G(jω_peak)| actually
 // attained. A final golden-section search around ω_peak sharpens the peak
-// frequency.
+// frequency. Eigenvalues count as imaginary within 1e-3 |λ| (false
+// positives are harmless). The Hamiltonian can be too ill-conditioned for
+// its imaginary eigenvalues to be found at all: Ahmad2020's H_y T (a double
+// pole at −7.5e7 rad/s with gain 1e8 behind a loop with poles down to
+// 3 rad/s) is one. So, as a safety net, the result is compared with |G| on
+// the analysis grid of margins.hpp (200 points per decade, clustered at
+// lightly damped poles); if the grid beats it, the result is the grid
+// maximum refined by golden-section search and `certified` is false
+// (accurate to the evaluation, ~1e-8 there, but a peak narrower than the
+// grid could in principle be missed).
 //
 // Discrete models are mapped to continuous ones by the bilinear map
 // z = (1 + s) / (1 - s), which carries the unit circle onto the imaginary
@@ -69,6 +78,10 @@ struct HinfResult {
     double peak_Hz = 0.0;
     bool stable = true;  // false: the value is the L∞ norm; H∞ is infinite
     bool peak_at_infinity = false;  // continuous: sup reached as ω → ∞ (|D|)
+    // false: the analysis grid found a value above the iteration's bound (an
+    // eigenvalue misjudged); norm is then that grid maximum refined by a
+    // golden-section search, and upper == norm is not a certified bound.
+    bool certified = true;
     int iterations = 0;
 };
 

@@ -218,6 +218,7 @@ TEST(AnalysisHinf, MatchesScipyOnSourceModels) {
         const HinfResult r = hinf_norm(model);
         const double want = c["hinf"];
         EXPECT_NEAR(r.norm, want, 1e-6 * want) << c["name"];
+        EXPECT_TRUE(r.certified) << c["name"];
         // A peak at (or within 1e-7 of) DC is flat: compare on the scale of
         // the slowest pole.
         const double w_tol = 1e-4 * double(c["peak_w"]) + 1e-4 * double(c["w_scale"]);
@@ -281,5 +282,6 @@ TEST(AnalysisHinf, PropertyAgainstBruteForce) {
         EXPECT_LE(best, r.upper * (1.0 + 1e-6)) << trial;
         EXPECT_GE(r.norm, best * (1.0 - 1e-6)) << trial;
         EXPECT_LE(r.upper / r.lower - 1.0, 2.1e-7) << trial;
+        EXPECT_TRUE(r.certified) << trial;
     }
 }

@@ -135,10 +135,10 @@ def case(name, P, K, weights=None):
     nK, dK = polys(K)
     r = np.roots(np.polyadd(np.polymul(dP, dK), np.polymul(nP, nK)))
     out["stability_measure"] = float(max(abs(r))) if ts > 0 else float(max(r.real))
-    for wname, W, mapname in (weights or []):
+    for wname, W, mapname, key in (weights or []):
         fun = lambda v, W=W, mapname=mapname: resp(W, point(v, ts)) * f(mapname)(v)
         out["hinf_" + wname], _ = hinf(fun, w)
-        out[wname] = W
+        out[key] = W
     return out
 
 
@@ -168,7 +168,7 @@ def main():
     Hm = zpk_json(list(np.roots([1, 2 * z1 * w1, w1 ** 2])) + list(np.roots([1, 2 * z3 * w2, w2 ** 2])) + [-w3 / eps],
                   list(np.roots([1, 2 * z2 * w1, w1 ** 2])) + list(np.roots([1, 2 * z4 * w2, w2 ** 2])) + [-w3 / M],
                   g * eps, 0.0)
-    cases.append(case("ahmad2020", G, K, [("WeS", He, "S"), ("WyT", Hy, "T"), ("HmT", Hm, "T")]))
+    cases.append(case("ahmad2020", G, K, [("WeS", He, "S", "He"), ("WyT", Hy, "T", "Hy"), ("HmT", Hm, "T", "Hm")]))
     # Discrete: first-order lag with an integrating controller at 10 kHz.
     cases.append(case("discrete_lag_integrator", zpk_json([], [0.9], 0.1, 1e-4), zpk_json([0.0], [1.0], 0.5, 1e-4)))
     # Discrete: Shan2012-style PI (Kp = 1.3, Ki = 40000 at 100 kHz) on an

@@ -1,0 +1,615 @@
+// `piezoloop analyze`: loop, repetitive-control and PI-composition analysis
+// (SPEC §3, §6, §8.1, §9) on model files (design/model_json.hpp).
+//
+//   analyze loop --plant P.json --controller K.json [--we We.json]
+//                [--wy Wy.json] [--hm Hm.json] [--rate-hz F]
+//                [--c2d tustin|zoh|matched] [--prewarp-hz F]
+//                [--phase-lag-hz f1,f2,…] [--family-rel 0.05 | --no-family]
+//                [--plot FILE.png]
+//   analyze rc   (--closed-loop T.json | --loop-plant P.json --controller K.json)
+//                --q Q.json --krc k --m1 m --m2 m --period-samples N
+//                [--rate-hz F] [--c2d …] [--pi-g0 g --pi-density d1,d2,…
+//                | --pi-shan2012] [--plot FILE.png]
+//   analyze pi   --model P.json (--estimate E.json | --inverse I.json)
+//                [--max-input V] [--plot FILE.png]
+//
+// JSON on stdout. Bad input: "error: <field>: <what>" on stderr, exit code
+// 2, nothing on stdout. --plot writes the curves to a temporary JSON file
+// and runs tools/plot.py with Debian's /usr/bin/python3 (matplotlib); the
+// script is found next to this source tree or at $PIEZOLOOP_PLOT_SCRIPT.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "design/analysis.hpp"
+#include "design/c2d.hpp"
+#include "design/freqresp.hpp"
+#include "design/hinf.hpp"
+#include "design/lti_convert.hpp"
+#include "design/margins.hpp"
+#include "design/model_json.hpp"
+#include "design/pi_composition.hpp"
+#include "design/rc_analysis.hpp"
+#include "design/robust.hpp"
+#include "piezoloop/pi_generalized.hpp"
+#include "piezoloop/pi_inverse.hpp"
+#include "status_text.hpp"
+
+namespace piezoloop::cli {
+namespace {
+
+using namespace piezoloop::design;
+using nlohmann::json;
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+json hz(double w) { return number(w / kTwoPi); }
+
+json roots_json(const std::vector<cplx>& r) {
+    json a = json::array();
+    for (const cplx& x : r) a.push_back({x.real(), x.imag()});
+    return a;
+}
+
+template <class F>
+void guarded(F body) {
+    int rc = 0;
+    try {
+        body();
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        rc = 2;
+    } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        rc = 3;
+    }
+    if (rc != 0) throw CLI::RuntimeError(rc);
+}
+
+// ------------------------------------------------------------- plotting
+
+std::string plot_script() {
+    if (const char* env = std::getenv("PIEZOLOOP_PLOT_SCRIPT")) return env;
+    // This file is host/cli/cmd_analyze.cpp of the source tree.
+    std::string here = __FILE__;
+    for (int i = 0; i < 3; ++i) here = here.substr(0, here.find_last_of('/'));
+    return here + "/tools/plot.py";
+}
+
+void plot(const json& spec, const std::string& png) {
+    char name[] = "/tmp/piezoloop-plot-XXXXXX";
+    const int fd = mkstemp(name);
+    if (fd < 0) throw std::runtime_error("plot: cannot create a temporary file");
+    close(fd);
+    {
+        std::ofstream f(name);
+        f << spec.dump();
+    }
+    const std::string script = plot_script();
+    if (!std::ifstream(script)) {
+        std::remove(name);
+        throw std::runtime_error("plot: " + script + " not found (set PIEZOLOOP_PLOT_SCRIPT)");
+    }
+    auto quote = [](const std::string& s) {
+        std::string q = "'";
+        for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+        return q + "'";
+    };
+    const std::string cmd = "/usr/bin/python3 " + quote(script) + " " + quote(name) + " " + quote(png) + " 1>&2";
+    const int rc = std::system(cmd.c_str());
+    std::remove(name);
+    if (rc != 0) throw std::runtime_error("plot: tools/plot.py failed (exit " + std::to_string(rc) + ")");
+}
+
+json series_json(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
+                 const std::string& style = "-") {
+    json xs = json::array(), ys = json::array();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (!std::isfinite(y[i])) continue;
+        xs.push_back(x[i]);
+        ys.push_back(y[i]);
+    }
+    return {{"label", label}, {"x", xs}, {"y", ys}, {"style", style}};
+}
+
+// ------------------------------------------------------------- models
+
+struct Discretise {
+    double rate_hz = 0.0;
+    std::string method = "tustin";
+    double prewarp_hz = 0.0;
+};
+
+void add_discretise(CLI::App* cmd, Discretise& d) {
+    cmd->add_option("--rate-hz", d.rate_hz, "discretise continuous models at this rate (Hz)")
+        ->check(CLI::PositiveNumber);
+    cmd->add_option("--c2d", d.method, "discretisation of continuous models")
+        ->check(CLI::IsMember({"tustin", "zoh", "matched"}))
+        ->capture_default_str();
+    cmd->add_option("--prewarp-hz", d.prewarp_hz, "Tustin pre-warp frequency (Hz)")->check(CLI::NonNegativeNumber);
+}
+
+// Loads a model; with a rate, a continuous model is discretised and a
+// discrete one must already have ts = 1/rate.
+Zpk load(const std::string& file, const Discretise& d, const char* what) {
+    Zpk m = load_model_file(file);
+    if (d.rate_hz <= 0.0) return m;
+    const double ts = 1.0 / d.rate_hz;
+    if (is_discrete(m.ts)) {
+        if (std::abs(m.ts - ts) > 1e-12 * ts)
+            throw std::invalid_argument(std::string(what) + ": " + file + " is discrete with ts = " +
+                                        std::to_string(m.ts) + " s, not 1/rate-hz");
+        m.ts = ts;
+        return m;
+    }
+    return c2d(m, ts, parse_c2d_method(d.method), kTwoPi * d.prewarp_hz);
+}
+
+std::vector<double> parse_list(const std::string& text, const char* field) {
+    std::vector<double> v;
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        std::size_t used = 0;
+        double x = 0.0;
+        try {
+            x = std::stod(item, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used == 0 || item.find_first_not_of(" \t", used) != std::string::npos || !std::isfinite(x))
+            throw std::invalid_argument(std::string(field) + ": '" + item + "' is not a finite number");
+        v.push_back(x);
+    }
+    if (v.empty()) throw std::invalid_argument(std::string(field) + ": empty list");
+    return v;
+}
+
+json hinf_json(const HinfResult& h, bool loop_stable) {
+    return {{"value", loop_stable ? number(h.norm) : json(nullptr)},
+            {"peak", number(h.norm)},
+            {"at_Hz", number(h.peak_Hz)},
+            {"upper_bound", number(h.upper)},
+            {"certified", h.certified}};
+}
+
+// ------------------------------------------------------------- loop
+
+struct LoopArgs {
+    std::string plant, controller, we, wy, hm;
+    Discretise disc;
+    std::string phase_lag_hz;
+    double family_rel = 0.05;
+    bool no_family = false;
+    std::string plot_file;
+};
+
+void run_loop(const LoopArgs& a) {
+    const Zpk p = load(a.plant, a.disc, "plant");
+    const Zpk k = load(a.controller, a.disc, "controller");
+    if (p.ts != k.ts)
+        throw std::invalid_argument("controller: plant and controller must both be continuous or share ts "
+                                    "(give --rate-hz to discretise continuous ones)");
+    LoopAnalysisOptions opt;
+    if (!a.phase_lag_hz.empty()) opt.phase_lag_at_Hz = parse_list(a.phase_lag_hz, "phase-lag-hz");
+    const LoopAnalysis r = analyze_loop(p, k, opt);
+    const FeedbackLoop f = feedback_loop(zpk2ss(p), zpk2ss(k));
+    const bool discrete = is_discrete(p.ts);
+
+    json out;
+    out["ts"] = p.ts;
+    if (a.disc.rate_hz > 0.0) out["discretisation"] = {{"rate_Hz", a.disc.rate_hz}, {"method", a.disc.method},
+                                                       {"prewarp_Hz", a.disc.prewarp_hz}};
+    out["stable"] = r.stable;
+    // Continuous: max Re(p) in rad/s. Discrete: the same measure of the
+    // equivalent continuous pole, ln|z| / ts, and max |z| itself.
+    out["poles_max_real"] = discrete ? number(std::log(r.stability_measure) / p.ts) : number(r.stability_measure);
+    if (discrete) out["poles_max_abs"] = number(r.stability_measure);
+    out["closed_loop_poles"] = roots_json(r.closed_loop_poles);
+    auto norm = [&](const HinfResult& h) { return r.stable ? number(h.norm) : json(nullptr); };
+    out["hinf_S"] = norm(r.hinf_S);
+    out["hinf_T"] = norm(r.hinf_T);
+    out["hinf_KS"] = norm(r.hinf_KS);
+    out["hinf_GS"] = norm(r.hinf_GS);
+    out["hinf"] = {{"S", hinf_json(r.hinf_S, r.stable)},
+                   {"T", hinf_json(r.hinf_T, r.stable)},
+                   {"KS", hinf_json(r.hinf_KS, r.stable)},
+                   {"GS", hinf_json(r.hinf_GS, r.stable)}};
+    out["hinf_WeS"] = nullptr;
+    out["hinf_WyT"] = nullptr;
+    std::optional<Zpk> we, wy, hm;
+    if (!a.we.empty()) {
+        we = load(a.we, a.disc, "we");
+        const HinfResult h = weighted_hinf(*we, f.S);
+        out["hinf_WeS"] = norm(h);
+        out["hinf"]["WeS"] = hinf_json(h, r.stable);
+    }
+    if (!a.wy.empty()) {
+        wy = load(a.wy, a.disc, "wy");
+        const HinfResult h = weighted_hinf(*wy, f.T);
+        out["hinf_WyT"] = norm(h);
+        out["hinf"]["WyT"] = hinf_json(h, r.stable);
+    }
+    if (we && wy)
+        out["nominal_performance"] = r.stable && out["hinf_WeS"].get<double>() < 1.0 &&
+                                     out["hinf_WyT"].get<double>() < 1.0;
+    if (!a.hm.empty()) {
+        hm = load(a.hm, a.disc, "hm");
+        const HinfResult h = weighted_hinf(*hm, f.T);
+        json rs;
+        rs["hinf_HmT"] = norm(h);
+        rs["at_Hz"] = number(h.peak_Hz);
+        rs["robustly_stable"] = r.stable && h.norm < 1.0;
+        rs["meaning"] = "||H_m T||inf < 1: stable for every plant G (1 + Delta H_m), ||Delta||inf <= 1";
+        out["hinf_HmT"] = norm(h);
+        out["hinf"]["HmT"] = hinf_json(h, r.stable);
+        if (!a.no_family) {
+            // The family perturbs the continuous plant's denominator: reload
+            // the plant as given and discretise each member like the rest.
+            const Zpk pc = load_model_file(a.plant);
+            Tf tf = zpk2tf(pc);
+            const int n = static_cast<int>(tf.den.size()) - 1;
+            if (n < 1 || n > 8) {
+                rs["family"] = {{"skipped", "the plant denominator needs 1 to 8 coefficients after the leading one"}};
+            } else if (is_discrete(pc.ts) && a.disc.rate_hz > 0.0) {
+                rs["family"] = {{"skipped", "the family is formed on a continuous plant"}};
+            } else {
+                const double ts = is_discrete(pc.ts) ? 0.0 : (a.disc.rate_hz > 0.0 ? 1.0 / a.disc.rate_hz : 0.0);
+                const Zpk kc = ts > 0.0 ? load_model_file(a.controller) : k;
+                const Zpk hc = ts > 0.0 ? load_model_file(a.hm) : *hm;
+                if (ts > 0.0 && (is_discrete(kc.ts) || is_discrete(hc.ts))) {
+                    rs["family"] = {{"skipped", "with --rate-hz the family needs continuous controller and H_m"}};
+                } else {
+                    const FamilyResult fr = coefficient_family(tf, kc, hc, a.family_rel, ts);
+                    auto member = [](const FamilyMember& m) {
+                        return json{{"den_scale", m.scale},
+                                    {"stable", m.stable},
+                                    {"poles_max", number(m.stability_measure)},
+                                    {"hinf_HmT", number(m.hinf_HmT)},
+                                    {"coverage", number(m.coverage)}};
+                    };
+                    rs["family"] = {
+                        {"relative_perturbation", a.family_rel},
+                        {"method", ts > 0.0 ? "members discretised like the loop (Tustin)" : "continuous"},
+                        {"count", fr.count},
+                        {"unstable", fr.unstable},
+                        {"all_stable", fr.unstable == 0},
+                        {"worst_stability", member(fr.worst_stability)},
+                        {"worst_hinf_HmT", member(fr.worst_hinf_HmT)},
+                        {"worst_coverage", member(fr.worst_coverage)},
+                        {"meaning",
+                         "each of den[1..n] scaled by 1-rel, 1, 1+rel; poles_max: max real part (rad/s) or max |z|; "
+                         "coverage: sup |G_i/G - 1| / |H_m| (<= 1: member inside the H_m set)"}};
+                }
+            }
+        }
+        out["robust_stability"] = rs;
+    }
+    out["bandwidth_hz"] = r.bandwidth_Hz ? json(*r.bandwidth_Hz) : json(nullptr);
+    const Margins& m = r.margins;
+    out["gain_margin_db"] = m.gain_margin ? number(m.gain_margin->gain_margin_db) : json(nullptr);
+    out["gain_margin_at_hz"] = m.gain_margin ? hz(m.gain_margin->w_rad_s) : json(nullptr);
+    out["phase_margin_deg"] = m.phase_margin ? number(m.phase_margin->phase_margin_deg) : json(nullptr);
+    out["phase_margin_at_hz"] = m.phase_margin ? hz(m.phase_margin->w_rad_s) : json(nullptr);
+    json pcs = json::array(), gcs = json::array();
+    for (const auto& c : m.phase_crossovers)
+        pcs.push_back({{"at_Hz", hz(c.w_rad_s)}, {"gain_margin_db", number(c.gain_margin_db)}});
+    for (const auto& c : m.gain_crossovers)
+        gcs.push_back({{"at_Hz", hz(c.w_rad_s)}, {"phase_margin_deg", number(c.phase_margin_deg)}});
+    out["phase_crossovers"] = pcs;
+    out["gain_crossovers"] = gcs;
+    json lags = json::array();
+    for (const auto& l : r.phase_lags)
+        lags.push_back({{"at_Hz", l.f_Hz}, {"phase_lag_deg", l.lag_deg}, {"magnitude_db", l.magnitude_db}});
+    out["phase_lag"] = lags;
+    if (!r.stable) out["note"] = "closed loop unstable: hinf_* are null; hinf.*.peak is the sup on the frequency axis";
+
+    if (!a.plot_file.empty()) {
+        std::vector<cplx> crit = critical_points(p, k);
+        const std::vector<double> w = analysis_grid(crit, p.ts);
+        std::vector<double> fhz, lm, lp, sm, tm;
+        const SsEvaluator el(series(zpk2ss(k), zpk2ss(p))), es(f.S), et(f.T);
+        const FrequencySamples ls = sample_response(el, w);
+        for (std::size_t i = 0; i < ls.w.size(); ++i) {
+            fhz.push_back(ls.w[i] / kTwoPi);
+            lm.push_back(magnitude_db(ls.h[i]));
+            lp.push_back(ls.phase[i] * 180.0 / std::numbers::pi);
+            sm.push_back(magnitude_db(es.at_w(ls.w[i])));
+            tm.push_back(magnitude_db(et.at_w(ls.w[i])));
+        }
+        json mag = {{"title", "Loop L = PK, sensitivity S, complementary sensitivity T"},
+                    {"xlabel", "frequency (Hz)"}, {"ylabel", "magnitude (dB)"}, {"xscale", "log"},
+                    {"series", {series_json("|L|", fhz, lm), series_json("|S|", fhz, sm), series_json("|T|", fhz, tm)}},
+                    {"hlines", {{{"y", 0.0}, {"label", "0 dB"}}}}};
+        for (const auto& [wt, name] : {std::pair{we, "1/|We|"}, std::pair{wy, "1/|Wy|"}, std::pair{hm, "1/|Hm|"}}) {
+            if (!wt) continue;
+            std::vector<double> v;
+            for (double x : ls.w) v.push_back(-magnitude_db(evaluate(*wt, frequency_point(x, p.ts))));
+            mag["series"].push_back(series_json(name, fhz, v, "--"));
+        }
+        json ph = {{"title", "Phase of L"}, {"xlabel", "frequency (Hz)"}, {"ylabel", "phase (deg)"},
+                   {"xscale", "log"}, {"series", {series_json("arg L", fhz, lp)}},
+                   {"hlines", {{{"y", -180.0}, {"label", "-180 deg"}}}}};
+        json vl = json::array();
+        if (m.gain_margin) vl.push_back({{"x", m.gain_margin->w_rad_s / kTwoPi}, {"label", "phase crossover"}});
+        if (m.phase_margin) vl.push_back({{"x", m.phase_margin->w_rad_s / kTwoPi}, {"label", "gain crossover"}});
+        mag["vlines"] = vl;
+        ph["vlines"] = vl;
+        plot({{"title", "piezoloop analyze loop: " + a.plant + " with " + a.controller}, {"panels", {mag, ph}}},
+             a.plot_file);
+        out["plot"] = a.plot_file;
+    }
+    std::cout << out.dump(1) << "\n";
+}
+
+// ------------------------------------------------------------- rc
+
+struct RcArgs {
+    std::string closed_loop, plant, controller, q;
+    Discretise disc;
+    double k_rc = 0.0;
+    int m1 = 0, m2 = 0, period = 0;
+    std::optional<double> pi_g0;
+    std::string pi_density;
+    bool pi_shan = false;
+    std::string plot_file;
+};
+
+void run_rc(const RcArgs& a) {
+    if (a.closed_loop.empty() == (a.plant.empty() || a.controller.empty()))
+        throw std::invalid_argument("closed-loop: give either --closed-loop T.json or --loop-plant and --controller");
+    if (!a.closed_loop.empty() && (!a.plant.empty() || !a.controller.empty()))
+        throw std::invalid_argument("closed-loop: --closed-loop excludes --loop-plant/--controller");
+    RcConfig rc;
+    rc.period_samples = a.period;
+    rc.m1 = a.m1;
+    rc.m2 = a.m2;
+    rc.k_rc = a.k_rc;
+    rc.q = load(a.q, a.disc, "q");
+    if (!is_discrete(rc.q.ts)) throw std::invalid_argument("q: Q must be discrete (or give --rate-hz)");
+    std::optional<PiHysteresis> pi;
+    if (a.pi_shan) {
+        if (a.pi_g0 || !a.pi_density.empty())
+            throw std::invalid_argument("pi-shan2012: excludes --pi-g0/--pi-density");
+        PiModel m;
+        if (const Status s = shan_forward_model(kShan2012Forward, m); !s.ok())
+            throw std::invalid_argument("pi-shan2012: " + describe(s));
+        pi = PiHysteresis{kShan2012Forward.g0, {}};
+        for (int j = 0; j < m.count; ++j) pi->density.push_back(m.weights[static_cast<std::size_t>(j)]);
+    } else if (a.pi_g0 || !a.pi_density.empty()) {
+        if (!a.pi_g0) throw std::invalid_argument("pi-g0: required with --pi-density");
+        pi = PiHysteresis{*a.pi_g0, a.pi_density.empty() ? std::vector<double>{} : parse_list(a.pi_density, "pi-density")};
+    }
+    RcAnalysis r;
+    Ss t, l;
+    if (!a.closed_loop.empty()) {
+        const Zpk tz = load(a.closed_loop, a.disc, "closed-loop");
+        if (tz.ts != rc.q.ts) throw std::invalid_argument("closed-loop: T and Q must share ts");
+        t = zpk2ss(tz);
+        r = analyze_rc_closed_loop(t, rc, pi);
+    } else {
+        const Zpk p = load(a.plant, a.disc, "loop-plant");
+        const Zpk k = load(a.controller, a.disc, "controller");
+        if (p.ts != rc.q.ts || k.ts != rc.q.ts)
+            throw std::invalid_argument("loop-plant: plant, controller and Q must share ts (give --rate-hz)");
+        l = series(zpk2ss(k), zpk2ss(p));
+        r = analyze_rc_loop_gain(l, rc, pi);
+        t = feedback_loop(zpk2ss(p), zpk2ss(k)).T;
+    }
+    json out;
+    out["ts"] = r.ts;
+    out["rc"] = {{"period_samples", rc.period_samples}, {"m1", rc.m1}, {"m2", rc.m2}, {"k_rc", rc.k_rc}};
+    out["loop_stable"] = r.loop_stable;
+    out["q_cutoff_hz"] = r.q_cutoff_Hz;
+    out["condition_3_phase"] = {{"ok", r.phase_ok},
+                                {"max_abs_phase_deg", r.max_phase_deg},
+                                {"at_Hz", r.max_phase_at_Hz},
+                                {"limit_deg", 90.0},
+                                {"excess_deg", std::max(0.0, r.max_phase_deg - 90.0)}};
+    out["phase_90_at_hz"] = r.phase_90_at_Hz ? json(*r.phase_90_at_Hz) : json(nullptr);
+    out["condition_2_gain"] = {{"ok", r.gain_ok},
+                               {"k_rc", rc.k_rc},
+                               {"k_rc_max", r.k_rc_max},
+                               {"at_Hz", r.k_rc_max_at_Hz},
+                               {"excess", std::max(0.0, rc.k_rc - r.k_rc_max)}};
+    out["condition_1_small_gain"] = {{"ok", r.small_gain_ok},
+                                     {"peak", r.small_gain_peak},
+                                     {"at_Hz", r.small_gain_at_Hz},
+                                     {"meaning", "sup |Q| |1 - k_rc z^m2 T| over 0..Nyquist, must be < 1"}};
+    out["exact"] = {{"stable", r.rc_stable ? json(*r.rc_stable) : json(nullptr)},
+                    {"max_abs_root", r.rc_max_abs_root ? number(*r.rc_max_abs_root) : json(nullptr)},
+                    {"meaning", "largest |z| of the roots of 1 - Q z^(m1-N) (1 - k_rc z^m2 T)"}};
+    if (r.has_hysteresis) {
+        out["hysteresis"] = {
+            {"g0", r.g0},
+            {"condition_15", {{"ok", r.g0_ok && r.g0_loop_stable},
+                              {"gain_margin_rc", r.gain_margin_rc ? number(*r.gain_margin_rc) : json(nullptr)},
+                              {"at_Hz", r.gain_margin_rc_at_Hz ? number(*r.gain_margin_rc_at_Hz) : json(nullptr)},
+                              {"g0_loop_stable", r.g0_loop_stable}}},
+            {"condition_21", {{"ok", r.density_ok},
+                              {"density_l1", r.density_l1},
+                              {"bound", number(r.density_bound)},
+                              {"hinf_G2", number(r.hinf_G2)},
+                              {"at_Hz", number(r.hinf_G2_at_Hz)},
+                              {"method", r.hinf_G2_method},
+                              {"ratio", number(r.density_l1 / r.density_bound)}}},
+            {"inverse_feedforward_required", !r.density_ok}};
+    }
+    out["ok"] = r.failures.empty();
+    out["failures"] = r.failures;
+
+    if (!a.plot_file.empty()) {
+        const SsEvaluator et(t);
+        const std::vector<double> w = analysis_grid(ss_poles(t), r.ts);
+        const FrequencySamples st = sample_response(et, w);
+        std::vector<double> f, th, kmax, sg;
+        for (std::size_t i = 0; i < st.w.size(); ++i) {
+            f.push_back(st.w[i] / kTwoPi);
+            const double theta = st.phase[i] + rc.m2 * st.w[i] * r.ts;
+            th.push_back(std::abs(theta) * 180.0 / std::numbers::pi);
+            kmax.push_back(2.0 * std::cos(theta) / std::abs(st.h[i]));
+            sg.push_back(std::abs(evaluate(rc.q, frequency_point(st.w[i], r.ts))) *
+                         std::abs(1.0 - rc.k_rc * std::polar(1.0, rc.m2 * st.w[i] * r.ts) * st.h[i]));
+        }
+        const json vq = {{{"x", r.q_cutoff_Hz}, {"label", "Q cutoff"}}};
+        json p1 = {{"title", "(3) |thetaT + theta2|"}, {"xlabel", "frequency (Hz)"}, {"ylabel", "deg"},
+                   {"xscale", "log"}, {"series", {series_json("|thetaT + m2 w Ts|", f, th)}},
+                   {"hlines", {{{"y", 90.0}, {"label", "90 deg"}}}}, {"vlines", vq}};
+        json p2 = {{"title", "(2) 2 cos(theta)/A against k_rc"}, {"xlabel", "frequency (Hz)"}, {"ylabel", ""},
+                   {"xscale", "log"}, {"series", {series_json("2 cos(theta)/A", f, kmax)}},
+                   {"hlines", {{{"y", rc.k_rc}, {"label", "k_rc"}}}}, {"vlines", vq}, {"ylim", {-1.0, 4.0}}};
+        json p3 = {{"title", "(1) |Q| |1 - k_rc z^m2 T|"}, {"xlabel", "frequency (Hz)"}, {"ylabel", ""},
+                   {"xscale", "log"}, {"series", {series_json("small-gain", f, sg)}},
+                   {"hlines", {{{"y", 1.0}, {"label", "1"}}}}};
+        plot({{"title", "piezoloop analyze rc"}, {"panels", {p1, p2, p3}}}, a.plot_file);
+        out["plot"] = a.plot_file;
+    }
+    std::cout << out.dump(1) << "\n";
+}
+
+// ------------------------------------------------------------- pi
+
+PiModel load_pi(const std::string& file, const char* what) {
+    std::ifstream in(file);
+    if (!in) throw std::invalid_argument(std::string(what) + ": cannot open " + file);
+    json j;
+    try {
+        j = json::parse(in);
+    } catch (const std::exception& e) {
+        throw std::invalid_argument(std::string(what) + ": " + file + ": invalid JSON");
+    }
+    auto list = [&](const char* key) {
+        if (!j.contains(key) || !j[key].is_array())
+            throw std::invalid_argument(std::string(what) + "." + key + ": required array of numbers");
+        std::vector<float> v;
+        for (const auto& x : j[key]) {
+            if (!x.is_number()) throw std::invalid_argument(std::string(what) + "." + key + ": must hold numbers");
+            v.push_back(x.get<float>());
+        }
+        return v;
+    };
+    const std::vector<float> r = list("thresholds"), p = list("weights");
+    if (r.size() != p.size())
+        throw std::invalid_argument(std::string(what) + ".weights: must have as many entries as thresholds");
+    std::optional<float> p0;
+    if (j.contains("p0")) {
+        if (!j["p0"].is_number()) throw std::invalid_argument(std::string(what) + ".p0: must be a number");
+        p0 = j["p0"].get<float>();
+    }
+    PiModel m;
+    if (const Status s = pi_model_from_lists(r.data(), p.data(), static_cast<int>(r.size()), p0 ? &*p0 : nullptr, m);
+        !s.ok())
+        throw std::invalid_argument(std::string(what) + "." + describe(s));
+    return m;
+}
+
+struct PiArgs {
+    std::string model, estimate, inverse, plot_file;
+    double max_input = 0.0;
+};
+
+void run_pi(const PiArgs& a) {
+    if (a.estimate.empty() == a.inverse.empty())
+        throw std::invalid_argument("estimate: give exactly one of --estimate and --inverse");
+    const PiModel p = load_pi(a.model, "model");
+    PiModel inv;
+    if (!a.estimate.empty()) {
+        if (const Status s = invert_pi(load_pi(a.estimate, "estimate"), inv); !s.ok())
+            throw std::invalid_argument("estimate." + describe(s));
+    } else {
+        inv = load_pi(a.inverse, "inverse");
+    }
+    const PiComposition c = compose_pi(p, inv, a.max_input > 0.0 ? a.max_input : std::numeric_limits<double>::infinity());
+    json out;
+    out["rho"] = c.rho;
+    out["xi_bound"] = c.xi_bound;
+    out["p0"] = c.p0;
+    out["thresholds"] = c.thresholds;
+    out["weights"] = c.weights;
+    out["monotone"] = c.monotone;
+    if (a.max_input > 0.0) out["max_input"] = a.max_input;
+    out["loading_curve"] = {{"v", c.curve_v}, {"eta", c.curve_eta}};
+    out["meaning"] = "P[P^-1_est[v]] = rho v + Xi with |Xi| <= xi_bound (SPEC 3)";
+    if (!c.monotone) out["warning"] = "eta is not increasing: the composition theorem does not apply";
+    if (!a.plot_file.empty()) {
+        std::vector<double> rv;
+        for (double v : c.curve_v) rv.push_back(c.rho * v);
+        json p1 = {{"title", "Composed loading curve"}, {"xlabel", "v"}, {"ylabel", "eta(v)"}, {"xscale", "linear"},
+                   {"series", {series_json("eta = phi o psi_est", c.curve_v, c.curve_eta),
+                               series_json("rho v", c.curve_v, rv, "--")}}};
+        plot({{"title", "piezoloop analyze pi"}, {"panels", {p1}}}, a.plot_file);
+        out["plot"] = a.plot_file;
+    }
+    std::cout << out.dump(1) << "\n";
+}
+
+}  // namespace
+
+void add_analyze(CLI::App& app) {
+    CLI::App* analyze = app.add_subcommand(
+        "analyze", "Loop, repetitive-control and PI-composition analysis (margins, H-infinity norms, RC conditions)");
+    analyze->require_subcommand(1);
+
+    auto la = std::make_shared<LoopArgs>();
+    CLI::App* loop = analyze->add_subcommand(
+        "loop", "Plant and controller: S, T, KS, GS norms, poles, margins, bandwidth, weighted and robust checks");
+    loop->add_option("--plant", la->plant, "plant model file (JSON)")->required();
+    loop->add_option("--controller", la->controller, "controller model file (JSON)")->required();
+    loop->add_option("--we", la->we, "performance weight on S (JSON)");
+    loop->add_option("--wy", la->wy, "performance weight on T (JSON)");
+    loop->add_option("--hm", la->hm, "multiplicative uncertainty weight (JSON): robust stability");
+    add_discretise(loop, la->disc);
+    loop->add_option("--phase-lag-hz", la->phase_lag_hz, "comma-separated frequencies for T's phase lag");
+    loop->add_option("--family-rel", la->family_rel, "relative perturbation of the plant denominator (with --hm)")
+        ->check(CLI::Range(1e-6, 0.49))
+        ->capture_default_str();
+    loop->add_flag("--no-family", la->no_family, "skip the coefficient family (with --hm)");
+    loop->add_option("--plot", la->plot_file, "write Bode / sensitivity plots to this PNG");
+    loop->callback([la] { guarded([&] { run_loop(*la); }); });
+
+    auto ra = std::make_shared<RcArgs>();
+    CLI::App* rc = analyze->add_subcommand("rc", "Plug-in repetitive control: conditions (1)-(3), (15), (21) of SPEC 6");
+    rc->add_option("--closed-loop", ra->closed_loop, "closed loop T without RC (JSON)");
+    rc->add_option("--loop-plant", ra->plant, "plant (JSON), with --controller");
+    rc->add_option("--controller", ra->controller, "feedback controller Gc (JSON), with --loop-plant");
+    rc->add_option("--q", ra->q, "Q filter (JSON, discrete or discretised with --rate-hz)")->required();
+    rc->add_option("--krc", ra->k_rc, "RC gain k_rc")->required()->check(CLI::PositiveNumber);
+    rc->add_option("--m1", ra->m1, "lead compensating Q (samples)")->required()->check(CLI::NonNegativeNumber);
+    rc->add_option("--m2", ra->m2, "lead compensating the closed loop (samples)")->required()->check(CLI::NonNegativeNumber);
+    rc->add_option("--period-samples", ra->period, "N: reference period in samples")->required()->check(CLI::Range(2, 1000000));
+    add_discretise(rc, ra->disc);
+    rc->add_option("--pi-g0", ra->pi_g0, "PI hysteresis input gain g0 (eq. 15, 21)");
+    rc->add_option("--pi-density", ra->pi_density, "comma-separated PI densities d(gamma_j)");
+    rc->add_flag("--pi-shan2012", ra->pi_shan, "use Shan2012's published forward PI set (SPEC 8.3)");
+    rc->add_option("--plot", ra->plot_file, "write the condition curves to this PNG");
+    rc->callback([ra] { guarded([&] { run_rc(*ra); }); });
+
+    auto pa = std::make_shared<PiArgs>();
+    CLI::App* pi = analyze->add_subcommand("pi", "PI model composed with an estimated inverse: rho and the bound on Xi");
+    pi->add_option("--model", pa->model, "true PI model (JSON: thresholds, weights[, p0])")->required();
+    pi->add_option("--estimate", pa->estimate, "estimated forward PI model, inverted analytically");
+    pi->add_option("--inverse", pa->inverse, "estimated inverse PI model");
+    pi->add_option("--max-input", pa->max_input, "input amplitude limit")->check(CLI::PositiveNumber);
+    pi->add_option("--plot", pa->plot_file, "write the composed loading curve to this PNG");
+    pi->callback([pa] { guarded([&] { run_pi(*pa); }); });
+}
+
+namespace {
+const bool registered = register_command(30, add_analyze);
+}  // namespace
+
+}  // namespace piezoloop::cli
