@@ -126,10 +126,6 @@ cplx polish(const std::vector<double>& q, cplx t, double neighbour_distance) {
     return t;
 }
 
-struct Root {
-    cplx value;  // imag >= 0; imag > 0 stands for a conjugate pair
-};
-
 bool root_less(cplx a, cplx b) {
     const double ma = std::abs(a), mb = std::abs(b);
     if (ma != mb) return ma < mb;
