@@ -3,16 +3,20 @@
 //
 //   analyze loop --plant P.json --controller K.json [--we We.json]
 //                [--wy Wy.json] [--hm Hm.json] [--rate-hz F]
-//                [--c2d tustin|zoh|matched] [--prewarp-hz F]
+//                [--c2d tustin|zoh|matched] [--plant-c2d …] [--prewarp-hz F]
 //                [--phase-lag-hz f1,f2,…] [--family-rel 0.05 | --no-family]
 //                [--plot FILE.png]
 //   analyze rc   (--closed-loop T.json | --loop-plant P.json --controller K.json)
 //                --q Q.json --krc k --m1 m --m2 m --period-samples N
-//                [--rate-hz F] [--c2d …] [--pi-g0 g --pi-density d1,d2,…
-//                | --pi-shan2012] [--plot FILE.png]
+//                [--rate-hz F] [--c2d …] [--plant-c2d …] [--pi-g0 g
+//                --pi-density d1,d2,… [--pi-spacing rho] | --pi-shan2012]
+//                [--plot FILE.png]
 //   analyze pi   --model P.json (--estimate E.json | --inverse I.json)
 //                [--max-input V] [--plot FILE.png]
 //
+// With --rate-hz, continuous models are discretised (Tustin by default; a
+// Tustin loop has exactly the continuous margins and norms on a warped
+// frequency axis, --plant-c2d zoh models the sampled plant instead).
 // JSON on stdout. Bad input: "error: <field>: <what>" on stderr, exit code
 // 2, nothing on stdout. --plot writes the curves to a temporary JSON file
 // and runs tools/plot.py with Debian's /usr/bin/python3 (matplotlib); the
@@ -131,6 +135,7 @@ json series_json(const std::string& label, const std::vector<double>& x, const s
 struct Discretise {
     double rate_hz = 0.0;
     std::string method = "tustin";
+    std::string plant_method;  // empty: as `method`
     double prewarp_hz = 0.0;
 };
 
@@ -140,12 +145,15 @@ void add_discretise(CLI::App* cmd, Discretise& d) {
     cmd->add_option("--c2d", d.method, "discretisation of continuous models")
         ->check(CLI::IsMember({"tustin", "zoh", "matched"}))
         ->capture_default_str();
+    cmd->add_option("--plant-c2d", d.plant_method,
+                    "discretisation of a continuous plant (default: as --c2d; zoh models the sampled plant)")
+        ->check(CLI::IsMember({"tustin", "zoh", "matched"}));
     cmd->add_option("--prewarp-hz", d.prewarp_hz, "Tustin pre-warp frequency (Hz)")->check(CLI::NonNegativeNumber);
 }
 
 // Loads a model; with a rate, a continuous model is discretised and a
 // discrete one must already have ts = 1/rate.
-Zpk load(const std::string& file, const Discretise& d, const char* what) {
+Zpk load(const std::string& file, const Discretise& d, const char* what, bool is_plant = false) {
     Zpk m = load_model_file(file);
     if (d.rate_hz <= 0.0) return m;
     const double ts = 1.0 / d.rate_hz;
@@ -156,7 +164,8 @@ Zpk load(const std::string& file, const Discretise& d, const char* what) {
         m.ts = ts;
         return m;
     }
-    return c2d(m, ts, parse_c2d_method(d.method), kTwoPi * d.prewarp_hz);
+    const std::string& method = is_plant && !d.plant_method.empty() ? d.plant_method : d.method;
+    return c2d(m, ts, parse_c2d_method(method), kTwoPi * d.prewarp_hz);
 }
 
 std::vector<double> parse_list(const std::string& text, const char* field) {
@@ -199,7 +208,7 @@ struct LoopArgs {
 };
 
 void run_loop(const LoopArgs& a) {
-    const Zpk p = load(a.plant, a.disc, "plant");
+    const Zpk p = load(a.plant, a.disc, "plant", true);
     const Zpk k = load(a.controller, a.disc, "controller");
     if (p.ts != k.ts)
         throw std::invalid_argument("controller: plant and controller must both be continuous or share ts "
@@ -212,8 +221,10 @@ void run_loop(const LoopArgs& a) {
 
     json out;
     out["ts"] = p.ts;
-    if (a.disc.rate_hz > 0.0) out["discretisation"] = {{"rate_Hz", a.disc.rate_hz}, {"method", a.disc.method},
-                                                       {"prewarp_Hz", a.disc.prewarp_hz}};
+    if (a.disc.rate_hz > 0.0)
+        out["discretisation"] = {{"rate_Hz", a.disc.rate_hz}, {"method", a.disc.method},
+                                 {"plant_method", a.disc.plant_method.empty() ? a.disc.method : a.disc.plant_method},
+                                 {"prewarp_Hz", a.disc.prewarp_hz}};
     out["stable"] = r.stable;
     // Continuous: max Re(p) in rad/s. Discrete: the same measure of the
     // equivalent continuous pole, ln|z| / ts, and max |z| itself.
@@ -265,6 +276,8 @@ void run_loop(const LoopArgs& a) {
             const int n = static_cast<int>(tf.den.size()) - 1;
             if (n < 1 || n > 8) {
                 rs["family"] = {{"skipped", "the plant denominator needs 1 to 8 coefficients after the leading one"}};
+            } else if (a.disc.rate_hz > 0.0 && !a.disc.plant_method.empty() && a.disc.plant_method != "tustin") {
+                rs["family"] = {{"skipped", "the family discretises its members by Tustin; --plant-c2d differs"}};
             } else if (is_discrete(pc.ts) && a.disc.rate_hz > 0.0) {
                 rs["family"] = {{"skipped", "the family is formed on a continuous plant"}};
             } else {
@@ -365,6 +378,7 @@ struct RcArgs {
     int m1 = 0, m2 = 0, period = 0;
     std::optional<double> pi_g0;
     std::string pi_density;
+    double pi_spacing = 0.0;
     bool pi_shan = false;
     std::string plot_file;
 };
@@ -388,11 +402,13 @@ void run_rc(const RcArgs& a) {
         PiModel m;
         if (const Status s = shan_forward_model(kShan2012Forward, m); !s.ok())
             throw std::invalid_argument("pi-shan2012: " + describe(s));
-        pi = PiHysteresis{kShan2012Forward.g0, {}};
+        if (a.pi_spacing > 0.0) throw std::invalid_argument("pi-shan2012: excludes --pi-spacing");
+        pi = PiHysteresis{kShan2012Forward.g0, {}, kShan2012Forward.rho};
         for (int j = 0; j < m.count; ++j) pi->density.push_back(m.weights[static_cast<std::size_t>(j)]);
     } else if (a.pi_g0 || !a.pi_density.empty()) {
         if (!a.pi_g0) throw std::invalid_argument("pi-g0: required with --pi-density");
-        pi = PiHysteresis{*a.pi_g0, a.pi_density.empty() ? std::vector<double>{} : parse_list(a.pi_density, "pi-density")};
+        pi = PiHysteresis{*a.pi_g0, a.pi_density.empty() ? std::vector<double>{} : parse_list(a.pi_density, "pi-density"),
+                          a.pi_spacing};
     }
     RcAnalysis r;
     Ss t, l;
@@ -402,7 +418,7 @@ void run_rc(const RcArgs& a) {
         t = zpk2ss(tz);
         r = analyze_rc_closed_loop(t, rc, pi);
     } else {
-        const Zpk p = load(a.plant, a.disc, "loop-plant");
+        const Zpk p = load(a.plant, a.disc, "loop-plant", true);
         const Zpk k = load(a.controller, a.disc, "controller");
         if (p.ts != rc.q.ts || k.ts != rc.q.ts)
             throw std::invalid_argument("loop-plant: plant, controller and Q must share ts (give --rate-hz)");
@@ -442,6 +458,10 @@ void run_rc(const RcArgs& a) {
                               {"g0_loop_stable", r.g0_loop_stable}}},
             {"condition_21", {{"ok", r.density_ok},
                               {"density_l1", r.density_l1},
+                              {"density_integral", r.density_integral > 0.0 ? json(r.density_integral) : json(nullptr)},
+                              {"integral_ok", r.density_integral > 0.0
+                                                  ? json(r.g0_loop_stable && r.density_integral < r.density_bound)
+                                                  : json(nullptr)},
                               {"bound", number(r.density_bound)},
                               {"hinf_G2", number(r.hinf_G2)},
                               {"at_Hz", number(r.hinf_G2_at_Hz)},
@@ -594,6 +614,8 @@ void add_analyze(CLI::App& app) {
     add_discretise(rc, ra->disc);
     rc->add_option("--pi-g0", ra->pi_g0, "PI hysteresis input gain g0 (eq. 15, 21)");
     rc->add_option("--pi-density", ra->pi_density, "comma-separated PI densities d(gamma_j)");
+    rc->add_option("--pi-spacing", ra->pi_spacing, "threshold spacing rho of the density (reports rho sum|d_j| too)")
+        ->check(CLI::NonNegativeNumber);
     rc->add_flag("--pi-shan2012", ra->pi_shan, "use Shan2012's published forward PI set (SPEC 8.3)");
     rc->add_option("--plot", ra->plot_file, "write the condition curves to this PNG");
     rc->callback([ra] { guarded([&] { run_rc(*ra); }); });

@@ -216,6 +216,8 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
     // Hysteresis: (15) and (21).
     if (pi) {
         if (!std::isfinite(pi->g0) || pi->g0 == 0.0) throw std::invalid_argument("rc: pi g0 must be finite and non-zero");
+        if (!(pi->spacing >= 0.0) || !std::isfinite(pi->spacing))
+            throw std::invalid_argument("rc: pi spacing must be finite and >= 0");
         for (double d : pi->density)
             if (!std::isfinite(d)) throw std::invalid_argument("rc: pi density values must be finite");
         r.has_hysteresis = true;
@@ -275,6 +277,7 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
         r.hinf_G2 = peak / std::abs(pi->g0);
         r.hinf_G2_at_Hz = hz(peak_w);
         for (double d : pi->density) r.density_l1 += std::abs(d);
+        if (pi->spacing > 0.0) r.density_integral = pi->spacing * r.density_l1;
         r.density_bound = 1.0 / (std::abs(pi->g0) * r.hinf_G2);
         r.density_ok = r.g0_loop_stable && r.density_l1 < r.density_bound;
         if (!r.g0_loop_stable)

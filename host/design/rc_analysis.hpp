@@ -39,7 +39,10 @@
 //       most 800 states, otherwise as the maximum on the dense grid refined
 //       by golden-section search. "sup_j ||d(γ_j)||_1" of the SPEC is read as
 //       the l1 norm of the density sequence (for a positive density it is the
-//       sup over n of the partial sums).
+//       sup over n of the partial sums): with SPEC §2's PI sum, whose weights
+//       are d(γ_j) themselves, that is the incremental gain of η. If the
+//       density samples a continuous d(γ) (Shan2012's integral form), the
+//       integral ρ Σ |d_j| is reported beside it.
 //  If (21) fails, inverse-PI feedforward is required (SPEC §6).
 #pragma once
 
@@ -62,6 +65,10 @@ struct RcConfig {
 struct PiHysteresis {
     double g0 = 1.0;
     std::vector<double> density;  // d(γ_j), j = 1..n
+    // Threshold spacing ρ when the density samples a continuous d(γ)
+    // (γ_j = ρ j): then ρ Σ |d_j| ≈ ∫ |d(γ)| dγ is reported as well, the
+    // reading of ||d||_1 for a continuous PI model (0: not reported).
+    double spacing = 0.0;
 };
 
 struct RcAnalysis {
@@ -94,7 +101,8 @@ struct RcAnalysis {
     double hinf_G2 = 0.0;       // ||G2||∞
     double hinf_G2_at_Hz = 0.0;
     std::string hinf_G2_method;  // "hamiltonian" or "grid"
-    double density_l1 = 0.0;     // Σ |d_j|
+    double density_l1 = 0.0;     // Σ |d_j| (the verdict uses this)
+    double density_integral = 0.0;  // ρ Σ |d_j| if a spacing was given
     double density_bound = 0.0;  // 1 / (|g0| ||G2||∞)
     bool density_ok = false;     // (21)
     // Human-readable verdicts: every failing condition with its margin.

@@ -138,7 +138,9 @@ TEST(AnalysisRc, HysteresisSmallGainMatchesClosedForm) {
     PiHysteresis pi;
     pi.g0 = 1.0;
     pi.density = {0.1, 0.2};
+    pi.spacing = 0.5;
     RcAnalysis r = analyze_rc_closed_loop(unit_delay(), config(n, 0, 1, k, q_unity()), pi);
+    EXPECT_NEAR(r.density_integral, 0.15, 1e-15);
     EXPECT_TRUE(r.g0_loop_stable);
     EXPECT_EQ(r.hinf_G2_method, "hamiltonian");
     EXPECT_NEAR(r.hinf_G2, best, 1e-6 * best);
