@@ -16,6 +16,7 @@
 #include "commands.hpp"
 #include "sim/build_case.hpp"
 #include "sim/experiments.hpp"
+#include "sim/model_dump.hpp"
 #include "sim/plotting.hpp"
 #include "sim/scenario.hpp"
 
@@ -39,6 +40,7 @@ struct SimArgs {
     std::string plot;
     bool hash_only = false;
     bool list = false;
+    std::string dump_model;
 };
 
 // A progress bar on stderr, only on a terminal and only once a run has
@@ -114,6 +116,29 @@ int run(const SimArgs& a) {
     auto progress = std::make_shared<Progress>();
     o.progress = [progress](double f) { progress->update(f); };
     const sim::RunResult r = sim::run_loop(b.model, o);
+
+    if (!a.dump_model.empty()) {
+        if (o.fidelity != sim::Fidelity::kFloat)
+            throw std::invalid_argument("--dump-model: only the float fidelity can be replayed");
+        sim::ModelDump d;
+        d.setup = b.model.setup;
+        d.params = b.model.params;
+        d.q31 = b.model.sample == sim::SampleType::kQ31 ? 1u : 0u;
+        d.stage = b.model.stage;
+        d.stage.rate_Hz = b.model.setup.rate_Hz;
+        d.wave = o.wave;
+        d.wave.sample_rate_Hz = b.model.setup.rate_Hz;
+        d.table = o.table;
+        d.ticks = o.ticks;
+        d.series = b.model.series ? 1u : 0u;
+        d.series_pi = b.model.series_pi;
+        d.series_u_min_V = b.model.series_u_min_V;
+        d.series_u_max_V = b.model.series_u_max_V;
+        const std::vector<unsigned char> bytes = sim::serialise(d);
+        std::ofstream f(a.dump_model, std::ios::binary);
+        if (!f) throw std::runtime_error("--dump-model: cannot write " + a.dump_model);
+        f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    }
 
     if (a.hash_only) {
         std::cout << sim::hex64(r.log_hash) << "\n";
@@ -221,6 +246,8 @@ void add_sim(CLI::App& app) {
     cmd->add_option("--log-every", a->log_every, "log every N-th tick (default: at most 200000 rows)")
         ->check(CLI::Range(1, 1 << 30));
     cmd->add_option("--plot", a->plot, "draw r, y, e and the loop to a PNG (tools/plot_sim.py)");
+    cmd->add_option("--dump-model", a->dump_model,
+                    "write the run's core parameters as raw bytes (for tests/sim/sim_hash_probe, float fidelity)");
     cmd->add_flag("--hash", a->hash_only, "print only the log hash of r, y, u (compare with the board self-test)");
     cmd->callback([a] {
         try {

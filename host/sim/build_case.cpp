@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "design/realisation.hpp"
+#include "design/sos.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "sim/design_bridge.hpp"
 #include "status_text.hpp"
@@ -38,37 +40,23 @@ PlantConfig hysteresis_config(const HysteresisSpec& h) {
     return p;
 }
 
-std::complex<double> sos_response(const PipelineParams& p, double f_Hz, double rate_Hz, bool as_float) {
-    const std::complex<double> z1 = std::polar(1.0, -2.0 * M_PI * f_Hz / rate_Hz);
-    std::complex<double> h = 1.0;
-    for (int i = 0; i < p.sos_count; ++i) {
-        SosSection c = p.sos[static_cast<size_t>(i)];
-        if (as_float) {
-            c = SosSection{static_cast<float>(c.b0), static_cast<float>(c.b1), static_cast<float>(c.b2),
-                           static_cast<float>(c.a1), static_cast<float>(c.a2)};
-        }
-        h *= (c.b0 + c.b1 * z1 + c.b2 * z1 * z1) / (1.0 + c.a1 * z1 + c.a2 * z1 * z1);
-    }
-    return h;
-}
-
-// How far the float32 coefficients move the controller's response from the
-// double-precision sections (the float core's realisation error).
-std::string realisation_note(const PipelineParams& p, double rate_Hz) {
-    std::string worst;
-    double worst_err = 0.0;
-    std::string text = "float32 sections against the double design:";
-    for (const double f : {1.0, 10.0, 100.0, 1000.0}) {
-        if (!(f < 0.5 * rate_Hz)) continue;
-        const auto hd = sos_response(p, f, rate_Hz, false), hf = sos_response(p, f, rate_Hz, true);
-        const double err = std::abs(hf - hd) / std::abs(hd);
-        text += " " + num(100.0 * err, 2) + " % at " + num(f) + " Hz,";
-        worst_err = std::max(worst_err, err);
-    }
-    text.back() = '.';
-    if (worst_err > 0.01)
-        text += " (poles close to z = 1 are moved by the rounding of a1, a2; the Q31 core keeps them, see "
-                "tests/unit/test_biquad.cpp)";
+// The toolkit's realisation check of the controller as the core will run it.
+std::string realisation_note(const design::Zpk& discrete, const PipelineParams& p, SampleType sample,
+                             const PipelineSetup& setup) {
+    design::RealisationOptions ro;
+    ro.format = sample == SampleType::kQ31 ? design::SampleFormat::kQ31 : design::SampleFormat::kFloat;
+    ro.in_full_scale = setup.position.full_scale;
+    ro.out_full_scale = setup.voltage.full_scale;
+    const std::vector<SosSection> sos(p.sos.begin(), p.sos.begin() + p.sos_count);
+    const design::RealisationReport r = design::check_realisation(discrete, sos, ro);
+    std::string text = std::string(design::sample_format_name(ro.format)) + " realisation of the controller (design/realisation): ";
+    if (!r.configured) return text + "rejected: " + r.configure_error;
+    text += "response within " + num(r.max_error_db, 2) + " dB / " + num(r.max_phase_error_deg, 2) +
+            " deg of the design (worst at " + num(r.worst_f_hz, 3) + " Hz), poles moved by up to " +
+            num(100.0 * r.max_relative_pole_shift, 2) + " % of their distance to the unit circle";
+    text += r.fit ? " (fit)." : " - UNFIT:";
+    if (!r.fit)
+        for (const std::string& w : r.warnings) text += " " + w;
     return text;
 }
 
@@ -252,6 +240,17 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         }
     }
 
+    if (m.series) {
+        // The pipeline's limiter now bounds the displacement command; the
+        // real voltage limits are applied after the inverse.
+        const double sl = s.command_um_per_V();
+        m.setup.hard = HardLimits{f32(s.setup.hard.u_min_V * sl), f32(s.setup.hard.u_max_V * sl),
+                                  f32(s.setup.hard.slew_max_V_per_s * sl)};
+        m.setup.voltage = SignalScale{f32(s.setup.voltage.full_scale * sl)};
+        p.limits = LimitsConfig{f32(s.limits.u_min_V * sl), f32(s.limits.u_max_V * sl),
+                                f32(s.limits.slew_V_per_s * sl), s.limits.saturation_trip_s};
+    }
+
     // Feedback, in the controller's error unit: gains scaled to µm.
     const FeedbackSpec& fb = c.feedback;
     // In series placement the controller's volts become µm at the mean slope.
@@ -270,8 +269,18 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
     } else if (fb.kind == "lti") {
         design::Zpk z = fb.model->zpk;
         z.gain *= k;
-        const std::vector<SosSection> sos =
+        const design::Zpk zd = discretise(z, s.rate_Hz, fb.method, fb.prewarp_Hz, false, fb.path + ".model");
+        std::vector<SosSection> sos =
             discretise_sos(z, s.rate_Hz, fb.method, fb.prewarp_Hz, false, fb.path + ".model", kMaxControllerSections);
+        if (c.sample == SampleType::kQ31) {
+            // Fixed point: spread the gain so that no internal node can
+            // overflow for a full-scale error (design/sos, L1 scaling).
+            design::SosScaling sc;
+            sc.norm = design::SosNorm::kL1;
+            sc.in_full_scale = m.setup.position.full_scale;
+            sc.out_full_scale = m.setup.voltage.full_scale;
+            sos = design::scale_sos(sos, sc);
+        }
         if (sos.size() > static_cast<size_t>(kMaxControllerSections))
             throw ScenarioError(fb.path + ".model: at most " + std::to_string(kMaxControllerSections) +
                                 " biquad sections (order 8) in the core's feedback");
@@ -279,7 +288,7 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         p.sos_count = static_cast<int>(sos.size());
         for (size_t i = 0; i < sos.size(); ++i) p.sos[i] = sos[i];
         b.controller_sections = p.sos_count;
-        if (c.sample == SampleType::kFloat) b.notes.push_back(realisation_note(p, s.rate_Hz));
+        if (o.check_realisation) b.notes.push_back(realisation_note(zd, p, c.sample, m.setup));
     }
 
     // Repetitive control.
@@ -301,17 +310,6 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         }
         p.rc.period_samples = n;
         if (const Status e = RepetitiveController<float, kSimRcCapacity>::validate(p.rc); !e.ok()) fail(c.rc.path, e);
-    }
-
-    if (m.series) {
-        // The pipeline's limiter now bounds the displacement command; the
-        // real voltage limits are applied after the inverse.
-        const double sl = s.command_um_per_V();
-        m.setup.hard = HardLimits{f32(s.setup.hard.u_min_V * sl), f32(s.setup.hard.u_max_V * sl),
-                                  f32(s.setup.hard.slew_max_V_per_s * sl)};
-        m.setup.voltage = SignalScale{f32(s.setup.voltage.full_scale * sl)};
-        p.limits = LimitsConfig{f32(s.limits.u_min_V * sl), f32(s.limits.u_max_V * sl),
-                                f32(s.limits.slew_V_per_s * sl), s.limits.saturation_trip_s};
     }
 
     // Whole-set validation by the core (e.g. float rounding of sections);

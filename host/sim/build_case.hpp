@@ -20,6 +20,7 @@ namespace piezoloop::sim {
 struct BuildOptions {
     double reference_frequency_Hz = 0.0;  // for the RC period "auto"
     int substeps = 10;                    // double fidelity: sub-steps per tick
+    bool check_realisation = true;        // run design/realisation on the controller (slow for slow poles)
 };
 
 // A Dahl compensator identified from the stage (SPEC §4, §7).

@@ -23,6 +23,10 @@ LinearSpec read_linear_model(const Field& f, const std::filesystem::path& base_d
 // The model scaled to a DC gain of 1 (fails, naming f, for a pole or zero at DC).
 design::Zpk normalise_dc_gain(const design::Zpk& zpk, const Field& f);
 
+// Continuous model -> discrete at rate_Hz (advance: times z).
+design::Zpk discretise(const design::Zpk& zpk, double rate_Hz, const std::string& method, double prewarp_Hz,
+                       bool advance, const std::string& what);
+
 // Continuous model -> second-order sections at rate_Hz.
 //   method "zoh":    exact for a held input; with `advance` the result is
 //                    multiplied by z (y[k+1] from u[k]: the plant step of the

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-#include <unsupported/Eigen/MatrixFunctions>
+#include "design/c2d.hpp"
 
 #include "status_text.hpp"
 
@@ -108,14 +108,17 @@ void DoubleStage::configure(const DoubleStageConfig& c) {
     const Eigen::Index n = a.rows();
     has_states_ = n > 0;
     if (has_states_) {
-        Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n + 1, n + 1);
-        m.topLeftCorner(n, n) = a * h;
-        m.block(0, n, n, 1) = b * h;
-        const Eigen::MatrixXd e = m.exp();
-        ad_ = e.topLeftCorner(n, n);
-        bd_ = e.block(0, n, n, 1);
+        // Exact for an input held over the sub-step (design/c2d: ZOH).
+        design::Ss cont;
+        cont.A = a;
+        cont.B = b;
+        cont.C = cc;
+        cont.D = d;
+        const design::Ss disc = design::zoh(cont, h);
+        ad_ = disc.A;
+        bd_ = disc.B;
         if (!ad_.allFinite() || !bd_.allFinite())
-            throw std::invalid_argument("double stage: dynamics: matrix exponential is not finite");
+            throw std::invalid_argument("double stage: dynamics: the sub-step ZOH model is not finite");
     }
     c_out_ = cc;
     d_out_ = d;

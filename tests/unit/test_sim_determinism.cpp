@@ -1,0 +1,126 @@
+// Determinism of the float (and Q31) simulation: the same run twice gives
+// bit-identical logs (equal log hashes and equal samples); the hash moves
+// when anything in the loop moves. The cross-build half (the same loop
+// compiled at -O0 and -O2 apart from this binary) is tests/cli/check_sim.py
+// with tests/sim/sim_hash_probe.cpp; here the in-process replay through the
+// dump format is checked, which that test relies on.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <memory>
+
+#include "piezoloop/reference_run.hpp"
+#include "sim/build_case.hpp"
+#include "sim/experiments.hpp"
+#include "sim/loop_kernel.hpp"
+#include "sim/model_dump.hpp"
+#include "sim/scenario.hpp"
+
+using namespace piezoloop;
+using namespace piezoloop::sim;
+
+namespace {
+
+const std::string kConfigs = std::string(PIEZOLOOP_GOLDEN_DIR) + "/../../configs/";
+
+struct Prepared {
+    Scenario s;
+    BuiltCase b;
+    RunOptions o;
+};
+
+Prepared prepare(const char* scenario, const char* c, double f, double range_um, SampleType sample) {
+    Prepared p{load_scenario(kConfigs + scenario + ".json"), {}, {}};
+    CaseSpec cs = p.s.find_case(c);
+    cs.sample = sample;
+    BuildOptions bo;
+    bo.reference_frequency_Hz = f;
+    bo.check_realisation = false;
+    p.b = build_case(p.s, cs, bo);
+    TrajectoryRequest t;
+    t.frequency_Hz = f;
+    t.range_um = range_um;
+    t.periods = 3;
+    p.o = plan_run(p.s.rate_Hz, t, 0, false);
+    p.o.log_start = 0;
+    p.o.log_every = 1;
+    return p;
+}
+
+bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+}  // namespace
+
+TEST(SimDeterminism, TwoRunsAreBitIdentical) {
+    for (const SampleType st : {SampleType::kFloat, SampleType::kQ31}) {
+        const Prepared p = prepare("shan2012", "pi_rc", 1000.0, 10.0, st);
+        const RunResult a = run_loop(p.b.model, p.o);
+        const RunResult b = run_loop(p.b.model, p.o);
+        EXPECT_EQ(a.log_hash, b.log_hash) << to_string(st);
+        EXPECT_TRUE(same_bits(a.log.y_um, b.log.y_um)) << to_string(st);
+        EXPECT_TRUE(same_bits(a.log.u_V, b.log.u_V)) << to_string(st);
+    }
+}
+
+TEST(SimDeterminism, HashFollowsEveryChange) {
+    Prepared p = prepare("shan2012", "pi_rc", 1000.0, 10.0, SampleType::kFloat);
+    const uint64_t h0 = run_loop(p.b.model, p.o).log_hash;
+    LoopModel m = p.b.model;
+    m.stage.sensor.seed += 1;  // other noise
+    EXPECT_NE(run_loop(m, p.o).log_hash, h0);
+    m = p.b.model;
+    m.params.rc.k_rc = 0.7f;  // other controller
+    EXPECT_NE(run_loop(m, p.o).log_hash, h0);
+    m = p.b.model;
+    m.sample = SampleType::kQ31;  // other core
+    EXPECT_NE(run_loop(m, p.o).log_hash, h0);
+    RunOptions o = p.o;
+    o.fidelity = Fidelity::kDouble;  // other stage (same hash fold)
+    EXPECT_NE(run_loop(p.b.model, o).log_hash, h0);
+}
+
+// The replay path of tests/sim/sim_hash_probe.cpp, in this binary: the dump
+// round trip and run_ticks alone give the simulator's hash (Dahl
+// feedforward, float, Ahmad2020 at 10 kHz; series inverse, Shan2012).
+TEST(SimDeterminism, DumpReplayGivesTheSameHash) {
+    for (const auto& [scen, c, f] : {std::tuple{"ahmad2020", "dahl_ff_K", 20.0}, std::tuple{"shan2012", "pi_rc_inv", 1000.0}}) {
+        const Prepared p = prepare(scen, c, f, 8.0, SampleType::kFloat);
+        const RunResult r = run_loop(p.b.model, p.o);
+        ModelDump d;
+        d.setup = p.b.model.setup;
+        d.params = p.b.model.params;
+        d.stage = p.b.model.stage;
+        d.stage.rate_Hz = d.setup.rate_Hz;
+        d.wave = p.o.wave;
+        d.wave.sample_rate_Hz = d.setup.rate_Hz;
+        d.ticks = p.o.ticks;
+        d.series = p.b.model.series;
+        d.series_pi = p.b.model.series_pi;
+        d.series_u_min_V = p.b.model.series_u_min_V;
+        d.series_u_max_V = p.b.model.series_u_max_V;
+        ModelDump back;
+        ASSERT_TRUE(deserialise(serialise(d), back));
+        auto pipe = std::make_unique<Pipeline<float, kSimRcCapacity>>(back.setup);
+        StageModel stage;
+        ASSERT_TRUE(stage.configure(back.stage).ok());
+        ASSERT_TRUE(pipe->stage(back.params).ok());
+        ASSERT_TRUE(pipe->start_wave(back.wave).ok());
+        pipe->arm();
+        PiOperator<float> op;
+        SeriesInverse series;
+        if (back.series) {
+            ASSERT_TRUE(op.configure(back.series_pi).ok());
+            series = SeriesInverse{&op, back.series_u_min_V, back.series_u_max_V};
+        }
+        reference::LogHash h;
+        run_ticks<float>(*pipe, stage, back.stage.sensor.gain, back.ticks, series, &h,
+                         [](const TickView&, const TickSignals<float>&, const StageModel&) {});
+        EXPECT_EQ(h.value(), r.log_hash) << scen;
+        // A truncated dump is refused.
+        std::vector<unsigned char> bytes = serialise(d);
+        bytes.pop_back();
+        EXPECT_FALSE(deserialise(bytes, back));
+    }
+}
