@@ -31,34 +31,54 @@ struct TickView {
     float u_V;         // command applied to the stage during this tick
 };
 
-// Runs `ticks` ticks. observe(const TickView&, const TickSignals<T>&, const
-// Stage&) is called after the stage has been stepped with u_k (so the
-// stage's piezo voltage and displacement are those of tick k). With `hash`,
-// r, y, u of every tick (core sample type, u as the pipeline output) are
-// folded into it.
+// One loop, one tick at a time: the state between ticks is the reading y.
+template <class T, class PipelineT, class Stage>
+class LoopStepper {
+public:
+    LoopStepper(PipelineT& pipe, Stage& stage, float sensor_gain, SeriesInverse series, reference::LogHash* hash)
+        : pipe_(pipe), stage_(stage), gain_(sensor_gain), series_(series), hash_(hash),
+          pos_(pipe.setup().position), volt_(pipe.setup().voltage) {}
+
+    // Tick k; observe(const TickView&, const TickSignals<T>&, const Stage&)
+    // is called after the stage has been stepped with u_k (so the stage's
+    // piezo voltage and displacement are those of tick k).
+    template <class Observer>
+    void step(uint64_t k, Observer&& observe) {
+        const T y = pos_.template to_sample<T>(y_um_);
+        const T u = pipe_.tick(y);
+        const TickSignals<T>& sig = pipe_.last();
+        if (hash_) {
+            hash_->add_sample(sig.r);
+            hash_->add_sample(y);
+            hash_->add_sample(u);
+        }
+        float u_V = volt_.to_physical(u);
+        if (series_.op) {
+            u_V = series_.op->apply(u_V);
+            u_V = u_V < series_.u_min_V ? series_.u_min_V : (u_V > series_.u_max_V ? series_.u_max_V : u_V);
+        }
+        const float reading = stage_.step(u_V);
+        observe(TickView{k, pos_.to_physical(sig.r), pos_.to_physical(y), u_V}, sig, stage_);
+        y_um_ = gain_ == 1.0f ? reading : reading / gain_;
+    }
+
+private:
+    PipelineT& pipe_;
+    Stage& stage_;
+    float gain_;
+    SeriesInverse series_;
+    reference::LogHash* hash_;
+    SignalScale pos_, volt_;
+    float y_um_ = 0.0f;
+};
+
+// Runs `ticks` ticks from rest. With `hash`, r, y, u of every tick (core
+// sample type, u as the pipeline output) are folded into it.
 template <class T, class PipelineT, class Stage, class Observer>
 inline void run_ticks(PipelineT& pipe, Stage& stage, float sensor_gain, uint64_t ticks, SeriesInverse series,
                       reference::LogHash* hash, Observer&& observe) {
-    const SignalScale pos = pipe.setup().position, volt = pipe.setup().voltage;
-    float y_um = 0.0f;
-    for (uint64_t k = 0; k < ticks; ++k) {
-        const T y = pos.to_sample<T>(y_um);
-        const T u = pipe.tick(y);
-        const TickSignals<T>& sig = pipe.last();
-        if (hash) {
-            hash->add_sample(sig.r);
-            hash->add_sample(y);
-            hash->add_sample(u);
-        }
-        float u_V = volt.to_physical(u);
-        if (series.op) {
-            u_V = series.op->apply(u_V);
-            u_V = u_V < series.u_min_V ? series.u_min_V : (u_V > series.u_max_V ? series.u_max_V : u_V);
-        }
-        const float reading = stage.step(u_V);
-        observe(TickView{k, pos.to_physical(sig.r), pos.to_physical(y), u_V}, sig, stage);
-        y_um = sensor_gain == 1.0f ? reading : reading / sensor_gain;
-    }
+    LoopStepper<T, PipelineT, Stage> loop(pipe, stage, sensor_gain, series, hash);
+    for (uint64_t k = 0; k < ticks; ++k) loop.step(k, observe);
 }
 
 }  // namespace piezoloop::sim

@@ -106,7 +106,7 @@ TEST(SimComposition, InverseCompensatedOutputIsRhoTimesInputPlusBoundedXi) {
 
 TEST(SimComposition, HoldsWithTheStageDynamicsAtLowFrequency) {
     // With D(s): at 0.1 Hz its phase lag is ~1e-3 rad, i.e. ~0.02 um of a
-    // 20 um amplitude, and the float stage's DC gain error ~0.3 % (its
+    // 20 um amplitude, and the float stage's DC gain error ~0.1 % (its
     // slowest pole pair, |z| = 0.993 at 100 kHz, rounded to float32): 0.1 um
     // of slack.
     // The start excites D(s)'s 595 Hz mode (zeta 0.007, decay time 36 ms):
