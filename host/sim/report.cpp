@@ -4,10 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #include "piezoloop/limits.hpp"
+#include "sim/rc_check.hpp"
 
 namespace piezoloop::sim {
 
@@ -437,6 +439,38 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                     pr["series"].push_back(series(case_of(s, n).label, idx, v));
                 }
             md << "\n";
+            // The conditions of SPEC §6 on the sampled linear loop (design/rc_analysis).
+            std::string rows;
+            for (const std::string& n : x.cases) {
+                const CaseSpec& cs = case_of(s, n);
+                std::optional<design::RcAnalysis> a;
+                try {
+                    a = rc_conditions(s, cs, x.frequencies_Hz.front());
+                } catch (const std::exception& ex) {
+                    rows += table_row({cs.label, std::string("analysis failed: ") + ex.what(), "", "", "", ""});
+                    continue;
+                }
+                if (!a) continue;
+                const std::string inv = cs.feedforward.kind == "pi_inverse"
+                                            ? (cs.feedforward.placement == "series" ? " (the inverse in series removes the hysteresis from the loop)"
+                                                                                    : " (the feedforward inverse leaves it in the loop)")
+                                            : "";
+                rows += table_row(
+                    {cs.label, fixed(a->max_phase_deg, 1) + "° " + (a->phase_ok ? "(ok)" : "(fails)"),
+                     sig(a->k_rc_max) + (a->gain_ok ? " (ok)" : " (fails)"),
+                     a->rc_max_abs_root ? sig(*a->rc_max_abs_root, 6) : std::string("–"),
+                     sig(a->g0) + " vs " + (a->gain_margin_rc ? sig(*a->gain_margin_rc) : std::string("∞")) +
+                         (a->g0_ok ? " (ok)" : " (fails)"),
+                     sig(a->density_l1) + " vs " + sig(a->density_bound) + (a->density_ok ? " (ok)" : " (fails)") + inv});
+            }
+            if (!rows.empty()) {
+                md << "SPEC §6 conditions on the sampled linear loop L = Gc · G_zoh with the hysteresis as v = g0 u + η "
+                      "(design/rc_analysis): (3) max |θT + θ2| below Q's cutoff, (2) largest k_rc, the largest root of "
+                      "the linear RC loop, (15) g0 against the gain margin M_GL, (21) Σ|d(γj)| against 1 / (|g0| ‖G2‖∞).\n\n";
+                md << table_row({"case", "(3) max |θ|", "(2) k_rc max", "linear RC loop, max |z|", "(15) g0 vs M_GL",
+                                 "(21) Σ|d| vs bound"})
+                   << table_rule(6) << rows << "\n";
+            }
             figures.push_back({fig_base + ".png", {{"title", s.name + ": " + x.title}, {"panels", {et, pr}}}});
         }
         md << "![" << x.title << "](" << fig_base << ".png)\n\n";
