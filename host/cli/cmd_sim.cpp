@@ -197,7 +197,10 @@ int run(const SimArgs& a) {
         nlohmann::json spec;
         spec["kind"] = "sim";
         spec["output"] = std::filesystem::absolute(a.plot).string();
-        spec["title"] = s.name + ": " + c.label + ", " + a.trajectory + " " + std::to_string(a.frequency_Hz) + " Hz";
+        char title[256];
+        std::snprintf(title, sizeof title, "%s: %s, %s %g Hz, %g um p-p (%s fidelity)", s.name.c_str(), c.label.c_str(),
+                      a.trajectory.c_str(), a.frequency_Hz, t.range_um, sim::to_string(o.fidelity));
+        spec["title"] = title;
         const sim::RunLog& l = r.log;
         nlohmann::json t_s = nlohmann::json::array();
         for (const uint64_t k : l.tick) t_s.push_back(static_cast<double>(k) / s.rate_Hz);
