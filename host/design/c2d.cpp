@@ -1,4 +1,5 @@
 #include "design/c2d.hpp"
+#include "design/text.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -12,19 +13,6 @@
 
 namespace piezoloop::design {
 namespace {
-
-template <class... Parts>
-std::string cat(const Parts&... parts) {
-    std::string s;
-    ((s += parts), ...);
-    return s;
-}
-
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
-}
 
 void check_continuous(const Zpk& z, double ts) {
     if (is_discrete(z.ts)) throw std::invalid_argument("c2d: the model is already discrete (it has ts)");

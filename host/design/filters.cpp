@@ -1,4 +1,5 @@
 #include "design/filters.hpp"
+#include "design/text.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -10,19 +11,6 @@
 
 namespace piezoloop::design {
 namespace {
-
-template <class... Parts>
-std::string cat(const Parts&... parts) {
-    std::string s;
-    ((s += parts), ...);
-    return s;
-}
-
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
-}
 
 void require(bool ok, const char* field, const std::string& range) {
     if (!ok) throw std::invalid_argument(cat(field, ": ", range));

@@ -1,4 +1,5 @@
 #include "design/lti_convert.hpp"
+#include "design/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -24,21 +25,6 @@ constexpr double kConjugateTol = 1e-9;
 constexpr double kDeflateTol = 100.0 * std::numeric_limits<double>::epsilon();
 
 [[noreturn]] void fail(const std::string& what) { throw std::invalid_argument(what); }
-
-// Message pieces appended one by one (GCC 12 -O3 reports a false
-// -Wrestrict for "literal" + std::string chains, GCC bug 105329).
-template <class... Parts>
-std::string cat(const Parts&... parts) {
-    std::string s;
-    ((s += parts), ...);
-    return s;
-}
-
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
 
 bool all_finite(const std::vector<double>& v) {
     return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
@@ -163,7 +149,7 @@ void check_ss(const Ss& ss) {
 }
 
 void check_ts(double a, double b, const char* what) {
-    if (a != b) fail(cat(what, ": models must have the same ts (", fmt(a), " vs ", fmt(b), ")"));
+    if (a != b) fail(cat(what, ": models must have the same ts (", fmt(a, 17), " vs ", fmt(b, 17), ")"));
 }
 
 // ---- zpk2ss building blocks ------------------------------------------------
@@ -405,7 +391,7 @@ void split_conjugates(const std::vector<cplx>& roots, std::vector<double>& real,
             }
         }
         if (best == roots.size())
-            fail(cat(what, "[", std::to_string(i), "]: complex root (", fmt(r.real()), ", ", fmt(r.imag()),
+            fail(cat(what, "[", std::to_string(i), "]: complex root (", fmt(r.real(), 17), ", ", fmt(r.imag(), 17),
                      ") has no complex-conjugate partner (a real model needs both)"));
         used[best] = true;
         const cplx o = roots[best];

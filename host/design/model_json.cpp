@@ -1,4 +1,5 @@
 #include "design/model_json.hpp"
+#include "design/text.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -15,26 +16,11 @@ namespace {
 
 using nlohmann::json;
 
-// Message pieces appended one by one (GCC 12 -O3 reports a false
-// -Wrestrict for "literal" + std::string chains, GCC bug 105329).
-template <class... Parts>
-std::string cat(const Parts&... parts) {
-    std::string s;
-    ((s += parts), ...);
-    return s;
-}
-
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
     throw std::invalid_argument(cat(path, ": ", what));
 }
 
 std::string index_path(const std::string& path, size_t i) { return cat(path, "[", std::to_string(i), "]"); }
-
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.17g", v);
-    return buf;
-}
 
 double number(const json& v, const std::string& path) {
     if (!v.is_number()) fail(path, cat("must be a number, got ", std::string(v.type_name())));
@@ -97,7 +83,7 @@ Zpk parse(const json& j, const std::string& path, std::optional<double> inherite
         ts = number(j["ts"], cat(path, ".ts"));
         if (!(ts > 0.0)) fail(cat(path, ".ts"), "must be > 0 (seconds); omit it for a continuous model");
         if (inherited_ts && *inherited_ts != ts)
-            fail(cat(path, ".ts"), cat("is ", fmt(ts), " but the enclosing series has ts ", fmt(*inherited_ts),
+            fail(cat(path, ".ts"), cat("is ", fmt(ts, 17), " but the enclosing series has ts ", fmt(*inherited_ts, 17),
                                        " (a series of mixed ts)"));
     } else if (inherited_ts) {
         ts = *inherited_ts;
@@ -135,8 +121,8 @@ Zpk parse(const json& j, const std::string& path, std::optional<double> inherite
     for (size_t i = 0; i < s.size(); ++i) parts.push_back(parse(s[i], index_path(sp, i), member_ts));
     for (size_t i = 1; i < parts.size(); ++i)
         if (parts[i].ts != parts[0].ts)
-            fail(cat(index_path(sp, i), ".ts"), cat("is ", fmt(parts[i].ts), " but ", index_path(sp, 0),
-                                                    " has ts ", fmt(parts[0].ts), " (a series of mixed ts)"));
+            fail(cat(index_path(sp, i), ".ts"), cat("is ", fmt(parts[i].ts, 17), " but ", index_path(sp, 0),
+                                                    " has ts ", fmt(parts[0].ts, 17), " (a series of mixed ts)"));
     Zpk out = series(parts);
     out.zeros = canonical_roots(out.zeros, "zeros");
     out.poles = canonical_roots(out.poles, "poles");

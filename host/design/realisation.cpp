@@ -1,4 +1,5 @@
 #include "design/realisation.hpp"
+#include "design/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -14,13 +15,6 @@
 
 namespace piezoloop::design {
 namespace {
-
-template <class... Parts>
-std::string cat(const Parts&... parts) {
-    std::string s;
-    ((s += parts), ...);
-    return s;
-}
 
 std::string fmt(const char* f, double v) {
     char buf[64];
