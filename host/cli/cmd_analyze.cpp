@@ -69,21 +69,6 @@ json roots_json(const std::vector<cplx>& r) {
     return a;
 }
 
-template <class F>
-void guarded(F body) {
-    int rc = 0;
-    try {
-        body();
-    } catch (const std::invalid_argument& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        rc = 2;
-    } catch (const std::exception& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        rc = 3;
-    }
-    if (rc != 0) throw CLI::RuntimeError(rc);
-}
-
 // ------------------------------------------------------------- plotting
 
 std::string plot_script() {

@@ -44,22 +44,6 @@ void add_data_options(CLI::App* cmd, DataArgs& a, const char* in_default, const 
     cmd->add_option("--output", a.output, "output column name")->capture_default_str();
 }
 
-// Runs body, turning the library's invalid_argument into exit code 2.
-template <class F>
-void guarded(F body) {
-    int rc = 0;
-    try {
-        body();
-    } catch (const std::invalid_argument& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        rc = 2;
-    } catch (const std::exception& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        rc = 3;
-    }
-    if (rc != 0) throw CLI::RuntimeError(rc);
-}
-
 // ---------------------------------------------------------------- rls
 
 struct RlsArgs {

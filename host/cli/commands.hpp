@@ -8,11 +8,32 @@
 
 #include <CLI/CLI.hpp>
 
+#include <exception>
+#include <iostream>
+#include <stdexcept>
+
 namespace piezoloop::cli {
 
 using AddCommand = void (*)(CLI::App&);
 
 bool register_command(int order, AddCommand add);
 void add_registered_commands(CLI::App& app);
+
+// Runs a subcommand's body: a bad input (std::invalid_argument from the
+// libraries) prints "error: ..." and exits 2, any other failure exits 3.
+template <class F>
+void guarded(F body) {
+    int rc = 0;
+    try {
+        body();
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        rc = 2;
+    } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        rc = 3;
+    }
+    if (rc != 0) throw CLI::RuntimeError(rc);
+}
 
 }  // namespace piezoloop::cli
