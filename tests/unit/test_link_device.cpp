@@ -552,3 +552,198 @@ TYPED_TEST(LinkDevice, HostileStreamIsCountedAndTheDeviceKeepsRunning) {
     EXPECT_EQ(r_.request(Hello{}).type(), MsgType::kHelloReply);
     EXPECT_EQ(this->snapshot(), before);
 }
+
+// ---- StartWave flags ---------------------------------------------------------
+
+TEST(LinkStartWave, FlagsZeroIsTheEmptyBodyAndOneByteOtherwise) {
+    std::array<uint8_t, kMaxFrameSize> f{};
+    // Flags 0 must encode exactly as the old body-less StartWave.
+    const std::size_t n0 = encode_message(StartWave{}, 7, f);
+    std::array<uint8_t, kMaxFrameSize> g{};
+    const std::size_t ne = encode_message(EmptyMessage<MsgType::kStartWave>{}, 7, g);
+    ASSERT_EQ(n0, ne);
+    EXPECT_TRUE(std::equal(f.begin(), f.begin() + static_cast<long>(n0), g.begin()));
+    for (const uint8_t flags : {uint8_t{0}, uint8_t{1}, uint8_t{6}, uint8_t{7}, uint8_t{0x80}}) {
+        std::vector<uint8_t> body;
+        std::array<uint8_t, 4> buf{};
+        Writer w(buf);
+        StartWave{flags}.write(w);
+        EXPECT_EQ(w.size(), flags == 0 ? 0u : 1u);
+        StartWave back{0x55};
+        EXPECT_EQ(decode_body(std::span<const uint8_t>(buf.data(), w.size()), back), DecodeResult::kOk);
+        EXPECT_EQ(back.flags, flags);
+    }
+    const std::array<uint8_t, 2> two{1, 0};
+    StartWave m;
+    EXPECT_EQ(decode_body(std::span<const uint8_t>(two), m), DecodeResult::kTooLong);
+}
+
+namespace {
+
+// A stand-in for the firmware's tick mask and emulated stage: records the
+// order of calls so the test can see the restart inside the masked section.
+struct HookLog {
+    static inline std::vector<std::string> calls;
+    static inline bool restart_ok = true;
+    static void mask(bool m) { calls.push_back(m ? "mask" : "unmask"); }
+    static bool restart() {
+        calls.push_back("restart");
+        return restart_ok;
+    }
+};
+
+}  // namespace
+
+template <class T>
+class LinkStartWaveFlags : public LinkDevice<T> {
+protected:
+    void SetUp() override {
+        HookLog::calls.clear();
+        HookLog::restart_ok = true;
+        DeviceHooks hooks;
+        hooks.mask_tick = &HookLog::mask;
+        hooks.restart_stage = &HookLog::restart;
+        this->rig.device = std::make_unique<Device<T>>(*this->rig.pipeline, DeviceInfo{"test-board", "1.2.3", "SN0001"}, hooks);
+    }
+    TrajectoryParams wave() const {
+        TrajectoryParams tp;
+        tp.waveform = Waveform::kSine;
+        tp.amplitude_um = 5.0f;
+        tp.offset_um = 1.0f;
+        tp.frequency_Hz = 250.0f;
+        return tp;
+    }
+    RecorderParams recorder() const {
+        RecorderParams rp;
+        rp.channel_count = 4;
+        rp.channels = {0, 1, 2, 3};
+        rp.decimation = 1;
+        rp.mode = RecordMode::kContinuous;
+        return rp;
+    }
+    // Nothing started: the refused request left the loop as it was.
+    void expect_nothing_started() {
+        EXPECT_FALSE(this->rig.pipeline->wave_running());
+        EXPECT_FALSE(this->rig.pipeline->armed());
+        EXPECT_EQ(this->rig.pipeline->recorder().state(), RecorderState::kIdle);
+    }
+};
+TYPED_TEST_SUITE(LinkStartWaveFlags, SampleTypes);
+
+// The first recorded frame is the wave's tick 0 with the loop freshly armed:
+// frame for frame (bit for bit) what a fresh pipeline gives when the wave is
+// started and the loop armed before its first tick -- host/sim's start. The
+// rig's stage reads y = 0 every tick, the same input for both.
+TYPED_TEST(LinkStartWaveFlags, AllFlagsTakeEffectAtTheSameTick) {
+    using T = TypeParam;
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(this->wave()).type(), MsgType::kAck);
+    ASSERT_EQ(r_.set(this->recorder()).type(), MsgType::kAck);
+    r_.tick(37);  // disarmed ticks before: the output has sat at 0 V
+    HookLog::calls.clear();
+    const uint32_t start_tick = r_.pipeline->tick_count();
+    ASSERT_EQ(r_.request(StartWave{StartWave::kArmLoop | StartWave::kArmRecorder | StartWave::kRestartStage}).type(),
+              MsgType::kAck);
+    EXPECT_EQ(HookLog::calls, (std::vector<std::string>{"mask", "restart", "unmask"}));
+    EXPECT_TRUE(r_.pipeline->armed());
+    EXPECT_TRUE(r_.pipeline->wave_running());
+
+    constexpr int kTicks = 700;
+    r_.tick(kTicks);
+    std::vector<LogBlock> blocks;
+    r_.replies.clear();
+    while (r_.device->poll_log(r_.sink())) {}
+    for (const Reply& rep : r_.replies) blocks.push_back(rep.template as<LogBlock>());
+    ASSERT_FALSE(blocks.empty());
+    EXPECT_EQ(blocks[0].first_tick, start_tick);
+
+    // Reference: fresh pipeline, start_wave + arm, then tick 0.
+    auto ref = std::make_unique<typename Device<T>::PipelineType>(reference::setup());
+    ASSERT_TRUE(ref->stage(reference::params(true, true, false)).ok());
+    TrajectoryConfig c;
+    const TrajectoryParams tp = this->wave();
+    c.waveform = tp.waveform;
+    c.amplitude_um = tp.amplitude_um;
+    c.offset_um = tp.offset_um;
+    c.frequency_Hz = tp.frequency_Hz;
+    c.sample_rate_Hz = reference::setup().rate_Hz;
+    c.start_phase_cycles = tp.start_phase_cycles;
+    c.return_fraction = tp.return_fraction;
+    c.duty = tp.duty;
+    ASSERT_TRUE(ref->start_wave(c).ok());
+    ref->arm();
+    std::size_t k = 0;
+    for (const LogBlock& b : blocks) {
+        EXPECT_EQ(b.first_tick, start_tick + k);
+        for (std::size_t f = 0; f < b.frame_count; ++f, ++k) {
+            ref->tick(sample_zero<T>());
+            const auto& s = ref->last();
+            const std::array<T, 4> want{s.r, s.y, s.e, s.u};
+            for (std::size_t ch = 0; ch < 4; ++ch) {
+                T v;
+                if constexpr (std::is_same_v<T, float>) v = std::bit_cast<float>(b.samples[f * 4 + ch]);
+                else v = Q31::from_raw(static_cast<int32_t>(b.samples[f * 4 + ch]));
+                ASSERT_EQ(v, want[ch]) << "frame " << k << " channel " << ch;
+            }
+        }
+    }
+    // All but the last partial block were sent (700 frames, 30 per block).
+    EXPECT_GE(k, static_cast<std::size_t>(kTicks) - Device<T>::kFramesPerBlock);
+    // The wave moved the reference: the comparison was not of zeros.
+    EXPECT_NE(ref->last().u, sample_zero<T>());
+}
+
+TYPED_TEST(LinkStartWaveFlags, UnknownBitsAreMalformed) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(this->wave()).type(), MsgType::kAck);
+    ASSERT_EQ(r_.set(this->recorder()).type(), MsgType::kAck);
+    const uint32_t bad0 = r_.device->counters().bad_value;
+    for (const uint8_t flags : {uint8_t{0x08}, uint8_t{0x81}, uint8_t{0xFF}}) {
+        this->expect_error(r_.request(StartWave{flags}), ErrorCode::kMalformed, nullptr, "flags");
+        this->expect_nothing_started();
+    }
+    EXPECT_EQ(r_.device->counters().bad_value, bad0 + 3);
+    EXPECT_TRUE(HookLog::calls.empty() || std::find(HookLog::calls.begin(), HookLog::calls.end(), "restart") ==
+                                              HookLog::calls.end());
+}
+
+TYPED_TEST(LinkStartWaveFlags, RefusalsStartNothing) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(this->wave()).type(), MsgType::kAck);
+    // Recorder flag before a recorder configuration.
+    this->expect_error(r_.request(StartWave{StartWave::kArmRecorder | StartWave::kArmLoop}), ErrorCode::kNotConfigured,
+                       "recorder", "channels");
+    this->expect_nothing_started();
+    ASSERT_EQ(r_.set(this->recorder()).type(), MsgType::kAck);
+    // The stage could not restart: nothing else happens either.
+    HookLog::restart_ok = false;
+    this->expect_error(r_.request(StartWave{StartWave::kRestartStage | StartWave::kArmLoop}), ErrorCode::kUnsupported,
+                       nullptr, "flags");
+    this->expect_nothing_started();
+    HookLog::restart_ok = true;
+    // Arm flag while armed: the controller would not restart from rest.
+    ASSERT_EQ(r_.request(Arm{}).type(), MsgType::kAck);
+    this->expect_error(r_.request(StartWave{StartWave::kArmLoop}), ErrorCode::kArmed, nullptr, "flags");
+    EXPECT_FALSE(r_.pipeline->wave_running());
+    // Without the arm flag the wave starts on the armed loop.
+    EXPECT_EQ(r_.request(StartWave{StartWave::kArmRecorder}).type(), MsgType::kAck);
+    EXPECT_TRUE(r_.pipeline->wave_running());
+    EXPECT_EQ(r_.pipeline->recorder().state(), RecorderState::kArmed);
+}
+
+TYPED_TEST(LinkDevice, RestartFlagWithoutAStageIsUnsupported) {
+    auto& r_ = this->rig;  // default hooks: no restart_stage
+    this->configure_reference();
+    TrajectoryParams tp;
+    tp.amplitude_um = 2.0f;
+    ASSERT_EQ(r_.set(tp).type(), MsgType::kAck);
+    this->expect_error(r_.request(StartWave{StartWave::kRestartStage}), ErrorCode::kUnsupported, nullptr, "flags");
+    EXPECT_FALSE(r_.pipeline->wave_running());
+    // The other flags work without hooks.
+    EXPECT_EQ(r_.request(StartWave{StartWave::kArmLoop}).type(), MsgType::kAck);
+    EXPECT_TRUE(r_.pipeline->armed());
+    EXPECT_TRUE(r_.pipeline->wave_running());
+}

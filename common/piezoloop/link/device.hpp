@@ -46,6 +46,12 @@ struct DeviceHooks {
     // tick reads non-atomically (recorder configuration, limiter trip). Null
     // on the host, where the tick runs in the same thread.
     void (*mask_tick)(bool masked) = nullptr;
+    // Puts the emulated stage back at rest (plant states zero, the next
+    // reading y = 0), for StartWave's kRestartStage flag; called between
+    // mask_tick(true) and mask_tick(false). Returns false if it could not.
+    // Null where there is no emulated stage: the flag is then refused
+    // (ErrorCode::kUnsupported).
+    bool (*restart_stage)() = nullptr;
 };
 
 template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024,
@@ -131,19 +137,7 @@ public:
                                 in_group("limits", error("trip", "cannot clear: limits not configured or hard limits invalid")), send);
                 return ack(h, send);
             }
-            case MsgType::kStartWave: {
-                StartWave m;
-                if (!decode(h, body, m, send)) return;
-                if (!wave_set_)
-                    return fail(h, ErrorCode::kNotConfigured, in_group("trajectory", error("waveform", "set the trajectory group first")), send);
-                if (stream_state() != kStreamIdle)
-                    return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a setpoint stream is running: stop it first")), send);
-                if (pipeline_.wave_running())
-                    return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a wave is running: stop it first")), send);
-                if (const Status s = pipeline_.start_wave(trajectory_config(wave_, wave_table_)); !s.ok())
-                    return fail(h, ErrorCode::kInvalidParam, s, send);
-                return ack(h, send);
-            }
+            case MsgType::kStartWave: start_wave(h, body, send); return;
             case MsgType::kStopWave: {
                 StopWave m;
                 if (!decode(h, body, m, send)) return;
@@ -399,6 +393,57 @@ private:
                 return false;
         }
         return false;
+    }
+
+    // StartWave: every check first, then the wave, the arms and the stage
+    // restart in one masked section, so the tick after it is the wave's
+    // tick 0 for all of them.
+    template <class Send>
+    void start_wave(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
+        StartWave m;
+        if (!decode(h, body, m, send)) return;
+        const uint8_t f = m.flags;
+        if ((f & ~StartWave::kKnownFlags) != 0) {
+            LinkCounters::inc(counters().bad_value);
+            return fail(h, ErrorCode::kMalformed,
+                        error("flags", "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage"), send);
+        }
+        if ((f & StartWave::kRestartStage) != 0 && hooks_.restart_stage == nullptr)
+            return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): this device has no emulated stage"), send);
+        if (!wave_set_)
+            return fail(h, ErrorCode::kNotConfigured, in_group("trajectory", error("waveform", "set the trajectory group first")), send);
+        if (stream_state() != kStreamIdle)
+            return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a setpoint stream is running: stop it first")), send);
+        if (pipeline_.wave_running())
+            return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a wave is running: stop it first")), send);
+        if ((f & StartWave::kArmLoop) != 0) {
+            if (pipeline_.limiter().tripped())
+                return fail(h, ErrorCode::kTripped,
+                            in_group("limits", error("trip", trip_reason_name(pipeline_.limiter().trip_reason()))), send);
+            // Armed already, the controller's states would not restart from rest.
+            if (pipeline_.armed())
+                return fail(h, ErrorCode::kArmed, error("flags", "arm loop (bit0): the loop is armed; disarm first"), send);
+        }
+        if ((f & StartWave::kArmRecorder) != 0 && !pipeline_.recorder().configured())
+            return fail(h, ErrorCode::kNotConfigured, in_group("recorder", error("channels", "set the recorder group first")), send);
+        mask(true);
+        if ((f & StartWave::kRestartStage) != 0 && !hooks_.restart_stage()) {
+            mask(false);
+            return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): the stage could not restart"), send);
+        }
+        if (const Status s = pipeline_.start_wave(trajectory_config(wave_, wave_table_)); !s.ok()) {
+            mask(false);
+            return fail(h, ErrorCode::kInvalidParam, s, send);
+        }
+        if ((f & StartWave::kArmLoop) != 0) pipeline_.arm();
+        if ((f & StartWave::kArmRecorder) != 0) (void)pipeline_.recorder().arm();  // configured: cannot fail
+        mask(false);
+        if ((f & StartWave::kArmRecorder) != 0) {
+            log_seq_ = 0;
+            log_blocks_ = 0;
+            pending_ = 0;
+        }
+        ack(h, send);
     }
 
     // ---- parameter groups -----------------------------------------------------

@@ -318,10 +318,29 @@ using GetStatus = EmptyMessage<MsgType::kGetStatus>;
 using Arm = EmptyMessage<MsgType::kArm>;
 using Disarm = EmptyMessage<MsgType::kDisarm>;
 using ClearTrip = EmptyMessage<MsgType::kClearTrip>;
-using StartWave = EmptyMessage<MsgType::kStartWave>;  // runs the trajectory group's wave
 using StopWave = EmptyMessage<MsgType::kStopWave>;
 using RecorderArm = EmptyMessage<MsgType::kRecorderArm>;
 using RecorderStop = EmptyMessage<MsgType::kRecorderStop>;
+
+// Runs the trajectory group's wave. The body is optional (empty = flags 0,
+// as in the first clients): flags make the wave's first sample, the loop's
+// arm, the recorder's arm and a restart of the emulated stage happen at the
+// same tick boundary, so the first recorded frame is the wave's tick 0 with
+// the loop freshly armed and the stage at rest (how `piezoloop sim` starts).
+struct StartWave {
+    static constexpr MsgType kType = MsgType::kStartWave;
+    static constexpr uint8_t kArmLoop = 1u << 0;       // arm the loop (refused if already armed)
+    static constexpr uint8_t kArmRecorder = 1u << 1;   // arm the recorder (configured first)
+    static constexpr uint8_t kRestartStage = 1u << 2;  // emulated stage back at rest (DeviceHooks::restart_stage)
+    static constexpr uint8_t kKnownFlags = kArmLoop | kArmRecorder | kRestartStage;
+    uint8_t flags = 0;
+    bool operator==(const StartWave&) const = default;
+    // Flags 0 travel as the empty body, byte for byte the old message.
+    void write(Writer& w) const {
+        if (flags != 0) w.u8(flags);
+    }
+    void read(Reader& r) { flags = r.remaining() == 0 ? 0 : r.u8(); }
+};
 
 struct GetParams {
     static constexpr MsgType kType = MsgType::kGetParams;

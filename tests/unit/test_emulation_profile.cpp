@@ -1,0 +1,256 @@
+// The emulated boards' profile blob: round trip, the layout at fixed offsets
+// (counted here from the documented field list, independently of the
+// encoder), and every rejection -- which names the field and leaves the
+// output untouched. Exact comparisons throughout: the blob carries bit
+// patterns.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <vector>
+
+#include "piezoloop/emulation_profile.hpp"
+#include "piezoloop/link/crc32.hpp"
+#include "piezoloop/reference_stage.hpp"
+
+using namespace piezoloop;
+
+namespace {
+
+// The reference stage with every part switched on, so each field carries a
+// distinct non-default value.
+EmulationProfile sample_profile() {
+    EmulationProfile p;
+    p.loop_rate_Hz = 50000;
+    p.position_full_scale_um = 80.0f;
+    p.voltage_full_scale_V = 150.0f;
+    StageConfig& s = p.stage;
+    s.rate_Hz = 50000.0f;
+    s.dac = ConverterConfig{16, -10.0f, 10.0f};
+    s.amplifier.gain = 10.0f;
+    s.amplifier.input_min_V = -10.0f;
+    s.amplifier.input_max_V = 10.0f;
+    s.amplifier.output_min_V = -20.0f;
+    s.amplifier.output_max_V = 120.0f;
+    s.amplifier.bandwidth_Hz = 3000.0f;
+    s.plant = reference::plant();
+    s.plant.dahl = kAhmad2020Dahl;
+    s.plant.linear_gain_um_per_V = 0.75f;
+    s.sensor.gain = 0.1f;
+    s.sensor.bandwidth_Hz = 10000.0f;
+    s.sensor.noise_rms = 0.002f;
+    s.sensor.seed = 12345;
+    s.adc = ConverterConfig{18, -10.0f, 10.0f};
+    return p;
+}
+
+std::vector<uint8_t> encode(const EmulationProfile& p) {
+    std::vector<uint8_t> b(kEmulationProfileMaxBytes, 0xA5);
+    const std::size_t n = encode_profile(p, b);
+    EXPECT_EQ(n, kEmulationProfileHeaderBytes + kEmulationProfileBodyBytes);
+    b.resize(n);
+    return b;
+}
+
+uint32_t le32(const std::vector<uint8_t>& b, std::size_t at) {
+    return uint32_t{b[at]} | uint32_t{b[at + 1]} << 8 | uint32_t{b[at + 2]} << 16 | uint32_t{b[at + 3]} << 24;
+}
+void put32(std::vector<uint8_t>& b, std::size_t at, uint32_t v) {
+    ASSERT_LE(at + 4, b.size());
+    for (std::size_t i = 0; i < 4; ++i) b.at(at + i) = static_cast<uint8_t>(v >> (8 * i));
+}
+// Re-seals the CRC after a test edited the body.
+void reseal(std::vector<uint8_t>& b) {
+    put32(b, 12, link::crc32(std::span<const uint8_t>(b).subspan(16, kEmulationProfileBodyBytes)));
+}
+
+bool same(const EmulationProfile& a, const EmulationProfile& b) { return encode(a) == encode(b); }
+
+}  // namespace
+
+TEST(EmulationProfile, RoundTripIsExact) {
+    const EmulationProfile p = sample_profile();
+    ASSERT_TRUE(validate(p).ok()) << validate(p).field;
+    const auto b = encode(p);
+    EmulationProfile q;
+    const Status s = decode_profile(b, q);
+    ASSERT_TRUE(s.ok()) << s.field << ": " << s.message;
+    EXPECT_EQ(q.loop_rate_Hz, p.loop_rate_Hz);
+    EXPECT_EQ(q.position_full_scale_um, p.position_full_scale_um);
+    EXPECT_EQ(q.voltage_full_scale_V, p.voltage_full_scale_V);
+    EXPECT_EQ(q.stage.dac, p.stage.dac);
+    EXPECT_EQ(q.stage.adc, p.stage.adc);
+    EXPECT_EQ(q.stage.plant.pi, p.stage.plant.pi);
+    EXPECT_EQ(q.stage.plant.dahl, p.stage.plant.dahl);
+    EXPECT_EQ(q.stage.plant.dynamics, p.stage.plant.dynamics);
+    EXPECT_EQ(q.stage.plant.sections, p.stage.plant.sections);
+    EXPECT_EQ(q.stage.plant.hysteresis, p.stage.plant.hysteresis);
+    EXPECT_EQ(q.stage.plant.linear_gain_um_per_V, p.stage.plant.linear_gain_um_per_V);
+    EXPECT_EQ(q.stage.sensor.seed, p.stage.sensor.seed);
+    EXPECT_EQ(q.stage.sensor.noise_rms, p.stage.sensor.noise_rms);
+    EXPECT_EQ(q.stage.amplifier.output_max_V, p.stage.amplifier.output_max_V);
+    EXPECT_EQ(encode(q), b);
+    // Decoding from a larger area (the whole reserved RAM) reads the same.
+    std::vector<uint8_t> area(kEmulationProfileMaxBytes, 0xEE);
+    std::copy(b.begin(), b.end(), area.begin());
+    EmulationProfile r;
+    ASSERT_TRUE(decode_profile(area, r).ok());
+    EXPECT_TRUE(same(r, p));
+    EXPECT_TRUE(profile_present(area));
+}
+
+TEST(EmulationProfile, LayoutAtDocumentedOffsets) {
+    // Body size summed from the header's field list: rate + 2 full scales
+    // (12), stage rate (4), dac (12), amplifier 6 f32 (24), plant: kind (1),
+    // pi 3 f32 + count + 2 x 16 f32 (141), dahl 6 f32 (24), linear gain (4),
+    // sections (1), 6 x 5 f64 (240), sensor (16), adc (12).
+    constexpr std::size_t kSum = 12 + 4 + 12 + 24 + 1 + (12 + 1 + 128) + 24 + 4 + 1 + 240 + 16 + 12;
+    static_assert(kSum == kEmulationProfileBodyBytes);
+    const EmulationProfile p = sample_profile();
+    const auto b = encode(p);
+    EXPECT_EQ(b[0], 'P');
+    EXPECT_EQ(b[1], 'Z');
+    EXPECT_EQ(b[2], 'E');
+    EXPECT_EQ(b[3], 'M');
+    EXPECT_EQ(b[4] | b[5] << 8, 1);
+    EXPECT_EQ(b[6] | b[7] << 8, 0);
+    EXPECT_EQ(le32(b, 8), kSum);
+    EXPECT_EQ(le32(b, 16), 50000u);
+    EXPECT_EQ(le32(b, 20), std::bit_cast<uint32_t>(80.0f));
+    EXPECT_EQ(le32(b, 28), std::bit_cast<uint32_t>(50000.0f));  // stage.rate_Hz
+    EXPECT_EQ(le32(b, 32), 16u);                                // dac.bits
+    EXPECT_EQ(b[16 + 52], static_cast<uint8_t>(HysteresisKind::kPi));
+    // The last field: adc.max.
+    EXPECT_EQ(le32(b, b.size() - 4), std::bit_cast<uint32_t>(10.0f));
+    EXPECT_EQ(le32(b, b.size() - 12), 18u);  // adc.bits
+    // The sensor seed, 16 + 12 bytes from the end.
+    EXPECT_EQ(le32(b, b.size() - 16), 12345u);
+}
+
+TEST(EmulationProfile, ReferenceStageIsValidAndTheAddressIsOutsideTheImages) {
+    EmulationProfile p;
+    p.stage.plant = reference::plant();
+    EXPECT_TRUE(validate(p).ok());
+    // Last KiB of the 4 MiB SSRAM1, aligned to the reserved size.
+    EXPECT_EQ(kEmulationProfileAddress + kEmulationProfileMaxBytes, 0x00400000u);
+    EXPECT_EQ(kEmulationProfileAddress % kEmulationProfileMaxBytes, 0u);
+    std::array<uint8_t, 4> small{};
+    EXPECT_EQ(encode_profile(p, small), 0u);
+}
+
+namespace {
+struct Case {
+    const char* name;
+    void (*edit)(EmulationProfile&);
+    const char* group;
+    const char* field;
+};
+}  // namespace
+
+TEST(EmulationProfile, EveryValueRejectionNamesItsFieldAndLeavesOutUntouched) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    static float s_nan;
+    s_nan = nan;
+    const Case cases[] = {
+        {"rate 0", [](EmulationProfile& p) { p.loop_rate_Hz = 0; }, nullptr, "loop_rate_Hz"},
+        {"rate above 200 kHz", [](EmulationProfile& p) { p.loop_rate_Hz = 250000; p.stage.rate_Hz = 250000.0f; }, nullptr, "loop_rate_Hz"},
+        {"rate not dividing 25 MHz", [](EmulationProfile& p) { p.loop_rate_Hz = 30000; p.stage.rate_Hz = 30000.0f; }, nullptr, "loop_rate_Hz"},
+        {"position fs 0", [](EmulationProfile& p) { p.position_full_scale_um = 0.0f; }, nullptr, "position_full_scale_um"},
+        {"position fs NaN", [](EmulationProfile& p) { p.position_full_scale_um = s_nan; }, nullptr, "position_full_scale_um"},
+        {"voltage fs < 0", [](EmulationProfile& p) { p.voltage_full_scale_V = -1.0f; }, nullptr, "voltage_full_scale_V"},
+        {"voltage fs inf", [](EmulationProfile& p) { p.voltage_full_scale_V = std::numeric_limits<float>::infinity(); }, nullptr, "voltage_full_scale_V"},
+        {"stage rate differs", [](EmulationProfile& p) { p.stage.rate_Hz = 100000.0f; }, "stage", "rate_Hz"},
+        {"dac bits 1", [](EmulationProfile& p) { p.stage.dac.bits = 1; }, "dac", "bits"},
+        {"adc range", [](EmulationProfile& p) { p.stage.adc.max = p.stage.adc.min; }, "adc", "max"},
+        {"amp gain NaN", [](EmulationProfile& p) { p.stage.amplifier.gain = s_nan; }, "amplifier", "gain"},
+        {"amp input range", [](EmulationProfile& p) { p.stage.amplifier.input_max_V = -20.0f; }, "amplifier", "input_max_V"},
+        {"amp output range", [](EmulationProfile& p) { p.stage.amplifier.output_max_V = -30.0f; }, "amplifier", "output_max_V"},
+        {"amp bandwidth >= rate/2", [](EmulationProfile& p) { p.stage.amplifier.bandwidth_Hz = 25000.0f; }, "amplifier", "bandwidth_Hz"},
+        {"sensor bandwidth < 0", [](EmulationProfile& p) { p.stage.sensor.bandwidth_Hz = -1.0f; }, "sensor", "bandwidth_Hz"},
+        {"sensor gain 0", [](EmulationProfile& p) { p.stage.sensor.gain = 0.0f; }, "sensor", "gain"},
+        {"sensor noise < 0", [](EmulationProfile& p) { p.stage.sensor.noise_rms = -0.1f; }, "sensor", "noise_rms"},
+        {"plant kind", [](EmulationProfile& p) { p.stage.plant.hysteresis = static_cast<HysteresisKind>(9); }, "plant", "hysteresis"},
+        {"plant sections 7", [](EmulationProfile& p) { p.stage.plant.sections = 7; }, "plant", "sections"},
+        {"plant pi count 17", [](EmulationProfile& p) { p.stage.plant.pi.count = 17; }, "plant", "count"},
+        {"plant pi thresholds", [](EmulationProfile& p) { p.stage.plant.pi.thresholds[1] = -1.0f; }, "plant", "thresholds"},
+        {"plant dahl", [](EmulationProfile& p) { p.stage.plant.hysteresis = HysteresisKind::kDahl; p.stage.plant.dahl.alpha2 = 0.0f; }, "plant", nullptr},
+        {"plant linear gain", [](EmulationProfile& p) { p.stage.plant.hysteresis = HysteresisKind::kNone; p.stage.plant.linear_gain_um_per_V = s_nan; }, "plant", "linear_gain_um_per_V"},
+    };
+    for (const Case& c : cases) {
+        SCOPED_TRACE(c.name);
+        EmulationProfile bad = sample_profile();
+        c.edit(bad);
+        const auto blob = encode(bad);  // encoding does not validate
+        EmulationProfile out;
+        out.loop_rate_Hz = 777;  // sentinel
+        const Status s = decode_profile(blob, out);
+        ASSERT_FALSE(s.ok());
+        if (c.group != nullptr) {
+            ASSERT_NE(s.group, nullptr);
+            EXPECT_STREQ(s.group, c.group);
+        } else {
+            EXPECT_EQ(s.group, nullptr);
+        }
+        if (c.field != nullptr) {
+            EXPECT_STREQ(s.field, c.field);
+        }
+        EXPECT_NE(s.message, nullptr);
+        EXPECT_EQ(out.loop_rate_Hz, 777u);
+        EXPECT_TRUE(same(out, [] { EmulationProfile e; e.loop_rate_Hz = 777; return e; }()));
+    }
+}
+
+TEST(EmulationProfile, EveryFramingRejectionNamesTheHeaderField) {
+    const auto good = encode(sample_profile());
+    auto expect = [](std::vector<uint8_t> b, const char* field) {
+        EmulationProfile out;
+        out.voltage_full_scale_V = 3.5f;
+        const Status s = decode_profile(b, out);
+        ASSERT_FALSE(s.ok());
+        EXPECT_STREQ(s.field, field);
+        EXPECT_EQ(out.voltage_full_scale_V, 3.5f);
+    };
+    expect({}, "length");
+    expect(std::vector<uint8_t>(good.begin(), good.begin() + 15), "length");
+    {
+        auto b = good;
+        b[0] ^= 1;  // magic
+        expect(b, "magic");
+        EXPECT_FALSE(profile_present(b));
+    }
+    {
+        auto b = good;
+        b[4] = 2;  // version
+        expect(b, "version");
+        EXPECT_TRUE(profile_present(b));
+    }
+    {
+        auto b = good;
+        b[7] = 1;  // reserved
+        expect(b, "reserved");
+    }
+    {
+        auto b = good;
+        put32(b, 8, kEmulationProfileBodyBytes + 4);  // length not the v1 layout
+        expect(b, "length");
+    }
+    // Body cut short of the declared length.
+    expect(std::vector<uint8_t>(good.begin(), good.end() - 1), "length");
+    for (std::size_t at : {std::size_t{16}, std::size_t{100}, good.size() - 1}) {
+        auto b = good;
+        b[at] ^= 0x10;  // one flipped bit anywhere in the body
+        expect(b, "crc");
+        reseal(b);  // with a matching CRC it decodes (validly or not) -- the CRC was the reason
+        EmulationProfile out;
+        const Status s = decode_profile(b, out);
+        EXPECT_TRUE(s.ok() || std::strcmp(s.field, "crc") != 0);
+    }
+    {
+        auto b = good;
+        b[12] ^= 0x01;  // the CRC field itself
+        expect(b, "crc");
+    }
+}
