@@ -1,0 +1,286 @@
+#include "link/client.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace piezoloop::hostlink {
+
+using namespace std::chrono;
+using link::MsgType;
+
+const char* request_name(uint8_t type) {
+    switch (static_cast<MsgType>(type)) {
+        case MsgType::kHello: return "Hello";
+        case MsgType::kGetStatus: return "GetStatus";
+        case MsgType::kGetParams: return "GetParams";
+        case MsgType::kSetParams: return "SetParams";
+        case MsgType::kArm: return "Arm";
+        case MsgType::kDisarm: return "Disarm";
+        case MsgType::kClearTrip: return "ClearTrip";
+        case MsgType::kStartWave: return "StartWave";
+        case MsgType::kStopWave: return "StopWave";
+        case MsgType::kStreamStart: return "StreamStart";
+        case MsgType::kSetpoints: return "Setpoints";
+        case MsgType::kStreamStop: return "StreamStop";
+        case MsgType::kRecorderArm: return "RecorderArm";
+        case MsgType::kRecorderStop: return "RecorderStop";
+        default: return "request";
+    }
+}
+
+std::string describe(const link::ErrorReply& e) {
+    std::string t;
+    if (e.group[0] != '\0') {
+        t += e.group.data();
+        t += '.';
+    }
+    t += e.field[0] != '\0' ? e.field.data() : "?";
+    if (e.index >= 0) {
+        t += '[';
+        t += std::to_string(e.index);
+        t += ']';
+    }
+    t += ": ";
+    t += e.message[0] != '\0' ? e.message.data() : "invalid";
+    return t;
+}
+
+Client::Client(std::unique_ptr<Transport> transport) : Client(std::move(transport), Options{}) {}
+
+Client::Client(std::unique_ptr<Transport> transport, Options options)
+    : transport_(std::move(transport)), options_(options) {
+    if (!transport_) throw LinkError("no transport");
+}
+
+void Client::on_payload(std::span<const uint8_t> payload) {
+    if (payload.size() < link::kHeaderSize) {
+        ++counters_.bad_replies;
+        return;
+    }
+    const link::FrameHeader h = link::parse_header(payload);
+    const auto body = payload.subspan(link::kHeaderSize);
+    if (h.type == static_cast<uint8_t>(MsgType::kLogBlock)) {
+        link::LogBlock b;
+        if (link::decode_body(body, b) != link::DecodeResult::kOk) {
+            ++counters_.bad_replies;
+            return;
+        }
+        ++counters_.log_blocks;
+        log_.add(b);
+        return;
+    }
+    if (!awaited_ || h.seq != *awaited_ || reply_) {
+        ++counters_.stale_replies;
+        return;
+    }
+    RawReply r;
+    r.type = h.type;
+    r.seq = h.seq;
+    r.body.assign(body.begin(), body.end());
+    reply_ = std::move(r);
+}
+
+void Client::read_some(milliseconds timeout) {
+    std::array<uint8_t, 4096> buf;
+    const std::size_t n = transport_->read(buf, timeout);
+    if (n == 0) return;
+    decoder_.feed(std::span<const uint8_t>(buf.data(), n), [this](std::span<const uint8_t> p) { on_payload(p); });
+}
+
+std::size_t Client::pump(milliseconds timeout) {
+    const uint64_t before = counters_.log_blocks;
+    const auto deadline = steady_clock::now() + timeout;
+    do {
+        const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+        read_some(std::max(left, milliseconds(0)));
+    } while (steady_clock::now() < deadline && counters_.log_blocks == before);
+    // Take whatever else is already waiting, without blocking.
+    for (int i = 0; i < 64; ++i) {
+        const uint64_t b = counters_.log_blocks;
+        read_some(milliseconds(0));
+        if (counters_.log_blocks == b) break;
+    }
+    return static_cast<std::size_t>(counters_.log_blocks - before);
+}
+
+Client::RawReply Client::transact(uint8_t type, std::span<const uint8_t> body, uint8_t version) {
+    std::array<uint8_t, link::kMaxFrameSize + 1> frame{};
+    const uint16_t seq = ++seq_;
+    // A leading delimiter ends any partial frame a previous session left in
+    // the device's receiver (an empty frame is idle fill, not counted).
+    frame[0] = 0;
+    const std::size_t n = link::encode_frame(type, version, seq, body, std::span<uint8_t>(frame).subspan(1));
+    if (n == 0) throw LinkError(address() + ": " + request_name(type) + ": frame does not fit");
+    awaited_ = seq;
+    reply_.reset();
+    ++counters_.requests;
+    transport_->write(std::span<const uint8_t>(frame.data(), n + 1));
+    const auto deadline = steady_clock::now() + options_.timeout;
+    while (!reply_) {
+        const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
+        if (left.count() <= 0) {
+            awaited_.reset();
+            throw LinkError(address() + ": no reply to " + request_name(type) + " within " +
+                            std::to_string(options_.timeout.count()) + " ms");
+        }
+        read_some(left);
+    }
+    awaited_.reset();
+    RawReply r = std::move(*reply_);
+    reply_.reset();
+    return r;
+}
+
+void Client::throw_if_error(const RawReply& r, uint8_t request_type) {
+    if (r.type != static_cast<uint8_t>(MsgType::kError)) return;
+    link::ErrorReply e;
+    if (link::decode_body(std::span<const uint8_t>(r.body), e) != link::DecodeResult::kOk)
+        unexpected(r, request_type);
+    throw DeviceError(address() + ": " + request_name(request_type) + " refused (" + link::error_code_name(e.code) +
+                          "): " + describe(e),
+                      e);
+}
+
+void Client::unexpected(const RawReply& r, uint8_t request_type) {
+    ++counters_.bad_replies;
+    char t[8];
+    std::snprintf(t, sizeof t, "0x%02X", r.type);
+    throw LinkError(address() + ": unexpected reply " + t + " (" + std::to_string(r.body.size()) + " bytes) to " +
+                    request_name(request_type));
+}
+
+void Client::check_ack(const link::Ack& a, uint8_t type) {
+    if (a.request_type != type)
+        throw LinkError(address() + ": Ack names request " + std::to_string(a.request_type) + ", expected " +
+                        request_name(type));
+}
+
+void Client::expect_ack_raw(uint8_t type, std::span<const uint8_t> body) {
+    const RawReply r = transact(type, body);
+    check_ack(decode_reply<link::Ack>(r, type), type);
+}
+
+const link::HelloReply& Client::hello() {
+    const RawReply r = transact(static_cast<uint8_t>(MsgType::kHello), {});
+    throw_if_error(r, static_cast<uint8_t>(MsgType::kHello));
+    if (r.type != static_cast<uint8_t>(MsgType::kHelloReply) || r.body.empty())
+        unexpected(r, static_cast<uint8_t>(MsgType::kHello));
+    if (r.body[0] != link::kProtocolVersion)
+        throw LinkError(address() + ": the device speaks link protocol version " + std::to_string(r.body[0]) +
+                        ", this host speaks version " + std::to_string(link::kProtocolVersion) +
+                        " (update the firmware or the host tools)");
+    hello_ = decode_reply<link::HelloReply>(r, static_cast<uint8_t>(MsgType::kHello));
+    return *hello_;
+}
+
+const link::HelloReply& Client::info() {
+    if (!hello_) hello();
+    return *hello_;
+}
+
+link::StatusReply Client::status() { return request<link::StatusReply>(link::GetStatus{}); }
+
+void Client::arm() { expect_ack(link::Arm{}); }
+void Client::disarm() { expect_ack(link::Disarm{}); }
+void Client::clear_trip() { expect_ack(link::ClearTrip{}); }
+void Client::stop_wave() { expect_ack(link::StopWave{}); }
+
+void Client::start_wave(uint8_t flags) {
+    const std::array<uint8_t, 1> body{flags};
+    const uint8_t type = static_cast<uint8_t>(MsgType::kStartWave);
+    if (flags & wave_flag::kArmRecorder) log_.clear();
+    expect_ack_raw(type, flags == 0 ? std::span<const uint8_t>() : std::span<const uint8_t>(body));
+}
+
+void Client::recorder_arm() {
+    log_.clear();
+    expect_ack(link::RecorderArm{});
+}
+void Client::recorder_stop() { expect_ack(link::RecorderStop{}); }
+
+link::SetpointAck Client::stream_start(uint16_t prefill) {
+    link::StreamStart m;
+    m.prefill = prefill;
+    const link::SetpointAck a = request<link::SetpointAck>(m);
+    next_block_seq_ = a.next_block_seq;
+    return a;
+}
+
+link::SetpointAck Client::send_setpoints(std::span<const float> sp) {
+    if (sp.size() > link::kMaxSetpointsPerBlock)
+        throw std::invalid_argument("send_setpoints: at most 120 setpoints per block");
+    link::SetpointBlock b;
+    b.block_seq = next_block_seq_;
+    b.count = static_cast<uint8_t>(sp.size());
+    std::copy(sp.begin(), sp.end(), b.setpoint_um.begin());
+    const link::SetpointAck a = request<link::SetpointAck>(b);
+    next_block_seq_ = a.next_block_seq;
+    return a;
+}
+
+void Client::stream_stop(bool drain) {
+    link::StreamStop m;
+    m.drain = drain;
+    expect_ack(m);
+}
+
+StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const std::function<void(double)>& progress) {
+    const auto t0 = steady_clock::now();
+    const double rate = info().loop_rate_Hz > 0.0f ? info().loop_rate_Hz : 100000.0;
+    StreamResult res;
+    link::SetpointAck ack = stream_start(prefill);
+    res.capacity = ack.capacity;
+    std::size_t free = ack.free;
+    std::size_t i = 0;
+    while (i < sp.size()) {
+        const std::size_t k = std::min<std::size_t>(link::kMaxSetpointsPerBlock, sp.size() - i);
+        if (k > free) {
+            // Wait about as long as the tick needs to make room, then ask.
+            const double wait_s = static_cast<double>(k - free) / rate;
+            pump(milliseconds(std::clamp<long>(static_cast<long>(wait_s * 1000.0), 1, 50)));
+            free = status().setpoint_free;
+            continue;
+        }
+        ack = send_setpoints(sp.subspan(i, k));
+        free = ack.free;
+        i += k;
+        res.sent += k;
+        ++res.blocks;
+        res.consumed = ack.consumed;
+        res.underruns = ack.underruns;
+        if (progress) progress(static_cast<double>(i) / static_cast<double>(sp.size()));
+    }
+    stream_stop(true);
+    // The drained stream ends when its FIFO runs empty: wait for that
+    // (about capacity / rate) and read the final counts.
+    const auto deadline = steady_clock::now() + options_.timeout +
+                          milliseconds(static_cast<long>(1000.0 * (res.capacity + 1) / rate));
+    for (;;) {
+        const link::StatusReply st = status();
+        res.underruns = st.setpoint_underruns;
+        if (!st.streaming) {
+            res.drained = true;
+            res.consumed = res.sent;
+            break;
+        }
+        if (steady_clock::now() > deadline) break;
+        pump(milliseconds(2));
+    }
+    res.wall_s = duration<double>(steady_clock::now() - t0).count();
+    return res;
+}
+
+const char* signal_name(uint8_t id) {
+    static const char* const names[] = {"r", "y", "e", "u", "u_ff", "u_fb", "u_rc"};
+    return id < 7 ? names[id] : "?";
+}
+
+const char* signal_unit(uint8_t id) { return id <= 2 ? "um" : "V"; }
+
+double log_sample_physical(uint32_t raw, uint8_t id, link::SampleFormat format, const link::HelloReply& hello) {
+    if (format == link::SampleFormat::kFloat32) return static_cast<double>(std::bit_cast<float>(raw));
+    const double fs = id <= 2 ? hello.position_full_scale_um : hello.voltage_full_scale_V;
+    return static_cast<double>(static_cast<int32_t>(raw)) * fs / 2147483648.0;
+}
+
+}  // namespace piezoloop::hostlink

@@ -1,0 +1,204 @@
+// Host side of the link protocol (docs/protocol.md) over any Transport:
+// one request at a time, each with its own sequence id, waiting at most the
+// timeout for the reply with that id. An Error reply becomes a DeviceError
+// whose text names the request, the code, group.field[index] and what is
+// allowed. LogBlocks the device sends while a reply is awaited are queued
+// into the LogCollector (nothing is dropped); replies with a stale sequence
+// id (after a timeout) and undecodable frames are counted.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "link/log_collector.hpp"
+#include "link/transport.hpp"
+#include "piezoloop/link/framing.hpp"
+#include "piezoloop/link/messages.hpp"
+
+namespace piezoloop::hostlink {
+
+// The device answered a request with Error.
+class DeviceError : public LinkError {
+public:
+    DeviceError(const std::string& what, const link::ErrorReply& e) : LinkError(what), reply_(e) {}
+    const link::ErrorReply& reply() const { return reply_; }
+    link::ErrorCode code() const { return reply_.code; }
+    std::string group() const { return reply_.group.data(); }
+    std::string field() const { return reply_.field.data(); }
+
+private:
+    link::ErrorReply reply_;
+};
+
+// "group.field[index]: message" of an error reply (the core's Status texts).
+std::string describe(const link::ErrorReply& e);
+const char* request_name(uint8_t type);
+
+// StartWave flags (the optional flags byte of StartWave; all act at the
+// wave's first tick).
+namespace wave_flag {
+inline constexpr uint8_t kArm = 1u << 0;            // arm the loop
+inline constexpr uint8_t kArmRecorder = 1u << 1;    // arm the recorder
+inline constexpr uint8_t kRestartStage = 1u << 2;   // restart the emulated stage at rest
+}  // namespace wave_flag
+
+struct ClientCounters {
+    uint64_t requests = 0;
+    uint64_t stale_replies = 0;    // a reply whose seq is not the awaited one (dropped)
+    uint64_t bad_replies = 0;      // a frame with a good CRC but an undecodable body (dropped)
+    uint64_t busy_retries = 0;     // SetParams retried after Error(busy)
+    uint64_t log_blocks = 0;       // LogBlocks received
+};
+
+struct StreamResult {
+    uint64_t sent = 0;          // setpoints acknowledged by the device
+    uint64_t consumed = 0;      // setpoints the tick consumed
+    uint32_t underruns = 0;     // ticks that found the FIFO empty
+    uint64_t blocks = 0;
+    uint16_t capacity = 0;
+    bool drained = false;       // the device ended the stream after the last setpoint
+    double wall_s = 0.0;
+};
+
+class Client {
+public:
+    struct Options {
+        std::chrono::milliseconds timeout{2000};  // per request
+    };
+    explicit Client(std::unique_ptr<Transport> transport);
+    Client(std::unique_ptr<Transport> transport, Options options);
+
+    Transport& transport() { return *transport_; }
+    const std::string address() const { return transport_->address(); }
+
+    // Hello: reads the board's identity and limits, checks the protocol
+    // version (LinkError if the device speaks another one). Cached in info().
+    const link::HelloReply& hello();
+    const link::HelloReply& info();  // hello() once, then the cached reply
+
+    link::StatusReply status();
+
+    template <class G>
+    G get() {
+        link::GetParams m;
+        m.group = G::kGroup;
+        return request<link::ParamsReply<G>>(m).value;
+    }
+    // SetParams, retried while the device answers busy (previous set not
+    // yet swapped in) until the timeout.
+    template <class G>
+    void set(const G& v) {
+        link::SetParams<G> m;
+        m.value = v;
+        const auto deadline = std::chrono::steady_clock::now() + options_.timeout;
+        for (;;) {
+            try {
+                expect_ack(m);
+                return;
+            } catch (const DeviceError& e) {
+                if (e.code() != link::ErrorCode::kBusy || e.field() != "params" ||
+                    std::chrono::steady_clock::now() > deadline)
+                    throw;
+                ++counters_.busy_retries;
+                std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            }
+        }
+    }
+
+    void arm();
+    void disarm();
+    void clear_trip();
+    void start_wave(uint8_t flags = 0);  // flags: wave_flag::*, sent only if non-zero
+    void stop_wave();
+
+    link::SetpointAck stream_start(uint16_t prefill);
+    // One Setpoints block (<= 120 values) with the next block_seq.
+    link::SetpointAck send_setpoints(std::span<const float> setpoints_um);
+    void stream_stop(bool drain);
+    // Streams every setpoint, keeping the FIFO filled by the free counts of
+    // the SetpointAcks (and status when it is full), then drains.
+    StreamResult stream(std::span<const float> setpoints_um, uint16_t prefill,
+                        const std::function<void(double)>& progress = {});
+
+    void recorder_arm();   // also clears the log collector
+    void recorder_stop();
+
+    // Reads whatever arrives within `timeout` (log blocks into log());
+    // returns the number of LogBlocks received.
+    std::size_t pump(std::chrono::milliseconds timeout);
+    LogCollector& log() { return log_; }
+    const ClientCounters& counters() const { return counters_; }
+    const link::LinkCounters& link_counters() const { return decoder_.counters(); }
+
+    // A raw request: type and body bytes; returns the reply payload's type
+    // and body (Error replies are returned, not thrown). For tests and tools.
+    struct RawReply {
+        uint8_t type = 0;
+        uint16_t seq = 0;
+        std::vector<uint8_t> body;
+    };
+    RawReply transact(uint8_t type, std::span<const uint8_t> body, uint8_t version = link::kProtocolVersion);
+
+    // Encodes m's body and sends it; decodes the reply as R; throws
+    // DeviceError for an Error reply, LinkError for anything else unexpected.
+    template <class R, class M>
+    R request(const M& m) {
+        std::array<uint8_t, link::kMaxBody> body{};
+        link::Writer w(body);
+        m.write(w);
+        if (!w.ok()) throw LinkError(address() + ": " + request_name(static_cast<uint8_t>(M::kType)) + ": body too long");
+        const RawReply r = transact(static_cast<uint8_t>(M::kType), std::span<const uint8_t>(body.data(), w.size()));
+        return decode_reply<R>(r, static_cast<uint8_t>(M::kType));
+    }
+
+private:
+    template <class M>
+    void expect_ack(const M& m) {
+        const link::Ack a = request<link::Ack>(m);
+        check_ack(a, static_cast<uint8_t>(M::kType));
+    }
+    void check_ack(const link::Ack& a, uint8_t type);
+    void expect_ack_raw(uint8_t type, std::span<const uint8_t> body);
+
+    template <class R>
+    R decode_reply(const RawReply& r, uint8_t request_type) {
+        throw_if_error(r, request_type);
+        R out{};
+        if (r.type != static_cast<uint8_t>(R::kType) ||
+            link::decode_body(std::span<const uint8_t>(r.body), out) != link::DecodeResult::kOk)
+            unexpected(r, request_type);
+        return out;
+    }
+    void throw_if_error(const RawReply& r, uint8_t request_type);
+    [[noreturn]] void unexpected(const RawReply& r, uint8_t request_type);
+    void on_payload(std::span<const uint8_t> payload);
+    void read_some(std::chrono::milliseconds timeout);
+
+    std::unique_ptr<Transport> transport_;
+    Options options_;
+    link::FrameDecoder decoder_;
+    std::optional<link::HelloReply> hello_;
+    uint16_t seq_ = 0;
+    std::optional<uint16_t> awaited_;
+    std::optional<RawReply> reply_;
+    uint32_t next_block_seq_ = 0;
+    LogCollector log_;
+    ClientCounters counters_;
+};
+
+// Physical value (µm or V) of a raw log sample of signal `signal_id`, in the
+// block format (float32 bits, or Q31 times the hello's full scale / 2^31).
+double log_sample_physical(uint32_t raw, uint8_t signal_id, link::SampleFormat format, const link::HelloReply& hello);
+// Unit of a signal id: "um" for r, y, e, "V" for u, u_ff, u_fb, u_rc.
+const char* signal_unit(uint8_t signal_id);
+const char* signal_name(uint8_t signal_id);  // r, y, e, u, u_ff, u_fb, u_rc
+
+}  // namespace piezoloop::hostlink
