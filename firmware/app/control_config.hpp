@@ -17,12 +17,14 @@ namespace piezoloop::fw {
 inline constexpr float kLoopRate_Hz = 100000.0f;
 inline constexpr uint32_t kLoopRateInt_Hz = 100000;
 
-// RC delay line: N up to 128 (the reference N = 100); recorder: the three
-// signals the log hash covers, 1024 frames (10 ms at 100 kHz) of slack for
-// the main loop that drains it.
+// RC delay line: N up to 128 (the reference N = 100); recorder: four
+// channels, what the host's link client records (r, y, e, u; the log hash
+// covers r, y, u), 4096 frames (41 ms at 100 kHz) of slack for the main
+// loop that drains it into log blocks; setpoint FIFO of the link's stream.
 inline constexpr int kRcCapacity = 128;
-inline constexpr std::size_t kRecChannels = 3;
-inline constexpr std::size_t kRecCapacity = 1024;
+inline constexpr std::size_t kRecChannels = 4;
+inline constexpr std::size_t kRecCapacity = 4096;
+inline constexpr std::size_t kSetpointCapacity = 1024;
 
 template <class T>
 using FwPipeline = Pipeline<T, kRcCapacity, kRecChannels, kRecCapacity>;
@@ -35,20 +37,21 @@ struct BoardAnalog {
     float voltage_full_scale_V;
 };
 
-constexpr PipelineSetup pipeline_setup(const BoardAnalog& b) {
+constexpr PipelineSetup pipeline_setup(const BoardAnalog& b, float rate_Hz = kLoopRate_Hz) {
     PipelineSetup s{};
     s.hard = b.hard;
-    s.rate_Hz = kLoopRate_Hz;
+    s.rate_Hz = rate_Hz;
     s.position = SignalScale{b.position_full_scale_um};
     s.voltage = SignalScale{b.voltage_full_scale_V};
     return s;
 }
 
-// Frames {r, y, u}: the log hash is over exactly these.
+// Frames {r, y, u, e}: the log hash is over the first three.
 template <class T>
 constexpr RecorderConfig<kRecChannels> log_recorder_config() {
     RecorderConfig<kRecChannels> c{};
-    c.channels = {signal_index(SignalId::kR), signal_index(SignalId::kY), signal_index(SignalId::kU)};
+    c.channels = {signal_index(SignalId::kR), signal_index(SignalId::kY), signal_index(SignalId::kU),
+                  signal_index(SignalId::kE)};
     c.decimation = 1;
     c.mode = RecordMode::kContinuous;
     c.trigger = TriggerMode::kImmediate;

@@ -5,7 +5,6 @@
 #include "board_config.hpp"
 #include "board_io.hpp"
 #include "bsp/bsp.hpp"
-#include "bsp/converter16.hpp"
 
 namespace piezoloop::fw {
 
@@ -13,10 +12,9 @@ namespace {
 
 constexpr BoardAnalog kBoardAnalog{bsp::config::kHardLimits, bsp::config::kPositionFullScale_um,
                                    bsp::config::kVoltageFullScale_V};
-constexpr Converter16 kAdc{bsp::config::kPositionFullScale_um};
-constexpr Converter16 kDac{bsp::config::kVoltageFullScale_V};
 
 alignas(BoardPipeline) unsigned char g_pipeline_storage[sizeof(BoardPipeline)];
+alignas(BoardDevice) unsigned char g_device_storage[sizeof(BoardDevice)];
 ControlLoop g_loop;
 
 }  // namespace
@@ -24,10 +22,20 @@ ControlLoop g_loop;
 BoardAnalog board_analog() { return kBoardAnalog; }
 ControlLoop& control_loop() { return g_loop; }
 
-BoardPipeline& ControlLoop::rebuild() {
+BoardPipeline& ControlLoop::rebuild() { return rebuild(pipeline_setup(kBoardAnalog)); }
+
+BoardPipeline& ControlLoop::rebuild(const PipelineSetup& setup) {
+    if (device_ != nullptr) device_->~BoardDevice();
+    device_ = nullptr;
     if (pipe_ != nullptr) pipe_->~BoardPipeline();
-    pipe_ = new (g_pipeline_storage) BoardPipeline(pipeline_setup(kBoardAnalog));
+    pipe_ = new (g_pipeline_storage) BoardPipeline(setup);
     return *pipe_;
+}
+
+BoardDevice& ControlLoop::attach_device(const link::DeviceInfo& info, const link::DeviceHooks& hooks) {
+    if (device_ != nullptr) device_->~BoardDevice();
+    device_ = new (g_device_storage) BoardDevice(*pipe_, info, hooks);
+    return *device_;
 }
 
 bool ControlLoop::start(uint32_t rate_Hz, uint32_t max_ticks) {
@@ -75,8 +83,8 @@ void ControlLoop::tick() {
     const bool armed = pipe.armed();
 
     const uint32_t t_control = bsp::stopwatch_start();
-    const int32_t adc = bsp::adc_read();
-    bsp::dac_write(control_step<CoreSample>(pipe, kAdc, kDac, adc));
+    if (BoardDevice* d = loop.device_) d->on_tick();
+    bsp::control_io<CoreSample>(pipe);
     const uint32_t work = bsp::stopwatch_elapsed(t_control);
     loop.monitor_.on_output(bsp::timestamp());
 

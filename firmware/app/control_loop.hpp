@@ -1,5 +1,7 @@
 // The 100 kHz control tick on a board: in the timer interrupt,
-//   ADC read -> pipeline.tick -> DAC write
+//   [link device: next streamed setpoint] -> ADC read -> pipeline.tick -> DAC write
+// (on the emulated boards the reading and the command are physical values
+// from and to the emulated stage: bsp/<board>/board_io.hpp control_io)
 // then, on boards whose converters are an emulated stage, one sample of the
 // plant model. Both parts are timed with the board's stopwatch (bsp.hpp),
 // kept apart: the controller's work is "ADC read to DAC write", the plant's
@@ -19,10 +21,14 @@
 #include "app/control_config.hpp"
 #include "app/core_sample.hpp"
 #include "app/tick_stats.hpp"
+#include "piezoloop/link/device.hpp"
 
 namespace piezoloop::fw {
 
 using BoardPipeline = FwPipeline<CoreSample>;
+// The link's dispatcher on the board's pipeline (servo.elf).
+using BoardDevice = link::Device<CoreSample, kRcCapacity, kRecChannels, kRecCapacity, kSetpointCapacity>;
+static_assert(std::is_same_v<BoardDevice::PipelineType, BoardPipeline>);
 
 // The board's analog side (bsp/<board>/board_config.hpp).
 BoardAnalog board_analog();
@@ -42,10 +48,17 @@ struct LoopStatus {
 
 class ControlLoop {
 public:
-    // Fresh pipeline with the board's setup. The tick must be stopped.
+    // Fresh pipeline with the board's setup (or `setup`: an emulated
+    // board's profile). Drops the link device. The tick must be stopped.
     BoardPipeline& rebuild();
+    BoardPipeline& rebuild(const PipelineSetup& setup);
     BoardPipeline& pipeline() { return *pipe_; }
     bool built() const { return pipe_ != nullptr; }
+
+    // The link device on the current pipeline; its on_tick() runs in every
+    // tick right before the pipeline's. The tick must be stopped.
+    BoardDevice& attach_device(const link::DeviceInfo& info, const link::DeviceHooks& hooks);
+    BoardDevice* device() { return device_; }
 
     // Starts the tick at rate_Hz; after max_ticks ticks (0: never) the tick
     // stops the timer itself, so a run has an exact length. Statistics are
@@ -64,6 +77,7 @@ public:
 
 private:
     BoardPipeline* pipe_ = nullptr;
+    BoardDevice* device_ = nullptr;
     // Set by start(), cleared by stop() or by the tick that ends a run. A
     // RAM flag: the main loop polls it (on QEMU a peripheral read per poll
     // would end every translation block).

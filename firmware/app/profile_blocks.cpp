@@ -106,9 +106,7 @@ int app_main() {
     const SelfTestCase& c = kSelfTestCases[0];  // reference_all_blocks
     g_pipe = new (g_pipe_storage) FwPipeline<T>(pipeline_setup(kEmulatedAnalog));
     FwPipeline<T>& pipe = *g_pipe;
-    EmulatedStage stage{kEmulatedAnalog.position_full_scale_um, kEmulatedAnalog.voltage_full_scale_V};
-    const Converter16& adc = stage.adc();
-    const Converter16& dac = stage.dac();
+    EmulatedStage stage;
     if (!prepare_case<T>(pipe, stage, c).ok() ||
         !configure(c.params, pipe.setup().position, pipe.setup().voltage)) {
         JsonLine j;
@@ -118,11 +116,12 @@ int app_main() {
     std::array<typename FwPipeline<T>::RecorderType::Frame, 64> frames;
 
     for (uint32_t k = 0; k < kTicks; ++k) {
-        const int32_t code = stage.adc_code();
-        const T y = timed(kAdc, [&] { return adc.sample_from_code<T>(code); });
+        const T y = timed(kAdc, [&] { return stage.position_sample<T>(); });
         const T u = timed(kWhole, [&] { return pipe.tick(y); });
-        const int32_t out = timed(kDac, [&] { return dac.code_from_sample(u); });
-        stage.dac_write(out);
+        timed(kDac, [&] {
+            stage.command(u);
+            return 0;
+        });
         timed(kPlant, [&] {
             stage.step();
             return 0;

@@ -76,14 +76,18 @@ inline constexpr BoardAnalog kEmulatedAnalog{reference::setup().hard, reference:
                                              reference::setup().voltage.full_scale};
 
 // After a fresh pipeline and with the tick stopped: parameters staged (they
-// swap in at the first tick), recorder armed on {r, y, u}, stage at rest,
+// swap in at the first tick), recorder armed on {r, y, u, e}, the case's
+// plant as a stage of ideal parts at rest,
 // pipeline armed, wave started.
 template <class T, class PipelineT>
 Status prepare_case(PipelineT& pipe, EmulatedStage& stage, const SelfTestCase& c) {
     if (const Status s = pipe.stage(c.params); !s.ok()) return s;
     if (const Status s = pipe.recorder().configure(log_recorder_config<T>()); !s.ok()) return s;
     if (!pipe.recorder().arm()) return error("recorder", "arm refused");
-    if (const Status s = stage.configure(c.plant); !s.ok()) return s;
+    if (const Status s = stage.configure(ideal_stage(c.plant, pipe.setup().rate_Hz), pipe.setup().position,
+                                         pipe.setup().voltage);
+        !s.ok())
+        return s;
     pipe.arm();
     if (const Status s = pipe.start_wave(c.wave); !s.ok()) return s;
     return ok_status();

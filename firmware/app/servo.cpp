@@ -1,31 +1,43 @@
 // The servo application: the control tick runs in the timer interrupt, the
-// main loop serves the link. Two images are built from this file:
-//   servo.elf     starts the loop on the reference parameters (disarmed) and
-//                 serves single-letter commands on the console;
+// main loop serves the binary link protocol (docs/protocol.md) on the
+// console UART (on the STM32 also on the USB bulk endpoints, which mirror
+// the console). Two images are built from this file:
+//   servo.elf     starts the loop disarmed and serves the link;
 //   selftest.elf  (PIEZOLOOP_SELFTEST_AUTORUN) runs the self-test once and
 //                 exits with the number of failures (CI, QEMU).
 //
-// Link service (minimal, until the link protocol issue; one letter per
-// command, anything else ignored, each answered with one JSON line):
-//   s  status: ticks, overruns, per-tick work min/mean/max, armed, wave, trip
-//   a  arm          d  disarm
-//   w  start the reference wave (10 Hz triangle, 15 µm)    x  stop it
-//   z  wait 1000 ticks (10 ms), then answer
-//   t  run the self-test (stops the loop, restarts it afterwards, disarmed)
-//   h  list the commands
-//   q  quit: stop the loop and exit with status 0
+// Boot (emulated boards): the emulation profile at kEmulationProfileAddress
+// (common/piezoloop/emulation_profile.hpp), put there by QEMU's generic
+// loader, sets the stage, the full scales and the loop rate:
+//   valid    -> that stage at that rate, pipeline empty (the host configures it)
+//   absent   -> the reference stage at 100 kHz, reference controller staged
+//   invalid  -> the reference as if absent; the error (group, field,
+//               message) goes to the semihosting console (QEMU's stdout/stderr,
+//               never the UART), and status faults bit 8 (board fault 0) is set.
+// Hard output limits are always the board's compiled-in ones.
+//
+// After boot the UART carries nothing but link frames, starting with one
+// 0x00 delimiter so a client's decoder starts in sync. Only a CPU fault
+// prints text there (bsp/cortex-m/fault.cpp), and then the program ends.
+#include <array>
 #include <cstdint>
+#include <span>
 
 #include "app/control_loop.hpp"
-#include "app/json_line.hpp"
 #include "app/selftest.hpp"
 #include "app/selftest_cases.hpp"
 #include "board_config.hpp"
 #include "bsp/bsp.hpp"
+#include "bsp/cortex-m/semihosting.hpp"
 #include "bsp/emulated_stage.hpp"
+#include "piezoloop/emulation_profile.hpp"
+#include "piezoloop/reference_stage.hpp"
 
 #ifndef PIEZOLOOP_SELFTEST_AUTORUN
 #define PIEZOLOOP_SELFTEST_AUTORUN 0
+#endif
+#ifndef PIEZOLOOP_VERSION
+#define PIEZOLOOP_VERSION "0.0.0"
 #endif
 
 namespace {
@@ -33,44 +45,108 @@ namespace {
 using namespace piezoloop;
 using namespace piezoloop::fw;
 
-JsonLine& begin(JsonLine& j) { return j.str("board", bsp::kBoardName); }
+// Board fault bits of the status reply (TickStats::board_faults, shifted to
+// faults bit 8 and up).
+constexpr uint32_t kFaultProfileInvalid = 1u << 0;
 
-// The loop as it starts: reference controller, disarmed, stage at rest.
-bool start_servo(ControlLoop& loop) {
-    BoardPipeline& pipe = loop.rebuild();
-    if (!bsp::config::kHasConverters && !bsp::emulated_stage().configure(reference::plant()).ok()) return false;
-    if (!pipe.stage(reference::params(true, true, false)).ok()) return false;
-    return loop.start(kLoopRateInt_Hz, 0);
-}
+struct Boot {
+    uint32_t rate_Hz = kLoopRateInt_Hz;
+    uint32_t board_faults = 0;
+};
+Boot g_boot;
 
-void print_status(ControlLoop& loop, const char* reply) {
-    const LoopStatus st = loop.status();
-    BoardPipeline& pipe = loop.pipeline();
-    const char* unit = bsp::config::kWorkUnit;
-    JsonLine j;
-    begin(j).str("reply", reply).boolean("running", st.running).uint("ticks", st.ticks);
-    j.uint("overruns", st.late + st.missed).uint("late", st.late).uint("missed", st.missed);
-    j.uint({unit, "_per_tick_min"}, st.control.min);
-    j.fixed({unit, "_per_tick_mean"}, static_cast<double>(st.control.mean_tenths()) / 10.0, 1);
-    j.uint({unit, "_per_tick_max"}, st.control.max);
-    j.boolean("armed", pipe.armed()).boolean("wave", pipe.wave_running()).uint("swaps", pipe.swaps());
-    j.str("trip", trip_reason_name(pipe.limiter().trip_reason()));
-    j.fixed("u_V", static_cast<double>(pipe.setup().voltage.to_physical(pipe.last().u)), 4);
-    j.fixed("y_um", static_cast<double>(pipe.setup().position.to_physical(pipe.last().y)), 4);
-    j.flush();
-}
+// ---- boot: the emulated boards' profile -------------------------------------
 
-void wait_ticks(ControlLoop& loop, uint32_t n) {
-    const uint32_t start = loop.ticks();
-    while (loop.running() && loop.ticks() - start < n) {
+void semihosting_note(const char* a, const char* b = "", const char* c = "", const char* d = "") {
+    if constexpr (!bsp::config::kHasConverters) {
+        for (const char* s : {a, b, c, d})
+            if (s != nullptr && s[0] != '\0') (void)bsp::semihosting::call(0x04, s);  // SYS_WRITE0
+        (void)bsp::semihosting::call(0x04, "\n");
     }
+}
+
+// The pipeline, the stage and the rate from the profile (or the reference);
+// false if nothing can run.
+bool start_servo(ControlLoop& loop) {
+    PipelineSetup setup = pipeline_setup(board_analog());
+    StageConfig stage = ideal_stage(reference::plant(), kLoopRate_Hz);
+    bool reference_controller = true;
+    g_boot = Boot{};
+    if constexpr (!bsp::config::kHasConverters) {
+        // RAM the loader wrote before reset; nothing in the image points there.
+        const auto* area = reinterpret_cast<const uint8_t*>(uintptr_t{kEmulationProfileAddress});
+        asm volatile("" : "+r"(area));
+        const std::span<const uint8_t> bytes(area, kEmulationProfileMaxBytes);
+        if (profile_present(bytes)) {
+            EmulationProfile p;
+            if (const Status s = decode_profile(bytes, p); s.ok()) {
+                setup = pipeline_setup(BoardAnalog{bsp::config::kHardLimits, p.position_full_scale_um,
+                                                   p.voltage_full_scale_V},
+                                       static_cast<float>(p.loop_rate_Hz));
+                stage = p.stage;
+                g_boot.rate_Hz = p.loop_rate_Hz;
+                reference_controller = false;
+                semihosting_note("piezoloop: emulation profile loaded");
+            } else {
+                g_boot.board_faults |= kFaultProfileInvalid;
+                semihosting_note("piezoloop: emulation profile invalid, running the reference stage: ",
+                                 s.group != nullptr ? s.group : "", s.group != nullptr ? "." : "", s.field);
+                semihosting_note("  ", s.message);
+            }
+        }
+    }
+    BoardPipeline& pipe = loop.rebuild(setup);
+    if constexpr (!bsp::config::kHasConverters) {
+        if (!bsp::emulated_stage().configure(stage, setup.position, setup.voltage).ok()) return false;
+    }
+    if (reference_controller && !pipe.stage(reference::params(true, true, false)).ok()) return false;
+    return true;
+}
+
+// ---- link hooks ---------------------------------------------------------------
+
+uint32_t g_saved_primask = 0;
+void mask_tick(bool masked) {
+    if (masked) {
+        uint32_t p;
+        asm volatile("mrs %0, primask\n\tcpsid i" : "=r"(p)::"memory");
+        g_saved_primask = p;
+    } else {
+        asm volatile("msr primask, %0" ::"r"(g_saved_primask) : "memory");
+    }
+}
+
+bool restart_stage() {
+    bsp::emulated_stage().reset();
+    return true;
+}
+
+// The board's serial: fixed per image (the emulated boards have no unique ID).
+constexpr const char* board_serial() {
+    const char* b = bsp::kBoardName;
+    if (b[0] == 'q' && b[5] == 'm' && b[6] == '7') return "QEMU-M7-0001";
+    if (b[0] == 'q' && b[5] == 'm' && b[6] == '3') return "QEMU-M3-0001";
+    return "STM32H743-0001";
+}
+
+link::TickStats tick_stats(ControlLoop& loop) {
+    const LoopStatus st = loop.status();
+    link::TickStats t;
+    t.overruns = st.late + st.missed;
+    t.time_min = st.control.min;
+    t.time_max = st.control.max;
+    t.time_mean = static_cast<float>(st.control.mean_tenths()) / 10.0f;
+    // Instructions on the QEMU boards (no time base), cycles on hardware.
+    t.counter_Hz = bsp::config::kHasConverters ? static_cast<float>(bsp::config::kCpuClock_Hz) : 0.0f;
+    t.board_faults = g_boot.board_faults;
+    return t;
 }
 
 // LEDs: the heartbeat toggles every 0.5 s of ticks (so it stops when the
 // loop stops), the fault LED shows a tripped output limiter.
 void update_leds(ControlLoop& loop, uint32_t& last_toggle, bool& on) {
     const uint32_t t = loop.ticks();
-    if (t - last_toggle >= kLoopRateInt_Hz / 2) {
+    if (t - last_toggle >= g_boot.rate_Hz / 2) {
         on = !on;
         last_toggle = t;
         bsp::set_led(bsp::Led::kHeartbeat, on);
@@ -78,50 +154,25 @@ void update_leds(ControlLoop& loop, uint32_t& last_toggle, bool& on) {
     bsp::set_led(bsp::Led::kFault, loop.pipeline().limiter().tripped());
 }
 
-[[noreturn]] void serve(ControlLoop& loop) {
+void send_frame(std::span<const uint8_t> frame) {
+    bsp::console_write(reinterpret_cast<const char*>(frame.data()), frame.size());
+}
+
+[[noreturn]] void serve(ControlLoop& loop, BoardDevice& dev) {
     uint32_t last_toggle = 0;
     bool heartbeat = false;
+    std::array<uint8_t, 64> rx{};
     for (;;) {
         update_leds(loop, last_toggle, heartbeat);
+        std::size_t n = 0;
         char c = 0;
-        if (!bsp::console_read(c)) {
-            // The tick wakes the core at least once per period.
-            bsp::wait_for_interrupt();
-            continue;
+        while (n < rx.size() && bsp::console_read(c)) rx[n++] = static_cast<uint8_t>(c);
+        if (n != 0) {
+            dev.set_tick_stats(tick_stats(loop));  // fresh for a status request
+            dev.receive(std::span<const uint8_t>(rx.data(), n), send_frame);
         }
-        BoardPipeline& pipe = loop.pipeline();
-        JsonLine j;
-        switch (c) {
-            case 's': print_status(loop, "status"); break;
-            case 'a': pipe.arm(); print_status(loop, "armed"); break;
-            case 'd': pipe.disarm(); print_status(loop, "disarmed"); break;
-            case 'w': {
-                const Status s = pipe.start_wave(reference_wave());
-                begin(j).str("reply", "wave").boolean("ok", s.ok()).str("field", s.field).flush();
-                break;
-            }
-            case 'x': pipe.stop_wave(); print_status(loop, "wave_stopping"); break;
-            case 'z': wait_ticks(loop, 1000); print_status(loop, "waited"); break;
-            case 't': {
-                loop.stop();
-                const int failures = run_selftest();
-                (void)bsp::set_loopback(false);  // back to the converters (hardware boards)
-                const bool restarted = start_servo(loop);
-                last_toggle = 0;
-                begin(j).str("reply", "selftest").uint("failures", static_cast<uint64_t>(failures));
-                j.boolean("servo_restarted", restarted).flush();
-                break;
-            }
-            case 'h':
-                begin(j).str("reply", "help").str("commands", "s status, a arm, d disarm, w wave, x stop wave, "
-                                                              "z wait 10 ms, t self-test, q quit").flush();
-                break;
-            case 'q':
-                loop.stop();
-                begin(j).str("reply", "bye").flush();
-                bsp::exit(0);
-            default: break;  // whitespace, unknown letters
-        }
+        // Every pass, so log blocks stream as the recorder fills.
+        dev.poll_log(send_frame);
     }
 }
 
@@ -130,9 +181,17 @@ void update_leds(ControlLoop& loop, uint32_t& last_toggle, bool& on) {
 int app_main() {
     if constexpr (PIEZOLOOP_SELFTEST_AUTORUN) return run_selftest();
     ControlLoop& loop = control_loop();
-    JsonLine j;
-    const bool ok = start_servo(loop);
-    begin(j).str("reply", "ready").boolean("ok", ok).uint("rate_Hz", kLoopRateInt_Hz).flush();
-    if (!ok) return 1;
-    serve(loop);
+    if (!start_servo(loop)) return 1;
+    link::DeviceInfo info;
+    info.board = bsp::kBoardName;
+    info.firmware_version = PIEZOLOOP_VERSION;
+    info.serial = board_serial();
+    link::DeviceHooks hooks;
+    hooks.mask_tick = &mask_tick;
+    if constexpr (!bsp::config::kHasConverters) hooks.restart_stage = &restart_stage;
+    BoardDevice& dev = loop.attach_device(info, hooks);
+    if (!loop.start(g_boot.rate_Hz, 0)) return 1;
+    const char sync = 0;  // a delimiter: the client's decoder starts clean
+    bsp::console_write(&sync, 1);
+    serve(loop, dev);
 }

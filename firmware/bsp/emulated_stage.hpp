@@ -1,13 +1,20 @@
-// The stage of a board without converters: the DAC drives the plant model
-// of common/ (HammersteinPlant, the one the host simulator runs), and the
-// ADC samples its displacement. Both converters are 16-bit (converter16.hpp)
-// over the board's full scales.
+// The stage of a board without converters: the controller's output drives
+// the stage model of common/ (StageModel: DAC, amplifier, Hammerstein
+// plant, sensor, ADC -- the host simulator's float stage), and the tick
+// reads its latest reading back.
+//
+// The values cross between the pipeline and the model exactly as in
+// host/sim (sim/loop_kernel.hpp), so an emulated board and
+// `piezoloop sim --fidelity float` run the very same arithmetic:
+//   y sample = position.to_sample<T>(reading / sensor gain)   (gain 1: the reading)
+//   u_V      = voltage.to_physical(u sample)
+// with the pipeline's SignalScales. Quantisation, if any, is the StageConfig's
+// own (dac / adc bits), not a board converter.
 //
 // Timing, as on a real board whose ADC is sampled at the tick: the tick
-// reads the code latched at the end of the previous period, computes, and
-// writes the DAC; step() then advances the plant by one sample with that DAC
-// voltage and latches the new displacement for the next tick. So the loop
-// has one sample of compute delay, like reference_run.hpp's loop.
+// reads the reading latched at the end of the previous period, computes,
+// and writes u; step() then advances the stage by one sample with that u
+// and latches the new reading. One sample of compute delay, y_0 = 0.
 //
 // Header-only and free of board code: the host builds the very same class
 // to compute the self-test's expected log hash (tests/firmware/).
@@ -15,51 +22,73 @@
 
 #include <cstdint>
 
-#include "bsp/converter16.hpp"
 #include "piezoloop/plant.hpp"
+#include "piezoloop/sample.hpp"
+#include "piezoloop/stage_model.hpp"
 #include "piezoloop/status.hpp"
 
 namespace piezoloop::fw {
 
+// A stage of ideal parts around `plant` (no converter quantisation, unit
+// amplifier and sensor, no bandwidths, no noise): the plant alone.
+constexpr StageConfig ideal_stage(const PlantConfig& plant, float rate_Hz) {
+    StageConfig c{};
+    c.rate_Hz = rate_Hz;
+    c.plant = plant;
+    return c;
+}
+
 class EmulatedStage {
 public:
-    constexpr EmulatedStage(float position_full_scale_um, float voltage_full_scale_V)
-        : adc_(position_full_scale_um), dac_(voltage_full_scale_V) {}
-
-    // Not concurrent with step(): call with the control timer stopped.
-    Status configure(const PlantConfig& c) {
-        if (const Status s = plant_.configure(c); !s.ok()) return s;
+    // Not concurrent with step(): call with the control timer stopped (or
+    // masked). position / voltage: the pipeline's SignalScales.
+    Status configure(const StageConfig& c, SignalScale position, SignalScale voltage) {
+        if (const Status s = model_.configure(c); !s.ok()) return s;
+        position_ = position;
+        voltage_ = voltage;
+        gain_ = c.sensor.gain;
         reset();
         return ok_status();
     }
-    // Stage at rest, DAC at 0 V.
+    // Stage at rest: model states zero, command 0 V, next reading 0.
     void reset() {
-        plant_.reset();
-        dac_code_ = 0;
-        adc_code_ = adc_.code_from_physical(0.0f);
+        model_.reset();
+        u_V_ = 0.0f;
+        y_um_ = 0.0f;
     }
 
-    int32_t adc_code() const { return adc_code_; }
-    void dac_write(int32_t code) { dac_code_ = code; }
-    int32_t dac_code() const { return dac_code_; }
+    // The reading the tick uses, in the pipeline's sample type.
+    template <class T>
+    T position_sample() const { return position_.to_sample<T>(y_um_); }
+    // The tick's output.
+    template <class T>
+    void command(T u) { u_V_ = voltage_.to_physical(u); }
 
-    // One sample of physics: the plant sees the DAC voltage; the ADC
-    // latches its displacement.
+    // One sample of physics with the last command; latches the reading.
     void step() {
-        const float y_um = plant_.step(dac_.physical_from_code(dac_code_));
-        adc_code_ = adc_.code_from_physical(y_um);
+        const float reading = model_.step(u_V_);
+        y_um_ = gain_ == 1.0f ? reading : reading / gain_;
     }
 
-    const Converter16& adc() const { return adc_; }
-    const Converter16& dac() const { return dac_; }
-    const HammersteinPlant& plant() const { return plant_; }
+    float position_um() const { return y_um_; }
+    float command_V() const { return u_V_; }
+    const StageModel& model() const { return model_; }
 
 private:
-    Converter16 adc_;
-    Converter16 dac_;
-    HammersteinPlant plant_{};
-    int32_t adc_code_ = 0;
-    int32_t dac_code_ = 0;
+    StageModel model_{};
+    SignalScale position_{1.0f};
+    SignalScale voltage_{1.0f};
+    float gain_ = 1.0f;
+    float u_V_ = 0.0f;
+    float y_um_ = 0.0f;
 };
+
+// One control step against the emulated stage, as the board's tick does it
+// (and the host replay): reading in, pipeline tick, command out. The stage's
+// step() follows separately (outside the controller's timed work).
+template <class T, class PipelineT>
+inline void emulated_control_step(PipelineT& pipe, EmulatedStage& stage) {
+    stage.command(pipe.tick(stage.template position_sample<T>()));
+}
 
 }  // namespace piezoloop::fw

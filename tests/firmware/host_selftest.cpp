@@ -1,7 +1,7 @@
 // Host replay of the firmware self-test (firmware/app/selftest_cases.hpp):
-// the same pipeline type, the same emulated stage with its 16-bit
-// converters, the same case setup and the same per-tick sequence
-//   ADC code -> control_step (pipeline tick) -> DAC code -> plant step
+// the same pipeline type, the same emulated stage (StageModel, values passed
+// as host/sim passes them), the same case setup and the same per-tick sequence
+//   reading -> emulated_control_step (pipeline tick) -> command -> stage step
 // as the board's 100 kHz interrupt, in a plain loop. Prints one JSON line
 // per case through the firmware's own JSON writer, so the log fields are
 // formatted by the same code as on the board:
@@ -33,8 +33,7 @@ using namespace piezoloop::fw;
 template <class T>
 int run_case(const SelfTestCase& c, const char* sample) {
     auto pipe = std::make_unique<FwPipeline<T>>(pipeline_setup(kEmulatedAnalog));
-    auto stage = std::make_unique<EmulatedStage>(kEmulatedAnalog.position_full_scale_um,
-                                                 kEmulatedAnalog.voltage_full_scale_V);
+    auto stage = std::make_unique<EmulatedStage>();
     JsonLine j;
     j.str("board", "host").str("name", c.name);
     if (const Status s = prepare_case<T>(*pipe, *stage, c); !s.ok()) {
@@ -44,8 +43,7 @@ int run_case(const SelfTestCase& c, const char* sample) {
     LogAccumulator<T> acc(pipe->setup().position, pipe->setup().voltage);
     std::array<typename FwPipeline<T>::RecorderType::Frame, 64> frames;
     for (uint32_t k = 0; k < c.ticks; ++k) {
-        const int32_t dac = control_step<T>(*pipe, stage->adc(), stage->dac(), stage->adc_code());
-        stage->dac_write(dac);
+        emulated_control_step<T>(*pipe, *stage);
         stage->step();
         for (std::size_t n; (n = pipe->recorder().read(std::span(frames))) != 0;)
             for (std::size_t i = 0; i < n; ++i) acc.add(frames[i]);

@@ -17,7 +17,7 @@
 namespace piezoloop::bsp {
 
 namespace mps2 {
-fw::EmulatedStage g_emulated_stage{config::kPositionFullScale_um, config::kVoltageFullScale_V};
+fw::EmulatedStage g_emulated_stage;
 }  // namespace mps2
 
 namespace {

@@ -1,6 +1,7 @@
-// The tick's converters on the QEMU MPS2 boards: the emulated stage
-// (bsp/emulated_stage.hpp) stands behind both. Inline: they are part of the
-// measured tick. Included through bsp/qemu-m*/board_io.hpp.
+// The tick's I/O on the QEMU MPS2 boards: no converters, the emulated stage
+// (bsp/emulated_stage.hpp) stands behind the controller's input and output,
+// values passed in physical units exactly as host/sim passes them. Inline:
+// part of the measured tick. Included through bsp/qemu-m*/board_io.hpp.
 #pragma once
 
 #include <cstdint>
@@ -13,7 +14,10 @@ namespace mps2 {
 extern fw::EmulatedStage g_emulated_stage;  // board.cpp
 }  // namespace mps2
 
-inline int32_t adc_read() { return mps2::g_emulated_stage.adc_code(); }
-inline void dac_write(int32_t code) { mps2::g_emulated_stage.dac_write(code); }
+// Reading in, pipeline tick, command out.
+template <class T, class PipelineT>
+inline void control_io(PipelineT& pipe) {
+    fw::emulated_control_step<T>(pipe, mps2::g_emulated_stage);
+}
 
 }  // namespace piezoloop::bsp

@@ -36,7 +36,7 @@
 namespace piezoloop::bsp {
 
 namespace stm32 {
-fw::EmulatedStage g_emulated_stage{config::kPositionFullScale_um, config::kVoltageFullScale_V};
+fw::EmulatedStage g_emulated_stage;
 bool g_loopback = false;
 bool clock_init();  // clock.cpp
 }  // namespace stm32

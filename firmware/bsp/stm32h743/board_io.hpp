@@ -5,6 +5,8 @@
 
 #include <cstdint>
 
+#include "board_config.hpp"
+#include "bsp/converter16.hpp"
 #include "bsp/emulated_stage.hpp"
 #include "bsp/stm32h743/regs.hpp"
 
@@ -18,18 +20,28 @@ extern bool g_loopback;
 // ADC1 data register: 16-bit unsigned, offset binary around mid-scale.
 // Reading it clears the end-of-conversion flag.
 inline int32_t adc_read() {
-    if (stm32::g_loopback) return stm32::g_emulated_stage.adc_code();
     return static_cast<int32_t>(stm32::reg(stm32::adc::kAdc1 + stm32::adc::kDr) & 0xFFFFu) - 32768;
 }
 
 // DAC1 channel 1, 12-bit right aligned: the 16-bit code's top 12 bits,
 // offset binary.
 inline void dac_write(int32_t code) {
+    stm32::reg(stm32::dac::kDhr12r1) = static_cast<uint32_t>(code + 32768) >> 4;
+}
+
+// The tick's I/O: ADC code -> sample -> pipeline tick -> DAC code on the
+// real converters; in loopback the emulated stage in physical units, as on
+// the QEMU boards (so the self-test's log hash is the same everywhere).
+template <class T, class PipelineT>
+inline void control_io(PipelineT& pipe) {
     if (stm32::g_loopback) {
-        stm32::g_emulated_stage.dac_write(code);
+        fw::emulated_control_step<T>(pipe, stm32::g_emulated_stage);
         return;
     }
-    stm32::reg(stm32::dac::kDhr12r1) = static_cast<uint32_t>(code + 32768) >> 4;
+    constexpr fw::Converter16 kAdc{config::kPositionFullScale_um};
+    constexpr fw::Converter16 kDac{config::kVoltageFullScale_V};
+    const T u = pipe.tick(kAdc.sample_from_code<T>(adc_read()));
+    dac_write(kDac.code_from_sample(u));
 }
 
 }  // namespace piezoloop::bsp
