@@ -105,9 +105,19 @@ bool start_servo(ControlLoop& loop) {
 
 // ---- link hooks ---------------------------------------------------------------
 
+// Masks the tick interrupt (PRIMASK) around main-loop changes the tick
+// reads. A masked section starts right after a tick has run, so it has a
+// whole period before the next tick is due (plus half a period before a
+// delayed tick counts as missed): StartWave's section configures the wave
+// generator, which on the soft-float Cortex-M3 takes thousands of
+// instructions.
 uint32_t g_saved_primask = 0;
 void mask_tick(bool masked) {
     if (masked) {
+        ControlLoop& loop = control_loop();
+        const uint32_t t = loop.ticks();
+        while (loop.running() && loop.ticks() == t) {
+        }
         uint32_t p;
         asm volatile("mrs %0, primask\n\tcpsid i" : "=r"(p)::"memory");
         g_saved_primask = p;

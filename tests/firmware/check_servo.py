@@ -1,89 +1,488 @@
 #!/usr/bin/python3
-"""The servo image's minimal link service, driven through QEMU's console.
+"""servo.elf's link service (docs/protocol.md) over QEMU's TCP serial.
 
-Waits for the ready line (QEMU's CMSDK UART accepts and drops bytes while
-the firmware has not yet enabled its receiver), then sends
-h s a w z z s d z s q  and requires, in order: ready, help, status
-(running, disarmed), armed, wave ok, two waits of >= 1000 ticks each while
-the wave runs armed (the stage moves: y changes), status, disarmed, a wait
-after which the output has ramped to 0 V, status, bye, and exit status 0;
-no overruns anywhere. Tick counts depend on when the bytes arrive (host
-timing), so only their differences are checked.
+Starts QEMU with the board's UART on a TCP server socket (the way the host
+tool connects to an emulated board), then speaks the binary protocol with
+its own COBS and CRC-32 (zlib's, IEEE 802.3) -- independent of the C++ codec:
 
-    check_servo.py <servo.elf> <machine>
+  1. boot: the first byte is a 0x00 delimiter, nothing else before frames
+  2. hello (board, protocol version, 100 kHz, 4 recorder channels), status
+     (running: tick count grows, disarmed, reference controller swapped in)
+  3. hostile input: random bytes, bad CRC, truncated, oversize, unknown
+     type, NaN parameter, limits change while armed -- each counted or
+     answered with an error naming the field; the device keeps running and
+     the limits read back unchanged
+  4. a run: trajectory + recorder (r, y, e, u), StartWave with flags arm
+     loop | arm recorder | restart stage; 0.2 s of log blocks; their
+     block_seq and ticks have no gaps, no recorder overrun, the first frame
+     is the wave's tick 0 from rest (y = 0), the stage follows the wave
+  5. throughput of the log stream: bytes per virtual second (ticks / rate)
+     and per wall second
+
+    check_servo.py <servo.elf> <machine> [--replay host_servo_replay] [--seconds S]
+    check_servo.py <servo.elf> <machine> --profile-test
+
+--replay: the recorded frames are replayed by host_servo_replay (the
+simulator's loop kernel) and must be equal bit for bit. --profile-test
+instead boots twice, with a valid emulation profile (50 kHz, other full
+scales, written here from the documented layout) and a corrupted one
+(reference stage, board fault, the reason on the semihosting console).
+
+Exit status 0 only if every check passed.
 """
-import json
+import math
 import os
+import random
+import socket
+import struct
 import subprocess
 import sys
 import threading
+import time
+import zlib
 
-COMMANDS = "h s a w z z s d z s q"
-EXPECTED = ["ready", "help", "status", "armed", "wave", "waited", "waited", "status", "disarmed", "waited",
-            "status", "bye"]
+PROFILE_ADDRESS = 0x003FFC00  # common/piezoloop/emulation_profile.hpp
+VERSION = 1
+
+T_HELLO, T_STATUS, T_GET, T_SET, T_ARM, T_DISARM = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
+T_START_WAVE, T_STOP_WAVE, T_REC_ARM, T_REC_STOP = 0x08, 0x09, 0x0D, 0x0E
+R_ACK, R_HELLO, R_STATUS, R_PARAMS, R_ERROR, R_LOG = 0x80, 0x81, 0x82, 0x83, 0xFF, 0xC0
+G_LIMITS, G_TRAJECTORY, G_RECORDER = 4, 5, 6
+ERR_MALFORMED, ERR_INVALID, ERR_ARMED = 3, 4, 5
 
 
-def main():
-    if len(sys.argv) != 3:
-        print(__doc__)
-        return 2
-    elf, machine = sys.argv[1:]
-    if not os.path.isfile(elf):
-        print(f"no firmware image {elf}: build the firmware preset first")
-        return 2
+def cobs_encode(data):
+    out = bytearray()
+    block = bytearray()
+    for b in data:
+        if b == 0:
+            out.append(len(block) + 1)
+            out += block
+            block = bytearray()
+        else:
+            block.append(b)
+            if len(block) == 254:
+                out.append(255)
+                out += block
+                block = bytearray()
+    out.append(len(block) + 1)
+    out += block
+    return bytes(out)
+
+
+def cobs_decode(data):
+    out = bytearray()
+    i = 0
+    while i < len(data):
+        code = data[i]
+        if code == 0 or i + code > len(data):
+            return None
+        out += data[i + 1:i + code]
+        i += code
+        if code < 255 and i < len(data):
+            out.append(0)
+    return bytes(out)
+
+
+def frame(msg_type, seq, body=b"", version=VERSION):
+    payload = struct.pack("<BBH", msg_type, version, seq) + body
+    return cobs_encode(payload + struct.pack("<I", zlib.crc32(payload))) + b"\x00"
+
+
+class Link:
+    """Frames from the socket, decoded by a reader thread."""
+
+    def __init__(self, sock):
+        self.sock = sock
+        self.lock = threading.Condition()
+        self.replies = {}
+        self.logs = []
+        self.log_bytes = 0
+        self.garbage = 0
+        self.first_byte = None
+        self.seq = 0
+        self.closed = False
+        threading.Thread(target=self._reader, daemon=True).start()
+
+    def _reader(self):
+        buf = bytearray()
+        while True:
+            try:
+                chunk = self.sock.recv(65536)
+            except OSError:
+                chunk = b""
+            if not chunk:
+                with self.lock:
+                    self.closed = True
+                    self.lock.notify_all()
+                return
+            if self.first_byte is None:
+                self.first_byte = chunk[0]
+            buf += chunk
+            while True:
+                z = buf.find(0)
+                if z < 0:
+                    break
+                enc = bytes(buf[:z])
+                del buf[:z + 1]
+                if not enc:
+                    continue
+                raw = cobs_decode(enc)
+                if raw is None or len(raw) < 8 or zlib.crc32(raw[:-4]) != struct.unpack("<I", raw[-4:])[0]:
+                    self.garbage += 1
+                    continue
+                t, v, seq = struct.unpack("<BBH", raw[:4])
+                body = raw[4:-4]
+                with self.lock:
+                    if t == R_LOG:
+                        self.logs.append(body)
+                        self.log_bytes += len(enc) + 1
+                    else:
+                        self.replies[seq] = (t, body)
+                    self.lock.notify_all()
+
+    def send_raw(self, data):
+        self.sock.sendall(data)
+
+    def request(self, msg_type, body=b"", timeout=10.0, version=VERSION):
+        self.seq = (self.seq + 1) & 0xFFFF
+        seq = self.seq
+        self.sock.sendall(frame(msg_type, seq, body, version))
+        deadline = time.time() + timeout
+        with self.lock:
+            while seq not in self.replies:
+                left = deadline - time.time()
+                if left <= 0 or self.closed:
+                    raise TimeoutError(f"no reply to type 0x{msg_type:02x} seq {seq}")
+                self.lock.wait(left)
+            return self.replies.pop(seq)
+
+
+def text(b):
+    return b.split(b"\0", 1)[0].decode("ascii", "replace")
+
+
+def parse_hello(b):
+    f = struct.unpack("<B16s16s24sfIBfffffHHBIBBHI", b)
+    return dict(protocol=f[0], board=text(f[1]), version=text(f[2]), serial=text(f[3]), rate=f[4], caps=f[5],
+                fmt=f[6], hard_min=f[7], hard_max=f[8], pos_fs=f[10], volt_fs=f[11], rec_channels=f[14],
+                rec_capacity=f[15])
+
+
+STATUS_FMT = "<7B3I3IffI" + "IHIII" + "10I" + "3f"
+
+
+def parse_status(b):
+    f = struct.unpack(STATUS_FMT, b)
+    names = ["armed", "tripped", "trip_reason", "wave_running", "streaming", "swap_pending", "recorder_state",
+             "faults", "tick_count", "swaps", "overruns", "time_min", "time_max", "time_mean", "counter_Hz",
+             "board_faults", "setpoint_underruns", "setpoint_free", "setpoint_next_seq", "recorder_overruns",
+             "log_blocks", "frames_ok", "bad_cobs", "bad_crc", "truncated", "oversize", "unknown_type",
+             "bad_version", "bad_length", "bad_value", "error_replies", "r_um", "y_um", "u_V"]
+    return dict(zip(names, f))
+
+
+def parse_error(b):
+    f = struct.unpack("<BB16s32sh96s", b)
+    return dict(request=f[0], code=f[1], group=text(f[2]), field=text(f[3]), index=f[4], message=text(f[5]))
+
+
+def parse_log(b):
+    seq, first, stride, overruns, nch, fmt, nfr, flags = struct.unpack("<IIIIBBBB", b[:20])
+    channels = list(b[20:28])
+    n = nch * nfr
+    kind = "f" if fmt == 0 else "i"
+    samples = struct.unpack(f"<{n}{kind}", b[28:28 + 4 * n])
+    return dict(seq=seq, first=first, stride=stride, overruns=overruns, nch=nch, fmt=fmt, frames=nfr, flags=flags,
+                channels=channels, samples=samples, raw=b[28:28 + 4 * n])
+
+
+def limits_body(u_min, u_max, slew, trip):
+    return struct.pack("<Bffff", G_LIMITS, u_min, u_max, slew, trip)
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def qemu_command(elf, machine, port, profile=None):
     qemu = os.environ.get("QEMU_SYSTEM_ARM", "qemu-system-arm")
-    cmd = [qemu, "-M", machine, "-nographic", "-semihosting", "-icount", "shift=0,sleep=off", "-kernel", elf]
-    timeout_s = float(os.environ.get("PIEZOLOOP_QEMU_TIMEOUT", "60"))
-    proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            text=True)
-    timer = threading.Timer(timeout_s, proc.kill)
-    timer.start()
-    lines = []
-    for line in proc.stdout:  # until the firmware says it is listening
-        lines.append(line)
-        if '"reply":"ready"' in line:
-            break
-    try:
-        proc.stdin.write(COMMANDS)
-        proc.stdin.close()
-    except BrokenPipeError:
-        pass
-    lines.extend(proc.stdout)
-    returncode = proc.wait()
-    timed_out = not timer.is_alive()
-    timer.cancel()
-    out = "".join(lines)
-    print(out, end="")
-    if timed_out:
-        print(f"FAIL: QEMU killed after {timeout_s} s")
-        return 1
-    replies = [json.loads(l) for l in out.replace("\r", "").splitlines() if l.startswith("{")]
+    cpu = {"mps2-an500": ["-cpu", "cortex-m7"], "mps2-an385": ["-cpu", "cortex-m3"]}.get(machine, [])
+    cmd = [qemu, "-M", machine, *cpu, "-nographic", "-monitor", "none", "-icount", "shift=0,sleep=off",
+           "-semihosting", "-kernel", elf, "-serial", f"tcp:127.0.0.1:{port},server=on,wait=on"]
+    if profile:
+        cmd += ["-device", f"loader,file={profile},addr=0x{PROFILE_ADDRESS:x}"]
+    return cmd
+
+
+def connect(port, proc, timeout=10.0):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if proc.poll() is not None:
+            raise RuntimeError(f"QEMU exited with {proc.returncode}")
+        try:
+            return socket.create_connection(("127.0.0.1", port), timeout=2.0)
+        except OSError:
+            time.sleep(0.05)
+    raise TimeoutError("QEMU's serial socket did not open")
+
+
+def profile_blob(rate, pos_fs, volt_fs, stage_rate=None, corrupt=False):
+    """An emulation profile per the layout in common/piezoloop/emulation_profile.hpp,
+    written independently of the C++ encoder: a linear stage (1.5 um/V), a
+    5 kHz amplifier, a 16-bit DAC and an 18-bit ADC."""
+    body = struct.pack("<Iff", rate, pos_fs, volt_fs)
+    body += struct.pack("<f", float(rate if stage_rate is None else stage_rate))
+    body += struct.pack("<iff", 16, -12.0, 12.0)                              # dac
+    body += struct.pack("<6f", 1.0, -12.0, 12.0, -15.0, 15.0, 5000.0)         # amplifier
+    body += struct.pack("<B", 0)                                              # hysteresis none
+    body += struct.pack("<fffB", 1.0, 0.0, 1.0, 0) + struct.pack("<32f", *([0.0] * 32))  # pi
+    body += struct.pack("<6f", *([0.0] * 6))                                  # dahl
+    body += struct.pack("<fB", 1.5, 0)                                        # linear gain, sections
+    body += struct.pack("<30d", *([1.0, 0.0, 0.0, 0.0, 0.0] * 6))             # dynamics (unused)
+    body += struct.pack("<fffI", 1.0, 0.0, 0.0, 1)                            # sensor
+    body += struct.pack("<iff", 18, -100.0, 100.0)                            # adc
+    assert len(body) == 491
+    crc = zlib.crc32(body) ^ (1 if corrupt else 0)
+    return struct.pack("<IHHII", 0x4D455A50, 1, 0, len(body), crc) + body
+
+
+def session(elf, machine, profile, body):
+    """One QEMU run: body(link, check) against the board; returns (failures, QEMU's own output)."""
+    port = free_port()
+    cmd = qemu_command(elf, machine, port, profile)
+    print("qemu:", " ".join(cmd))
+    log_path = f"/tmp/check_servo_{os.getpid()}_{port}.log"
+    with open(log_path, "w") as qlog:
+        proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=qlog, stderr=subprocess.STDOUT)
     failed = []
 
     def check(ok, what):
+        print(("ok   " if ok else "FAIL ") + what)
         if not ok:
             failed.append(what)
-            print(f"FAIL: {what}")
+        return ok
 
-    check(returncode == 0, f"exit status {returncode}")
-    names = [r.get("reply") for r in replies]
-    check(names == EXPECTED, f"replies {names} != {EXPECTED}")
-    if names == EXPECTED:
-        r = replies
-        check(r[0]["ok"] is True and r[0]["rate_Hz"] == 100000, "ready ok at 100 kHz")
-        check(r[2]["running"] and r[2]["armed"] is False, "starts running, disarmed")
-        check(r[3]["armed"] is True, "armed")
-        check(r[4]["ok"] is True, "wave started")
-        check(r[5]["ticks"] - r[3]["ticks"] >= 1000 and r[6]["ticks"] - r[5]["ticks"] >= 1000,
-              "each wait lasts >= 1000 ticks")
-        check(r[5]["wave"] and r[5]["y_um"] != r[6]["y_um"], "the stage follows the wave")
-        check(r[8]["armed"] is False, "disarmed")
-        check(r[9]["u_V"] == 0.0, "disarmed output ramps to 0 V within 10 ms (slew 2e5 V/s)")
-        for x in replies:
-            if "overruns" in x:
-                check(x["overruns"] == 0, f"no overruns: {x}")
+    try:
+        sock = connect(port, proc)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        sock.settimeout(None)
+        body(Link(sock), check)
+    except Exception as e:  # noqa: BLE001 -- any failure is a test failure
+        check(False, f"exception: {type(e).__name__}: {e}")
+    finally:
+        proc.kill()
+        proc.wait()
+        with open(log_path) as f:
+            out = f.read()
+        os.unlink(log_path)
+        if out.strip():
+            print("QEMU output (semihosting console):", out.strip())
+    return failed, out
+
+
+def profile_checks(elf, machine):
+    failed = []
+    tmp = f"/tmp/check_servo_profile_{os.getpid()}.bin"
+
+    def valid(link, check):
+        h = parse_hello(link.request(T_HELLO)[1])
+        print("hello:", h)
+        check(h["rate"] == 50000.0 and h["pos_fs"] == 80.0 and h["volt_fs"] == 20.0,
+              "profile: loop rate 50 kHz, full scales 80 um / 20 V")
+        check(h["hard_min"] == -10.0 and h["hard_max"] == 10.0, "hard limits stay the board's")
+        st = parse_status(link.request(T_STATUS)[1])
+        check(st["board_faults"] == 0 and not st["faults"] & 0x100, "no profile fault")
+        check(not st["swap_pending"] and st["swaps"] == 0, "no controller staged (the host configures it)")
+        time.sleep(0.05)
+        st2 = parse_status(link.request(T_STATUS)[1])
+        check(st2["tick_count"] > st["tick_count"] and st2["overruns"] == 0, "running at 50 kHz, no overruns")
+
+    def invalid(link, check):
+        h = parse_hello(link.request(T_HELLO)[1])
+        check(h["rate"] == 100000.0 and h["pos_fs"] == 50.0, "invalid profile: the reference at 100 kHz")
+        st = parse_status(link.request(T_STATUS)[1])
+        check(st["board_faults"] == 1 and st["faults"] & 0x100, "status: board fault 0 (profile invalid)")
+        check(st["swaps"] == 1, "reference controller in place")
+
+    for name, blob, fn, note in [("valid", profile_blob(50000, 80.0, 20.0), valid, "profile loaded"),
+                                 ("invalid", profile_blob(50000, 80.0, 20.0, corrupt=True), invalid, "crc")]:
+        with open(tmp, "wb") as f:
+            f.write(blob)
+        print(f"--- {name} profile")
+        fails, out = session(elf, machine, tmp, fn)
+        if note not in out:
+            fails.append(f"{name}: semihosting console says '{note}'")
+            print(f"FAIL {name}: semihosting console says '{note}'")
+        failed += fails
+    os.unlink(tmp)
+    return failed
+
+
+def main():
+    args = sys.argv[1:]
+    replay = None
+    seconds = 0.2
+    profile_test = "--profile-test" in args
+    if profile_test:
+        args.remove("--profile-test")
+    if "--replay" in args:
+        i = args.index("--replay")
+        replay = args[i + 1]
+        del args[i:i + 2]
+    if "--seconds" in args:
+        i = args.index("--seconds")
+        seconds = float(args[i + 1])
+        del args[i:i + 2]
+    if len(args) != 2:
+        print(__doc__)
+        return 2
+    elf, machine = args
+    if not os.path.isfile(elf):
+        print(f"no firmware image {elf}: build the firmware preset first")
+        return 2
+    if profile_test:
+        failed = profile_checks(elf, machine)
+    else:
+        failed, _ = session(elf, machine, None, lambda link, check: run_checks(link, check, machine, seconds, replay))
     print(f"{0 if failed else 1} passed, {len(failed)} failed")
     return 1 if failed else 0
+
+
+def run_checks(link, check, machine, seconds, replay=None):
+    q31 = machine == "mps2-an385"
+    # 1-2: boot, hello, status.
+    t, b = link.request(T_HELLO)
+    check(t == R_HELLO, "hello answered")
+    h = parse_hello(b)
+    print("hello:", h)
+    check(link.first_byte == 0, f"first byte on the UART is the 0x00 delimiter (got {link.first_byte})")
+    board = {"mps2-an500": "qemu-m7", "mps2-an385": "qemu-m3"}.get(machine)
+    check(h["protocol"] == 1 and (board is None or h["board"] == board), "protocol 1, board name")
+    check(h["rec_channels"] == 4 and h["fmt"] == (1 if q31 else 0), "4 recorder channels, sample format")
+    rate = h["rate"]
+    s0 = parse_status(link.request(T_STATUS)[1])
+    time.sleep(0.05)
+    s1 = parse_status(link.request(T_STATUS)[1])
+    print("status:", s1)
+    check(s1["tick_count"] > s0["tick_count"], "the loop runs (tick count grows)")
+    check(not s1["armed"] and not s1["tripped"], "starts disarmed, not tripped")
+    check(s1["overruns"] == 0 and s1["time_max"] > 0, "tick stats: no overruns, timing measured")
+
+    # 3: hostile input.
+    c0 = s1
+    rng = random.Random(2026)
+    link.send_raw(bytes(rng.randrange(256) for _ in range(3000)) + b"\x00")
+    good = frame(T_STATUS, 999)
+    bad = bytearray(good)
+    bad[3] ^= 0x01
+    link.send_raw(bytes(bad))                                  # bad CRC
+    link.send_raw(cobs_encode(b"\x02\x01") + b"\x00")          # truncated
+    link.send_raw(bytes([0x55] * 700) + b"\x00")               # oversize
+    t, b = link.request(0x40)                                   # unknown type
+    e = parse_error(b) if t == R_ERROR else {}
+    check(t == R_ERROR and e.get("code") == 1, f"unknown type -> error unknown_type: {e}")
+    t, b = link.request(T_STATUS, version=7)
+    check(t == R_ERROR and parse_error(b)["code"] == 2, "wrong header version -> error bad_version")
+    t, b = link.request(T_GET, bytes([G_LIMITS]))
+    limits_before = b
+    t, b = link.request(T_SET, limits_body(-10.0, math.nan, 2e5, 0.0))
+    e = parse_error(b) if t == R_ERROR else {}
+    check(t == R_ERROR and e.get("code") == ERR_INVALID and e.get("field") == "u_max_V",
+          f"NaN limit -> invalid_param naming u_max_V: {e}")
+    t, b = link.request(T_START_WAVE, bytes([0x08]))
+    e = parse_error(b) if t == R_ERROR else {}
+    check(t == R_ERROR and e.get("code") == ERR_MALFORMED and e.get("field") == "flags",
+          f"StartWave unknown flag bit -> malformed naming flags: {e}")
+    check(link.request(T_ARM)[0] == R_ACK, "arm")
+    t, b = link.request(T_SET, limits_body(-5.0, 5.0, 2e5, 0.0))
+    e = parse_error(b) if t == R_ERROR else {}
+    check(t == R_ERROR and e.get("code") == ERR_ARMED, f"limits change while armed -> error armed: {e}")
+    check(link.request(T_DISARM)[0] == R_ACK, "disarm")
+    t, b = link.request(T_GET, bytes([G_LIMITS]))
+    check(b == limits_before, "limits read back unchanged")
+    s2 = parse_status(link.request(T_STATUS)[1])
+    check(s2["bad_crc"] > c0["bad_crc"] and s2["oversize"] > c0["oversize"] and s2["truncated"] > c0["truncated"]
+          and s2["unknown_type"] > c0["unknown_type"] and s2["bad_version"] > c0["bad_version"],
+          "hostile frames counted: bad_crc {bad_crc} oversize {oversize} truncated {truncated} "
+          "unknown_type {unknown_type} bad_cobs {bad_cobs}".format(**s2))
+    check(s2["tick_count"] > s1["tick_count"] and s2["overruns"] == 0, "still running, no overruns")
+    check(link.garbage == 0, f"every byte from the device is part of a good frame ({link.garbage} bad)")
+
+    # 4: a run with the log stream. Let the disarmed output settle at 0 V.
+    time.sleep(0.05)
+    freq = 100.0
+    traj = struct.pack("<BBfffIfffH", G_TRAJECTORY, 0, 5.0, 1.0, freq, 0, 0.0, 0.1, 0.5, 0)
+    check(link.request(T_SET, traj)[0] == R_ACK, "trajectory set (sine 5 um, 100 Hz, offset 1 um)")
+    rec = struct.pack("<BB8sIBBBfII", G_RECORDER, 4, bytes([0, 1, 2, 3, 0, 0, 0, 0]), 1, 1, 0, 0, 0.0, 0, 0)
+    check(link.request(T_SET, rec)[0] == R_ACK, "recorder set (r, y, e, u, every tick, continuous)")
+    with link.lock:
+        link.logs.clear()
+        link.log_bytes = 0
+    st = parse_status(link.request(T_STATUS)[1])
+    t, b = link.request(T_START_WAVE, bytes([0x07]))
+    check(t == R_ACK, f"StartWave flags 7 (arm loop, arm recorder, restart stage): {hex(t)}")
+    t_start = time.time()
+    target = int(seconds * rate)
+    while True:
+        time.sleep(0.02)
+        with link.lock:
+            span = None
+            if link.logs:
+                a, z = parse_log(link.logs[0]), parse_log(link.logs[-1])
+                span = z["first"] + z["frames"] - a["first"]
+        if span is not None and span >= target:
+            break
+        if time.time() - t_start > 60:
+            break
+    wall = time.time() - t_start
+    st_end = parse_status(link.request(T_STATUS)[1])
+    check(link.request(T_REC_STOP)[0] == R_ACK, "recorder stop")
+    check(link.request(T_DISARM)[0] == R_ACK, "disarm")
+    time.sleep(0.05)
+    with link.lock:
+        logs = [parse_log(x) for x in link.logs]
+        nbytes = link.log_bytes
+    check(len(logs) > 10, f"{len(logs)} log blocks")
+    seq_ok = all(l["seq"] == i for i, l in enumerate(logs))
+    check(seq_ok, "log block_seq 0, 1, 2, ... without gaps")
+    tick_ok = all(logs[i + 1]["first"] == logs[i]["first"] + logs[i]["frames"] for i in range(len(logs) - 1))
+    check(tick_ok, "ticks contiguous across blocks (no dropped frames)")
+    check(all(l["overruns"] == 0 for l in logs), "no recorder overrun")
+    check(all(l["nch"] == 4 and l["channels"][:4] == [0, 1, 2, 3] for l in logs), "blocks carry r, y, e, u")
+    if logs:
+        frames = sum(l["frames"] for l in logs)
+        first = logs[0]
+        fs = h["pos_fs"] / 2**31 if q31 else 1.0
+        r0, y0 = first["samples"][0] * fs, first["samples"][1] * fs
+        check(first["first"] > st["tick_count"], "first frame after the request")
+        check(abs(r0 - 1.0) < 1e-3 and y0 == 0.0, f"first frame: the wave's tick 0 (r = offset = {r0}), y = {y0} "
+              "(stage restarted at rest)")
+        # Over the last 10 ms (one period of the wave): y spans most of r's 10 um.
+        tail = [l for l in logs if l["first"] >= logs[-1]["first"] - int(rate / freq)]
+        ys = [l["samples"][i * 4 + 1] * fs for l in tail for i in range(l["frames"])]
+        check(max(ys) - min(ys) > 8.0, f"the stage follows the wave (y from {min(ys):.3f} to {max(ys):.3f} um)")
+        virt = frames / rate
+        print(f"log stream: {frames} frames, {nbytes} bytes in {virt:.3f} s virtual ({nbytes / virt:.0f} B/s), "
+              f"{wall:.3f} s wall ({nbytes / wall:.0f} B/s); tick insn min/mean/max "
+              f"{st_end['time_min']}/{st_end['time_mean']:.1f}/{st_end['time_max']}, overruns {st_end['overruns']}")
+    if replay and logs:
+        frames_path = f"/tmp/check_servo_frames_{os.getpid()}.bin"
+        with open(frames_path, "wb") as f:
+            for l in logs:
+                f.write(l["raw"])
+        r = subprocess.run([replay, "q31" if q31 else "float", frames_path, repr(rate), "5.0", "1.0", repr(freq)],
+                           capture_output=True, text=True)
+        os.unlink(frames_path)
+        print(r.stdout.strip(), r.stderr.strip())
+        check(r.returncode == 0, "every recorded frame equals the simulator's loop kernel bit for bit")
+    st3 = parse_status(link.request(T_STATUS)[1])
+    check(st3["overruns"] == 0, f"no tick overruns ({st3['overruns']})")
+    check(st3["recorder_overruns"] == 0, "status: no recorder overruns")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,89 @@
+// Replays a run recorded from servo.elf over the link (tests/firmware/
+// check_servo.py) with the host simulator's own loop kernel
+// (host/sim/loop_kernel.hpp, what `piezoloop sim --fidelity float` runs):
+// the board's pipeline setup, the reference controller, the reference stage
+// as a StageModel of ideal parts, the wave check_servo.py sets, started the
+// way the simulator starts (start_wave + arm before tick 0, stage at rest).
+// Every recorded frame (r, y, e, u) must equal the simulator's bit for bit.
+//
+//   host_servo_replay float|q31 <frames.bin> <rate_Hz> <amplitude_um> <offset_um> <frequency_Hz>
+//
+// frames.bin: frame-major raw 32-bit little-endian patterns, 4 per frame,
+// from the wave's tick 0 on. Prints one line; exit status 0 if all equal.
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "app/control_config.hpp"
+#include "app/selftest_cases.hpp"
+#include "bsp/emulated_stage.hpp"
+#include "piezoloop/reference_stage.hpp"
+#include "piezoloop/stage_model.hpp"
+#include "sim/loop_kernel.hpp"
+
+namespace {
+
+using namespace piezoloop;
+
+template <class T>
+uint32_t bits(T v) {
+    if constexpr (std::is_same_v<T, float>) return std::bit_cast<uint32_t>(v);
+    else return static_cast<uint32_t>(v.raw());
+}
+
+template <class T>
+int replay(const std::vector<uint32_t>& rec, float rate_Hz, float amplitude_um, float offset_um, float frequency_Hz) {
+    const PipelineSetup setup = fw::pipeline_setup(fw::kEmulatedAnalog, rate_Hz);
+    auto pipe = std::make_unique<fw::FwPipeline<T>>(setup);
+    if (!pipe->stage(reference::params(true, true, false)).ok()) return 2;
+    TrajectoryConfig w{};
+    w.waveform = Waveform::kSine;
+    w.amplitude_um = amplitude_um;
+    w.offset_um = offset_um;
+    w.frequency_Hz = frequency_Hz;
+    w.sample_rate_Hz = rate_Hz;
+    w.return_fraction = 0.1f;
+    w.duty = 0.5f;
+    if (!pipe->start_wave(w).ok()) return 2;
+    pipe->arm();
+    StageModel stage;
+    if (!stage.configure(fw::ideal_stage(reference::plant(), rate_Hz)).ok()) return 2;
+    sim::LoopStepper<T, fw::FwPipeline<T>, StageModel> loop(*pipe, stage, 1.0f, {}, nullptr);
+    const std::size_t frames = rec.size() / 4;
+    for (std::size_t k = 0; k < frames; ++k) {
+        loop.step(k, [](const auto&, const auto&, const auto&) {});
+        const TickSignals<T>& s = pipe->last();
+        const uint32_t want[4] = {bits(s.r), bits(s.y), bits(s.e), bits(s.u)};
+        for (int c = 0; c < 4; ++c)
+            if (rec[k * 4 + static_cast<std::size_t>(c)] != want[c]) {
+                std::printf("{\"replay\":\"differs\",\"frame\":%zu,\"channel\":%d,\"board\":\"0x%08x\",\"sim\":\"0x%08x\"}\n",
+                            k, c, rec[k * 4 + static_cast<std::size_t>(c)], want[c]);
+                return 1;
+            }
+    }
+    std::printf("{\"replay\":\"equal\",\"frames\":%zu}\n", frames);
+    return frames > 0 ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 7) {
+        std::fprintf(stderr, "usage: %s float|q31 frames.bin rate_Hz amplitude_um offset_um frequency_Hz\n", argv[0]);
+        return 2;
+    }
+    std::FILE* f = std::fopen(argv[2], "rb");
+    if (f == nullptr) return 2;
+    std::vector<uint32_t> rec;
+    uint8_t b[4];
+    while (std::fread(b, 1, 4, f) == 4)
+        rec.push_back(uint32_t{b[0]} | uint32_t{b[1]} << 8 | uint32_t{b[2]} << 16 | uint32_t{b[3]} << 24);
+    std::fclose(f);
+    const float rate = std::strtof(argv[3], nullptr), a = std::strtof(argv[4], nullptr),
+                o = std::strtof(argv[5], nullptr), fr = std::strtof(argv[6], nullptr);
+    if (std::strcmp(argv[1], "float") == 0) return replay<float>(rec, rate, a, o, fr);
+    if (std::strcmp(argv[1], "q31") == 0) return replay<Q31>(rec, rate, a, o, fr);
+    return 2;
+}
