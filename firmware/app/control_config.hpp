@@ -19,11 +19,16 @@ inline constexpr uint32_t kLoopRateInt_Hz = 100000;
 
 // RC delay line: N up to 128 (the reference N = 100); recorder: four
 // channels, what the host's link client records (r, y, e, u; the log hash
-// covers r, y, u), 4096 frames (41 ms at 100 kHz) of slack for the main
-// loop that drains it into log blocks; setpoint FIFO of the link's stream.
+// covers r, y, u), PIEZOLOOP_RECORDER_CAPACITY frames of slack for the main
+// loop that drains it into log blocks (firmware/CMakeLists.txt: 4096 =
+// 41 ms at 100 kHz on the QEMU boards, whose UART keeps up with the full
+// stream; 512 in the STM32's 128 KiB DTCM); setpoint FIFO of the link's stream.
+#ifndef PIEZOLOOP_RECORDER_CAPACITY
+#define PIEZOLOOP_RECORDER_CAPACITY 4096
+#endif
 inline constexpr int kRcCapacity = 128;
 inline constexpr std::size_t kRecChannels = 4;
-inline constexpr std::size_t kRecCapacity = 4096;
+inline constexpr std::size_t kRecCapacity = PIEZOLOOP_RECORDER_CAPACITY;
 inline constexpr std::size_t kSetpointCapacity = 1024;
 
 template <class T>
