@@ -352,8 +352,9 @@ struct Candidate {
 std::unique_ptr<Transport> open_usb(const std::string& serial) {
     const std::string who = serial.empty() ? std::string("usb") : "usb:" + serial;
     Context context(who);
-    std::vector<Candidate> opened;
-    std::vector<std::string> denied;  // bus ports / nodes that could not be opened, and why
+    std::vector<Candidate> opened;       // matching boards, opened
+    std::vector<std::string> unopened;   // boards that could not be opened, and why
+    std::vector<std::string> others;     // boards with another serial (when one was asked for)
     bool access_denied = false;
     {
         DeviceList devices(context.ctx, who);
@@ -364,7 +365,7 @@ std::unique_ptr<Transport> open_usb(const std::string& serial) {
             const int r = libusb_open(dev, &h);
             if (r != 0) {
                 if (r == LIBUSB_ERROR_ACCESS) access_denied = true;
-                denied.push_back(bus_port_of(dev) + " (" + node_of(dev) + ": " + err_name(r) + ")");
+                unopened.push_back(bus_port_of(dev) + " (" + node_of(dev) + ": " + err_name(r) + ")");
                 continue;
             }
             libusb_device_descriptor d{};
@@ -372,37 +373,42 @@ std::unique_ptr<Transport> open_usb(const std::string& serial) {
             Candidate c{h, string_descriptor(h, d.iSerialNumber), bus_port_of(dev)};
             if (!serial.empty() && c.serial != serial) {
                 libusb_close(h);
-                denied.push_back(c.bus_port + " (serial " + (c.serial.empty() ? std::string("none") : c.serial) + ")");
+                others.push_back((c.serial.empty() ? std::string("(no serial)") : c.serial) + " at " + c.bus_port);
                 continue;
             }
             opened.push_back(std::move(c));
         }
     }
-    const auto close_all = [&] {
-        for (Candidate& c : opened) libusb_close(c.handle);
-    };
-    const auto others = [&] {
+    // Messages list boards in bus/port order, whatever libusb's order.
+    std::sort(opened.begin(), opened.end(),
+              [](const Candidate& a, const Candidate& b) { return a.bus_port < b.bus_port; });
+    std::sort(unopened.begin(), unopened.end());
+    std::sort(others.begin(), others.end());
+    const auto join = [](const std::vector<std::string>& v) {
         std::string s;
-        for (const std::string& d : denied) s += (s.empty() ? "" : ", ") + d;
+        for (const std::string& x : v) s += (s.empty() ? "" : ", ") + x;
         return s;
     };
     const std::string board = "piezoloop USB board (" + vid_pid() + ")";
+    const std::string not_opened = unopened.empty() ? std::string() : "; could not open " + join(unopened);
     if (opened.empty()) {
         if (access_denied)
-            throw LinkError(who + ": access denied to the " + board + " at " + others() + "; " + kUdevHint);
+            throw LinkError(who + ": access denied to the " + board + " at " + join(unopened) + "; " + kUdevHint);
         if (!serial.empty())
             throw LinkError(who + ": no " + board + " with serial number " + serial +
-                            (denied.empty() ? std::string(" (none attached)") : "; found: " + others()));
-        throw LinkError(who + ": no " + board + " found" + (denied.empty() ? std::string() : ": " + others()));
+                            (others.empty() ? std::string() : "; attached: " + join(others)) + not_opened);
+        throw LinkError(who + ": no " + board + " found" + not_opened);
     }
-    if (opened.size() > 1 || (serial.empty() && !denied.empty())) {
-        std::string list;
+    if (opened.size() > 1 || (serial.empty() && !unopened.empty())) {
+        std::vector<std::string> listed;
         for (const Candidate& c : opened)
-            list += (list.empty() ? "" : ", ") + (c.serial.empty() ? "(no serial)" : c.serial) + " at " + c.bus_port;
-        if (!denied.empty()) list += ", " + others();
-        close_all();
-        throw LinkError(who + ": " + std::to_string(opened.size() + denied.size()) + " " + board +
-                        "s attached (" + list + "): choose one with --device usb:SERIAL");
+            listed.push_back((c.serial.empty() ? std::string("(no serial)") : c.serial) + " at " + c.bus_port);
+        for (Candidate& c : opened) libusb_close(c.handle);
+        if (!serial.empty())  // the same serial twice: selection cannot work
+            throw LinkError(who + ": " + std::to_string(listed.size()) + " " + board + "s report serial number " +
+                            serial + " (" + join(listed) + "); serial numbers must be unique: attach one only");
+        throw LinkError(who + ": " + std::to_string(opened.size() + unopened.size()) + " " + board + "s attached (" +
+                        join(listed) + not_opened + "): choose one with --device usb:SERIAL");
     }
     Candidate chosen = opened.front();
     const std::string address = chosen.serial.empty() ? std::string("usb") : "usb:" + chosen.serial;

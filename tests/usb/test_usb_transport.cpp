@@ -672,6 +672,18 @@ TEST_F(UsbTransportTest, SelectionBySerialAndListing) {
     EXPECT_NE(missing.find("no piezoloop USB board (1209:0001) with serial number SN-C"), std::string::npos) << missing;
 }
 
+TEST_F(UsbTransportTest, DuplicateSerialsAreRefused) {
+    // Two NUCLEO boards with today's fixed firmware serial "0001".
+    add_board("0001");
+    add_board("0001");
+    const std::string e = error_of([] { hostlink::open_usb("0001"); });
+    EXPECT_NE(e.find("2 piezoloop USB board (1209:0001)s report serial number 0001 (0001 at 1-1, 0001 at 1-2)"),
+              std::string::npos)
+        << e;
+    EXPECT_FALSE(boards_[0]->stats().claimed);
+    EXPECT_FALSE(boards_[1]->stats().claimed);
+}
+
 TEST_F(UsbTransportTest, NoBoard) {
     EXPECT_TRUE(hostlink::list_usb_boards().empty());
     const std::string e = error_of([] { hostlink::open_usb(""); });
