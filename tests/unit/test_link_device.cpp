@@ -576,6 +576,9 @@ TEST(LinkStartWave, FlagsZeroIsTheEmptyBodyAndOneByteOtherwise) {
     const std::array<uint8_t, 2> two{1, 0};
     StartWave m;
     EXPECT_EQ(decode_body(std::span<const uint8_t>(two), m), DecodeResult::kTooLong);
+    // Flags 0 has one encoding, the empty body: an explicit 0 byte is too long.
+    const std::array<uint8_t, 1> zero{0};
+    EXPECT_EQ(decode_body(std::span<const uint8_t>(zero), m), DecodeResult::kTooLong);
 }
 
 namespace {

@@ -335,11 +335,19 @@ struct StartWave {
     static constexpr uint8_t kKnownFlags = kArmLoop | kArmRecorder | kRestartStage;
     uint8_t flags = 0;
     bool operator==(const StartWave&) const = default;
-    // Flags 0 travel as the empty body, byte for byte the old message.
+    // Flags 0 travel as the empty body, byte for byte the old message, and
+    // only so: a body byte 0 is left unread (too long, malformed), which
+    // keeps one encoding per value.
     void write(Writer& w) const {
         if (flags != 0) w.u8(flags);
     }
-    void read(Reader& r) { flags = r.remaining() == 0 ? 0 : r.u8(); }
+    void read(Reader& r) {
+        flags = 0;
+        if (r.remaining() == 0) return;
+        Reader probe = r;
+        if (probe.u8() == 0) return;
+        flags = r.u8();
+    }
 };
 
 struct GetParams {
