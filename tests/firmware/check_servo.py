@@ -234,7 +234,8 @@ def connect(port, proc, timeout=10.0):
 def profile_blob(rate, pos_fs, volt_fs, stage_rate=None, corrupt=False):
     """An emulation profile per the layout in common/piezoloop/emulation_profile.hpp,
     written independently of the C++ encoder: a linear stage (1.5 um/V), a
-    5 kHz amplifier, a 16-bit DAC and an 18-bit ADC."""
+    5 kHz amplifier, a 16-bit DAC, a sensor with a 20 kHz bandwidth and
+    seeded noise (2 nm rms), an 18-bit ADC."""
     body = struct.pack("<Iff", rate, pos_fs, volt_fs)
     body += struct.pack("<f", float(rate if stage_rate is None else stage_rate))
     body += struct.pack("<iff", 16, -12.0, 12.0)                              # dac
@@ -244,7 +245,7 @@ def profile_blob(rate, pos_fs, volt_fs, stage_rate=None, corrupt=False):
     body += struct.pack("<6f", *([0.0] * 6))                                  # dahl
     body += struct.pack("<fB", 1.5, 0)                                        # linear gain, sections
     body += struct.pack("<30d", *([1.0, 0.0, 0.0, 0.0, 0.0] * 6))             # dynamics (unused)
-    body += struct.pack("<fffI", 1.0, 0.0, 0.0, 1)                            # sensor
+    body += struct.pack("<fffI", 1.0, 20000.0, 0.002, 7)                      # sensor
     body += struct.pack("<iff", 18, -100.0, 100.0)                            # adc
     assert len(body) == 491
     crc = zlib.crc32(body) ^ (1 if corrupt else 0)
@@ -285,7 +286,61 @@ def session(elf, machine, profile, body):
     return failed, out
 
 
-def profile_checks(elf, machine):
+def recorded_run(link, check, rate, amplitude, offset, freq, seconds):
+    """Trajectory + recorder (r, y, e, u), StartWave flags 7, `seconds` of log
+    blocks; checks the stream and returns (logs, log bytes, wall seconds)."""
+    traj = struct.pack("<BBfffIfffH", G_TRAJECTORY, 0, amplitude, offset, freq, 0, 0.0, 0.1, 0.5, 0)
+    check(link.request(T_SET, traj)[0] == R_ACK, f"trajectory set (sine {amplitude} um, {freq} Hz, offset {offset} um)")
+    rec = struct.pack("<BB8sIBBBfII", G_RECORDER, 4, bytes([0, 1, 2, 3, 0, 0, 0, 0]), 1, 1, 0, 0, 0.0, 0, 0)
+    check(link.request(T_SET, rec)[0] == R_ACK, "recorder set (r, y, e, u, every tick, continuous)")
+    with link.lock:
+        link.logs.clear()
+        link.log_bytes = 0
+    st = parse_status(link.request(T_STATUS)[1])
+    t, b = link.request(T_START_WAVE, bytes([0x07]))
+    check(t == R_ACK, f"StartWave flags 7 (arm loop, arm recorder, restart stage): {hex(t)}")
+    t_start = time.time()
+    target = int(seconds * rate)
+    while time.time() - t_start < 60:
+        time.sleep(0.02)
+        with link.lock:
+            span = None
+            if link.logs:
+                a, z = parse_log(link.logs[0]), parse_log(link.logs[-1])
+                span = z["first"] + z["frames"] - a["first"]
+        if span is not None and span >= target:
+            break
+    wall = time.time() - t_start
+    check(link.request(T_REC_STOP)[0] == R_ACK, "recorder stop")
+    check(link.request(T_DISARM)[0] == R_ACK, "disarm")
+    time.sleep(0.05)
+    with link.lock:
+        logs = [parse_log(x) for x in link.logs]
+        nbytes = link.log_bytes
+    check(len(logs) > 10, f"{len(logs)} log blocks")
+    check(all(l["seq"] == i for i, l in enumerate(logs)), "log block_seq 0, 1, 2, ... without gaps")
+    check(all(logs[i + 1]["first"] == logs[i]["first"] + logs[i]["frames"] for i in range(len(logs) - 1)),
+          "ticks contiguous across blocks (no dropped frames)")
+    check(all(l["overruns"] == 0 for l in logs), "no recorder overrun")
+    check(bool(logs) and logs[0]["first"] > st["tick_count"], "first frame after the request")
+    return logs, nbytes, wall
+
+
+def run_replay(replay, check, q31, logs, rate, amplitude, offset, freq, profile=None):
+    frames_path = f"/tmp/check_servo_frames_{os.getpid()}.bin"
+    with open(frames_path, "wb") as f:
+        for l in logs:
+            f.write(l["raw"])
+    cmd = [replay, "q31" if q31 else "float", frames_path, repr(rate), repr(amplitude), repr(offset), repr(freq)]
+    if profile:
+        cmd.append(profile)
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    os.unlink(frames_path)
+    print(r.stdout.strip(), r.stderr.strip())
+    check(r.returncode == 0, "every recorded frame equals the simulator's loop kernel bit for bit")
+
+
+def profile_checks(elf, machine, replay):
     failed = []
     tmp = f"/tmp/check_servo_profile_{os.getpid()}.bin"
 
@@ -301,6 +356,20 @@ def profile_checks(elf, machine):
         time.sleep(0.05)
         st2 = parse_status(link.request(T_STATUS)[1])
         check(st2["tick_count"] > st["tick_count"] and st2["overruns"] == 0, "running at 50 kHz, no overruns")
+        # A PID loop around the profile's stage (the controller host_servo_replay assumes).
+        check(link.request(T_SET, limits_body(-10.0, 10.0, 2e5, 0.0))[0] == R_ACK, "limits set")
+        # group 2 (feedback), kind 2 (PID), sos_count 0, kMaxControllerSections = 4 sections, PID.
+        fb = struct.pack("<BBB", 2, 2, 0) + struct.pack("<20d", *([1.0, 0.0, 0.0, 0.0, 0.0] * 4)) + \
+            struct.pack("<6f", 0.5, 3000.0, 0.0, 5000.0, -10.0, 10.0)
+        t, b = link.request(T_SET, fb)
+        check(t == R_ACK, f"feedback PID set {parse_error(b) if t == R_ERROR else ''}")
+        time.sleep(0.02)
+        logs, _, _ = recorded_run(link, check, 50000.0, 3.0, 0.5, 200.0, 0.1)
+        fs = 80.0 / 2**31 if machine == "mps2-an385" else 1.0
+        ys = [l["samples"][i * 4 + 1] * fs for l in logs[len(logs) // 2:] for i in range(l["frames"])]
+        check(max(ys) - min(ys) > 4.0, f"the PID loop follows the wave (y from {min(ys):.3f} to {max(ys):.3f} um)")
+        if replay:
+            run_replay(replay, check, machine == "mps2-an385", logs, 50000.0, 3.0, 0.5, 200.0, tmp)
 
     def invalid(link, check):
         h = parse_hello(link.request(T_HELLO)[1])
@@ -346,7 +415,7 @@ def main():
         print(f"no firmware image {elf}: build the firmware preset first")
         return 2
     if profile_test:
-        failed = profile_checks(elf, machine)
+        failed = profile_checks(elf, machine, replay)
     else:
         failed, _ = session(elf, machine, None, lambda link, check: run_checks(link, check, machine, seconds, replay))
     print(f"{0 if failed else 1} passed, {len(failed)} failed")
@@ -416,50 +485,14 @@ def run_checks(link, check, machine, seconds, replay=None):
     # 4: a run with the log stream. Let the disarmed output settle at 0 V.
     time.sleep(0.05)
     freq = 100.0
-    traj = struct.pack("<BBfffIfffH", G_TRAJECTORY, 0, 5.0, 1.0, freq, 0, 0.0, 0.1, 0.5, 0)
-    check(link.request(T_SET, traj)[0] == R_ACK, "trajectory set (sine 5 um, 100 Hz, offset 1 um)")
-    rec = struct.pack("<BB8sIBBBfII", G_RECORDER, 4, bytes([0, 1, 2, 3, 0, 0, 0, 0]), 1, 1, 0, 0, 0.0, 0, 0)
-    check(link.request(T_SET, rec)[0] == R_ACK, "recorder set (r, y, e, u, every tick, continuous)")
-    with link.lock:
-        link.logs.clear()
-        link.log_bytes = 0
-    st = parse_status(link.request(T_STATUS)[1])
-    t, b = link.request(T_START_WAVE, bytes([0x07]))
-    check(t == R_ACK, f"StartWave flags 7 (arm loop, arm recorder, restart stage): {hex(t)}")
-    t_start = time.time()
-    target = int(seconds * rate)
-    while True:
-        time.sleep(0.02)
-        with link.lock:
-            span = None
-            if link.logs:
-                a, z = parse_log(link.logs[0]), parse_log(link.logs[-1])
-                span = z["first"] + z["frames"] - a["first"]
-        if span is not None and span >= target:
-            break
-        if time.time() - t_start > 60:
-            break
-    wall = time.time() - t_start
+    logs, nbytes, wall = recorded_run(link, check, rate, 5.0, 1.0, freq, seconds)
     st_end = parse_status(link.request(T_STATUS)[1])
-    check(link.request(T_REC_STOP)[0] == R_ACK, "recorder stop")
-    check(link.request(T_DISARM)[0] == R_ACK, "disarm")
-    time.sleep(0.05)
-    with link.lock:
-        logs = [parse_log(x) for x in link.logs]
-        nbytes = link.log_bytes
-    check(len(logs) > 10, f"{len(logs)} log blocks")
-    seq_ok = all(l["seq"] == i for i, l in enumerate(logs))
-    check(seq_ok, "log block_seq 0, 1, 2, ... without gaps")
-    tick_ok = all(logs[i + 1]["first"] == logs[i]["first"] + logs[i]["frames"] for i in range(len(logs) - 1))
-    check(tick_ok, "ticks contiguous across blocks (no dropped frames)")
-    check(all(l["overruns"] == 0 for l in logs), "no recorder overrun")
     check(all(l["nch"] == 4 and l["channels"][:4] == [0, 1, 2, 3] for l in logs), "blocks carry r, y, e, u")
     if logs:
         frames = sum(l["frames"] for l in logs)
         first = logs[0]
         fs = h["pos_fs"] / 2**31 if q31 else 1.0
         r0, y0 = first["samples"][0] * fs, first["samples"][1] * fs
-        check(first["first"] > st["tick_count"], "first frame after the request")
         check(abs(r0 - 1.0) < 1e-3 and y0 == 0.0, f"first frame: the wave's tick 0 (r = offset = {r0}), y = {y0} "
               "(stage restarted at rest)")
         # Over the last 10 ms (one period of the wave): y spans most of r's 10 um.
@@ -471,15 +504,7 @@ def run_checks(link, check, machine, seconds, replay=None):
               f"{wall:.3f} s wall ({nbytes / wall:.0f} B/s); tick insn min/mean/max "
               f"{st_end['time_min']}/{st_end['time_mean']:.1f}/{st_end['time_max']}, overruns {st_end['overruns']}")
     if replay and logs:
-        frames_path = f"/tmp/check_servo_frames_{os.getpid()}.bin"
-        with open(frames_path, "wb") as f:
-            for l in logs:
-                f.write(l["raw"])
-        r = subprocess.run([replay, "q31" if q31 else "float", frames_path, repr(rate), "5.0", "1.0", repr(freq)],
-                           capture_output=True, text=True)
-        os.unlink(frames_path)
-        print(r.stdout.strip(), r.stderr.strip())
-        check(r.returncode == 0, "every recorded frame equals the simulator's loop kernel bit for bit")
+        run_replay(replay, check, q31, logs, rate, 5.0, 1.0, freq)
     st3 = parse_status(link.request(T_STATUS)[1])
     check(st3["overruns"] == 0, f"no tick overruns ({st3['overruns']})")
     check(st3["recorder_overruns"] == 0, "status: no recorder overruns")

@@ -6,7 +6,12 @@
 // way the simulator starts (start_wave + arm before tick 0, stage at rest).
 // Every recorded frame (r, y, e, u) must equal the simulator's bit for bit.
 //
-//   host_servo_replay float|q31 <frames.bin> <rate_Hz> <amplitude_um> <offset_um> <frequency_Hz>
+//   host_servo_replay float|q31 <frames.bin> <rate_Hz> <amplitude_um> <offset_um> <frequency_Hz> [profile.bin]
+//
+// With an emulation profile (check_servo.py --profile-test): the profile's
+// stage, rate and full scales, and the controller check_servo.py sets there
+// (limits +-10 V, 2e5 V/s; PID kp 0.5 V/um, ki 3000 V/(um s), cutoff 5 kHz,
+// output +-10 V; no feedforward).
 //
 // frames.bin: frame-major raw 32-bit little-endian patterns, 4 per frame,
 // from the wave's tick 0 on. Prints one line; exit status 0 if all equal.
@@ -19,6 +24,7 @@
 #include "app/control_config.hpp"
 #include "app/selftest_cases.hpp"
 #include "bsp/emulated_stage.hpp"
+#include "piezoloop/emulation_profile.hpp"
 #include "piezoloop/reference_stage.hpp"
 #include "piezoloop/stage_model.hpp"
 #include "sim/loop_kernel.hpp"
@@ -34,10 +40,23 @@ uint32_t bits(T v) {
 }
 
 template <class T>
-int replay(const std::vector<uint32_t>& rec, float rate_Hz, float amplitude_um, float offset_um, float frequency_Hz) {
-    const PipelineSetup setup = fw::pipeline_setup(fw::kEmulatedAnalog, rate_Hz);
+int replay(const std::vector<uint32_t>& rec, float rate_Hz, float amplitude_um, float offset_um, float frequency_Hz,
+           const EmulationProfile* profile) {
+    PipelineSetup setup = fw::pipeline_setup(fw::kEmulatedAnalog, rate_Hz);
+    StageConfig stage_config = fw::ideal_stage(reference::plant(), rate_Hz);
+    PipelineParams params = reference::params(true, true, false);
+    if (profile != nullptr) {
+        setup = fw::pipeline_setup(fw::BoardAnalog{fw::kEmulatedAnalog.hard, profile->position_full_scale_um,
+                                                   profile->voltage_full_scale_V},
+                                   static_cast<float>(profile->loop_rate_Hz));
+        stage_config = profile->stage;
+        params = PipelineParams{};
+        params.limits = LimitsConfig{-10.0f, 10.0f, 2.0e5f, 0.0f};
+        params.feedback = FeedbackKind::kPid;
+        params.pid = PidConfig{0.5f, 3000.0f, 0.0f, 5000.0f, -10.0f, 10.0f};
+    }
     auto pipe = std::make_unique<fw::FwPipeline<T>>(setup);
-    if (!pipe->stage(reference::params(true, true, false)).ok()) return 2;
+    if (!pipe->stage(params).ok()) return 2;
     TrajectoryConfig w{};
     w.waveform = Waveform::kSine;
     w.amplitude_um = amplitude_um;
@@ -49,8 +68,8 @@ int replay(const std::vector<uint32_t>& rec, float rate_Hz, float amplitude_um, 
     if (!pipe->start_wave(w).ok()) return 2;
     pipe->arm();
     StageModel stage;
-    if (!stage.configure(fw::ideal_stage(reference::plant(), rate_Hz)).ok()) return 2;
-    sim::LoopStepper<T, fw::FwPipeline<T>, StageModel> loop(*pipe, stage, 1.0f, {}, nullptr);
+    if (!stage.configure(stage_config).ok()) return 2;
+    sim::LoopStepper<T, fw::FwPipeline<T>, StageModel> loop(*pipe, stage, stage_config.sensor.gain, {}, nullptr);
     const std::size_t frames = rec.size() / 4;
     for (std::size_t k = 0; k < frames; ++k) {
         loop.step(k, [](const auto&, const auto&, const auto&) {});
@@ -70,7 +89,7 @@ int replay(const std::vector<uint32_t>& rec, float rate_Hz, float amplitude_um, 
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 7) {
+    if (argc != 7 && argc != 8) {
         std::fprintf(stderr, "usage: %s float|q31 frames.bin rate_Hz amplitude_um offset_um frequency_Hz\n", argv[0]);
         return 2;
     }
@@ -83,7 +102,20 @@ int main(int argc, char** argv) {
     std::fclose(f);
     const float rate = std::strtof(argv[3], nullptr), a = std::strtof(argv[4], nullptr),
                 o = std::strtof(argv[5], nullptr), fr = std::strtof(argv[6], nullptr);
-    if (std::strcmp(argv[1], "float") == 0) return replay<float>(rec, rate, a, o, fr);
-    if (std::strcmp(argv[1], "q31") == 0) return replay<Q31>(rec, rate, a, o, fr);
+    EmulationProfile profile;
+    if (argc == 8) {
+        std::vector<uint8_t> blob(kEmulationProfileMaxBytes);
+        std::FILE* pf = std::fopen(argv[7], "rb");
+        if (pf == nullptr) return 2;
+        blob.resize(std::fread(blob.data(), 1, blob.size(), pf));
+        std::fclose(pf);
+        if (const Status s = decode_profile(blob, profile); !s.ok()) {
+            std::fprintf(stderr, "profile: %s: %s\n", s.field, s.message);
+            return 2;
+        }
+    }
+    const EmulationProfile* p = argc == 8 ? &profile : nullptr;
+    if (std::strcmp(argv[1], "float") == 0) return replay<float>(rec, rate, a, o, fr, p);
+    if (std::strcmp(argv[1], "q31") == 0) return replay<Q31>(rec, rate, a, o, fr, p);
     return 2;
 }
