@@ -254,3 +254,26 @@ TEST(EmulationProfile, EveryFramingRejectionNamesTheHeaderField) {
         expect(b, "crc");
     }
 }
+
+// The emulated boards now run the reference plant inside a StageModel of
+// ideal parts (the profile-less default). Ideal converters, a unit amplifier
+// and sensor without bandwidth or noise pass values unchanged, so the stage
+// must equal the bare HammersteinPlant bit for bit (exact comparison: the
+// same float operations in the same order, nothing else).
+TEST(EmulationProfile, IdealStageIsTheBarePlant) {
+    EmulationProfile p;
+    p.stage.plant = reference::plant();
+    ASSERT_TRUE(validate(p).ok());
+    StageModel stage;
+    ASSERT_TRUE(stage.configure(p.stage).ok());
+    HammersteinPlant plant;
+    ASSERT_TRUE(plant.configure(reference::plant()).ok());
+    // A 10 Hz triangle of +-9 V with a small seeded wobble, 20 000 samples.
+    uint32_t s = 12345;
+    for (int k = 0; k < 20000; ++k) {
+        s = s * 1664525u + 1013904223u;
+        const float tri = static_cast<float>(k % 10000 < 5000 ? k % 10000 : 10000 - k % 10000) / 5000.0f;
+        const float u = 18.0f * tri - 9.0f + static_cast<float>(s >> 8) * (0.01f / 16777216.0f);
+        ASSERT_EQ(std::bit_cast<uint32_t>(stage.step(u)), std::bit_cast<uint32_t>(plant.step(u))) << "sample " << k;
+    }
+}
