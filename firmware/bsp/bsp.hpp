@@ -79,20 +79,22 @@ uint32_t timestamp();
 uint32_t stopwatch_start();
 uint32_t stopwatch_elapsed(uint32_t start);
 
-// The converters of the tick are in bsp/<board>/board_io.hpp, inline (they
-// sit inside the measured tick):
-//   int32_t adc_read();          the displacement sensor's latest sample
-//   void dac_write(int32_t code);  the amplifier's input
-// 16-bit two's-complement codes in [-32768, 32767] spanning [-full scale,
-// +full scale) of config::kPositionFullScale_um (ADC) and
-// config::kVoltageFullScale_V (DAC, referred to the piezo voltage); see
-// bsp/converter16.hpp.
+// The tick's I/O is in bsp/<board>/board_io.hpp, inline (it sits inside
+// the measured tick):
+//   template <class T, class PipelineT> void control_io(PipelineT& pipe);
+// reads the controller's input, runs pipe.tick() and writes its output.
+// Hardware (STM32): ADC code -> sample -> tick -> sample -> DAC code, 16-bit
+// two's-complement codes spanning [-full scale, +full scale) of
+// config::kPositionFullScale_um / config::kVoltageFullScale_V
+// (bsp/converter16.hpp; adc_read() / dac_write() are the raw converters).
+// Boards without converters (QEMU), and the STM32 in loopback: the emulated
+// stage's reading and command in physical units, exactly as host/sim passes
+// them (bsp/emulated_stage.hpp).
 
-// Boards without converters (QEMU) connect the DAC to an emulated stage,
-// the plant model of common/, whose displacement the next adc_read()
-// returns. emulated_stage_step() advances that plant by one sample (the
-// physics between this DAC write and the next ADC sample); it does nothing
-// where the converters are real and loopback is off.
+// The emulated stage (StageModel, the simulator's float stage) whose reading
+// the next tick uses. emulated_stage_step() advances it by one sample (the
+// physics between this tick's output and the next tick's input); it does
+// nothing where the converters are real and loopback is off.
 fw::EmulatedStage& emulated_stage();
 void emulated_stage_step();
 // Hardware boards: route adc_read/dac_write to the emulated stage (self-test
