@@ -19,8 +19,9 @@
 //   timing    DWT CYCCNT (480 MHz) for timestamps and the stopwatch
 //   LEDs      LD1 green PB0: heartbeat; LD3 red PB14: fault / trip
 //   USB       usb_otg_fs.cpp: vendor device on CN13, bulk EP1 OUT/IN; the
-//             console is mirrored to EP1 IN and commands are also read from
-//             EP1 OUT (until the link protocol has its own framing)
+//             console is mirrored to EP1 IN and input is also read from
+//             EP1 OUT, so servo.elf's link frames travel over USB as well
+//             (use one of the two at a time: both feed one frame decoder)
 #include <cstdint>
 
 #include "board_config.hpp"
