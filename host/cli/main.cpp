@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "device_common.hpp"
 
 namespace piezoloop::cli {
 namespace {
@@ -35,6 +36,12 @@ void add_registered_commands(CLI::App& app) {
 int main(int argc, char** argv) {
     CLI::App app{"piezoloop: open digital servo controller for piezo nanopositioning stages"};
     app.require_subcommand(1);
+    // The board the device subcommands (status, get, set, arm, wave, stream,
+    // record, ...) talk to; given before the subcommand.
+    app.add_option("--device", piezoloop::cli::device_address(),
+                   "board to talk to: tcp:HOST:PORT (emulated, see `emulate`), usb, usb:SERIAL, "
+                   "serial:PATH[@BAUD] (default: $PIEZOLOOP_DEVICE)")
+        ->envname("PIEZOLOOP_DEVICE");
     piezoloop::cli::add_registered_commands(app);
     CLI11_PARSE(app, argc, argv);
     return 0;

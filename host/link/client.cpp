@@ -186,10 +186,10 @@ void Client::clear_trip() { expect_ack(link::ClearTrip{}); }
 void Client::stop_wave() { expect_ack(link::StopWave{}); }
 
 void Client::start_wave(uint8_t flags) {
-    const std::array<uint8_t, 1> body{flags};
-    const uint8_t type = static_cast<uint8_t>(MsgType::kStartWave);
     if (flags & wave_flag::kArmRecorder) log_.clear();
-    expect_ack_raw(type, flags == 0 ? std::span<const uint8_t>() : std::span<const uint8_t>(body));
+    link::StartWave m;
+    m.flags = flags;  // 0 travels as the empty body
+    expect_ack(m);
 }
 
 void Client::recorder_arm() {

@@ -45,9 +45,9 @@ const char* request_name(uint8_t type);
 // StartWave flags (the optional flags byte of StartWave; all act at the
 // wave's first tick).
 namespace wave_flag {
-inline constexpr uint8_t kArm = 1u << 0;            // arm the loop
-inline constexpr uint8_t kArmRecorder = 1u << 1;    // arm the recorder
-inline constexpr uint8_t kRestartStage = 1u << 2;   // restart the emulated stage at rest
+inline constexpr uint8_t kArm = link::StartWave::kArmLoop;               // arm the loop
+inline constexpr uint8_t kArmRecorder = link::StartWave::kArmRecorder;   // arm the recorder
+inline constexpr uint8_t kRestartStage = link::StartWave::kRestartStage; // restart the emulated stage at rest
 }  // namespace wave_flag
 
 struct ClientCounters {

@@ -1,0 +1,300 @@
+// `piezoloop emulate`: an emulated board in QEMU (servo.elf on mps2-an500 /
+// mps2-an385) with a scenario's stage loaded as its emulation profile, the
+// link on a local TCP port; `piezoloop devices`: the USB boards attached and
+// how to start an emulated one.
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "device_common.hpp"
+#include "link/tcp_transport.hpp"
+#include "link/usb_transport.hpp"
+#include "piezoloop/emulation_profile.hpp"
+#include "sim/build_case.hpp"
+#include "status_text.hpp"
+
+extern char** environ;
+
+namespace piezoloop::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct EmulateArgs {
+    std::string board = "qemu-m7";
+    std::string scenario, case_name;
+    int port = 0;
+    std::string image;
+    double boot_timeout_s = 20.0;
+};
+
+struct BoardSpec {
+    const char* machine;
+    const char* cpu;
+};
+
+BoardSpec board_spec(const std::string& board) {
+    if (board == "qemu-m7") return {"mps2-an500", "cortex-m7"};
+    if (board == "qemu-m3") return {"mps2-an385", "cortex-m3"};
+    throw std::invalid_argument("--board: qemu-m7 or qemu-m3");
+}
+
+fs::path firmware_image(const EmulateArgs& a) {
+    if (!a.image.empty()) {
+        if (!fs::exists(a.image)) throw std::invalid_argument("--image: no such file " + a.image);
+        return a.image;
+    }
+    const char* env = std::getenv("PIEZOLOOP_FIRMWARE_DIR");
+    const fs::path root = env != nullptr && *env != '\0' ? fs::path(env) : fs::path(PIEZOLOOP_DEFAULT_FIRMWARE_DIR);
+    const fs::path p = root / ("fw-" + a.board) / "firmware" / "servo.elf";
+    if (!fs::exists(p))
+        throw std::invalid_argument("no firmware image at " + p.string() + ": build it with `cmake --preset fw-" + a.board +
+                                    " && cmake --build --preset fw-" + a.board +
+                                    "` in the source tree, or give --image PATH or PIEZOLOOP_FIRMWARE_DIR=<dir with fw-" +
+                                    a.board + "/firmware/>");
+    return p;
+}
+
+// The scenario's stage, loop rate and full scales as the board's profile.
+EmulationProfile scenario_profile(const EmulateArgs& a, json& info) {
+    const sim::Scenario s = sim::load_scenario(a.scenario);
+    const sim::CaseSpec* c = a.case_name.empty() ? nullptr : &s.find_case(a.case_name);
+    sim::LoopModel m;
+    sim::build_stage(s, c, 10, m);
+    EmulationProfile p;
+    const double r = std::round(s.rate_Hz);
+    if (std::fabs(r - s.rate_Hz) > 0.0 || r < 1.0)
+        throw std::invalid_argument(s.name + ": loop.rate_Hz " + std::to_string(s.rate_Hz) + " is not a whole number of Hz");
+    p.loop_rate_Hz = static_cast<uint32_t>(r);
+    p.position_full_scale_um = s.setup.position.full_scale;
+    p.voltage_full_scale_V = s.setup.voltage.full_scale;
+    p.stage = m.stage;
+    p.stage.rate_Hz = static_cast<float>(p.loop_rate_Hz);
+    if (const Status st = validate(p); !st.ok())
+        throw std::invalid_argument(s.name + ": the emulated board cannot run this stage: " + piezoloop::describe(st));
+    info["scenario"] = s.name;
+    if (c != nullptr) info["case"] = c->name;
+    info["loop_rate_Hz"] = p.loop_rate_Hz;
+    return p;
+}
+
+int free_port() {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
+        ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
+        ::close(fd);
+        throw std::runtime_error("cannot find a free TCP port");
+    }
+    ::close(fd);
+    return ntohs(a.sin_port);
+}
+
+volatile std::sig_atomic_t g_stop = 0;
+extern "C" void on_stop_signal(int) { g_stop = 1; }
+
+int run_emulate(const EmulateArgs& a) {
+    const BoardSpec spec = board_spec(a.board);
+    const fs::path image = firmware_image(a);
+    json info = {{"board", a.board}};
+    fs::path tmpdir;
+    std::vector<std::string> args;
+    const char* qemu_env = std::getenv("QEMU_SYSTEM_ARM");
+    args.push_back(qemu_env != nullptr && *qemu_env != '\0' ? qemu_env : "qemu-system-arm");
+    const int port = a.port > 0 ? a.port : free_port();
+    // The link's command line (docs/boards.md): icount keeps virtual time
+    // exact; wait=off lets the board boot before the first client, and the
+    // server takes a new client after one disconnects.
+    for (const char* s : {"-M", spec.machine, "-cpu", spec.cpu, "-nographic", "-monitor", "none", "-icount",
+                          "shift=0,sleep=off", "-semihosting", "-kernel"})
+        args.emplace_back(s);
+    args.push_back(image.string());
+    args.emplace_back("-serial");
+    args.push_back("tcp:127.0.0.1:" + std::to_string(port) + ",server=on,wait=off");
+    if (!a.scenario.empty()) {
+        const EmulationProfile p = scenario_profile(a, info);
+        std::array<uint8_t, kEmulationProfileMaxBytes> blob{};
+        const std::size_t n = encode_profile(p, blob);
+        if (n == 0) throw std::runtime_error("emulation profile does not fit");
+        tmpdir = fs::temp_directory_path() / ("piezoloop-emulate-" + std::to_string(::getpid()));
+        fs::create_directories(tmpdir);
+        const fs::path file = tmpdir / "profile.bin";
+        std::ofstream f(file, std::ios::binary);
+        f.write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(n));
+        f.close();
+        char addr[32];
+        std::snprintf(addr, sizeof addr, "0x%x", kEmulationProfileAddress);
+        args.emplace_back("-device");
+        args.push_back("loader,file=" + file.string() + ",addr=" + addr);
+    }
+    struct TmpCleanup {
+        fs::path dir;
+        ~TmpCleanup() {
+            std::error_code ec;
+            if (!dir.empty()) fs::remove_all(dir, ec);
+        }
+    } cleanup{tmpdir};
+
+    std::signal(SIGINT, on_stop_signal);
+    std::signal(SIGTERM, on_stop_signal);
+    // QEMU's own output (the semihosting console: a CPU fault, a bad
+    // profile) goes to our stderr; stdout carries only the JSON line.
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, STDERR_FILENO, STDOUT_FILENO);
+    posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+    std::vector<char*> argv;
+    for (std::string& s : args) argv.push_back(s.data());
+    argv.push_back(nullptr);
+    pid_t pid = 0;
+    const int rc = posix_spawnp(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0) throw std::runtime_error(std::string("cannot start ") + argv[0] + ": " + std::strerror(rc));
+
+    auto stop_qemu = [&] {
+        ::kill(pid, SIGTERM);
+        for (int i = 0; i < 50; ++i) {
+            if (::waitpid(pid, nullptr, WNOHANG) == pid) return;
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, nullptr, 0);
+    };
+    auto exited = [&](int& status) { return ::waitpid(pid, &status, WNOHANG) == pid; };
+
+    // Ready once the board answers Hello on its port.
+    const std::string address = "tcp:127.0.0.1:" + std::to_string(port);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(a.boot_timeout_s);
+    std::string last_error;
+    int status = 0;
+    bool ready = false;
+    while (!ready) {
+        if (g_stop) {
+            stop_qemu();
+            return 130;
+        }
+        if (exited(status)) throw std::runtime_error("QEMU exited before the board answered (status " + std::to_string(status) + ")");
+        if (std::chrono::steady_clock::now() > deadline) {
+            stop_qemu();
+            throw std::runtime_error("the emulated board did not answer on " + address + ": " + last_error);
+        }
+        try {
+            hostlink::Client::Options o;
+            o.timeout = std::chrono::milliseconds(2000);
+            hostlink::Client c(hostlink::open_tcp("127.0.0.1", static_cast<uint16_t>(port), std::chrono::milliseconds(200)), o);
+            const link::HelloReply& h = c.hello();
+            info["firmware"] = {{"board", h.board.data()}, {"version", h.firmware_version.data()}, {"serial", h.serial.data()},
+                                {"loop_rate_Hz", h.loop_rate_Hz}};
+            const link::StatusReply st = c.status();
+            if (st.tick.board_faults != 0)
+                std::cerr << "warning: the board reports fault bits " << st.tick.board_faults
+                          << " (bit 0: the emulation profile was rejected; see QEMU's output above)\n";
+            ready = true;
+        } catch (const std::exception& e) {
+            last_error = e.what();
+            std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        }
+    }
+    json line = {{"device", address}, {"board", a.board}, {"pid", pid}, {"image", image.string()}};
+    for (auto it = info.begin(); it != info.end(); ++it)
+        if (!line.contains(it.key())) line[it.key()] = it.value();
+    std::cout << line.dump() << std::endl;
+
+    while (!g_stop) {
+        if (exited(status)) {
+            std::cerr << "QEMU exited (status " << status << ")\n";
+            return WIFEXITED(status) && WEXITSTATUS(status) == 0 ? 0 : 3;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    stop_qemu();
+    return 0;
+}
+
+void add_emulate(CLI::App& app) {
+    auto a = std::make_shared<EmulateArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "emulate", "Run an emulated board (QEMU) with a scenario's stage; prints its --device address as JSON, "
+                   "then runs until interrupted");
+    cmd->add_option("--board", a->board, "qemu-m7 (float core) or qemu-m3 (Q31 core)")
+        ->check(CLI::IsMember({"qemu-m7", "qemu-m3"}));
+    cmd->add_option("--scenario", a->scenario, "scenario file: its stage, loop rate and full scales (default: the "
+                                               "reference stage at 100 kHz)")
+        ->check(CLI::ExistingFile);
+    cmd->add_option("--case", a->case_name, "case whose plant hysteresis override the stage takes");
+    cmd->add_option("--port", a->port, "TCP port of the link (default: a free one)")->check(CLI::Range(1, 65535));
+    cmd->add_option("--image", a->image, "servo.elf to run (default: $PIEZOLOOP_FIRMWARE_DIR or the build tree, "
+                                         "fw-<board>/firmware/servo.elf)");
+    cmd->add_option("--boot-timeout-s", a->boot_timeout_s, "give up if the board does not answer")
+        ->check(CLI::Range(0.5, 600.0));
+    cmd->callback([a] {
+        int rc = 0;
+        guarded([&] {
+            if (!a->case_name.empty() && a->scenario.empty()) throw std::invalid_argument("--case needs --scenario");
+            rc = run_emulate(*a);
+        });
+        if (rc != 0) throw CLI::RuntimeError(rc);
+    });
+}
+
+void add_devices(CLI::App& app) {
+    CLI::App* cmd = app.add_subcommand("devices", "List attached USB boards and how to start an emulated one");
+    cmd->callback([] {
+        guarded([] {
+            json out;
+            out["usb"] = json::array();
+            try {
+                for (const hostlink::UsbBoard& b : hostlink::list_usb_boards()) {
+                    char id[16];
+                    std::snprintf(id, sizeof id, "%04x:%04x", b.vid, b.pid);
+                    out["usb"].push_back({{"device", b.serial.empty() ? std::string("usb") : "usb:" + b.serial},
+                                          {"serial", b.serial},
+                                          {"product", b.product},
+                                          {"bus_port", b.bus_port},
+                                          {"vid_pid", id}});
+                }
+            } catch (const std::exception& e) {
+                out["usb_error"] = e.what();
+            }
+            out["emulated"] =
+                "start one with `piezoloop emulate --board qemu-m7|qemu-m3 [--scenario configs/S.json]`: it prints "
+                "{\"device\": \"tcp:127.0.0.1:PORT\", ...}; then `piezoloop --device tcp:127.0.0.1:PORT status`";
+            out["serial"] = "a UART bridge: --device serial:/dev/ttyACM0@115200";
+            std::cout << out.dump(1) << "\n";
+        });
+    });
+}
+
+void add_emulate_commands(CLI::App& app) {
+    add_emulate(app);
+    add_devices(app);
+}
+
+const bool registered = register_command(61, add_emulate_commands);
+
+}  // namespace
+}  // namespace piezoloop::cli

@@ -1,0 +1,62 @@
+// Shared by the device subcommands (cmd_device.cpp, cmd_emulate.cpp): the
+// global --device address, opening a client, and a scenario case turned
+// into the link's parameter groups.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "link/client.hpp"
+#include "sim/build_case.hpp"
+#include "sim/experiments.hpp"
+#include "sim/scenario.hpp"
+
+namespace piezoloop::cli {
+
+// Set by main() from --device / $PIEZOLOOP_DEVICE.
+std::string& device_address();
+
+// Opens the --device transport and says hello (throws std::invalid_argument
+// without --device, hostlink::LinkError when the board cannot be reached).
+hostlink::Client open_device(int timeout_ms = 3000);
+
+// A case's controller as the link groups, in the order they are sent.
+struct CaseGroups {
+    link::LimitsParams limits;
+    link::FeedforwardParams feedforward;
+    link::FeedbackParams feedback;
+    link::RepetitiveParams rc;
+};
+CaseGroups case_groups(const PipelineParams& p);
+
+// The limits intersected with the board's hard limits; each clipped field is
+// described in `clipped` ("limits.u_max_V: 12 -> 10 (board hard limit)").
+link::LimitsParams clip_to_hard_limits(const link::LimitsParams& l, const link::HelloReply& h,
+                                       std::vector<std::string>& clipped);
+
+// The reference exactly as `piezoloop sim` plans it (sim::plan_run): range
+// peak-to-peak, offset convention unipolar (from 0 up) or bipolar.
+struct WaveRequest {
+    std::string trajectory = "triangle";
+    double frequency_Hz = 10.0;
+    double amplitude_um = 0.0;   // peak-to-peak range
+    std::string offset;          // unipolar | bipolar; empty: the scenario's, else unipolar
+    std::string scenario;        // optional: its offset convention
+    uint32_t cycles = 0;
+};
+link::TrajectoryParams wave_params(const WaveRequest& w, double rate_Hz);
+
+// A progress bar on stderr when it is a terminal.
+class ProgressBar {
+public:
+    explicit ProgressBar(std::string label);
+    void update(double fraction);
+    void done();
+
+private:
+    std::string label_;
+    bool tty_;
+    int last_ = -1;
+};
+
+}  // namespace piezoloop::cli
