@@ -183,12 +183,43 @@ public:
     // the input through. Dispatches once on the section count to a loop of
     // known length, which the compiler unrolls (the tick's instruction budget
     // on the Cortex-M7); the arithmetic and its order are the same.
-    constexpr float apply(float x) { return apply_sections<1>(x); }
+    constexpr float apply(float x) {
+        // One jump table instead of a compare per possible count.
+        switch (count_) {
+            case 1: return apply_n<1>(x);
+            case 2: return apply_n<2>(x);
+            case 3: return apply_n<3>(x);
+            case 4: return apply_n<4>(x);
+            case 5: return apply_n<5>(x);
+            case 6: return apply_n<6>(x);
+            default: return apply_sections<7>(x);
+        }
+    }
 
     constexpr void reset() { state_ = {}; }
     constexpr int count() const { return count_; }
 
 private:
+    // N sections, unrolled (N <= MaxSections; a larger N is never called).
+    template <int N>
+    constexpr float apply_n(float x) {
+        if constexpr (N > MaxSections) {
+            return x;
+        } else {
+#pragma GCC unroll 8
+            for (int i = 0; i < N; ++i) {
+                const Coef& c = coef_[static_cast<std::size_t>(i)];
+                State& s = state_[static_cast<std::size_t>(i)];
+                const float y = c.b0 * x + s.s1;
+                s.s1 = c.b1 * x - c.a1 * y + s.s2;
+                s.s2 = c.b2 * x - c.a2 * y;
+                x = y;
+            }
+            return x;
+        }
+    }
+
+    // Counts above 6: a compare per count from N on.
     template <int N>
     constexpr float apply_sections(float x) {
         if constexpr (N > MaxSections) {
@@ -327,7 +358,13 @@ public:
                 return error(detail::sos_field<MaxSections>(i, detail::kA2),
                              "poles too close to the unit circle to be represented in Q31");
         }
+        bool small = true;
+        for (int i = 0; i < count; ++i) {
+            const Coef& k = c[static_cast<std::size_t>(i)];
+            small = small && k.num_shift < 32 && k.fb_shift < 32;
+        }
         coef_ = c;
+        small_shifts_ = small;
         if (count != count_) {
             hist_ = {};
             wide_ = {};
@@ -337,8 +374,37 @@ public:
     }
 
     // One sample through all sections. Unconfigured (count() == 0) it passes
-    // the input through.
-    constexpr Q31 apply(Q31 in) {
+    // the input through. Dispatches once per sample on whether every product
+    // shift is below 32 (the usual case: exponents down to -28): then each
+    // 64-bit shift is a handful of 32-bit instructions on a Cortex-M3
+    // instead of the general sequence with its >= 32 branch.
+    constexpr Q31 apply(Q31 in) { return small_shifts_ ? apply_impl<true>(in) : apply_impl<false>(in); }
+
+    constexpr void reset() {
+        hist_ = {};
+        wide_ = {};
+    }
+    constexpr int count() const { return count_; }
+
+private:
+    // v >> s (arithmetic); with kSmall, s < 32 and the shift is written on
+    // the two 32-bit halves (GCC's general 64-bit shift also handles s >= 32).
+    template <bool kSmall>
+    static constexpr int64_t shift_right(int64_t v, unsigned s) {
+        if constexpr (kSmall) {
+            const uint32_t lo = static_cast<uint32_t>(static_cast<uint64_t>(v));
+            const int32_t hi = static_cast<int32_t>(v >> 32);
+            // hi << (32 - s) as (hi << 1) << (31 - s): defined for s = 0 too.
+            const uint32_t out_lo = (lo >> s) | ((static_cast<uint32_t>(hi) << 1) << (31u - s));
+            const int32_t out_hi = hi >> s;
+            return static_cast<int64_t>((static_cast<uint64_t>(static_cast<uint32_t>(out_hi)) << 32) | out_lo);
+        } else {
+            return v >> s;
+        }
+    }
+
+    template <bool kSmall>
+    constexpr Q31 apply_impl(Q31 in) {
         int32_t x = in.raw();
         for (int i = 0; i < count_; ++i) {
             const Coef& c = coef_[static_cast<std::size_t>(i)];
@@ -353,8 +419,8 @@ public:
             // 2 w1 - w2 = ((2 y1 - y2) << 28) + 2 e1 - e2: the exact double
             // pole at z = 1 and the error feedback in one step.
             int64_t acc = 2 * w[0] - w[1];
-            acc -= fb >> c.fb_shift;
-            acc += num >> c.num_shift;
+            acc -= shift_right<kSmall>(fb, c.fb_shift);
+            acc += shift_right<kSmall>(num, c.num_shift);
 
             int64_t y = acc >> kGuardBits;  // floor; the residual stays in acc
             if (y > Q31::kMaxRaw) {
@@ -376,13 +442,6 @@ public:
         return Q31::from_raw(x);
     }
 
-    constexpr void reset() {
-        hist_ = {};
-        wide_ = {};
-    }
-    constexpr int count() const { return count_; }
-
-private:
     struct Coef {
         int32_t b0 = 0, b1 = 0, b2 = 0;  // numerator mantissas, exponent eb
         int32_t c1 = 0, c2 = 0;          // a1 + 2, a2 - 1 mantissas, exponent ec
@@ -397,6 +456,7 @@ private:
     std::array<std::array<int32_t, 2>, MaxSections + 1> hist_{};  // {z^-1, z^-2} of each node
     std::array<std::array<int64_t, 2>, MaxSections> wide_{};  // unrounded outputs w1, w2, Q59
     int count_ = 0;
+    bool small_shifts_ = true;  // every num_shift and fb_shift < 32
 };
 
 }  // namespace piezoloop

@@ -212,6 +212,24 @@ public:
     // resolution) and swaps it in. On error nothing changes. The output does
     // not jump: it slews from where it is into the new range.
     constexpr Status configure(const LimitsConfig& c) {
+        Setting next{};
+        if (const Status s = prepare(c, next); !s.ok()) return s;
+        apply_setting(next);
+        return ok_status();
+    }
+
+    // configure() in two halves, so the arithmetic (double precision: soft
+    // float on a Cortex-M3, thousands of instructions) can run in the main
+    // loop and only the copy in the tick: prepare() validates c and computes
+    // its per-sample form without changing the limiter (on error `out` is
+    // untouched), apply_setting() swaps a prepared setting in.
+    struct Setting {
+        LimitsConfig cfg{};
+        Rep lo{}, hi{};
+        Step step{};
+        uint32_t sat_limit = 0;
+    };
+    constexpr Status prepare(const LimitsConfig& c, Setting& out) const {
         if (!hard_status_.ok()) return hard_status_;
         if (const Status s = validate(c, hard_); !s.ok()) return s;
 
@@ -250,16 +268,20 @@ public:
             if (sat_limit == 0) sat_limit = 1;
         }
 
-        cfg_ = c;
-        lo_ = lo;
-        hi_ = hi;
-        step_ = step;
+        out = Setting{c, lo, hi, step, sat_limit};
+        return ok_status();
+    }
+    // A setting from prepare() of this limiter. Constant time.
+    constexpr void apply_setting(const Setting& n) {
+        cfg_ = n.cfg;
+        lo_ = n.lo;
+        hi_ = n.hi;
+        step_ = n.step;
         safe_ = clamp_rep(Rep{}, lo_, hi_);
-        sat_limit_ = sat_limit;
+        sat_limit_ = n.sat_limit;
         sat_run_ = 0;
         configured_ = true;
         if (trip_ == TripReason::kNotConfigured) trip_ = TripReason::kNone;
-        return ok_status();
     }
 
     // One sample. Never fails, constant time.

@@ -97,7 +97,8 @@ public:
     Status validate(const PipelineParams& p) const {
         Bank scratch{};
         if (const Status s = configure_bank(p, scratch); !s.ok()) return s;
-        return in_group("limits", piezoloop::validate(p.limits, setup_.hard));
+        typename OutputLimiter<T>::Setting limits{};
+        return in_group("limits", limiter_.prepare(p.limits, limits));
     }
 
     // Validates p and configures the inactive bank; the tick swaps it in at
@@ -107,11 +108,15 @@ public:
     Status stage(const PipelineParams& p) {
         if (swap_pending_.load(std::memory_order_acquire))
             return error("params", "previous parameter set not yet swapped in; retry after one tick");
-        if (const Status s = in_group("limits", piezoloop::validate(p.limits, setup_.hard)); !s.ok()) return s;
         // Only the inactive bank is written; the tick never reads it until
         // swap_pending_ is set below.
         Bank& next = banks_[active_ ^ 1u];
+        // The limiter's setting is computed here, in the main loop: the tick
+        // that swaps the bank in only copies it.
+        typename OutputLimiter<T>::Setting limits{};
+        if (const Status s = limiter_.prepare(p.limits, limits); !s.ok()) return in_group("limits", s);
         if (const Status s = configure_bank(p, next); !s.ok()) return s;
+        limits_next_ = limits;
         params_[active_ ^ 1u] = p;
         rc_changes_ = p.rc_enabled != params_[active_].rc_enabled || !(p.rc == params_[active_].rc);
         swap_pending_.store(true, std::memory_order_release);
@@ -159,13 +164,19 @@ public:
     // One tick: measured displacement in, command out. Bounded time, no
     // allocation, never fails.
     T tick(T y) {
-        if (swap_pending_.load(std::memory_order_acquire) &&
-            (!was_armed_ || !rc_changes_ || bank().rc.at_period_boundary()))
-            swap_banks();
+        // The three requests from the main loop, read relaxed and ordered by
+        // one acquire fence (one barrier per tick instead of three on
+        // Cortex-M): whatever the main loop wrote before setting any of them
+        // (the staged bank, the generator's configuration) is visible below.
+        const bool pending = swap_pending_.load(std::memory_order_relaxed);
+        const bool wave = wave_running_.load(std::memory_order_relaxed);
+        const bool armed = armed_.load(std::memory_order_relaxed);
+        std::atomic_thread_fence(std::memory_order_acquire);
+        if (pending && (!was_armed_ || !rc_changes_ || bank().rc.at_period_boundary())) swap_banks();
 
         TickSignals<T> s;
         s.y = y;
-        if (wave_running_.load(std::memory_order_acquire)) {
+        if (wave) {
             s.r = trajectory_.step();
             // Load before exchanging: the read-modify-write (and its barriers)
             // only happens on the tick a stop was actually requested.
@@ -180,11 +191,13 @@ public:
             s.r = setpoint_;
         }
         s.e = s.r - s.y;
-        const bool armed = armed_.load(std::memory_order_acquire);
-        if (armed && !was_armed_) bank().reset();
+        // One reference for the whole tick: re-indexing banks_ by active_
+        // after every byte-sized store (which may alias active_) costs a
+        // reload and a multiply each time.
+        Bank& b = bank();
+        if (armed && !was_armed_) b.reset();
         was_armed_ = armed;
         if (armed) {
-            Bank& b = bank();
             s.u_ff = b.feedforward(s.r);
             T e_fb = s.e;
             if (b.rc_enabled) {
@@ -197,7 +210,9 @@ public:
             s.u = limiter_.apply(sample_zero<T>());
         }
         last_ = s;
-        recorder_.push(tick_count_, {s.r, s.y, s.e, s.u, s.u_ff, s.u_fb, s.u_rc});
+        // The recorder reads the signals it records from last_ directly
+        // (TickSignals is in SignalId order) instead of from a 7-sample copy.
+        recorder_.push_from(tick_count_, [this](uint8_t i) { return last_.*kSignalMember[i]; });
         ++tick_count_;
         return s.u;
     }
@@ -213,6 +228,11 @@ public:
     Trajectory& trajectory() { return trajectory_; }
 
 private:
+    // TickSignals' members by SignalId (the recorder's signal indices).
+    static constexpr T TickSignals<T>::*kSignalMember[kSignalCount] = {
+        &TickSignals<T>::r,  &TickSignals<T>::y,    &TickSignals<T>::e,   &TickSignals<T>::u,
+        &TickSignals<T>::u_ff, &TickSignals<T>::u_fb, &TickSignals<T>::u_rc};
+
     // One complete, configured controller. Two of them make the double buffer.
     struct Bank {
         FeedforwardKind ff_kind = FeedforwardKind::kNone;
@@ -329,9 +349,9 @@ private:
         }
         if (!rc_changes_) next.rc = old.rc;
         active_ ^= 1u;
-        // Validated in stage(): cannot fail here; the limiter keeps its last
-        // output and slews into the new range.
-        (void)limiter_.configure(params_[active_].limits);
+        // Prepared in stage(); the limiter keeps its last output and slews
+        // into the new range.
+        limiter_.apply_setting(limits_next_);
         ++swaps_;
         swap_pending_.store(false, std::memory_order_release);
     }
@@ -343,6 +363,7 @@ private:
     std::atomic<bool> swap_pending_{false};
     bool rc_changes_ = false;  // the pending set changes the RC (written before swap_pending_)
     OutputLimiter<T> limiter_;
+    typename OutputLimiter<T>::Setting limits_next_{};  // for the pending swap
     Trajectory trajectory_;
     RecorderType recorder_{};
     TickSignals<T> last_{};

@@ -151,6 +151,7 @@ public:
         }
 
         cfg_ = c;
+        streaming_ = c.mode == RecordMode::kContinuous && c.decimation == 1;
         length_ = length;
         level_ = level;
         configured_ = true;
@@ -173,7 +174,23 @@ public:
 
     // The tick: offer all signals. Bounded time (one frame copy), never fails.
     void push(uint32_t tick, const SignalVector& signals) {
-        const RecorderState st = state();
+        push_from(tick, [&signals](uint8_t i) { return signals[i]; });
+    }
+
+    // The same, reading signal i as `signal(i)` (S signal(uint8_t i), i <
+    // Signals): lets the pipeline offer its signals where they already are
+    // instead of copying them into a SignalVector every tick.
+    template <class Source>
+    void push_from(uint32_t tick, const Source& signal) {
+        // configure(), arm() and stop() never run concurrently with push, so
+        // the writer's own view of the state needs no barrier.
+        const RecorderState st = static_cast<RecorderState>(__atomic_load_n(&state_, __ATOMIC_RELAXED));
+        // Fast path, the streaming case (triggered, continuous, every tick):
+        // the general path below would keep dec_count_ at 0 and never finish.
+        if (st == RecorderState::kTriggered && streaming_) {
+            append(tick, signal);
+            return;
+        }
         if (st != RecorderState::kArmed && st != RecorderState::kTriggered) return;
 
         bool fire = false;
@@ -181,7 +198,7 @@ public:
             if (cfg_.trigger == TriggerMode::kImmediate) {
                 fire = true;
             } else {
-                const S x = signals[cfg_.trigger_signal];
+                const S x = signal(cfg_.trigger_signal);
                 if (have_prev_ && pre_count_ >= cfg_.pre_trigger) {
                     fire = cfg_.trigger == TriggerMode::kRising ? (prev_ < level_ && !(x < level_))
                                                                  : (level_ < prev_ && !(level_ < x));
@@ -201,7 +218,7 @@ public:
             // overwritten freely. Keep wr_ within 2*Capacity of the arm point
             // (same slots, seq - Capacity) so the start of the record never
             // runs far ahead of the reader's index.
-            write_frame(tick, signals);
+            write_frame(tick, signal);
             if (pre_count_ < cfg_.pre_trigger) ++pre_count_;
             if (wr_ - base_ >= 2 * Capacity) wr_ -= static_cast<uint32_t>(Capacity);
             return;
@@ -212,7 +229,7 @@ public:
             // back; those slots still hold the newest history frames.
             const uint32_t start = wr_ - pre_count_;
             trigger_tick_ = tick;
-            write_frame(tick, signals);
+            write_frame(tick, signal);
             __atomic_store_n(&start_, start, __ATOMIC_RELEASE);
             __atomic_store_n(&head_, wr_, __ATOMIC_RELEASE);  // publishes start_ too
             set_state(finished(start) ? RecorderState::kDone : RecorderState::kTriggered);
@@ -220,16 +237,7 @@ public:
         }
 
         // Triggered: append unless the reader has not made room.
-        uint32_t t = __atomic_load_n(&tail_, __ATOMIC_ACQUIRE);
-        if (static_cast<int32_t>(start_ - t) > 0) t = start_;
-        if (wr_ - t >= Capacity) {
-            const uint32_t o = __atomic_load_n(&overruns_, __ATOMIC_RELAXED);
-            if (o != 0xffffffffu) __atomic_store_n(&overruns_, o + 1u, __ATOMIC_RELAXED);
-            return;
-        }
-        write_frame(tick, signals);
-        __atomic_store_n(&head_, wr_, __ATOMIC_RELEASE);
-        if (finished(start_)) set_state(RecorderState::kDone);
+        if (append(tick, signal) && finished(start_)) set_state(RecorderState::kDone);
     }
 
     // Reader: copies up to out.size() frames, oldest first, and removes them.
@@ -271,11 +279,37 @@ private:
 
     void set_state(RecorderState s) { __atomic_store_n(&state_, static_cast<uint8_t>(s), __ATOMIC_RELEASE); }
 
-    void write_frame(uint32_t tick, const SignalVector& signals) {
-        Frame& f = frames_[wr_ & kMask];
+    // All values are read before the frame is written (unrolled for the
+    // channel count): a frame store could alias the byte-sized channel
+    // table, which would make the compiler reload it after every channel.
+    template <class Source>
+    void write_frame(uint32_t tick, const Source& signal) {
+        S v[Channels];
+#pragma GCC unroll 16
+        for (std::size_t c = 0; c < Channels; ++c) v[c] = signal(cfg_.channels[c]);
+        const uint32_t w = wr_;
+        Frame& f = frames_[w & kMask];
         f.tick = tick;
-        for (std::size_t c = 0; c < Channels; ++c) f.value[c] = signals[cfg_.channels[c]];
-        ++wr_;
+#pragma GCC unroll 16
+        for (std::size_t c = 0; c < Channels; ++c) f.value[c] = v[c];
+        wr_ = w + 1u;
+    }
+
+    // Triggered: one frame, published, unless the reader has not made room
+    // (then the newest frame is dropped and counted). True if appended.
+    template <class Source>
+    bool append(uint32_t tick, const Source& signal) {
+        uint32_t t = __atomic_load_n(&tail_, __ATOMIC_ACQUIRE);
+        const uint32_t start = start_;
+        if (static_cast<int32_t>(start - t) > 0) t = start;
+        if (wr_ - t >= Capacity) {
+            const uint32_t o = __atomic_load_n(&overruns_, __ATOMIC_RELAXED);
+            if (o != 0xffffffffu) __atomic_store_n(&overruns_, o + 1u, __ATOMIC_RELAXED);
+            return false;
+        }
+        write_frame(tick, signal);
+        __atomic_store_n(&head_, wr_, __ATOMIC_RELEASE);
+        return true;
     }
 
     bool finished(uint32_t start) const {
@@ -299,6 +333,7 @@ private:
     uint32_t length_ = 0;
     S level_{};
     bool configured_ = false;
+    bool streaming_ = false;  // continuous and decimation 1: push's fast path
 
     std::array<Frame, Capacity> frames_{};
     // Sequence numbers. Writer: wr_ (private), head_, start_. Reader: tail_.

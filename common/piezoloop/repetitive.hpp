@@ -15,6 +15,7 @@
 
 #include "piezoloop/biquad.hpp"
 #include "piezoloop/delay_line.hpp"
+#include "piezoloop/q31.hpp"
 #include "piezoloop/sample.hpp"
 #include "piezoloop/status.hpp"
 
@@ -28,6 +29,85 @@ struct RepetitiveConfig {
     // Q filter as one section. Published (Shan2012): 0.3558 / (z - 0.6442).
     SosSection q{0.0, 0.3558, 0.0, -0.6442, 0.0};
     bool operator==(const RepetitiveConfig&) const = default;
+};
+
+// A first-order Q, y = (b0 + b1 z^-1) / (1 + a1 z^-1) -- the published one
+// is -- run as a first-order section instead of a full biquad: half the work
+// per tick, and on the Q31 side no variable 64-bit shifts. Configured only
+// for sections with b2 = a2 = 0 (and, for Q31, coefficients below 1).
+template <class T>
+class FirstOrderSection;
+
+// float: the biquad's direct form II transposed with s2 = 0, the same
+// arithmetic in the same order (the biquad adds b2 x - a2 y = +-0 to s1,
+// which changes nothing but possibly the sign of a zero).
+template <>
+class FirstOrderSection<float> {
+public:
+    static constexpr bool accepts(const SosSection& q) { return q.b2 == 0.0 && q.a2 == 0.0; }
+    void configure(const SosSection& q) {
+        b0_ = static_cast<float>(q.b0);
+        b1_ = static_cast<float>(q.b1);
+        a1_ = static_cast<float>(q.a1);
+    }
+    void reset() { s1_ = 0.0f; }
+    float apply(float x) {
+        const float y = b0_ * x + s1_;
+        s1_ = b1_ * x - a1_ * y;
+        return y;
+    }
+
+private:
+    float b0_ = 0.0f, b1_ = 0.0f, a1_ = 0.0f, s1_ = 0.0f;
+};
+
+// Q31: coefficients as plain Q31 (all below 1 in magnitude), products
+// accumulated in int64 as Q62, the output the floor of the accumulator with
+// first-order error feedback (the dropped residual re-enters the next
+// accumulator, so truncation leaves no DC bias). The shift is the constant
+// 31: a few instructions on a 32-bit core. |b0| + |b1| + |a1| < 2 (checked
+// on the mantissas) keeps |acc| < 2^63.
+template <>
+class FirstOrderSection<Q31> {
+public:
+    static constexpr bool accepts(const SosSection& q) {
+        if (!(q.b2 == 0.0 && q.a2 == 0.0)) return false;
+        const auto mag = [](double v) { return v < 0.0 ? -v : v; };
+        if (!(mag(q.b0) < 1.0 && mag(q.b1) < 1.0 && mag(q.a1) < 1.0)) return false;
+        const auto m = [](double v) {
+            const int64_t r = Q31::from_double(v).raw();
+            return r < 0 ? -r : r;
+        };
+        return m(q.b0) + m(q.b1) + m(q.a1) <= (int64_t{1} << 32) - 2;
+    }
+    void configure(const SosSection& q) {
+        b0_ = Q31::from_double(q.b0).raw();
+        b1_ = Q31::from_double(q.b1).raw();
+        a1_ = Q31::from_double(q.a1).raw();
+    }
+    void reset() { x1_ = y1_ = e1_ = 0; }
+    Q31 apply(Q31 in) {
+        const int32_t x = in.raw();
+        int64_t acc = int64_t{b0_} * x + int64_t{b1_} * x1_ - int64_t{a1_} * y1_ + e1_;
+        int64_t y = acc >> 31;  // floor
+        uint32_t e = static_cast<uint32_t>(acc) & 0x7fffffffu;
+        if (y > Q31::kMaxRaw) {
+            y = Q31::kMaxRaw;
+            e = 0;
+        } else if (y < Q31::kMinRaw) {
+            y = Q31::kMinRaw;
+            e = 0;
+        }
+        x1_ = x;
+        y1_ = static_cast<int32_t>(y);
+        e1_ = e;
+        return Q31::from_raw(y1_);
+    }
+
+private:
+    int32_t b0_ = 0, b1_ = 0, a1_ = 0;
+    int32_t x1_ = 0, y1_ = 0;
+    uint32_t e1_ = 0;  // residual of the last output, Q62 units, [0, 2^31)
 };
 
 template <class T, int Capacity>
@@ -56,6 +136,13 @@ public:
         config_ = c;
         q_generator_ = qa;
         q_output_ = qb;
+        first_order_ = FirstOrderSection<T>::accepts(c.q);
+        if (first_order_) {
+            q1_generator_.configure(c.q);
+            q1_output_.configure(c.q);
+        }
+        generator_delay_ = c.period_samples - c.m1;
+        output_delay_ = c.period_samples - c.m1 - c.m2;
         if constexpr (std::is_same_v<T, float>) {
             k_rc_ = c.k_rc;
         } else {
@@ -69,17 +156,24 @@ public:
         line_.reset();
         q_generator_.reset();
         q_output_.reset();
+        q1_generator_.reset();
+        q1_output_.reset();
         phase_ = 0;
     }
 
     // One tick: error in, RC correction out (to be added to the error).
     T apply(T e) {
-        const int n = config_.period_samples;
-        const T x = q_generator_.apply(line_.past(n - config_.m1));
+        T x, lead;
         // With m2 = 0 both Q instances see the same sequence: skip the second.
-        const T lead = config_.m2 == 0 ? x : q_output_.apply(line_.past(n - config_.m1 - config_.m2));
+        if (first_order_) {
+            x = q1_generator_.apply(line_.past(generator_delay_));
+            lead = output_delay_ == generator_delay_ ? x : q1_output_.apply(line_.past(output_delay_));
+        } else {
+            x = q_generator_.apply(line_.past(generator_delay_));
+            lead = output_delay_ == generator_delay_ ? x : q_output_.apply(line_.past(output_delay_));
+        }
         line_.push(e + x);
-        if (++phase_ == n) phase_ = 0;
+        if (++phase_ == config_.period_samples) phase_ = 0;
         if constexpr (std::is_same_v<T, float>) {
             return k_rc_ * lead;
         } else {
@@ -97,6 +191,11 @@ private:
     DelayLine<T, Capacity> line_{};
     BiquadCascade<T, 1> q_generator_{};
     BiquadCascade<T, 1> q_output_{};
+    FirstOrderSection<T> q1_generator_{};  // used instead when Q is first order
+    FirstOrderSection<T> q1_output_{};
+    bool first_order_ = false;
+    int generator_delay_ = 1;  // N - m1
+    int output_delay_ = 1;     // N - m1 - m2
     float k_rc_ = 0.0f;
     int32_t k_rc_mantissa_ = 0;
     int phase_ = 0;

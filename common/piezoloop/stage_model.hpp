@@ -62,15 +62,35 @@ public:
         config_ = c;
         max_code_ = c.bits == 0 ? 0u : (1u << c.bits) - 1u;
         lsb_ = c.bits == 0 ? 0.0f : (c.max - c.min) / static_cast<float>(max_code_);
+        // Codes per unit, so the per-sample conversion multiplies instead of
+        // dividing (a float division is ~4x the latency of a multiply and sits
+        // in the simulated loop's dependency chain twice per tick). It can
+        // round a value within an ulp of a half-code boundary to the other
+        // code; that is still a nearest-code quantiser to within 1e-7 LSB, and
+        // the same on every platform (one correctly rounded float division
+        // here, IEEE multiply below, no contraction).
+        inv_lsb_ = c.bits == 0 ? 0.0f : static_cast<float>(max_code_) / (c.max - c.min);
+        max_code_f_ = static_cast<float>(max_code_);  // exact: max_code < 2^24
         return ok_status();
     }
     float apply(float x) const {
         if (!(x == x)) x = config_.min;  // NaN reads as the lowest code, like a railed input
         const float v = x < config_.min ? config_.min : (x > config_.max ? config_.max : x);
         if (config_.bits == 0) return v;
-        uint32_t code = static_cast<uint32_t>((v - config_.min) / lsb_ + 0.5f);  // round to nearest
-        if (code > max_code_) code = max_code_;
-        return config_.min + static_cast<float>(code) * lsb_;
+        const float t = (v - config_.min) * inv_lsb_;  // in codes, >= 0
+        float code;
+        if (config_.bits <= 22) {
+            // Round to the nearest code (ties to even) in the float adder
+            // itself: t + 1.5 * 2^23 has no fraction bits left for
+            // 0 <= t < 2^22. No float -> int -> float round trip, whose
+            // conversions are the slowest part of the simulated loop's
+            // dependency chain.
+            code = (t + kRoundingBias) - kRoundingBias;
+        } else {
+            code = static_cast<float>(static_cast<uint32_t>(t + 0.5f));  // round half up
+        }
+        if (code > max_code_f_) code = max_code_f_;
+        return config_.min + code * lsb_;
     }
     float lsb() const { return lsb_; }
 
@@ -78,6 +98,9 @@ private:
     ConverterConfig config_{};
     uint32_t max_code_ = 0;
     float lsb_ = 0.0f;
+    float inv_lsb_ = 0.0f;  // 1 / lsb_ as max_code / (max - min)
+    float max_code_f_ = 0.0f;
+    static constexpr float kRoundingBias = 12582912.0f;  // 1.5 * 2^23
 };
 
 // First-order low-pass discretised by Tustin (closed form, no libm); a
@@ -94,14 +117,17 @@ public:
         const double w = 2.0 * 3.14159265358979323846 * bandwidth_Hz;
         const double k = 2.0 * static_cast<double>(rate_Hz);
         b_ = static_cast<float>(w / (k + w));          // b0 = b1
-        a_ = static_cast<float>((w - k) / (k + w));    // y = b (x + x1) - a y1
+        a_ = static_cast<float>((w - k) / (k + w));    // y = b x + b x1 - a y1
         enabled_ = true;
         return ok_status();
     }
     void reset(float x0 = 0.0f) { x1_ = y1_ = x0; }
     float apply(float x) {
         if (!enabled_) return x;
-        const float y = b_ * (x + x1_) - a_ * y1_;
+        // b x + (b x1 - a y1): the part from the previous sample does not
+        // wait for x, so only one multiply and one add are on the simulated
+        // loop's dependency chain (b (x + x1) - a y1 has three).
+        const float y = b_ * x + (b_ * x1_ - a_ * y1_);
         x1_ = x;
         y1_ = y;
         return y;

@@ -1,4 +1,6 @@
-// NOT USED BY THE FIRMWARE. Candidate rewrites of the play-operator loop of
+// NOT USED BY THE FIRMWARE. (The float max/min and unrolling proposals are
+// applied in the core since; the variants keep the core's four-lane sum so
+// they stay comparable bit for bit.) Candidate rewrites of the play-operator loop of
 // common/piezoloop/pi_model.hpp (PiOperator<T>::apply), kept here only so
 // that profile_blocks.elf can measure what they would save and check, tick
 // by tick on the reference run, that they give bit-identical outputs. They
@@ -40,13 +42,15 @@ public:
     }
     float apply(float x) {
         const float f = m_.input_gain * x + m_.input_offset;
-        float y = m_.p0 * f;
+        // The core's summation order: four lanes, operator j in lane j % 4.
+        float lane[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         for (int j = 0; j < m_.count; ++j) {
             const unsigned i = static_cast<unsigned>(j);
             w_[i] = __builtin_fmaxf(f - m_.thresholds[i], __builtin_fminf(f + m_.thresholds[i], w_[i]));
-            y = y + m_.weights[i] * w_[i];
+            const float term = m_.weights[i] * w_[i];
+            lane[j % 4] = j < 4 ? term : lane[j % 4] + term;
         }
-        return y;
+        return m_.p0 * f + ((lane[0] + lane[1]) + (lane[2] + lane[3]));  // count >= 4
     }
 
 private:
@@ -71,15 +75,17 @@ public:
         return true;
     }
     float apply(float x) {
+        static_assert(N >= 4, "the lane sum below assumes four lanes in use");
         const float f = gain_ * x + offset_;
-        float y = p0_ * f;
+        float lane[4] = {0.0f, 0.0f, 0.0f, 0.0f};
 #pragma GCC unroll 16
         for (int j = 0; j < N; ++j) {
             const unsigned i = static_cast<unsigned>(j);
             w_[i] = __builtin_fmaxf(f - r_[i], __builtin_fminf(f + r_[i], w_[i]));
-            y = y + p_[i] * w_[i];
+            const float term = p_[i] * w_[i];
+            lane[j % 4] = j < 4 ? term : lane[j % 4] + term;
         }
-        return y;
+        return p0_ * f + ((lane[0] + lane[1]) + (lane[2] + lane[3]));
     }
 
 private:

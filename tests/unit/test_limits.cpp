@@ -463,3 +463,47 @@ TEST(Limits, PropertyQ31NeverLeavesTheHardEnvelope) {
         EXPECT_GT(lim.clamped_samples(), 1000u);
     }
 }
+
+// configure() is prepare() + apply_setting(): a limiter set up in two halves
+// (as the pipeline does: prepare in the main loop, apply in the tick) gives
+// the same outputs as one configured directly; a rejected prepare() leaves
+// the setting it was given untouched. Seeded mt19937_64 inputs.
+TEST(Limits, PrepareThenApplyEqualsConfigure) {
+    const LimitsConfig first{-5.0f, 100.0f, 1.0e5f, 0.0f};
+    const LimitsConfig second{0.0f, 50.0f, 5.0e4f, 1e-3f};
+    OutputLimiter<float> a(kHard, kRate), b(kHard, kRate);
+    OutputLimiter<Q31> qa(kHard, kRate, SignalScale{150.0f}), qb(kHard, kRate, SignalScale{150.0f});
+    ASSERT_TRUE(a.configure(first).ok());
+    ASSERT_TRUE(qa.configure(first).ok());
+    OutputLimiter<float>::Setting s{};
+    OutputLimiter<Q31>::Setting qs{};
+    ASSERT_TRUE(b.prepare(first, s).ok());
+    ASSERT_TRUE(qb.prepare(first, qs).ok());
+    b.apply_setting(s);
+    qb.apply_setting(qs);
+    // Invalid: the setting passed in stays as it was.
+    const OutputLimiter<float>::Setting before = s;
+    EXPECT_FALSE(b.prepare(LimitsConfig{0.0f, 500.0f, 1.0e5f, 0.0f}, s).ok());
+    EXPECT_TRUE(same_config(s.cfg, before.cfg));
+    EXPECT_EQ(s.step, before.step);
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<float> u(-40.0f, 140.0f);
+    for (int k = 0; k < 4000; ++k) {
+        if (k == 2000) {
+            ASSERT_TRUE(a.configure(second).ok());
+            ASSERT_TRUE(qa.configure(second).ok());
+            ASSERT_TRUE(b.prepare(second, s).ok());
+            ASSERT_TRUE(qb.prepare(second, qs).ok());
+            b.apply_setting(s);
+            qb.apply_setting(qs);
+        }
+        const float x = u(rng);
+        ASSERT_EQ(std::bit_cast<uint32_t>(a.apply(x)), std::bit_cast<uint32_t>(b.apply(x))) << k;
+        const Q31 xq = SignalScale{150.0f}.to_sample<Q31>(x);
+        ASSERT_EQ(qa.apply(xq).raw(), qb.apply(xq).raw()) << k;
+    }
+    EXPECT_EQ(a.trip_reason(), b.trip_reason());
+    EXPECT_EQ(a.clamped_samples(), b.clamped_samples());
+    EXPECT_EQ(qa.trip_reason(), qb.trip_reason());
+    EXPECT_TRUE(same_config(b.config(), second));
+}

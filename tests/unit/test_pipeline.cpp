@@ -250,3 +250,22 @@ TEST(Pipeline, RepetitiveChangeWhileArmedWaitsForThePeriodBoundary) {
     pipe->tick(0.0f);
     EXPECT_FALSE(pipe->swap_pending());
 }
+
+// A limits set that validates in volts but is empty at the Q31 output
+// resolution (0 .. 1 nV at 12 V full scale: no Q31 code inside) is refused
+// by stage() with its field, not accepted and then dropped at the swap.
+TEST(Pipeline, LimitsEmptyAtQ31ResolutionAreRejectedWhenStaged) {
+    auto pipe = std::make_unique<RefPipeline<Q31>>(reference::setup());
+    PipelineParams p = reference::params();
+    p.limits.u_min_V = 0.0f;
+    p.limits.u_max_V = 1e-9f;
+    const Status s = pipe->stage(p);
+    ASSERT_FALSE(s.ok());
+    EXPECT_STREQ(s.group, "limits");
+    EXPECT_STREQ(s.field, "u_max_V");
+    EXPECT_FALSE(pipe->swap_pending());
+    EXPECT_FALSE(pipe->validate(p).ok());
+    // The same set is fine for the float pipeline (no output quantisation).
+    auto f = std::make_unique<RefPipeline<float>>(reference::setup());
+    EXPECT_TRUE(f->stage(p).ok());
+}

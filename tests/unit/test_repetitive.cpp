@@ -1,7 +1,9 @@
 // Plug-in repetitive controller (SPEC §6).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "piezoloop/pid.hpp"
@@ -147,4 +149,60 @@ TEST(Repetitive, RejectsBadConfigAndKeepsOld) {
     EXPECT_FALSE(rc.configure(bad).ok());
     EXPECT_EQ(rc.config().period_samples, 100);
     EXPECT_FLOAT_EQ(rc.config().k_rc, 0.8f);
+}
+
+// A Q that is not first order runs through the biquad realisation: the
+// published Q times a cancelling pole/zero pair at z = 0.5 has the same
+// response, so the same difference equation is the reference.
+TEST(Repetitive, SecondOrderQMatchesTheFirstOrderResponse) {
+    RepetitiveConfig c;
+    // 0.3558 z^-1 (1 - 0.5 z^-1) / ((1 - 0.6442 z^-1)(1 - 0.5 z^-1))
+    c.q = SosSection{0.0, 0.3558, -0.1779, -1.1442, 0.3221};
+    for (int m2 : {0, 3}) {
+        c.m2 = m2;
+        RepetitiveController<float, 128> rf;
+        RepetitiveController<Q31, 128> rq;
+        ASSERT_TRUE(rf.configure(c).ok());
+        ASSERT_TRUE(rq.configure(c).ok());
+        std::vector<double> e(1000, 0.0);
+        e[0] = 0.5;
+        e[137] = -0.25;
+        const auto ref = rc_difference_equation(e, 100, 6, m2, 0.8, 0.3558, 0.6442);
+        for (size_t i = 0; i < e.size(); ++i) {
+            // As the first-order test, plus the float rounding of the
+            // cancelling pair (coefficients to 2^-24, the extra pole's state):
+            // 1e-5 of the peak of 0.4.
+            EXPECT_NEAR(rf.apply(static_cast<float>(e[i])), ref[i], 1e-5) << "m2=" << m2 << " k=" << i;
+            // Q31 (DF1 with error feedback, 2^-31 steps): the same bound.
+            EXPECT_NEAR(rq.apply(Q31::from_double(e[i])).to_double(), ref[i], 1e-5) << "m2=" << m2 << " k=" << i;
+        }
+    }
+}
+
+// The first-order Q31 section against the float section on a random input:
+// both realise Q exactly up to their rounding (Q31 coefficients and output
+// at 2^-31 with error feedback, float at 2^-24 of ~1).
+TEST(Repetitive, FirstOrderQ31SectionMatchesFloat) {
+    const SosSection q{0.1, 0.3558, 0.0, -0.6442, 0.0};
+    ASSERT_TRUE(FirstOrderSection<Q31>::accepts(q));
+    FirstOrderSection<float> f;
+    FirstOrderSection<Q31> g;
+    f.configure(q);
+    g.configure(q);
+    f.reset();
+    g.reset();
+    uint32_t s = 12345u;
+    double worst = 0.0;
+    for (int k = 0; k < 20000; ++k) {
+        s = s * 1664525u + 1013904223u;  // seeded LCG
+        const float x = (static_cast<float>(s >> 8) / 16777216.0f - 0.5f) * 0.9f;
+        worst = std::max(worst, std::fabs(static_cast<double>(f.apply(x)) - g.apply(Q31::from_float(x)).to_double()));
+    }
+    // DC gain (0.1 + 0.3558) / (1 - 0.6442) = 1.28 on rounding of ~6e-8
+    // (float) per step: 1e-6 bounds it.
+    EXPECT_LT(worst, 1e-6);
+    // Coefficients of 1 or more, or a second-order Q, take the biquad.
+    EXPECT_FALSE(FirstOrderSection<Q31>::accepts(SosSection{1.0, 0.0, 0.0, -0.5, 0.0}));
+    EXPECT_FALSE(FirstOrderSection<Q31>::accepts(SosSection{0.1, 0.2, 0.1, -0.5, 0.0}));
+    EXPECT_TRUE(FirstOrderSection<float>::accepts(SosSection{1.0, 0.0, 0.0, -0.5, 0.0}));
 }
