@@ -62,11 +62,14 @@ json get_group(Client& c, link::ParamGroup g) {
     return {};
 }
 
+// Merges j onto the board's group and sends it unless nothing changed (an
+// unconfigured recorder read back by `get all` cannot be sent as it is).
 template <class G>
 void merge_and_set(Client& c, const json& j) {
-    G g = c.get<G>();
+    const G current = c.get<G>();
+    G g = current;
     hostlink::merge_json(j, g);
-    c.set(g);
+    if (!(g == current)) c.set(g);
 }
 
 void set_group(Client& c, link::ParamGroup g, const json& j) {
@@ -633,10 +636,12 @@ int run_record(const RecordArgs& a) {
         spec["kind"] = "sim";
         spec["output"] = std::filesystem::absolute(a.plot).string();
         char title[256];
-        std::snprintf(title, sizeof title, "%s (%s): record, %s", h.board.data(), c.address().c_str(),
-                      wave_running ? (std::string(hostlink::waveform_name(wave.waveform)) + " " +
-                                      std::to_string(wave.frequency_Hz) + " Hz").c_str()
-                                   : "no wave");
+        if (wave_running)
+            std::snprintf(title, sizeof title, "%s (%s): record, %s %g Hz, %g um p-p", h.board.data(), c.address().c_str(),
+                          hostlink::waveform_name(wave.waveform), static_cast<double>(wave.frequency_Hz),
+                          2.0 * static_cast<double>(wave.amplitude_um));
+        else
+            std::snprintf(title, sizeof title, "%s (%s): record", h.board.data(), c.address().c_str());
         spec["title"] = title;
         json t_s = json::array(), r = json::array(), y = json::array(), u = json::array();
         for (std::size_t i = 0; i < frames; ++i) {

@@ -232,15 +232,28 @@ StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const s
     res.capacity = ack.capacity;
     std::size_t free = ack.free;
     std::size_t i = 0;
+    auto last_progress = steady_clock::now();
     while (i < sp.size()) {
-        const std::size_t k = std::min<std::size_t>(link::kMaxSetpointsPerBlock, sp.size() - i);
-        if (k > free) {
+        std::size_t k = std::min<std::size_t>(link::kMaxSetpointsPerBlock, sp.size() - i);
+        // A full block when it fits; a partial one only while the FIFO holds
+        // fewer than `prefill` setpoints (blocks of 120 may never add up to
+        // the prefill, e.g. the whole 1024-slot FIFO, and the device would
+        // never start), else wait for room.
+        const bool low = res.capacity - free < prefill;
+        if (free == 0 || (free < k && !low)) {
             // Wait about as long as the tick needs to make room, then ask.
-            const double wait_s = static_cast<double>(k - free) / rate;
+            const double wait_s = static_cast<double>(k - std::min(k, free)) / rate;
             pump(milliseconds(std::clamp<long>(static_cast<long>(wait_s * 1000.0), 1, 50)));
-            free = status().setpoint_free;
+            const link::StatusReply st = status();
+            if (st.setpoint_free != free) last_progress = steady_clock::now();
+            free = st.setpoint_free;
+            if (free < k && steady_clock::now() - last_progress > 5 * options_.timeout)
+                throw LinkError(address() + ": setpoint stream stalled: the FIFO stays full (" +
+                                std::to_string(res.capacity) + " setpoints) and the device consumes none" +
+                                (st.streaming ? "" : " (it is not streaming any more)"));
             continue;
         }
+        k = std::min(k, free);
         ack = send_setpoints(sp.subspan(i, k));
         free = ack.free;
         i += k;
@@ -248,6 +261,7 @@ StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const s
         ++res.blocks;
         res.consumed = ack.consumed;
         res.underruns = ack.underruns;
+        last_progress = steady_clock::now();
         if (progress) progress(static_cast<double>(i) / static_cast<double>(sp.size()));
     }
     stream_stop(true);

@@ -262,6 +262,20 @@ TEST(HostLinkClient, StreamKeepsTheFifoFilledWithoutOverflow) {
     EXPECT_EQ(st.r_um, sp.back());  // the setpoint holds its last value
 }
 
+TEST(HostLinkClient, PrefillOfTheWholeFifoIsReached) {
+    // Blocks of 120 never add up to the 1024-slot FIFO: the client must send
+    // a partial block, or the device would never start consuming.
+    DeviceServer s;
+    s.ticks_per_iteration = 50;
+    Client c = connect(s);
+    configure_reference(c);
+    const std::vector<float> sp(3000, 2.5f);
+    const StreamResult r = c.stream(sp, 1024);
+    EXPECT_EQ(r.sent, sp.size());
+    EXPECT_TRUE(r.drained);
+    EXPECT_EQ(r.consumed, sp.size());
+}
+
 TEST(HostLinkClient, StreamUnderrunsAreReported) {
     DeviceServer s;
     s.ticks_per_iteration = 200;
