@@ -7,10 +7,7 @@
 #include "link/tcp_transport.hpp"
 #include "link/serial_transport.hpp"
 
-#if __has_include("link/usb_transport.hpp")
 #include "link/usb_transport.hpp"
-#define PIEZOLOOP_HAVE_USB_TRANSPORT 1
-#endif
 
 namespace piezoloop::hostlink {
 
@@ -49,11 +46,7 @@ std::unique_ptr<Transport> open_transport(const std::string& address) {
     if (address == "usb" || address.rfind("usb:", 0) == 0) {
         const std::string serial = address.size() > 4 ? address.substr(4) : std::string();
         if (address.size() == 4) bad(address, "empty USB serial number");
-#ifdef PIEZOLOOP_HAVE_USB_TRANSPORT
         return open_usb(serial);
-#else
-        throw LinkError(address + ": usb transport not built");
-#endif
     }
     if (address.rfind("serial:", 0) == 0) {
         std::string path = address.substr(7);
