@@ -185,6 +185,8 @@ public:
         HammersteinPlant plant;
         if (const Status s = plant.configure(c.plant); !s.ok()) return in_group("plant", s);
         config_ = c;
+        amp_unity_ = a.gain == 1.0f;
+        sensor_unity_ = c.sensor.gain == 1.0f;
         dac_ = dac;
         adc_ = adc;
         amp_lag_ = amp_lag;
@@ -208,10 +210,12 @@ public:
         const AmplifierConfig& a = config_.amplifier;
         float v = dac_.apply(u_V);
         v = clamp(v, a.input_min_V, a.input_max_V);
-        v = amp_lag_.apply(a.gain * v);
+        // A gain of exactly 1 is skipped: x * 1 is x in IEEE arithmetic, and
+        // the multiply would sit on the loop's dependency chain.
+        v = amp_lag_.apply(amp_unity_ ? v : a.gain * v);
         v_piezo_V_ = clamp(v, a.output_min_V, a.output_max_V);
         x_um_ = plant_.step(v_piezo_V_);
-        float s = sensor_lag_.apply(config_.sensor.gain * x_um_);
+        float s = sensor_lag_.apply(sensor_unity_ ? x_um_ : config_.sensor.gain * x_um_);
         if (config_.sensor.noise_rms > 0.0f) s = s + config_.sensor.noise_rms * noise_.next_unit();
         return adc_.apply(s);
     }
@@ -230,6 +234,7 @@ private:
     SeededNoise noise_{};
     float v_piezo_V_ = 0.0f;
     float x_um_ = 0.0f;
+    bool amp_unity_ = true, sensor_unity_ = true;  // gains of exactly 1
 };
 
 }  // namespace piezoloop
