@@ -140,22 +140,26 @@ json set_scenario(Client& c, const SetArgs& a) {
         throw std::invalid_argument("scenario " + s.name + " is discretised at " + std::to_string(s.rate_Hz) +
                                     " Hz, the board runs at " + std::to_string(h.loop_rate_Hz) +
                                     " Hz (`piezoloop emulate --scenario` starts a board at the scenario's rate)");
+    // Built for the board's sample type, as `piezoloop sim --sample` does:
+    // a Q31 board gets the fixed-point scaling of the feedback sections.
+    sim::CaseSpec cb = cs;
+    const bool board_q31 = h.sample_format == link::SampleFormat::kQ31;
+    if ((cb.sample == sim::SampleType::kQ31) != board_q31)
+        std::cerr << "note: case " << cs.name << " is simulated with " << sim::to_string(cb.sample)
+                  << " samples; built for this board's " << (board_q31 ? "q31" : "float")
+                  << " (compare with `piezoloop sim --sample " << (board_q31 ? "q31" : "float") << "`)\n";
+    cb.sample = board_q31 ? sim::SampleType::kQ31 : sim::SampleType::kFloat;
     sim::BuildOptions bo;
     bo.reference_frequency_Hz = a.frequency_Hz;
     bo.check_realisation = false;
     sim::BuiltCase b;
     try {
-        b = sim::build_case(s, cs, bo);
+        b = sim::build_case(s, cb, bo);
     } catch (const std::exception& e) {
         std::string m = e.what();
         if (m.find("periodic reference") != std::string::npos) m += " (give --frequency-hz)";
         throw std::invalid_argument(m);
     }
-    const bool sample_q31 = b.model.sample == sim::SampleType::kQ31;
-    const bool board_q31 = h.sample_format == link::SampleFormat::kQ31;
-    if (sample_q31 != board_q31)
-        std::cerr << "note: case " << cs.name << " is simulated with " << (sample_q31 ? "Q31" : "float")
-                  << " samples; this board runs " << (board_q31 ? "Q31" : "float") << "\n";
     if (c.status().armed)
         throw std::invalid_argument("the loop is armed: limits and block kinds change only while disarmed "
                                     "(`piezoloop --device " + c.address() + " disarm` first)");

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "piezoloop/q31.hpp"
+#include "piezoloop/sample.hpp"
+
 namespace piezoloop::hostlink {
 
 using namespace std::chrono;
@@ -293,8 +296,10 @@ const char* signal_unit(uint8_t id) { return id <= 2 ? "um" : "V"; }
 
 double log_sample_physical(uint32_t raw, uint8_t id, link::SampleFormat format, const link::HelloReply& hello) {
     if (format == link::SampleFormat::kFloat32) return static_cast<double>(std::bit_cast<float>(raw));
-    const double fs = id <= 2 ? hello.position_full_scale_um : hello.voltage_full_scale_V;
-    return static_cast<double>(static_cast<int32_t>(raw)) * fs / 2147483648.0;
+    // The core's own conversion (SignalScale::to_physical, in float), so a
+    // Q31 record prints the values `piezoloop sim --sample q31` prints.
+    const SignalScale scale{id <= 2 ? hello.position_full_scale_um : hello.voltage_full_scale_V};
+    return static_cast<double>(scale.to_physical(Q31::from_raw(static_cast<int32_t>(raw))));
 }
 
 }  // namespace piezoloop::hostlink

@@ -195,7 +195,8 @@ private:
 };
 
 // Physical value (µm or V) of a raw log sample of signal `signal_id`, in the
-// block format (float32 bits, or Q31 times the hello's full scale / 2^31).
+// block format (float32 bits, or Q31 through the core's SignalScale with the
+// hello's full scale: raw * full scale / 2^31, rounded to float).
 double log_sample_physical(uint32_t raw, uint8_t signal_id, link::SampleFormat format, const link::HelloReply& hello);
 // Unit of a signal id: "um" for r, y, e, "V" for u, u_ff, u_fb, u_rc.
 const char* signal_unit(uint8_t signal_id);
