@@ -238,11 +238,11 @@ StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const s
     auto last_progress = steady_clock::now();
     while (i < sp.size()) {
         std::size_t k = std::min<std::size_t>(link::kMaxSetpointsPerBlock, sp.size() - i);
-        // A full block when it fits; a partial one only while the FIFO holds
-        // fewer than `prefill` setpoints (blocks of 120 may never add up to
-        // the prefill, e.g. the whole 1024-slot FIFO, and the device would
-        // never start), else wait for room.
-        const bool low = res.capacity - free < prefill;
+        // A full block when it fits; a partial one only while the device has
+        // not started and holds fewer than `prefill` setpoints (blocks of 120
+        // may never add up to the prefill, e.g. the whole 1024-slot FIFO, and
+        // the device would never start), else wait for room.
+        const bool low = ack.consumed == 0 && res.capacity - free < prefill;
         if (free == 0 || (free < k && !low)) {
             // Wait about as long as the tick needs to make room, then ask.
             const double wait_s = static_cast<double>(k - std::min(k, free)) / rate;

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -441,6 +442,52 @@ TEST(HostLinkTransport, AddressFormsAndErrors) {
     EXPECT_NE(message("serial:/nonexistent/tty").find("serial:/nonexistent/tty@115200: cannot open"), std::string::npos);
     EXPECT_NE(message("serial:/dev/null@57600").find("not a serial device"), std::string::npos);
     EXPECT_NE(message("serial:/dev/null@12345").find("unsupported baud rate"), std::string::npos);
+}
+
+TEST(HostLinkSerial, DeviceOverAPseudoTerminal) {
+    // The serial transport on a pty: the test holds the master side and
+    // serves the device there; the client opens the slave as a tty (raw 8N1).
+    const int master = ::posix_openpt(O_RDWR | O_NOCTTY);
+    ASSERT_GE(master, 0);
+    ASSERT_EQ(::grantpt(master), 0);
+    ASSERT_EQ(::unlockpt(master), 0);
+    const std::string path = ::ptsname(master);
+    auto pipeline = std::make_unique<link::Device<float>::PipelineType>(reference::setup());
+    link::Device<float> device(*pipeline, link::DeviceInfo{"pty-board", "1", "SN7"});
+    std::atomic<bool> stop{false};
+    std::thread server([&] {
+        std::array<uint8_t, 1024> buf;
+        auto send = [&](std::span<const uint8_t> f) {
+            std::size_t done = 0;
+            while (done < f.size()) {
+                const ssize_t n = ::write(master, f.data() + done, f.size() - done);
+                if (n <= 0) return;
+                done += static_cast<std::size_t>(n);
+            }
+        };
+        while (!stop) {
+            pollfd p{master, POLLIN, 0};
+            if (::poll(&p, 1, 1) > 0 && (p.revents & POLLIN)) {
+                const ssize_t n = ::read(master, buf.data(), buf.size());
+                if (n > 0) device.receive(std::span<const uint8_t>(buf.data(), static_cast<std::size_t>(n)), send);
+            }
+            device.on_tick();
+            pipeline->tick(0.0f);
+        }
+    });
+    {
+        Client c(open_transport("serial:" + path + "@921600"));
+        EXPECT_EQ(c.address(), "serial:" + path + "@921600");
+        EXPECT_STREQ(c.hello().board.data(), "pty-board");
+        const link::LimitsParams lim{reference::params().limits};
+        c.set(lim);
+        EXPECT_TRUE(c.get<link::LimitsParams>() == lim);
+        c.arm();
+        EXPECT_TRUE(c.status().armed);
+    }
+    stop = true;
+    server.join();
+    ::close(master);
 }
 
 // The collector alone, on hand-made blocks: lost, duplicate, late, and the
