@@ -158,11 +158,6 @@ void Client::check_ack(const link::Ack& a, uint8_t type) {
                         request_name(type));
 }
 
-void Client::expect_ack_raw(uint8_t type, std::span<const uint8_t> body) {
-    const RawReply r = transact(type, body);
-    check_ack(decode_reply<link::Ack>(r, type), type);
-}
-
 const link::HelloReply& Client::hello() {
     const RawReply r = transact(static_cast<uint8_t>(MsgType::kHello), {});
     throw_if_error(r, static_cast<uint8_t>(MsgType::kHello));

@@ -166,7 +166,6 @@ private:
         check_ack(a, static_cast<uint8_t>(M::kType));
     }
     void check_ack(const link::Ack& a, uint8_t type);
-    void expect_ack_raw(uint8_t type, std::span<const uint8_t> body);
 
     template <class R>
     R decode_reply(const RawReply& r, uint8_t request_type) {
