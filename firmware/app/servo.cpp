@@ -131,7 +131,9 @@ bool restart_stage() {
     return true;
 }
 
-// The board's serial: fixed per image (the emulated boards have no unique ID).
+// The emulated boards' serial: fixed per image (they have no unique ID).
+// A board with one (STM32) defines PIEZOLOOP_BOARD_UNIQUE_SERIAL and
+// bsp::board_serial_number() in its board_config.hpp.
 constexpr const char* board_serial() {
     const char* b = bsp::kBoardName;
     if (b[0] == 'q' && b[5] == 'm' && b[6] == '7') return "QEMU-M7-0001";
@@ -195,7 +197,11 @@ int app_main() {
     link::DeviceInfo info;
     info.board = bsp::kBoardName;
     info.firmware_version = PIEZOLOOP_VERSION;
+#ifdef PIEZOLOOP_BOARD_UNIQUE_SERIAL
+    info.serial = bsp::board_serial_number();  // STM32: the unique ID, as the USB serial number
+#else
     info.serial = board_serial();
+#endif
     link::DeviceHooks hooks;
     hooks.mask_tick = &mask_tick;
     if constexpr (!bsp::config::kHasConverters) hooks.restart_stage = &restart_stage;

@@ -82,6 +82,13 @@ public:
           strings_{manufacturer, product, serial},
           timing_(timing) {}
 
+    // The serial number string (index 3) when it is known only at run time
+    // (a board's unique device ID): call before the device connects to the
+    // bus, so the host never sees another one. Strings are not copied: the
+    // text must outlive the handler. The descriptor is built from it at each
+    // GET_DESCRIPTOR.
+    void set_serial(const char* serial) { strings_[2] = serial; }
+
     // USB reset: back to Default, address 0, endpoints closed.
     void bus_reset() {
         if (state_ == DeviceState::kConfigured) hw_.configure_endpoints(false);

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "usb/control.hpp"
+#include "usb/serial_number.hpp"
 
 using namespace piezoloop::usb;
 using Kind = ControlReply::Kind;
@@ -285,4 +286,48 @@ TEST_F(UsbControl, VendorOutDataStage) {
     const uint8_t payload[5] = {1, 2, 3, 4, 5};
     h.data_out_done(payload, 5);
     EXPECT_EQ(hw.vendor_out, (std::vector<uint8_t>{1, 2, 3, 4, 5}));
+}
+
+// A serial known only at run time (the STM32's unique ID, read at start-up):
+// the handler is built with a placeholder, set_serial() before the bus
+// connects, and GET_DESCRIPTOR(string 3) returns that text in UTF-16LE.
+TEST(UsbControlSerial, SerialSetAtRunTimeIsTheOneEnumerated) {
+    FakeHw hw;
+    ControlHandler<FakeHw> h{hw, DeviceIdentity{}, "piezoloop", "piezo servo", "", AddressTiming::kAtSetup};
+    // The text lives in a buffer filled after construction, as on the board.
+    UniqueIdSerial serial{};
+    serial = serial_from_unique_id({0x00300035u, 0x33335117u, 0x33353634u});
+    h.set_serial(serial.data());
+    // The device descriptor names string 3 as iSerialNumber.
+    ControlReply r = h.setup(req(kInDevice, 6, 0x0100, 0, 18));
+    ASSERT_EQ(r.kind, Kind::kDataIn);
+    EXPECT_EQ(r.data[16], kStringSerial);
+    r = h.setup(req(kInDevice, 6, 0x0300 | kStringSerial, kLangIdEnglishUs, 255));
+    ASSERT_EQ(r.kind, Kind::kDataIn);
+    const char* want = "003000353333511733353634";
+    std::vector<uint8_t> expected{50, 3};
+    for (const char* c = want; *c != '\0'; ++c) {
+        expected.push_back(static_cast<uint8_t>(*c));
+        expected.push_back(0);
+    }
+    EXPECT_EQ(std::vector<uint8_t>(r.data, r.data + r.length), expected);
+    EXPECT_FALSE(r.zero_length_packet) << "50 bytes < wLength 255, not a multiple of 64";
+    // Linux reads the header first (wLength 2 / 255 varies): truncation holds.
+    r = h.setup(req(kInDevice, 6, 0x0300 | kStringSerial, kLangIdEnglishUs, 2));
+    ASSERT_EQ(r.kind, Kind::kDataIn);
+    EXPECT_EQ(r.length, 2);
+    EXPECT_EQ(r.data[0], 50);
+    // The other strings are untouched.
+    r = h.setup(req(kInDevice, 6, 0x0301, kLangIdEnglishUs, 255));
+    EXPECT_EQ(r.length, 2 + 2 * std::strlen("piezoloop"));
+}
+
+TEST(UsbControlSerial, PlaceholderIsAnEmptyStringNotAStall) {
+    // Before set_serial the placeholder "" is a valid (empty) descriptor:
+    // nothing undefined if a host asked early.
+    FakeHw hw;
+    ControlHandler<FakeHw> h{hw, DeviceIdentity{}, "piezoloop", "piezo servo", "", AddressTiming::kAtSetup};
+    const ControlReply r = h.setup(req(kInDevice, 6, 0x0303, kLangIdEnglishUs, 255));
+    ASSERT_EQ(r.kind, Kind::kDataIn);
+    EXPECT_EQ(std::vector<uint8_t>(r.data, r.data + r.length), (std::vector<uint8_t>{2, 3}));
 }

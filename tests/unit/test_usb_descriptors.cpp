@@ -6,10 +6,14 @@
 
 #include <array>
 #include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "usb/descriptors.hpp"
+#include "usb/serial_number.hpp"
 
 using namespace piezoloop::usb;
 
@@ -96,3 +100,52 @@ TEST(UsbDescriptors, StringsRefuseWhatCannotBeEncoded) {
     EXPECT_EQ(string_descriptor(max.c_str(), out, sizeof out), 254u) << "bLength is one byte: 2 + 2 * 126";
     EXPECT_EQ(string_descriptor(over.c_str(), out, sizeof out), 0u);
 }
+
+// The serial number from the 96-bit unique device ID (firmware/usb/serial_number.hpp).
+// Reference: the C library's `%08X%08X%08X` of the three words, which is
+// the documented format; exact text, no tolerance.
+TEST(UsbSerialNumber, IsTheThreeWordsInHexInAddressOrder) {
+    // A UID as a debugger reads it (three words at the base address).
+    EXPECT_STREQ(serial_from_unique_id({0x00300035u, 0x33335117u, 0x33353634u}).data(), "003000353333511733353634");
+    EXPECT_STREQ(serial_from_unique_id({0u, 0u, 0u}).data(), "000000000000000000000000");
+    EXPECT_STREQ(serial_from_unique_id({0xFFFFFFFFu, 0xABCDEF01u, 0x0000000Au}).data(), "FFFFFFFFABCDEF010000000A");
+}
+
+TEST(UsbSerialNumber, MatchesPrintfForRandomIds) {
+    std::mt19937 rng(20261122);  // seeded: reproducible
+    for (int k = 0; k < 2000; ++k) {
+        const std::array<uint32_t, 3> w{static_cast<uint32_t>(rng()), static_cast<uint32_t>(rng()),
+                                         static_cast<uint32_t>(rng())};
+        char want[32];
+        std::snprintf(want, sizeof want, "%08X%08X%08X", static_cast<unsigned>(w[0]), static_cast<unsigned>(w[1]),
+                      static_cast<unsigned>(w[2]));
+        const UniqueIdSerial got = serial_from_unique_id(w);
+        ASSERT_STREQ(got.data(), want) << k;
+        ASSERT_EQ(std::strlen(got.data()), kUniqueIdSerialLength);
+    }
+}
+
+TEST(UsbSerialNumber, EveryBitOfTheIdShowsAndTheTextIsAValidStringDescriptor) {
+    const std::array<uint32_t, 3> base{0x12345678u, 0x9ABCDEF0u, 0x0F1E2D3Cu};
+    const std::string text = serial_from_unique_id(base).data();
+    for (int bit = 0; bit < 96; ++bit) {
+        std::array<uint32_t, 3> w = base;
+        w[static_cast<std::size_t>(bit / 32)] ^= 1u << (bit % 32);
+        EXPECT_NE(text, std::string(serial_from_unique_id(w).data())) << "bit " << bit;
+    }
+    for (const char c : text) EXPECT_TRUE((c >= '0' && c <= '9') || (c >= 'A' && c <= 'F')) << c;
+    uint8_t out[64] = {};
+    ASSERT_EQ(string_descriptor(text.c_str(), out, sizeof out), 2u + 2u * 24u);
+    EXPECT_EQ(out[0], 50);
+    EXPECT_EQ(out[1], 3);
+    for (std::size_t i = 0; i < 24; ++i) {
+        EXPECT_EQ(out[2 + 2 * i], static_cast<uint8_t>(text[i]));
+        EXPECT_EQ(out[3 + 2 * i], 0);
+    }
+}
+
+// Usable at compile time as well (e.g. a fixed test identity).
+static_assert(serial_from_unique_id({0xDEADBEEFu, 1u, 0x80000000u})[0] == 'D');
+static_assert(serial_from_unique_id({0xDEADBEEFu, 1u, 0x80000000u})[15] == '1');
+static_assert(serial_from_unique_id({0xDEADBEEFu, 1u, 0x80000000u})[16] == '8');
+static_assert(serial_from_unique_id({0xDEADBEEFu, 1u, 0x80000000u})[24] == '\0');

@@ -22,6 +22,8 @@
 //             console is mirrored to EP1 IN and input is also read from
 //             EP1 OUT, so servo.elf's link frames travel over USB as well
 //             (use one of the two at a time: both feed one frame decoder)
+//   serial    the 96-bit unique device ID as 24 hex digits: the USB serial
+//             number string and the link's HelloReply serial
 #include <cstdint>
 
 #include "board_config.hpp"
@@ -33,6 +35,7 @@
 #include "bsp/emulated_stage.hpp"
 #include "bsp/stm32h743/regs.hpp"
 #include "bsp/stm32h743/usb_otg_fs.hpp"
+#include "usb/serial_number.hpp"
 
 namespace piezoloop::bsp {
 
@@ -54,6 +57,7 @@ uint32_t g_stopwatch_offset = 0;
 bool g_console_ready = false;
 bool g_usb_ready = false;
 bool g_timer_running = false;
+usb::UniqueIdSerial g_serial{};  // filled on first use (before USB connects)
 
 void enable_clocks() {
     using namespace rcc;
@@ -161,12 +165,19 @@ void init() {
     g_stopwatch_offset = stopwatch_elapsed(s);
     dac_init();
     const bool adc_ok = adc_init();
-    g_usb_ready = stm32::usbfs::init();
+    // The serial number is in place before the device connects to the bus.
+    g_usb_ready = stm32::usbfs::init(board_serial_number());
     if (!adc_ok) {
         const char msg[] = "fault adc: calibration or enable timed out\n";
         console_write(msg, sizeof msg - 1);
         exit(kExitFault);
     }
+}
+
+const char* board_serial_number() {
+    // System memory, readable at any time; read once.
+    if (g_serial[0] == '\0') g_serial = usb::serial_from_unique_id({reg(uid::kW0), reg(uid::kW1), reg(uid::kW2)});
+    return g_serial.data();
 }
 
 void console_write(const char* text, std::size_t length) {

@@ -1,7 +1,8 @@
 // STM32H743 registers used by this BSP, written from the reference manual
 // RM0433 (rev 8): memory map (§2.3.2), PWR (§6.8), RCC (§8.7), FLASH (§4.9),
 // SYSCFG (§12.3), GPIO (§11.4), TIM6/7 (§39.4), ADC (§25.6), DAC (§26.7),
-// USART (§48.8), OTG (§57.14). No vendor header is used. Only what the
+// USART (§48.8), OTG (§57.14), device electronic signature (unique ID). No
+// vendor header is used. Only what the
 // firmware touches is named; offsets are from each peripheral's base.
 //
 // NOT VERIFIED ON HARDWARE HERE (no board, no emulator for this part).
@@ -152,6 +153,20 @@ inline constexpr uintptr_t kCr1 = kBase + 0x00, kBrr = kBase + 0x0C, kIsr = kBas
 inline constexpr uint32_t kCr1Ue = 1u << 0, kCr1Re = 1u << 2, kCr1Te = 1u << 3;
 inline constexpr uint32_t kIsrRxne = 1u << 5, kIsrTc = 1u << 6, kIsrTxe = 1u << 7;
 }  // namespace usart3
+
+// ---- device electronic signature: the 96-bit unique device ID ---------------
+// RM0433, "Device electronic signature", unique device ID register (96 bits):
+// three read-only, factory-programmed words in system memory; the same
+// base address in the STM32H742/743/750/753 manual (RM0433) and the
+// H745/747 one (RM0399). UID[31:0] = X and Y coordinates on the wafer,
+// UID[39:32] = wafer number, UID[95:40] = lot number (ASCII). Never
+// altered, unique per device: the board's serial number (USB and link).
+namespace uid {
+inline constexpr uintptr_t kBase = 0x1FF1E800;
+inline constexpr uintptr_t kW0 = kBase + 0x00;  // UID[31:0]
+inline constexpr uintptr_t kW1 = kBase + 0x04;  // UID[63:32]
+inline constexpr uintptr_t kW2 = kBase + 0x08;  // UID[95:64]
+}  // namespace uid
 
 // ---- Cortex-M7 core: DWT cycle counter, caches ------------------------------
 namespace core {

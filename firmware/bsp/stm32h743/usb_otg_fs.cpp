@@ -67,8 +67,10 @@ struct Hw {
 };
 
 Hw g_hw;
+// The serial number is the board's unique ID, known at run time only:
+// init() sets it before the soft connect ("" until then).
 usb::ControlHandler<Hw> g_ctrl{g_hw, usb::DeviceIdentity{}, "piezoloop", "piezoloop servo (NUCLEO-H743ZI2)",
-                               "0001", usb::AddressTiming::kAtSetup};
+                               "", usb::AddressTiming::kAtSetup};
 
 // EP0 transfer state.
 uint8_t g_setup[8];
@@ -306,8 +308,9 @@ void in_endpoint_events() {
 
 }  // namespace
 
-bool init() {
+bool init(const char* serial) {
     using namespace rcc;
+    g_ctrl.set_serial(serial);  // the host must only ever see this one
     reg(kAhb1enr) = reg(kAhb1enr) | kAhb1Usb2OtgFsEn;
     reg(kAhb4enr) = reg(kAhb4enr) | kAhb4GpioAEn;
     if ((reg(kAhb1enr) & kAhb1Usb2OtgFsEn) == 0u) return false;

@@ -24,9 +24,11 @@ inline constexpr int kIrq = 101;  // OTG_FS
 using Ring = usb::ByteRing<2048>;
 
 // Clocks (PLL1Q 48 MHz must be running), PHY supply, pins, core reset,
-// device mode, FIFOs, interrupts, soft connect. False if the core does
+// device mode, FIFOs, interrupts, soft connect. `serial` is the serial
+// number string the host enumerates (the unique-ID text; not copied: it
+// must stay valid), set before the soft connect. False if the core does
 // not come out of reset.
-bool init();
+bool init(const char* serial);
 
 // Main loop: bytes received from the host / queued for the host.
 std::size_t read(uint8_t* out, std::size_t n);
