@@ -11,6 +11,12 @@
 // with the pipeline's SignalScales. Quantisation, if any, is the StageConfig's
 // own (dac / adc bits), not a board converter.
 //
+// The conversions happen in step() and reset(), outside the controller's
+// timed work: on a real board the tick reads a converter register, and the
+// M3's soft-float conversion of a physical value would otherwise be counted
+// as controller time (hundreds of instructions). The arithmetic is the same
+// either way, so the log hashes do not depend on where it happens.
+//
 // Timing, as on a real board whose ADC is sampled at the tick: the tick
 // reads the reading latched at the end of the previous period, computes,
 // and writes u; step() then advances the stage by one sample with that u
@@ -21,8 +27,10 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 #include "piezoloop/plant.hpp"
+#include "piezoloop/q31.hpp"
 #include "piezoloop/sample.hpp"
 #include "piezoloop/stage_model.hpp"
 #include "piezoloop/status.hpp"
@@ -54,20 +62,34 @@ public:
     void reset() {
         model_.reset();
         u_V_ = 0.0f;
+        u_q31_ = Q31{};
         y_um_ = 0.0f;
+        y_q31_ = position_.to_sample<Q31>(y_um_);
     }
 
     // The reading the tick uses, in the pipeline's sample type.
     template <class T>
-    T position_sample() const { return position_.to_sample<T>(y_um_); }
-    // The tick's output.
+    T position_sample() const {
+        if constexpr (std::is_same_v<T, Q31>) return y_q31_;
+        else return position_.to_sample<T>(y_um_);  // float: the physical value itself
+    }
+    // The tick's output; a Q31 command is converted to volts in step().
     template <class T>
-    void command(T u) { u_V_ = voltage_.to_physical(u); }
+    void command(T u) {
+        if constexpr (std::is_same_v<T, Q31>) {
+            u_q31_ = u;
+            q31_command_ = true;
+        } else {
+            u_V_ = voltage_.to_physical(u);
+        }
+    }
 
     // One sample of physics with the last command; latches the reading.
     void step() {
+        if (q31_command_) u_V_ = voltage_.to_physical(u_q31_);
         const float reading = model_.step(u_V_);
         y_um_ = gain_ == 1.0f ? reading : reading / gain_;
+        if (q31_command_) y_q31_ = position_.to_sample<Q31>(y_um_);
     }
 
     float position_um() const { return y_um_; }
@@ -80,7 +102,10 @@ private:
     SignalScale voltage_{1.0f};
     float gain_ = 1.0f;
     float u_V_ = 0.0f;
+    Q31 u_q31_{};
+    bool q31_command_ = false;  // the tick runs the Q31 core: u_q31_ is the command
     float y_um_ = 0.0f;
+    Q31 y_q31_{};
 };
 
 // One control step against the emulated stage, as the board's tick does it
