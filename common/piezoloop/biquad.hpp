@@ -226,16 +226,7 @@ private:
             return x;
         } else {
             if (count_ != N) return apply_sections<N + 1>(x);
-#pragma GCC unroll 8
-            for (int i = 0; i < N; ++i) {
-                const Coef& c = coef_[static_cast<std::size_t>(i)];
-                State& s = state_[static_cast<std::size_t>(i)];
-                const float y = c.b0 * x + s.s1;
-                s.s1 = c.b1 * x - c.a1 * y + s.s2;
-                s.s2 = c.b2 * x - c.a2 * y;
-                x = y;
-            }
-            return x;
+            return apply_n<N>(x);
         }
     }
 
