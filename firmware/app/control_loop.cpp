@@ -44,6 +44,7 @@ bool ControlLoop::start(uint32_t rate_Hz, uint32_t max_ticks) {
     max_ticks_ = max_ticks;
     ticks_ = 0;
     control_ = WorkStats{};
+    whole_ = WorkStats{};
     reconfigure_ = WorkStats{};
     plant_ = WorkStats{};
     last_swaps_ = pipe_->swaps();
@@ -66,6 +67,7 @@ LoopStatus ControlLoop::status() const {
     LoopStatus s;
     s.ticks = ticks_;
     s.control = control_;
+    s.whole = whole_;
     s.reconfigure = reconfigure_;
     s.plant = plant_;
     s.late = monitor_.late();
@@ -74,25 +76,41 @@ LoopStatus ControlLoop::status() const {
     return s;
 }
 
-// The interrupt. Everything between the two stopwatch reads is the
-// controller's tick as the budget counts it.
+// The interrupt. The pipeline's tick in its three phases (pipeline.hpp):
+// the reading-independent half first (on the STM32 it overlaps the ADC
+// conversion the timer started at this period's edge), then ADC read ->
+// output -> DAC write, the span the budget counts, then the recorder.
 void ControlLoop::tick() {
     ControlLoop& loop = g_loop;
     BoardPipeline& pipe = *loop.pipe_;
     loop.monitor_.on_entry(bsp::timestamp());
     const bool armed = pipe.armed();
 
-    const uint32_t t_control = bsp::stopwatch_start();
+    // Three stopwatch spans, one per phase (a span nested in another would
+    // count the inner stopwatch's own cost, on QEMU up to 80 instructions
+    // of waiting for SysTick edges).
+    const uint32_t t_before = bsp::stopwatch_start();
     if (BoardDevice* d = loop.device_) d->on_tick();
+    pipe.begin_tick();
+    const uint32_t before = bsp::stopwatch_elapsed(t_before);
+    const uint32_t t_control = bsp::stopwatch_start();
     bsp::control_io<CoreSample>(pipe);
     const uint32_t work = bsp::stopwatch_elapsed(t_control);
     loop.monitor_.on_output(bsp::timestamp());
+    const uint32_t t_after = bsp::stopwatch_start();
+    pipe.end_tick();
+    const uint32_t whole = before + work + bsp::stopwatch_elapsed(t_after);
 
     const uint32_t swaps = pipe.swaps();
     const bool reconfigured = swaps != loop.last_swaps_ || (armed && !loop.last_armed_);
     loop.last_swaps_ = swaps;
     loop.last_armed_ = armed;
-    (reconfigured ? loop.reconfigure_ : loop.control_).add(work);
+    if (reconfigured) {
+        loop.reconfigure_.add(whole);
+    } else {
+        loop.control_.add(work);
+        loop.whole_.add(whole);
+    }
 
     const uint32_t t_plant = bsp::stopwatch_start();
     bsp::emulated_stage_step();

@@ -1,11 +1,13 @@
 // The 100 kHz control tick on a board: in the timer interrupt,
-//   [link device: next streamed setpoint] -> ADC read -> pipeline.tick -> DAC write
+//   [link device: next streamed setpoint] -> pipeline.begin_tick (r, u_ff)
+//   -> ADC read -> pipeline.output -> DAC write -> pipeline.end_tick (recorder)
 // (on the emulated boards the reading and the command are physical values
 // from and to the emulated stage: bsp/<board>/board_io.hpp control_io)
 // then, on boards whose converters are an emulated stage, one sample of the
-// plant model. Both parts are timed with the board's stopwatch (bsp.hpp),
-// kept apart: the controller's work is "ADC read to DAC write", the plant's
-// is not part of the budget. Timeliness is kept by a TickMonitor
+// plant model. Timed with the board's stopwatch (bsp.hpp), kept apart: the
+// controller's work "ADC read to DAC write" (the budget, and the latency
+// from sample to command), the whole controller tick (what bounds the loop
+// rate), and the plant's sample (not the controller's). Timeliness is kept by a TickMonitor
 // (tick_stats.hpp): late ticks and missed periods are counted.
 //
 // The pipeline lives in static storage (it is tens of KiB: two banks with
@@ -36,9 +38,11 @@ BoardAnalog board_analog();
 struct LoopStatus {
     uint32_t ticks = 0;
     WorkStats control{};  // ADC read to DAC write, steady ticks
-    // The same for ticks that reconfigure: a parameter set swapped in, or
-    // the pipeline armed (its states reset). Rare, and costlier: kept apart
-    // so the steady figures are not hidden behind them.
+    WorkStats whole{};    // the whole controller tick (link, three phases), steady ticks
+    // The whole controller tick of ticks that reconfigure: a parameter set
+    // swapped in, or the pipeline armed (its states reset; both happen in
+    // begin_tick). Rare, and costlier: kept apart so the steady figures are
+    // not hidden behind them.
     WorkStats reconfigure{};
     WorkStats plant{};    // the emulated stage's sample (zero on real converters)
     uint32_t late = 0;
@@ -85,6 +89,7 @@ private:
     uint32_t max_ticks_ = 0;
     uint32_t ticks_ = 0;
     WorkStats control_{};
+    WorkStats whole_{};
     WorkStats reconfigure_{};
     WorkStats plant_{};
     uint32_t last_swaps_ = 0;

@@ -82,8 +82,10 @@ uint32_t stopwatch_elapsed(uint32_t start);
 // The tick's I/O is in bsp/<board>/board_io.hpp, inline (it sits inside
 // the measured tick):
 //   template <class T, class PipelineT> void control_io(PipelineT& pipe);
-// reads the controller's input, runs pipe.tick() and writes its output.
-// Hardware (STM32): ADC code -> sample -> tick -> sample -> DAC code, 16-bit
+// reads the controller's input, runs pipe.output() (the tick's output phase;
+// firmware/app/control_loop.cpp runs begin_tick() before and end_tick()
+// after it) and writes its output.
+// Hardware (STM32): ADC code -> sample -> output -> sample -> DAC code, 16-bit
 // two's-complement codes spanning [-full scale, +full scale) of
 // config::kPositionFullScale_um / config::kVoltageFullScale_V
 // (bsp/converter16.hpp; adc_read() / dac_write() are the raw converters).

@@ -108,9 +108,17 @@ private:
     Q31 y_q31_{};
 };
 
-// One control step against the emulated stage, as the board's tick does it
-// (and the host replay): reading in, pipeline tick, command out. The stage's
-// step() follows separately (outside the controller's timed work).
+// The board tick's output phase against the emulated stage: reading in,
+// Pipeline::output, command out (begin_tick / end_tick run around it in
+// firmware/app/control_loop.cpp).
+template <class T, class PipelineT>
+inline void emulated_output(PipelineT& pipe, EmulatedStage& stage) {
+    stage.command(pipe.output(stage.template position_sample<T>()));
+}
+
+// One whole control step against the emulated stage, as the host replays
+// do it: reading in, pipeline tick, command out. The stage's step() follows
+// separately (outside the controller's timed work).
 template <class T, class PipelineT>
 inline void emulated_control_step(PipelineT& pipe, EmulatedStage& stage) {
     stage.command(pipe.tick(stage.template position_sample<T>()));

@@ -103,6 +103,7 @@ def main():
               f"mean {b.get(unit + '_per_tick_mean')} max {b.get(unit + '_per_tick_max')} "
               f"(+-{b.get(unit + '_resolution')}); budget {b.get('budget')}: "
               f"{'within' if b.get('within_budget') else 'OVER'}; "
+              f"whole controller tick mean {b.get('tick_' + unit + '_mean')} max {b.get('tick_' + unit + '_max')}; "
               f"reconfigure tick max {b.get('reconfigure_' + unit + '_max')}; "
               f"plant model (apart) mean {b.get('plant_' + unit + '_per_tick_mean')}")
     print(f"{passed} passed, {failed} failed")

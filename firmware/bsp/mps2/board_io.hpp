@@ -14,10 +14,10 @@ namespace mps2 {
 extern fw::EmulatedStage g_emulated_stage;  // board.cpp
 }  // namespace mps2
 
-// Reading in, pipeline tick, command out.
+// Reading in, the pipeline's output phase, command out.
 template <class T, class PipelineT>
 inline void control_io(PipelineT& pipe) {
-    fw::emulated_control_step<T>(pipe, mps2::g_emulated_stage);
+    fw::emulated_output<T>(pipe, mps2::g_emulated_stage);
 }
 
 }  // namespace piezoloop::bsp

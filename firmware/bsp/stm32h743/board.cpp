@@ -7,10 +7,11 @@
 //   caches    I-cache on (code runs from flash); D-cache off: data, bss and
 //             the stack are in DTCM, which is never cached
 //   console   USART3 on PD8/PD9 (AF7) -> ST-LINK virtual COM port, 115200 8N1
-//   tick      TIM6 at 100 kHz: TRGO (update) starts an ADC1 conversion; the
-//             end-of-conversion interrupt runs the tick (sample, compute,
-//             DAC). In loopback (self-test, no stage) the TIM6 update
-//             interrupt runs it against the emulated stage instead.
+//   tick      TIM6 at 100 kHz: the update starts an ADC1 conversion (TRGO)
+//             and runs the tick in its interrupt: the pipeline's
+//             reading-independent half while the ADC converts, then wait
+//             for end of conversion, sample, compute, DAC. In loopback
+//             (self-test, no stage) against the emulated stage instead.
 //   ADC       ADC1, 16 bit, channel INP15 on PA3 (Zio A0), 8.5-cycle
 //             sampling, offset binary: code = raw - 32768
 //   DAC       DAC1 channel 1 on PA4, 12 bit, buffered: dac = (code + 32768) >> 4,
@@ -109,7 +110,8 @@ void delay_us(uint32_t us) {
     }
 }
 
-// ADC1 on PA3 (INP15), triggered by TIM6 TRGO, end-of-conversion interrupt.
+// ADC1 on PA3 (INP15), triggered by TIM6 TRGO; the tick polls end of
+// conversion (board_io.hpp adc_read), no ADC interrupt.
 bool adc_init() {
     using namespace adc;
     const uintptr_t a = kAdc1;
@@ -132,7 +134,7 @@ bool adc_init() {
     reg(a + kSmpr2) = 2u << 15;  // SMP15 = 8.5 cycles
     reg(a + kSqr1) = 15u << 6;   // one conversion: channel 15
     reg(a + kIsr) = kIsrEoc | kIsrOvr;
-    reg(a + kIer) = kIerEocie;
+    reg(a + kIer) = 0;
     reg(a + kCr) = reg(a + kCr) | kCrAdstart;  // waits for triggers
     return true;
 }
@@ -230,12 +232,11 @@ bool tick_timer_start(uint32_t rate_Hz, TickHandler handler) {
     reg(kCr1) = kCr1Urs;        // only overflow sets UIF (not the UG below)
     reg(kEgr) = kEgrUg;         // load PSC/ARR now
     reg(kSr) = 0;
-    const int irq = g_loopback ? config::kTickIrq : config::kAdcIrq;
-    reg(kDier) = g_loopback ? kDierUie : 0u;
+    reg(kDier) = kDierUie;
     reg(adc::kAdc1 + adc::kIsr) = adc::kIsrEoc | adc::kIsrOvr;
-    nvic::set_priority(irq, kTickPriority);
-    nvic::clear_pending(irq);
-    nvic::enable(irq);
+    nvic::set_priority(config::kTickIrq, kTickPriority);
+    nvic::clear_pending(config::kTickIrq);
+    nvic::enable(config::kTickIrq);
     g_timer_running = true;
     reg(kCr1) = kCr1Urs | kCr1Cen;
     return true;
@@ -247,9 +248,7 @@ void tick_timer_stop() {
     reg(kDier) = 0;
     reg(kSr) = 0;
     nvic::disable(config::kTickIrq);
-    nvic::disable(config::kAdcIrq);
     nvic::clear_pending(config::kTickIrq);
-    nvic::clear_pending(config::kAdcIrq);
     g_timer_running = false;
 }
 
@@ -279,13 +278,5 @@ extern "C" void piezoloop_tick_timer_isr() noexcept {
     using namespace piezoloop::bsp;
     // Clear UIF first: an overrun re-pends the interrupt (then counted).
     stm32::reg(stm32::tim6::kSr) = 0;
-    g_tick_handler();
-}
-
-extern "C" void piezoloop_adc_isr() noexcept {
-    using namespace piezoloop::bsp;
-    // EOC is cleared by the tick's read of ADC_DR (adc_read); a conversion
-    // that overran an unread one is counted by the tick monitor as missed.
-    stm32::reg(stm32::adc::kAdc1 + stm32::adc::kIsr) = stm32::adc::kIsrOvr;
     g_tick_handler();
 }

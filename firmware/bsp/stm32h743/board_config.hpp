@@ -11,8 +11,7 @@ namespace piezoloop::bsp::config {
 inline constexpr uint32_t kCpuClock_Hz = 480'000'000;       // PLL1 P
 inline constexpr uint32_t kApb1Clock_Hz = 120'000'000;      // USART3 kernel clock (rcc_pclk1)
 inline constexpr uint32_t kTickTimerClock_Hz = 240'000'000;  // TIM6: APB1 timers, x2 of 120 MHz
-inline constexpr int kTickIrq = 54;                         // TIM6_DAC (loopback tick)
-inline constexpr int kAdcIrq = 18;                          // ADC1_2 (tick on end of conversion)
+inline constexpr int kTickIrq = 54;                         // TIM6_DAC: the tick
 inline constexpr uint32_t kTimestamp_Hz = kCpuClock_Hz;     // DWT CYCCNT
 inline constexpr uint32_t kTimestampMask = 0xFFFFFFFFu;
 inline constexpr const char* kWorkUnit = "cycles";

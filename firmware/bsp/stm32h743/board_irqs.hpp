@@ -1,6 +1,5 @@
 // STM32H743 interrupt lines the BSP handles (RM0433, NVIC vector table):
-//   18  ADC1_2   end of conversion: the control tick (converters live)
-//   54  TIM6_DAC TIM6 update: the control tick in loopback (self-test)
+//   54  TIM6_DAC TIM6 update: the control tick (its TRGO starts the ADC)
 //  101  OTG_FS   USB device (OTG2, full speed)
 // Included by startup.cpp.
 #pragma once
@@ -8,12 +7,10 @@
 #include "bsp/cortex-m/irq_binding.hpp"
 
 extern "C" void piezoloop_tick_timer_isr() noexcept;
-extern "C" void piezoloop_adc_isr() noexcept;
 extern "C" void piezoloop_usb_otg_fs_isr() noexcept;
 
 namespace piezoloop::bsp {
 inline constexpr IrqBinding kIrqBindings[] = {
-    {18, piezoloop_adc_isr},
     {54, piezoloop_tick_timer_isr},
     {101, piezoloop_usb_otg_fs_isr},
 };
