@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -253,8 +254,14 @@ void add_sim(CLI::App& app) {
                     "write the run's core parameters as raw bytes (for tests/sim/sim_hash_probe, float fidelity)");
     cmd->add_flag("--hash", a->hash_only, "print only the log hash of r, y, u (compare with the board self-test)");
     cmd->callback([a] {
+        // Exit codes as the other commands: 2 bad input (the message names
+        // the field), 1 anything else (a file that cannot be written, a plot
+        // that failed).
         try {
             run(*a);
+        } catch (const std::invalid_argument& e) {
+            std::fprintf(stderr, "error: %s\n", e.what());
+            throw CLI::RuntimeError(2);
         } catch (const std::exception& e) {
             std::fprintf(stderr, "error: %s\n", e.what());
             throw CLI::RuntimeError(1);

@@ -90,10 +90,10 @@ bad_path = os.path.join(tmp, "bad.json")
 # Model files are resolved next to the scenario: keep the inline models only.
 json.dump(bad, open(bad_path, "w"))
 r = run(["sim", "--scenario", bad_path, "--case", "pi", "--frequency-hz", "1000", "--amplitude-um", "10"])
-check("bad k_rc refused with its path", r.returncode != 0 and "cases[2].controller.rc.k_rc: must be in (0, 2)" in r.stderr,
+check("bad k_rc refused with its path (exit 2)", r.returncode == 2 and "cases[2].controller.rc.k_rc: must be in (0, 2)" in r.stderr,
       r.stderr)
 r = run(["sim", "--scenario", os.path.join(configs, "shan2012.json"), "--case", "nope", "--amplitude-um", "1"])
-check("unknown case refused", r.returncode != 0 and "no such case" in r.stderr, r.stderr)
+check("unknown case refused (exit 2)", r.returncode == 2 and "no such case" in r.stderr, r.stderr)
 
 # reproduce (the quickest source), without drawing.
 rep = os.path.join(tmp, "rep")
