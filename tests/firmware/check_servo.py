@@ -42,7 +42,7 @@ import time
 import zlib
 
 PROFILE_ADDRESS = 0x003FFC00  # common/piezoloop/emulation_profile.hpp
-VERSION = 1
+VERSION = 2
 
 T_HELLO, T_STATUS, T_GET, T_SET, T_ARM, T_DISARM = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 T_START_WAVE, T_STOP_WAVE, T_REC_ARM, T_REC_STOP = 0x08, 0x09, 0x0D, 0x0E
@@ -163,7 +163,7 @@ def text(b):
 
 
 def parse_hello(b):
-    f = struct.unpack("<B16s16s24sfIBfffffHHBIBBHI", b)
+    f = struct.unpack("<B16s16s32sfIBfffffHHBIBBHI", b)
     return dict(protocol=f[0], board=text(f[1]), version=text(f[2]), serial=text(f[3]), rate=f[4], caps=f[5],
                 fmt=f[6], hard_min=f[7], hard_max=f[8], pos_fs=f[10], volt_fs=f[11], rec_channels=f[14],
                 rec_capacity=f[15])
@@ -431,7 +431,7 @@ def run_checks(link, check, machine, seconds, replay=None):
     print("hello:", h)
     check(link.first_byte == 0, f"first byte on the UART is the 0x00 delimiter (got {link.first_byte})")
     board = {"mps2-an500": "qemu-m7", "mps2-an385": "qemu-m3"}.get(machine)
-    check(h["protocol"] == 1 and (board is None or h["board"] == board), "protocol 1, board name")
+    check(h["protocol"] == VERSION and (board is None or h["board"] == board), f"protocol {VERSION}, board name")
     check(h["rec_channels"] == 4 and h["fmt"] == (1 if q31 else 0), "4 recorder channels, sample format")
     rate = h["rate"]
     s0 = parse_status(link.request(T_STATUS)[1])

@@ -207,6 +207,18 @@ TEST(LinkMessages, LargestMessagesFitTheFrame) {
     }
 }
 
+TEST(LinkMessages, HelloReplyCarriesTheStm32UniqueIdWhole) {
+    // The STM32's serial is its 96-bit unique ID as 24 hex digits
+    // (firmware/usb/serial_number.hpp); all 24 must arrive (version 1 cut
+    // the last one), and a text longer than the field keeps its zero.
+    HelloReply h;
+    const char* uid = "0123456789ABCDEF01234567";
+    set_text(h.serial, uid);
+    EXPECT_STREQ(round_trip(h, 3).serial.data(), uid);
+    set_text(h.serial, "0123456789ABCDEF0123456789ABCDEF-too-long");
+    EXPECT_STREQ(round_trip(h, 4).serial.data(), "0123456789ABCDEF0123456789ABCDE");
+}
+
 TEST(LinkMessages, IllFormedBodiesAreRejected) {
     // A boolean that is neither 0 nor 1.
     StreamStop ss;

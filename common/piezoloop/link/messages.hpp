@@ -33,7 +33,9 @@ namespace piezoloop::link {
 
 // Version 1. A device answers Hello in any version (with its own version in
 // the reply) and refuses every other message whose header version differs.
-inline constexpr uint8_t kProtocolVersion = 1;
+// Version 2: HelloReply's serial grew from 24 to 32 bytes (the STM32's
+// 24-hex-digit unique ID plus the terminating zero did not fit).
+inline constexpr uint8_t kProtocolVersion = 2;
 
 enum class MsgType : uint8_t {
     // Requests, host -> device.
@@ -134,7 +136,7 @@ inline constexpr uint32_t kWaveTable = 1u << 6;       // kSteps / kTable wavefor
 enum class SampleFormat : uint8_t { kFloat32 = 0, kQ31 = 1 };
 
 inline constexpr std::size_t kNameSize = 16;          // board, firmware version
-inline constexpr std::size_t kSerialSize = 24;
+inline constexpr std::size_t kSerialSize = 32;         // up to 31 characters
 inline constexpr std::size_t kGroupTextSize = 16;     // error reply texts
 inline constexpr std::size_t kFieldTextSize = 32;
 inline constexpr std::size_t kMessageTextSize = 96;
