@@ -4,7 +4,7 @@
 //
 // Contexts (as in the firmware):
 //   main loop: receive(), poll_log(), set_tick_stats()   -- one thread
-//   tick:      on_tick() just before Pipeline::tick()    -- e.g. the timer interrupt
+//   tick:      on_tick() just before Pipeline::begin_tick() or tick() -- the timer interrupt
 // Parameter sets go through Pipeline::stage(): a new PipelineParams is built
 // from the current one plus the changed group, so a rejected set leaves the
 // running one untouched, and an accepted one is swapped in at the next tick.
@@ -254,7 +254,7 @@ public:
     // ---- tick -----------------------------------------------------------------
 
     // Feeds the next streamed setpoint to the pipeline. Call it once per tick,
-    // right before Pipeline::tick(). Bounded time, never fails.
+    // right before Pipeline::begin_tick() (or tick()). Bounded time, never fails.
     void on_tick() {
         const uint8_t st = stream_state();
         if (st != kStreamRunning) return;
