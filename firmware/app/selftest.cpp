@@ -3,6 +3,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <type_traits>
 
 #include "app/control_loop.hpp"
 #include "app/json_line.hpp"
@@ -11,8 +12,17 @@
 #include "board_config.hpp"
 #include "bsp/bsp.hpp"
 #include "bsp/emulated_stage.hpp"
+#include "piezoloop/board_case.hpp"
 
 namespace piezoloop::fw {
+
+// What the host promises when it writes a board case (board_case.hpp) must
+// be what this firmware is: the QEMU boards' hard limits and RC delay line.
+static_assert(kRcCapacity >= kEmulatedBoardRcCapacity);
+static_assert(bsp::config::kHasConverters ||
+              (bsp::config::kHardLimits.u_min_V == kEmulatedBoardHardLimits.u_min_V &&
+               bsp::config::kHardLimits.u_max_V == kEmulatedBoardHardLimits.u_max_V &&
+               bsp::config::kHardLimits.slew_max_V_per_s == kEmulatedBoardHardLimits.slew_max_V_per_s));
 
 namespace {
 
@@ -69,16 +79,19 @@ void wait_until_stopped(ControlLoop& loop) {
     }
 }
 
-int run_case(ControlLoop& loop, const SelfTestCase& c) {
-    BoardPipeline& pipe = loop.rebuild();
+// One case: the pipeline rebuilt with `setup` (null: the board's own), the
+// tick at rate_Hz for c.ticks ticks, one JSON line. 0 if it passed.
+int run_case(ControlLoop& loop, const SelfTestCase& c, const PipelineSetup* setup = nullptr,
+             uint32_t rate_Hz = kLoopRateInt_Hz) {
+    BoardPipeline& pipe = setup != nullptr ? loop.rebuild(*setup) : loop.rebuild();
     EmulatedStage& stage = bsp::emulated_stage();
     JsonLine j;
     if (const Status s = prepare_case<CoreSample>(pipe, stage, c); !s.ok()) {
         begin(j).str("name", c.name).str("error", s.field).str("message", s.message).flush();
         return 1;
     }
-    LogAccumulator<CoreSample> acc(pipe.setup().position, pipe.setup().voltage);
-    if (!loop.start(kLoopRateInt_Hz, c.ticks)) {
+    LogAccumulator<CoreSample> acc(pipe.setup().position, pipe.setup().voltage, c.metric_start_tick);
+    if (!loop.start(rate_Hz, c.ticks)) {
         begin(j).str("name", c.name).str("error", "tick_timer").str("message", "rate not possible").flush();
         return 1;
     }
@@ -88,7 +101,7 @@ int run_case(ControlLoop& loop, const SelfTestCase& c) {
     const char* unit = bsp::config::kWorkUnit;
     const uint32_t overruns = st.late + st.missed;
     const bool within = st.control.max <= bsp::config::kTickBudget;
-    begin(j).str("name", c.name).str("sample", kCoreSampleName);
+    begin(j).str("name", c.name).str("sample", kCoreSampleName).uint("loop_rate_Hz", rate_Hz);
     j.uint("ticks", st.ticks).uint("overruns", overruns).uint("late", st.late).uint("missed", st.missed);
     j.uint({unit, "_per_tick_min"}, st.control.min);
     j.fixed({unit, "_per_tick_mean"}, static_cast<double>(st.control.mean_tenths()) / 10.0, 1);
@@ -113,6 +126,39 @@ int run_case(ControlLoop& loop, const SelfTestCase& c) {
     const bool ok = st.ticks == c.ticks && st.control.count + st.reconfigure.count == st.ticks && st.whole.count == st.control.count && overruns == 0 && acc.frames() == c.ticks && acc.gaps() == 0 &&
                     pipe.recorder().overruns() == 0;
     return ok ? 0 : 1;
+}
+
+// ---- scenario cases (board cases in RAM) ----------------------------------
+
+// The slot's case, decoded (static: it is a few KiB).
+BoardCase g_board_case;
+
+// Runs the board case in slot i if there is one: -1 if the slot is empty,
+// else the number of failures (an invalid case prints an error line naming
+// the field and counts as one).
+int run_board_case(ControlLoop& loop, int i) {
+    // RAM the loader wrote before reset; nothing in the image points there.
+    const auto* area = reinterpret_cast<const uint8_t*>(
+        uintptr_t{kBoardCaseAddress + static_cast<uint32_t>(i) * kBoardCaseSlotBytes});
+    asm volatile("" : "+r"(area));
+    const std::span<const uint8_t> bytes(area, kBoardCaseSlotBytes);
+    if (!board_case_present(bytes)) return -1;
+    const char slot_names[kBoardCaseSlots][12] = {"board_case0", "board_case1", "board_case2"};
+    Status s = decode_board_case(bytes, g_board_case);
+    const char* name = s.ok() ? g_board_case.name.data() : slot_names[i];
+    const link::SampleFormat core =
+        std::is_same_v<CoreSample, Q31> ? link::SampleFormat::kQ31 : link::SampleFormat::kFloat32;
+    if (s.ok() && g_board_case.sample != core)
+        s = error("sample", "the case was built for the other core (float on qemu-m7, q31 on qemu-m3)");
+    if (!s.ok()) {
+        JsonLine j;
+        begin(j).str("name", name).str("error", s.field);
+        if (s.group != nullptr) j.str("group", s.group);
+        j.str("message", s.message).flush();
+        return 1;
+    }
+    const PipelineSetup setup = scenario_setup(g_board_case, bsp::config::kHardLimits);
+    return run_case(loop, scenario_case(g_board_case), &setup, g_board_case.profile.loop_rate_Hz);
 }
 
 // ---- checks ------------------------------------------------------------
@@ -194,12 +240,22 @@ int run_selftest() {
     const bool loopback = bsp::set_loopback(true);
     int failures = loopback ? 0 : 1;
     for (const SelfTestCase& c : kSelfTestCases) failures += run_case(loop, c);
+    int scenario_cases = 0;
+    if constexpr (!bsp::config::kHasConverters) {
+        for (int i = 0; i < kBoardCaseSlots; ++i) {
+            const int r = run_board_case(loop, i);
+            if (r < 0) continue;
+            ++scenario_cases;
+            failures += r;
+        }
+    }
     Checks checks;
     check_limits(loop, checks);
     check_overruns(loop, checks);
     failures += checks.failures;
     JsonLine j;
-    begin(j).str("selftest", "done").uint("cases", kSelfTestCaseCount).uint("checks", checks.count);
+    begin(j).str("selftest", "done").uint("cases", kSelfTestCaseCount).uint("scenario_cases", static_cast<uint64_t>(scenario_cases));
+    j.uint("checks", checks.count);
     j.uint("failures", static_cast<uint64_t>(failures)).flush();
     return failures;
 }

@@ -1,12 +1,12 @@
 // The self-test: its cases, how one is set up, and what is computed from
 // the recorded log. Shared by the firmware (app/selftest.cpp, which runs a
-// case in the 100 kHz interrupt) and the host (tests/firmware/
+// case in the tick interrupt) and the host (tests/firmware/
 // host_selftest.cpp, which runs the same steps in a plain loop), so that the
 // two log hashes can only differ if the core computes differently.
 //
-// Cases (0.2 s = 20 000 ticks each, the reference stage of
-// common/piezoloop/reference_stage.hpp as the emulated plant, a 10 Hz
-// triangle of 15 µm amplitude):
+// Reference cases (compiled in, every board; 0.2 s = 20 000 ticks at
+// 100 kHz each, the reference stage of common/piezoloop/reference_stage.hpp
+// as the emulated plant, a 10 Hz triangle of 15 µm amplitude):
 //   reference_all_blocks  reference::params(true, true, true): inverse PI
 //                         (15 operators), 3-section feedback, RC (N = 100)
 //                         in the loop, limits, recorder. The budget case.
@@ -20,22 +20,32 @@
 //   reference_ff_fb       reference::params(true, true, false): the same
 //                         without RC, a stable loop; its tracking figures
 //                         are the reference ones (e_max ~0.23 µm).
-// Scenario cases (the full controller case of each scenario in configs/)
-// are not run yet: docs/boards.md, "Self-test", says what they need.
+// Scenario cases (QEMU boards): board cases (common/piezoloop/
+// board_case.hpp) that `piezoloop sim ... --board-case FILE` wrote for one
+// scenario run each and QEMU's loader put into RAM: the scenario's stage,
+// loop rate and full scales, its controller (limits clipped to the board's
+// hard limits), its reference and length. scenario_case() turns one into a
+// SelfTestCase; its log hash must equal the simulator's, its tracking
+// figures are over the simulator's window (the last reference period).
+// tests/CMakeLists.txt (fw_selftest_<board>) and docs/boards.md, "Self-test",
+// say which cases run.
 //
-// Tracking metrics over the recorded frames from tick kMetricSkipTicks on
-// (the start transient excluded, as in reference_run.hpp):
+// Tracking metrics over the recorded frames from tick metric_start_tick on
+// (reference cases: kMetricSkipTicks, the start transient excluded as in
+// reference_run.hpp):
 //   e = r - y in the sample type, converted to µm; e_max_um = max |e|,
 //   e_rms_um = sqrt(mean e^2) (sum in double). u_max_abs_V: max |u| over
 //   all frames (must stay within the hard limits).
 // log_hash: LogHash (FNV-1a 64) over the bit patterns of r, y, u of every
-// recorded frame, in tick order (Q31: the raw integers).
+// recorded frame, in tick order (Q31: the raw integers) -- the fold of
+// `piezoloop sim --hash`.
 #pragma once
 
 #include <cstdint>
 
 #include "app/control_config.hpp"
 #include "bsp/emulated_stage.hpp"
+#include "piezoloop/board_case.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "piezoloop/reference_stage.hpp"
 
@@ -47,10 +57,11 @@ inline constexpr uint32_t kMetricSkipTicks = 2000;   // 20 ms start transient
 struct SelfTestCase {
     const char* name;
     PipelineParams params;
-    PlantConfig plant;
+    StageConfig stage;  // the emulated plant; its rate_Hz is the loop rate
     TrajectoryConfig wave;
     uint32_t ticks;
-    bool tracking_valid;  // false: the loop is known not to track (see above)
+    uint32_t metric_start_tick;  // tracking figures over [this, ticks)
+    bool tracking_valid;         // false: the loop is known not to track (see above)
 };
 
 constexpr TrajectoryConfig reference_wave() {
@@ -63,10 +74,10 @@ constexpr TrajectoryConfig reference_wave() {
 }
 
 inline constexpr SelfTestCase kSelfTestCases[] = {
-    {"reference_all_blocks", reference::params(true, true, true), reference::plant(), reference_wave(), kCaseTicks,
-     false},
-    {"reference_ff_fb", reference::params(true, true, false), reference::plant(), reference_wave(), kCaseTicks,
-     true},
+    {"reference_all_blocks", reference::params(true, true, true), ideal_stage(reference::plant(), kLoopRate_Hz),
+     reference_wave(), kCaseTicks, kMetricSkipTicks, false},
+    {"reference_ff_fb", reference::params(true, true, false), ideal_stage(reference::plant(), kLoopRate_Hz),
+     reference_wave(), kCaseTicks, kMetricSkipTicks, true},
 };
 inline constexpr int kSelfTestCaseCount = static_cast<int>(sizeof(kSelfTestCases) / sizeof(kSelfTestCases[0]));
 
@@ -75,19 +86,32 @@ inline constexpr int kSelfTestCaseCount = static_cast<int>(sizeof(kSelfTestCases
 inline constexpr BoardAnalog kEmulatedAnalog{reference::setup().hard, reference::setup().position.full_scale,
                                              reference::setup().voltage.full_scale};
 
+// A board case as a self-test case. The wave's table (if any) points into
+// `bc`, which must live until prepare_case() has started the wave (the
+// generator copies it).
+inline SelfTestCase scenario_case(const BoardCase& bc) {
+    return SelfTestCase{bc.name.data(), bc.params,           bc.profile.stage, board_case_wave(bc),
+                        bc.ticks,       bc.metric_start_tick, true};
+}
+
+// The pipeline setup of a board case on a board with hard limits `hard`:
+// the profile's full scales and loop rate.
+constexpr PipelineSetup scenario_setup(const BoardCase& bc, const HardLimits& hard) {
+    return pipeline_setup(BoardAnalog{hard, bc.profile.position_full_scale_um, bc.profile.voltage_full_scale_V},
+                          static_cast<float>(bc.profile.loop_rate_Hz));
+}
+
 // After a fresh pipeline and with the tick stopped: parameters staged (they
 // swap in at the first tick), recorder armed on {r, y, u, e}, the case's
-// plant as a stage of ideal parts at rest,
-// pipeline armed, wave started.
+// stage at rest, pipeline armed, wave started -- the order in which the
+// simulator (host/sim/closed_loop.cpp) starts a run.
 template <class T, class PipelineT>
 Status prepare_case(PipelineT& pipe, EmulatedStage& stage, const SelfTestCase& c) {
     if (const Status s = pipe.stage(c.params); !s.ok()) return s;
     if (const Status s = pipe.recorder().configure(log_recorder_config<T>()); !s.ok()) return s;
     if (!pipe.recorder().arm()) return error("recorder", "arm refused");
-    if (const Status s = stage.configure(ideal_stage(c.plant, pipe.setup().rate_Hz), pipe.setup().position,
-                                         pipe.setup().voltage);
-        !s.ok())
-        return s;
+    if (!(c.stage.rate_Hz == pipe.setup().rate_Hz)) return in_group("stage", error("rate_Hz", "must equal the loop rate"));
+    if (const Status s = stage.configure(c.stage, pipe.setup().position, pipe.setup().voltage); !s.ok()) return s;
     pipe.arm();
     if (const Status s = pipe.start_wave(c.wave); !s.ok()) return s;
     return ok_status();
@@ -98,7 +122,8 @@ Status prepare_case(PipelineT& pipe, EmulatedStage& stage, const SelfTestCase& c
 template <class T>
 class LogAccumulator {
 public:
-    LogAccumulator(SignalScale position, SignalScale voltage) : position_(position), voltage_(voltage) {}
+    LogAccumulator(SignalScale position, SignalScale voltage, uint32_t metric_start_tick)
+        : position_(position), voltage_(voltage), metric_start_(metric_start_tick) {}
 
     template <class Frame>
     void add(const Frame& f) {
@@ -110,7 +135,7 @@ public:
         hash_.add_sample(u);
         const float u_V = voltage_.to_physical(u);
         if (u_V > u_max_abs_V_ || -u_V > u_max_abs_V_) u_max_abs_V_ = u_V < 0.0f ? -u_V : u_V;
-        if (f.tick >= kMetricSkipTicks) {
+        if (f.tick >= metric_start_) {
             const float e = position_.to_physical(r - y);
             const float a = e < 0.0f ? -e : e;
             if (a > e_max_um_) e_max_um_ = a;
@@ -132,6 +157,7 @@ public:
 private:
     SignalScale position_;
     SignalScale voltage_;
+    uint32_t metric_start_;
     reference::LogHash hash_{};
     uint32_t frames_ = 0;
     uint32_t next_tick_ = 0;

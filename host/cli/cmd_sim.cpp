@@ -1,20 +1,30 @@
 // `piezoloop sim`: one closed-loop run of a scenario case (configs/*.json)
 // on the host, with the SPEC §9 figures of its last (steady-state) period as
-// JSON on stdout.
+// JSON on stdout. With --board-case FILE it also writes the run as a board
+// case (common/piezoloop/board_case.hpp) for the QEMU boards' self-test,
+// after clipping the case's limits to the boards' hard limits (and
+// simulating that), or refuses (exit 2, naming the field) what the boards
+// cannot run.
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "device_common.hpp"
+#include "piezoloop/board_case.hpp"
 #include "sim/build_case.hpp"
 #include "sim/experiments.hpp"
 #include "sim/model_dump.hpp"
@@ -42,6 +52,13 @@ struct SimArgs {
     bool hash_only = false;
     bool list = false;
     std::string dump_model;
+    std::string board_case;
+};
+
+// What a board case cannot carry: exit 2, the field named.
+struct BoardCaseRefused : std::invalid_argument {
+    BoardCaseRefused(const std::string& field, const std::string& why)
+        : std::invalid_argument("--board-case: " + field + ": " + why) {}
 };
 
 // A progress bar on stderr, only on a terminal and only once a run has
@@ -71,6 +88,78 @@ private:
     std::chrono::steady_clock::time_point t0_;
 };
 
+// The run as the QEMU boards would make it: the case's limits clipped to
+// their hard limits (as `set --scenario` clips them to a board's, the same
+// code), the pipeline built with those hard limits; refuses what they lack.
+void prepare_board_case(sim::BuiltCase& b, const sim::RunOptions& o, std::vector<std::string>& clipped) {
+    sim::LoopModel& m = b.model;
+    if (m.series)
+        throw BoardCaseRefused("feedforward.placement",
+                               "series (inverse after the controller) runs only in the host simulator");
+    if (m.params.rc_enabled && m.params.rc.period_samples > kEmulatedBoardRcCapacity)
+        throw BoardCaseRefused("rc.period_samples", std::to_string(m.params.rc.period_samples) +
+                                                        " is beyond the boards' delay line of " +
+                                                        std::to_string(kEmulatedBoardRcCapacity) +
+                                                        " samples (raise --frequency-hz)");
+    if (o.table.size() > link::kMaxWaveTable)
+        throw BoardCaseRefused("trajectory.table", std::to_string(o.table.size()) + " points, the link carries at most " +
+                                                       std::to_string(link::kMaxWaveTable));
+    if (o.ticks > UINT32_MAX) throw BoardCaseRefused("ticks", "at most 2^32 - 1 ticks");
+    link::HelloReply board;
+    board.hard_u_min_V = kEmulatedBoardHardLimits.u_min_V;
+    board.hard_u_max_V = kEmulatedBoardHardLimits.u_max_V;
+    board.hard_slew_max_V_per_s = kEmulatedBoardHardLimits.slew_max_V_per_s;
+    m.params.limits = clip_to_hard_limits(link::LimitsParams{m.params.limits}, board, clipped).limits;
+    m.setup.hard = kEmulatedBoardHardLimits;
+    for (const std::string& t : clipped) std::cerr << "clipped: " << t << "\n";
+}
+
+void write_board_case(const std::string& file, const sim::Scenario& s, const sim::CaseSpec& c,
+                      const sim::BuiltCase& b, const sim::RunOptions& o) {
+    const sim::LoopModel& m = b.model;
+    BoardCase bc;
+    const std::string name = s.name + "/" + c.name;
+    if (name.size() >= kBoardCaseNameBytes)
+        throw BoardCaseRefused("name", "'" + name + "' is longer than " + std::to_string(kBoardCaseNameBytes - 1));
+    std::copy(name.begin(), name.end(), bc.name.begin());
+    bc.ticks = static_cast<uint32_t>(o.ticks);
+    bc.metric_start_tick = static_cast<uint32_t>(o.window_start);
+    bc.sample = m.sample == sim::SampleType::kQ31 ? link::SampleFormat::kQ31 : link::SampleFormat::kFloat32;
+    const double rate = std::round(static_cast<double>(m.setup.rate_Hz));
+    if (rate != static_cast<double>(m.setup.rate_Hz) || rate < 1.0)
+        throw BoardCaseRefused("loop.rate_Hz", "must be a whole number of Hz");
+    bc.profile.loop_rate_Hz = static_cast<uint32_t>(rate);
+    bc.profile.position_full_scale_um = m.setup.position.full_scale;
+    bc.profile.voltage_full_scale_V = m.setup.voltage.full_scale;
+    bc.profile.stage = m.stage;
+    bc.profile.stage.rate_Hz = m.setup.rate_Hz;
+    if (const Status st = validate(bc.profile); !st.ok())
+        throw BoardCaseRefused(std::string(st.group != nullptr ? st.group : "profile") + "." + st.field, st.message);
+    bc.params = m.params;
+    link::TrajectoryParams& t = bc.trajectory;
+    t.waveform = o.wave.waveform;
+    t.amplitude_um = o.wave.amplitude_um;
+    t.offset_um = o.wave.offset_um;
+    t.frequency_Hz = o.wave.frequency_Hz;
+    t.cycles = o.wave.cycles;
+    t.start_phase_cycles = o.wave.start_phase_cycles;
+    t.return_fraction = o.wave.return_fraction;
+    t.duty = o.wave.duty;
+    t.table_count = static_cast<uint16_t>(o.table.size());
+    std::copy(o.table.begin(), o.table.end(), t.table.begin());
+    std::array<uint8_t, kBoardCaseSlotBytes> bytes{};
+    const std::size_t n = encode_board_case(bc, bytes);
+    if (n == 0) throw BoardCaseRefused("length", "the case does not fit a 2048-byte slot");
+    // What the board will decode must be what was simulated.
+    BoardCase back;
+    if (const Status st = decode_board_case(std::span<const uint8_t>(bytes.data(), n), back); !st.ok())
+        throw BoardCaseRefused(st.field, st.message);
+    std::ofstream f(file, std::ios::binary);
+    if (!f) throw std::runtime_error("--board-case: cannot write " + file);
+    f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(n));
+    if (!f) throw std::runtime_error("--board-case: cannot write " + file);
+}
+
 int run(const SimArgs& a) {
     const sim::Scenario s = sim::load_scenario(a.scenario);
     if (a.list) {
@@ -86,6 +175,10 @@ int run(const SimArgs& a) {
     sim::CaseSpec c = s.find_case(a.case_name);
     if (a.sample == "q31") c.sample = sim::SampleType::kQ31;
     if (a.sample == "float") c.sample = sim::SampleType::kFloat;
+    if (!a.board_case.empty() && a.fidelity != "float")
+        throw BoardCaseRefused("fidelity", "the boards run the float stage model (--fidelity float)");
+    if (!a.board_case.empty() && c.sample == sim::SampleType::kQ31 && c.feedforward.kind == "dahl")
+        throw BoardCaseRefused("feedforward.kind", "Dahl runs only in the float core (qemu-m7), not with --sample q31");
     if (c.sample == sim::SampleType::kQ31 && c.feedforward.kind == "dahl")
         throw std::invalid_argument("--sample q31: this case uses Dahl feedforward, which runs only in the float core");
 
@@ -114,6 +207,8 @@ int run(const SimArgs& a) {
         o.log_every = a.log_every > 0 ? static_cast<uint64_t>(a.log_every) : std::max<uint64_t>(1, o.ticks / 200000);
     }
     o.fidelity = a.fidelity == "double" ? sim::Fidelity::kDouble : sim::Fidelity::kFloat;
+    std::vector<std::string> clipped;
+    if (!a.board_case.empty()) prepare_board_case(b, o, clipped);
     auto progress = std::make_shared<Progress>();
     o.progress = [progress](double f) { progress->update(f); };
     const sim::RunResult r = sim::run_loop(b.model, o);
@@ -140,6 +235,8 @@ int run(const SimArgs& a) {
         if (!f) throw std::runtime_error("--dump-model: cannot write " + a.dump_model);
         f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     }
+
+    if (!a.board_case.empty()) write_board_case(a.board_case, s, c, b, o);
 
     if (a.hash_only) {
         std::cout << sim::hex64(r.log_hash) << "\n";
@@ -171,6 +268,7 @@ int run(const SimArgs& a) {
         out["log_hash"] = sim::hex64(r.log_hash);
         out["limiter"] = {{"trip", trip_reason_name(r.trip)}, {"clamped_samples", r.clamped_samples}};
         for (const std::string& n : b.notes) out["notes"].push_back(n);
+        if (!a.board_case.empty()) out["board_case"] = {{"file", a.board_case}, {"clipped", clipped}};
         if (b.dahl) {
             const DahlParams& d = b.dahl->params;
             out["dahl_identified"] = {{"alpha1", d.alpha1}, {"alpha2", d.alpha2}, {"beta1", d.beta1},
@@ -252,6 +350,9 @@ void add_sim(CLI::App& app) {
     cmd->add_option("--plot", a->plot, "draw r, y, e and the loop to a PNG (tools/plot_sim.py)");
     cmd->add_option("--dump-model", a->dump_model,
                     "write the run's core parameters as raw bytes (for tests/sim/sim_hash_probe, float fidelity)");
+    cmd->add_option("--board-case", a->board_case,
+                    "also write this run as a board case for the QEMU boards' self-test (limits clipped to their "
+                    "hard limits and simulated so; docs/boards.md, Self-test)");
     cmd->add_flag("--hash", a->hash_only, "print only the log hash of r, y, u (compare with the board self-test)");
     cmd->callback([a] {
         // Exit codes as the other commands: 2 bad input (the message names

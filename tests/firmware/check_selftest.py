@@ -9,10 +9,24 @@
   frames, ticks and tracking figures (printed by the same code);
 - zero overruns and gaps on the board.
 
+With --piezoloop and --configs it also runs the scenario cases (SCENARIO_CASES
+below, the one list of them): `piezoloop sim ... --duration-s 0.2
+--board-case FILE` writes each run as a board case
+(common/piezoloop/board_case.hpp), QEMU's generic loader puts the files into
+the board's RAM slots, and for each the board must print a line named
+"<scenario>/<case>" with
+- log_hash equal to the simulator's (bit-identity of the whole run: stage,
+  controller, reference; qemu-m7 against the float sim, qemu-m3 against
+  `--sample q31`), and equal to the host replay's, as every other field;
+- ticks as the simulator ran them, no overruns, no gaps;
+- e_max_um and e_rms_um (over the simulator's window, the last reference
+  period) within TRACKING_TOL_UM of the simulator's figures.
+
 It prints the per-tick budget figures (instructions, ADC read to DAC write)
 and whether they are within the board's budget, without failing on them.
 
     check_selftest.py <host_selftest> <selftest.elf> <machine> <float|q31>
+                      [--piezoloop EXE --configs DIR]
 
 Environment: PIEZOLOOP_QEMU_TIMEOUT (seconds, default 60), QEMU_SYSTEM_ARM.
 """
@@ -20,6 +34,35 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
+
+# The scenario cases the self-test runs, 0.2 s each:
+#   (scenario, case on the float core (qemu-m7), case on the Q31 core
+#    (qemu-m3), reference: what the scenario's tracking experiment uses)
+# ahmad2020: Dahl feedforward runs only in the float core, so qemu-m3 runs
+#   the open-loop case (gain feedforward), the only Ahmad case the Q31 core
+#   has. 10 kHz: 2000 ticks.
+# shan2012: pi_rc_inv places the inverse in series after the controller,
+#   which only the host simulator runs today; pi_rc until the core has it
+#   (then: "pi_rc_inv" in both columns). 1 kHz: RC N = 100 fits the boards'
+#   delay line (128).
+SCENARIO_CASES = [
+    ("ahmad2020", "dahl_ff_K", "open_loop",
+     ["--trajectory", "triangle", "--frequency-hz", "10", "--amplitude-um", "12"]),
+    ("janaideh2016", "ff_fb", "ff_fb",
+     ["--trajectory", "sine", "--frequency-hz", "10", "--amplitude-um", "40"]),
+    ("shan2012", "pi_rc", "pi_rc",
+     ["--trajectory", "triangle", "--frequency-hz", "1000", "--amplitude-um", "10"]),
+]
+SCENARIO_DURATION_S = "0.2"
+BOARD_CASE_ADDRESS = 0x003FE000  # common/piezoloop/board_case.hpp: kBoardCaseAddress
+BOARD_CASE_SLOT_BYTES = 2048     # kBoardCaseSlotBytes (3 slots)
+# The board prints e_max_um / e_rms_um rounded to 4 decimals (0.5e-4 um) and
+# forms e = r - y in the core's sample type before converting it to um,
+# where the simulator takes the difference of r and y already converted to
+# float um (in double): at most an ulp of a 64 um full scale (7.6e-6 um) per
+# sample apart. 1e-4 um covers both with margin; the hashes are exact.
+TRACKING_TOL_UM = 1e-4
 
 
 def json_lines(text):
@@ -35,18 +78,51 @@ def json_lines(text):
     return out
 
 
+def make_board_cases(piezoloop, configs, sample, tmpdir):
+    """Runs the simulator for each scenario case; returns [(name, file, sim json)]."""
+    out = []
+    for i, (scenario, float_case, q31_case, reference) in enumerate(SCENARIO_CASES):
+        case = float_case if sample == "float" else q31_case
+        path = os.path.join(tmpdir, f"case{i}.bin")
+        cmd = [piezoloop, "sim", "--scenario", os.path.join(configs, scenario + ".json"), "--case", case,
+               "--sample", sample, *reference, "--duration-s", SCENARIO_DURATION_S, "--board-case", path]
+        print("$ " + " ".join(cmd))
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+        if r.stderr:
+            print(r.stderr, end="")
+        if r.returncode != 0:
+            raise RuntimeError(f"piezoloop sim failed ({r.returncode}) for {scenario}/{case}")
+        out.append((f"{scenario}/{case}", path, json.loads(r.stdout)))
+    return out
+
+
 def main():
-    if len(sys.argv) != 5:
+    args = sys.argv[1:]
+    piezoloop = configs = None
+    while len(args) > 4 and args[-2] in ("--piezoloop", "--configs"):
+        if args[-2] == "--piezoloop":
+            piezoloop = args[-1]
+        else:
+            configs = args[-1]
+        args = args[:-2]
+    if len(args) != 4 or (piezoloop is None) != (configs is None):
         print(__doc__)
         return 2
-    host_bin, elf, machine, sample = sys.argv[1:]
+    host_bin, elf, machine, sample = args
     if not os.path.isfile(elf):
         print(f"no firmware image {elf}: build the firmware preset first (tools/test does)")
         return 2
     timeout_s = float(os.environ.get("PIEZOLOOP_QEMU_TIMEOUT", "60"))
     qemu = os.environ.get("QEMU_SYSTEM_ARM", "qemu-system-arm")
 
-    host = subprocess.run([host_bin, sample], capture_output=True, text=True, timeout=300)
+    tmpdir = tempfile.TemporaryDirectory(prefix="check_selftest_")
+    scenario = make_board_cases(piezoloop, configs, sample, tmpdir.name) if piezoloop else []
+    if len(scenario) > 3:
+        print("FAIL: more scenario cases than the board's 3 slots")
+        return 1
+
+    host = subprocess.run([host_bin, sample, *[f for _, f, _ in scenario]], capture_output=True, text=True,
+                          timeout=300)
     print(host.stdout, end="")
     if host.returncode != 0:
         print(f"host replay failed ({host.returncode}): {host.stderr}")
@@ -56,6 +132,8 @@ def main():
     # -icount shift=0: one instruction per virtual ns (deterministic timing);
     # sleep=off: never tie virtual time to the host clock.
     cmd = [qemu, "-M", machine, "-nographic", "-semihosting", "-icount", "shift=0,sleep=off", "-kernel", elf]
+    for i, (_, path, _) in enumerate(scenario):
+        cmd += ["-device", f"loader,file={path},addr=0x{BOARD_CASE_ADDRESS + i * BOARD_CASE_SLOT_BYTES:x}"]
     try:
         board = subprocess.run(cmd, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=timeout_s)
     except subprocess.TimeoutExpired as e:
@@ -84,6 +162,11 @@ def main():
     for c in lines:
         if "check" in c:
             check(c.get("ok") is True, f"board check {c['check']}: {c}")
+        if "error" in c:
+            check(False, f"board error line: {c}")
+    if scenario and len(done) == 1:
+        check(done[0].get("scenario_cases") == len(scenario),
+              f"board ran {done[0].get('scenario_cases')} scenario cases, {len(scenario)} loaded")
     check(len(host_cases) > 0, "host replay printed cases")
     for name, h in host_cases.items():
         b = board_cases.get(name)
@@ -95,6 +178,25 @@ def main():
             check(b.get(key) == h.get(key), f"case {name}: {key} board {b.get(key)} != host {h.get(key)}")
         check(b.get("overruns") == 0, f"case {name}: {b.get('overruns')} overruns")
         check(b.get("gaps") == 0, f"case {name}: {b.get('gaps')} recorder gaps")
+
+    for name, _, sim in scenario:
+        b = board_cases.get(name)
+        if b is None:
+            check(False, f"scenario case {name}: no board line")
+            continue
+        check(b.get("log_hash") == "0x" + sim["log_hash"],
+              f"scenario case {name}: log_hash board {b.get('log_hash')} != sim 0x{sim['log_hash']}")
+        check(b.get("ticks") == sim["ticks"] and b.get("frames") == sim["ticks"],
+              f"scenario case {name}: ticks/frames board {b.get('ticks')}/{b.get('frames')} != sim {sim['ticks']}")
+        check(b.get("loop_rate_Hz") == sim["loop_rate_Hz"],
+              f"scenario case {name}: loop rate board {b.get('loop_rate_Hz')} != sim {sim['loop_rate_Hz']}")
+        for key in ("e_max_um", "e_rms_um"):
+            bv = b.get(key)
+            check(isinstance(bv, (int, float)) and abs(bv - sim[key]) <= TRACKING_TOL_UM,
+                  f"scenario case {name}: {key} board {bv} vs sim {sim[key]} (tolerance {TRACKING_TOL_UM} um)")
+        print(f"  {name}: log_hash board {b.get('log_hash')} sim 0x{sim['log_hash']}; e_max {b.get('e_max_um')} um "
+              f"(sim {sim['e_max_um']:.6f}), e_rms {b.get('e_rms_um')} um (sim {sim['e_rms_um']:.6f}), "
+              f"{b.get('ticks')} ticks at {b.get('loop_rate_Hz')} Hz")
 
     print("budget (controller tick, ADC read to DAC write, instructions under -icount shift=0):")
     for name, b in board_cases.items():

@@ -7,12 +7,20 @@
 // formatted by the same code as on the board:
 //   {"board":"host","name","sample","ticks","frames","gaps","tracking_valid",
 //    "e_max_um","e_rms_um","u_max_abs_V","log_hash"}
-//   host_selftest float|q31
+//   host_selftest float|q31 [CASE.bin ...]
+// Board cases (common/piezoloop/board_case.hpp, written by `piezoloop sim
+// --board-case`) given as files run after the reference cases, decoded and
+// set up as the board does it (selftest_cases.hpp scenario_case /
+// scenario_setup, the QEMU boards' hard limits).
 #include <array>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <memory>
+#include <vector>
 #include <span>
+#include <type_traits>
 
 #include "app/control_config.hpp"
 #include "app/json_line.hpp"
@@ -31,8 +39,8 @@ using namespace piezoloop;
 using namespace piezoloop::fw;
 
 template <class T>
-int run_case(const SelfTestCase& c, const char* sample) {
-    auto pipe = std::make_unique<FwPipeline<T>>(pipeline_setup(kEmulatedAnalog));
+int run_case(const SelfTestCase& c, const char* sample, const PipelineSetup& setup) {
+    auto pipe = std::make_unique<FwPipeline<T>>(setup);
     auto stage = std::make_unique<EmulatedStage>();
     JsonLine j;
     j.str("board", "host").str("name", c.name);
@@ -40,7 +48,7 @@ int run_case(const SelfTestCase& c, const char* sample) {
         j.str("error", s.field).str("message", s.message).flush();
         return 1;
     }
-    LogAccumulator<T> acc(pipe->setup().position, pipe->setup().voltage);
+    LogAccumulator<T> acc(pipe->setup().position, pipe->setup().voltage, c.metric_start_tick);
     std::array<typename FwPipeline<T>::RecorderType::Frame, 64> frames;
     for (uint32_t k = 0; k < c.ticks; ++k) {
         emulated_control_step<T>(*pipe, *stage);
@@ -56,17 +64,34 @@ int run_case(const SelfTestCase& c, const char* sample) {
 }
 
 template <class T>
-int run_all(const char* sample) {
+int run_board_case(const char* path, const char* sample) {
+    std::ifstream f(path, std::ios::binary);
+    const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    auto bc = std::make_unique<BoardCase>();
+    const link::SampleFormat core = std::is_same_v<T, Q31> ? link::SampleFormat::kQ31 : link::SampleFormat::kFloat32;
+    Status s = decode_board_case(bytes, *bc);
+    if (s.ok() && bc->sample != core) s = error("sample", "the case was built for the other core");
+    if (!s.ok()) {
+        JsonLine j;
+        j.str("board", "host").str("name", path).str("error", s.field).str("message", s.message).flush();
+        return 1;
+    }
+    return run_case<T>(scenario_case(*bc), sample, scenario_setup(*bc, kEmulatedBoardHardLimits));
+}
+
+template <class T>
+int run_all(const char* sample, int n_cases, char** cases) {
     int failures = 0;
-    for (const SelfTestCase& c : kSelfTestCases) failures += run_case<T>(c, sample);
+    for (const SelfTestCase& c : kSelfTestCases) failures += run_case<T>(c, sample, pipeline_setup(kEmulatedAnalog));
+    for (int i = 0; i < n_cases; ++i) failures += run_board_case<T>(cases[i], sample);
     return failures;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc == 2 && std::strcmp(argv[1], "float") == 0) return run_all<float>("float");
-    if (argc == 2 && std::strcmp(argv[1], "q31") == 0) return run_all<Q31>("q31");
-    std::fprintf(stderr, "usage: %s float|q31\n", argv[0]);
+    if (argc >= 2 && std::strcmp(argv[1], "float") == 0) return run_all<float>("float", argc - 2, argv + 2);
+    if (argc >= 2 && std::strcmp(argv[1], "q31") == 0) return run_all<Q31>("q31", argc - 2, argv + 2);
+    std::fprintf(stderr, "usage: %s float|q31 [CASE.bin ...]\n", argv[0]);
     return 2;
 }
