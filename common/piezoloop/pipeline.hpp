@@ -8,6 +8,15 @@
 //   u     = limits(u_ff + u_fb)  -> DAC
 //   recorder <- (r, y, e, u, u_ff, u_fb, u_rc)
 //
+// Series placement (FeedforwardKind::kPiSeries, Shan2012's structure): the
+// compensator follows the controller instead of adding to it,
+//   u_fb <- feedback of e' (a displacement correction, µm)
+//   u_ff  = P^-1(r + u_fb)       (V; recorded as u_ff)
+//   u     = limits(u_ff)  -> DAC
+// so the feedback loop and the RC see P(P^-1(.)) ~ identity instead of the
+// hysteresis' local slope. The limiter stays last, in volts, for every kind:
+// the hard limits protect the piezo whatever the placement.
+//
 // What the hardware fixes (loop rate, converter full scales, hard output
 // limits) is the PipelineSetup, given once at construction. What users tune is
 // the PipelineParams: validated field by field, configured into the inactive
@@ -48,6 +57,8 @@ enum class FeedforwardKind : uint8_t {
     kPiInverse,      // `pi` is the stage's model (V -> µm); its analytic inverse runs
     kPiCompensator,  // `pi` is the compensator itself (µm -> V), e.g. Shan2012's inverse
     kDahl,           // inversion-free Dahl feedforward (float pipeline only)
+    kPiSeries,       // `pi` is the compensator (µm -> V) in series after the feedback:
+                     // u = limits(pi(r + u_fb)), the feedback's output in µm (Shan2012)
 };
 
 enum class FeedbackKind : uint8_t { kNone = 0, kSos, kPid };
@@ -64,9 +75,11 @@ struct PipelineParams {
     PiModel pi{};
     DahlParams dahl{};
     FeedbackKind feedback = FeedbackKind::kNone;
-    int sos_count = 0;  // feedback sections: e (µm) -> u_fb (V), discrete at the loop rate
+    // Feedback e (µm) -> u_fb (V); with kPiSeries, e (µm) -> u_fb (µm): a
+    // correction of the displacement command (the PID's u_min/u_max in µm).
+    int sos_count = 0;  // feedback sections, discrete at the loop rate
     std::array<SosSection, kMaxControllerSections> sos{};
-    PidConfig pid{};    // e (µm) -> u_fb (V)
+    PidConfig pid{};
     bool rc_enabled = false;
     RepetitiveConfig rc{};
     LimitsConfig limits{};
@@ -263,7 +276,17 @@ private:
                 e_fb = s.e + s.u_rc;
             }
             s.u_fb = b.feedback_apply(e_fb);
-            s.u = limiter_.apply(s.u_ff + s.u_fb);
+            // Series placement: the compensator needs u_fb, so it runs here
+            // (begin_phase left u_ff at zero). The other kinds pay one
+            // well-predicted branch; their arithmetic is unchanged.
+            T command;
+            if (b.ff_kind == FeedforwardKind::kPiSeries) [[unlikely]] {
+                s.u_ff = b.pi.apply(s.r + s.u_fb);
+                command = s.u_ff;
+            } else {
+                command = s.u_ff + s.u_fb;
+            }
+            s.u = limiter_.apply(command);
         } else {
             s.u_fb = sample_zero<T>();
             s.u = limiter_.apply(sample_zero<T>());
@@ -289,6 +312,7 @@ private:
                     return pi.apply(r);
                 case FeedforwardKind::kDahl:
                     if constexpr (kFloat) return dahl.step(r); else return sample_zero<T>();
+                case FeedforwardKind::kPiSeries:  // runs in output_phase, after the feedback
                 case FeedforwardKind::kNone:
                     break;
             }
@@ -326,6 +350,7 @@ private:
                 break;
             }
             case FeedforwardKind::kPiCompensator:
+            case FeedforwardKind::kPiSeries:
                 if (const Status s = b.pi.configure(p.pi, setup_.position, setup_.voltage); !s.ok())
                     return in_group("pi", s);
                 break;
@@ -335,8 +360,14 @@ private:
                 if (const Status s = b.dahl.configure(p.dahl); !s.ok()) return in_group("dahl", s);
                 break;
             default:
-                return error("feedforward", "must be none, pi_inverse, pi_compensator or dahl");
+                return error("feedforward", "must be none, pi_inverse, pi_compensator, dahl or pi_series");
         }
+        // Series placement: the feedback corrects the displacement command,
+        // so its output is in µm (in Q31: scaled by the position full scale).
+        const bool series = p.feedforward == FeedforwardKind::kPiSeries;
+        if (series && p.feedback == FeedbackKind::kNone)
+            return error("feedforward", "pi_series puts the compensator after the feedback: set feedback (sos or pid)");
+        const SignalScale fb_out = series ? setup_.position : setup_.voltage;
         b.fb_kind = p.feedback;
         switch (p.feedback) {
             case FeedbackKind::kNone:
@@ -344,12 +375,12 @@ private:
             case FeedbackKind::kSos:
                 if (p.sos_count < 1 || p.sos_count > kMaxControllerSections)
                     return error("sos_count", "must be in [1, 4]");
-                if (const Status s = b.sos.configure(p.sos.data(), p.sos_count, setup_.position, setup_.voltage);
+                if (const Status s = b.sos.configure(p.sos.data(), p.sos_count, setup_.position, fb_out);
                     !s.ok())
                     return in_group("sos", s);
                 break;
             case FeedbackKind::kPid:
-                if (const Status s = b.pid.configure(p.pid, setup_.rate_Hz, setup_.position, setup_.voltage);
+                if (const Status s = b.pid.configure(p.pid, setup_.rate_Hz, setup_.position, fb_out);
                     !s.ok())
                     return in_group("pid", s);
                 break;
@@ -380,7 +411,12 @@ private:
             next.pi = old.pi;
             next.dahl = old.dahl;
         }
-        if (pn.feedback == po.feedback && pn.sos_count == po.sos_count && pn.sos == po.sos && pn.pid == po.pid) {
+        // The feedback's output unit follows the placement (V, or µm in
+        // series): a change of placement restarts it.
+        const bool same_placement =
+            (pn.feedforward == FeedforwardKind::kPiSeries) == (po.feedforward == FeedforwardKind::kPiSeries);
+        if (same_placement && pn.feedback == po.feedback && pn.sos_count == po.sos_count && pn.sos == po.sos &&
+            pn.pid == po.pid) {
             next.sos = old.sos;
             next.pid = old.pid;
         }

@@ -129,10 +129,6 @@ json set_scenario(Client& c, const SetArgs& a) {
     const sim::Scenario s = sim::load_scenario(a.scenario);
     const sim::CaseSpec& cs = s.find_case(a.case_name);
     const link::HelloReply& h = c.info();
-    if (cs.feedforward.placement == "series")
-        throw std::invalid_argument("case " + cs.name +
-                                    ": the inverse runs in series after the controller, which only the host simulator "
-                                    "has (the board's pipeline has no such placement)");
     if (cs.feedforward.kind == "dahl" && !(h.capabilities & link::cap::kDahl))
         throw std::invalid_argument("case " + cs.name + ": Dahl feedforward, which this board (" +
                                     std::string(h.board.data()) + ", Q31 pipeline) does not run");
@@ -175,10 +171,20 @@ json set_scenario(Client& c, const SetArgs& a) {
         c.set(g.rc);
         sent.push_back("rc");
     }
-    c.set(g.feedforward);
-    sent.push_back("feedforward");
+    // pi_series needs a feedback (its output feeds the inverse): set the
+    // feedback first when going to it, the feedforward first otherwise (so
+    // leaving pi_series never sees it without a feedback).
+    const bool series = g.feedforward.kind == FeedforwardKind::kPiSeries;
+    if (!series) {
+        c.set(g.feedforward);
+        sent.push_back("feedforward");
+    }
     c.set(g.feedback);
     sent.push_back("feedback");
+    if (series) {
+        c.set(g.feedforward);
+        sent.push_back("feedforward");
+    }
     if (g.rc.enabled) {
         c.set(g.rc);
         sent.push_back("rc");

@@ -93,9 +93,6 @@ private:
 // code), the pipeline built with those hard limits; refuses what they lack.
 void prepare_board_case(sim::BuiltCase& b, const sim::RunOptions& o, std::vector<std::string>& clipped) {
     sim::LoopModel& m = b.model;
-    if (m.series)
-        throw BoardCaseRefused("feedforward.placement",
-                               "series (inverse after the controller) runs only in the host simulator");
     if (m.params.rc_enabled && m.params.rc.period_samples > kEmulatedBoardRcCapacity)
         throw BoardCaseRefused("rc.period_samples", std::to_string(m.params.rc.period_samples) +
                                                         " is beyond the boards' delay line of " +
@@ -226,10 +223,6 @@ int run(const SimArgs& a) {
         d.wave.sample_rate_Hz = b.model.setup.rate_Hz;
         d.table = o.table;
         d.ticks = o.ticks;
-        d.series = b.model.series ? 1u : 0u;
-        d.series_pi = b.model.series_pi;
-        d.series_u_min_V = b.model.series_u_min_V;
-        d.series_u_max_V = b.model.series_u_max_V;
         const std::vector<unsigned char> bytes = sim::serialise(d);
         std::ofstream f(a.dump_model, std::ios::binary);
         if (!f) throw std::runtime_error("--dump-model: cannot write " + a.dump_model);

@@ -90,7 +90,7 @@ private:
     std::vector<std::string> used_;
 };
 
-const char* const kFeedforwardKinds[] = {"none", "pi_inverse", "pi_compensator", "dahl"};
+const char* const kFeedforwardKinds[] = {"none", "pi_inverse", "pi_compensator", "dahl", "pi_series"};
 const char* const kFeedbackKinds[] = {"none", "sos", "pid"};
 const char* const kWaveforms[] = {"sine", "triangle", "raster", "square", "steps", "table"};
 const char* const kModes[] = {"single_shot", "continuous"};

@@ -42,11 +42,11 @@ PlantConfig hysteresis_config(const HysteresisSpec& h) {
 
 // The toolkit's realisation check of the controller as the core will run it.
 std::string realisation_note(const design::Zpk& discrete, const PipelineParams& p, SampleType sample,
-                             const PipelineSetup& setup) {
+                             SignalScale in, SignalScale out) {
     design::RealisationOptions ro;
     ro.format = sample == SampleType::kQ31 ? design::SampleFormat::kQ31 : design::SampleFormat::kFloat;
-    ro.in_full_scale = setup.position.full_scale;
-    ro.out_full_scale = setup.voltage.full_scale;
+    ro.in_full_scale = in.full_scale;
+    ro.out_full_scale = out.full_scale;
     const std::vector<SosSection> sos(p.sos.begin(), p.sos.begin() + p.sos_count);
     const design::RealisationReport r = design::check_realisation(discrete, sos, ro);
     std::string text = std::string(design::sample_format_name(ro.format)) + " realisation of the controller (design/realisation): ";
@@ -58,6 +58,27 @@ std::string realisation_note(const design::Zpk& discrete, const PipelineParams& 
     if (!r.fit)
         for (const std::string& w : r.warnings) text += " " + w;
     return text;
+}
+
+// The same compensator on its input x itself (input_gain 1): the play
+// operators are positively homogeneous, k p0 x + sum k w play_{r/k}(x) =
+// p0 (k x) + sum w play_r(k x) for k > 0, so the thresholds move to the
+// input's unit (µm). In Q31 the input then stays within the position full
+// scale, which k x would not (Shan2012: k = 1 / 0.29). Used for the series
+// placement; the feedforward placement keeps the affine form (its float
+// results unchanged).
+PiModel on_unit_input(const PiModel& c) {
+    if (!(c.input_gain > 0.0f) || c.input_offset != 0.0f || c.input_gain == 1.0f) return c;
+    const double k = c.input_gain;
+    PiModel u = c;
+    u.input_gain = 1.0f;
+    u.p0 = f32(c.p0 * k);
+    for (int j = 0; j < c.count; ++j) {
+        const size_t i = static_cast<size_t>(j);
+        u.thresholds[i] = f32(c.thresholds[i] / k);
+        u.weights[i] = f32(c.weights[i] * k);
+    }
+    return u;
 }
 
 }  // namespace
@@ -205,25 +226,14 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         std::string note;
         const PiModel inv = inverse_compensator(h, g, note);
         if (!note.empty()) b.notes.push_back(note);
-        if (ff.placement == "series") {
-            // u = P^-1(r + slope * u_fb): the pipeline passes r through and
-            // its feedback works in µm (volts at the mean slope); the inverse
-            // runs after it on the host.
-            m.series = true;
-            m.series_pi = inv;
-            m.series_u_min_V = s.limits.u_min_V;
-            m.series_u_max_V = s.limits.u_max_V;
-            p.feedforward = FeedforwardKind::kPiCompensator;
-            p.pi = PiModel{};
-            p.pi.p0 = 1.0f;
-            b.notes.push_back("inverse in series after the controller (Shan2012's structure): u = P^-1(r + " +
-                              num(s.command_um_per_V()) +
-                              " um/V * u_fb); the core's pipeline has no such placement, so the inverse runs "
-                              "on the host after the pipeline (same PiOperator code)");
-        } else {
-            p.feedforward = FeedforwardKind::kPiCompensator;
-            p.pi = inv;
-        }
+        // Series (Shan2012): u = limits(P^-1(r + u_fb)), the core's
+        // kPiSeries; otherwise u = limits(P^-1(r) + u_fb).
+        p.feedforward = ff.placement == "series" ? FeedforwardKind::kPiSeries : FeedforwardKind::kPiCompensator;
+        p.pi = ff.placement == "series" ? on_unit_input(inv) : inv;
+        if (ff.placement == "series")
+            b.notes.push_back("inverse in series after the controller (Shan2012's structure, the core's pi_series): "
+                              "u = limits(P^-1(r + u_fb)), the feedback's output in um (its published volts at " +
+                              num(s.command_um_per_V()) + " um/V); the limits stay last, in volts");
     } else if (ff.kind == "pi_compensator") {
         p.feedforward = FeedforwardKind::kPiCompensator;
         p.pi = ff.pi;
@@ -240,21 +250,14 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         }
     }
 
-    if (m.series) {
-        // The pipeline's limiter now bounds the displacement command; the
-        // real voltage limits are applied after the inverse.
-        const double sl = s.command_um_per_V();
-        m.setup.hard = HardLimits{f32(s.setup.hard.u_min_V * sl), f32(s.setup.hard.u_max_V * sl),
-                                  f32(s.setup.hard.slew_max_V_per_s * sl)};
-        m.setup.voltage = SignalScale{f32(s.setup.voltage.full_scale * sl)};
-        p.limits = LimitsConfig{f32(s.limits.u_min_V * sl), f32(s.limits.u_max_V * sl),
-                                f32(s.limits.slew_V_per_s * sl), s.limits.saturation_trip_s};
-    }
-
     // Feedback, in the controller's error unit: gains scaled to µm.
     const FeedbackSpec& fb = c.feedback;
-    // In series placement the controller's volts become µm at the mean slope.
-    const double out = m.series ? s.command_um_per_V() : 1.0;
+    // In series placement the feedback's output is a displacement
+    // correction: the published controller's volts become µm at the mean
+    // slope (and its Q31 output is scaled by the position full scale).
+    const bool series = p.feedforward == FeedforwardKind::kPiSeries;
+    const double out = series ? s.command_um_per_V() : 1.0;
+    const SignalScale fb_out = series ? m.setup.position : m.setup.voltage;
     const double k = fb.error_per_um * out;
     if (fb.kind == "pid") {
         p.feedback = FeedbackKind::kPid;
@@ -278,7 +281,7 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
             design::SosScaling sc;
             sc.norm = design::SosNorm::kL1;
             sc.in_full_scale = m.setup.position.full_scale;
-            sc.out_full_scale = m.setup.voltage.full_scale;
+            sc.out_full_scale = fb_out.full_scale;
             sos = design::scale_sos(sos, sc);
         }
         if (sos.size() > static_cast<size_t>(kMaxControllerSections))
@@ -288,7 +291,7 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         p.sos_count = static_cast<int>(sos.size());
         for (size_t i = 0; i < sos.size(); ++i) p.sos[i] = sos[i];
         b.controller_sections = p.sos_count;
-        if (o.check_realisation) b.notes.push_back(realisation_note(zd, p, c.sample, m.setup));
+        if (o.check_realisation) b.notes.push_back(realisation_note(zd, p, c.sample, m.setup.position, fb_out));
     }
 
     // Repetitive control.

@@ -52,12 +52,9 @@ RunResult run_with(const LoopModel& m, const RunOptions& o, Stage& stage) {
     std::complex<double> phasor = 1.0, acc_r = 0.0, acc_y = 0.0;
     uint64_t tone_n = 0;
 
-    PiOperator<float> series_op;
-    SeriesInverse series;
-    if (m.series) {
-        if (const Status s = series_op.configure(m.series_pi); !s.ok()) reject("series inverse", s);
-        series = SeriesInverse{&series_op, m.series_u_min_V, m.series_u_max_V};
-    }
+    // u_fb is a voltage, or in series placement a displacement correction.
+    const SignalScale fb_scale =
+        m.params.feedforward == FeedforwardKind::kPiSeries ? m.setup.position : m.setup.voltage;
 
     auto observe = [&](const TickView& v, const TickSignals<T>& sig, const Stage& st) {
         const uint64_t k = v.k;
@@ -87,7 +84,7 @@ RunResult run_with(const LoopModel& m, const RunOptions& o, Stage& stage) {
             l.y_um.push_back(v.y_um);
             l.u_V.push_back(v.u_V);
             l.u_ff_V.push_back(volt.to_physical(sig.u_ff));
-            l.u_fb_V.push_back(volt.to_physical(sig.u_fb));
+            l.u_fb_V.push_back(fb_scale.to_physical(sig.u_fb));
             l.v_piezo_V.push_back(static_cast<float>(st.piezo_voltage_V()));
             l.x_um.push_back(static_cast<float>(st.displacement_um()));
         }
@@ -96,7 +93,7 @@ RunResult run_with(const LoopModel& m, const RunOptions& o, Stage& stage) {
     };
 
     const auto t0 = std::chrono::steady_clock::now();
-    run_ticks<T>(*pipe, stage, m.stage.sensor.gain, o.ticks, series, o.hash ? &hash : nullptr, observe);
+    run_ticks<T>(*pipe, stage, m.stage.sensor.gain, o.ticks, o.hash ? &hash : nullptr, observe);
     const auto t1 = std::chrono::steady_clock::now();
     res.wall_s = std::chrono::duration<double>(t1 - t0).count();
     res.ticks = o.ticks;

@@ -53,13 +53,6 @@ struct LoopModel {
     SampleType sample = SampleType::kFloat;
     StageConfig stage{};               // float fidelity (rate_Hz = setup.rate_Hz)
     DoubleStageConfig stage_double{};  // double fidelity
-    // Inverse in series after the controller (Shan2012's structure): the
-    // pipeline's output is a displacement command u_c (µm) and
-    // u = clamp(series_pi(u_c), series_u_min_V, series_u_max_V). The core's
-    // pipeline has no such placement, so this runs on the host only.
-    bool series = false;
-    PiModel series_pi{};
-    float series_u_min_V = 0.0f, series_u_max_V = 0.0f;
 };
 
 struct RunOptions {
@@ -84,6 +77,8 @@ struct RunOptions {
 
 struct RunLog {
     std::vector<uint64_t> tick;
+    // u_fb_V: volts, or µm with FeedforwardKind::kPiSeries (a correction of
+    // the displacement command before the inverse).
     std::vector<float> r_um, y_um, u_V, v_piezo_V, x_um, u_ff_V, u_fb_V;
 };
 

@@ -2,28 +2,21 @@
 // core alone, so that the simulator (sim/closed_loop.cpp) and the benchmark
 // (bench/bench_sim.cpp) time exactly the same code.
 //
-//   tick k:  y_k -> Pipeline::tick -> u_k  [-> series inverse] -> stage.step
+//   tick k:  y_k -> Pipeline::tick -> u_k -> stage.step
 //            -> reading latched -> y_{k+1} = reading / sensor gain
 //
-// One tick of compute delay, as on the emulated boards. y_0 = 0.
+// One tick of compute delay, as on the emulated boards. y_0 = 0. Every
+// placement of the inverse (feedforward or Shan2012's series) is the core's
+// (FeedforwardKind), so a board running the same parameters computes the same.
 #pragma once
 
 #include <cstdint>
 
-#include "piezoloop/pi_model.hpp"
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "piezoloop/sample.hpp"
 
 namespace piezoloop::sim {
-
-// Shan2012's placement of the inverse: in series after the controller,
-// u_V = clamp(P^-1(u_c)), where u_c is the pipeline's output read as a
-// displacement command (µm). Runs the core's PiOperator<float> on the host.
-struct SeriesInverse {
-    PiOperator<float>* op = nullptr;  // null: none
-    float u_min_V = 0.0f, u_max_V = 0.0f;
-};
 
 struct TickView {
     uint64_t k;
@@ -35,8 +28,8 @@ struct TickView {
 template <class T, class PipelineT, class Stage>
 class LoopStepper {
 public:
-    LoopStepper(PipelineT& pipe, Stage& stage, float sensor_gain, SeriesInverse series, reference::LogHash* hash)
-        : pipe_(pipe), stage_(stage), gain_(sensor_gain), series_(series), hash_(hash),
+    LoopStepper(PipelineT& pipe, Stage& stage, float sensor_gain, reference::LogHash* hash)
+        : pipe_(pipe), stage_(stage), gain_(sensor_gain), hash_(hash),
           pos_(pipe.setup().position), volt_(pipe.setup().voltage) {}
 
     // Tick k; observe(const TickView&, const TickSignals<T>&, const Stage&)
@@ -49,14 +42,15 @@ public:
         const TickSignals<T>& sig = pipe_.last();
         if (hash_) {
             hash_->add_sample(sig.r);
-            hash_->add_sample(y);
+            // sig.y is y (the pipeline stores the reading as given); taken
+            // from memory so that y itself stays in a float register across
+            // the tick (folding y's bits kept it in an integer register, two
+            // cross-domain moves on the loop's dependency chain: bench_sim
+            // ~200x -> ~190x real time).
+            hash_->add_sample(sig.y);
             hash_->add_sample(u);
         }
-        float u_V = volt_.to_physical(u);
-        if (series_.op) {
-            u_V = series_.op->apply(u_V);
-            u_V = u_V < series_.u_min_V ? series_.u_min_V : (u_V > series_.u_max_V ? series_.u_max_V : u_V);
-        }
+        const float u_V = volt_.to_physical(u);
         const float reading = stage_.step(u_V);
         observe(TickView{k, pos_.to_physical(sig.r), pos_.to_physical(y), u_V}, sig, stage_);
         y_um_ = gain_ == 1.0f ? reading : reading / gain_;
@@ -66,7 +60,6 @@ private:
     PipelineT& pipe_;
     Stage& stage_;
     float gain_;
-    SeriesInverse series_;
     reference::LogHash* hash_;
     SignalScale pos_, volt_;
     float y_um_ = 0.0f;
@@ -75,9 +68,9 @@ private:
 // Runs `ticks` ticks from rest. With `hash`, r, y, u of every tick (core
 // sample type, u as the pipeline output) are folded into it.
 template <class T, class PipelineT, class Stage, class Observer>
-inline void run_ticks(PipelineT& pipe, Stage& stage, float sensor_gain, uint64_t ticks, SeriesInverse series,
-                      reference::LogHash* hash, Observer&& observe) {
-    LoopStepper<T, PipelineT, Stage> loop(pipe, stage, sensor_gain, series, hash);
+inline void run_ticks(PipelineT& pipe, Stage& stage, float sensor_gain, uint64_t ticks, reference::LogHash* hash,
+                      Observer&& observe) {
+    LoopStepper<T, PipelineT, Stage> loop(pipe, stage, sensor_gain, hash);
     for (uint64_t k = 0; k < ticks; ++k) loop.step(k, observe);
 }
 

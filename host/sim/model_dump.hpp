@@ -24,14 +24,11 @@ struct ModelDump {
     StageConfig stage{};
     TrajectoryConfig wave{};  // table span cleared; values in `table`
     uint64_t ticks = 0;
-    uint32_t series = 0;
-    PiModel series_pi{};
-    float series_u_min_V = 0.0f, series_u_max_V = 0.0f;
     std::vector<float> table;
 };
 
 namespace dump_detail {
-inline constexpr char kMagic[8] = {'P', 'L', 'S', 'I', 'M', '0', '1', '\n'};
+inline constexpr char kMagic[8] = {'P', 'L', 'S', 'I', 'M', '0', '2', '\n'};
 
 template <class T>
 void put(std::vector<unsigned char>& out, const T& v) {
@@ -60,10 +57,6 @@ inline std::vector<unsigned char> serialise(const ModelDump& d) {
     put(out, d.stage);
     put(out, w);
     put(out, d.ticks);
-    put(out, d.series);
-    put(out, d.series_pi);
-    put(out, d.series_u_min_V);
-    put(out, d.series_u_max_V);
     put(out, static_cast<uint64_t>(d.table.size()));
     for (const float f : d.table) put(out, f);
     return out;
@@ -76,8 +69,7 @@ inline bool deserialise(const std::vector<unsigned char>& in, ModelDump& d) {
     const unsigned char* end = in.data() + in.size();
     uint64_t n = 0;
     if (!get(p, end, d.setup) || !get(p, end, d.params) || !get(p, end, d.q31) || !get(p, end, d.stage) ||
-        !get(p, end, d.wave) || !get(p, end, d.ticks) || !get(p, end, d.series) || !get(p, end, d.series_pi) ||
-        !get(p, end, d.series_u_min_V) || !get(p, end, d.series_u_max_V) || !get(p, end, n))
+        !get(p, end, d.wave) || !get(p, end, d.ticks) || !get(p, end, n))
         return false;
     d.table.resize(n);
     for (float& f : d.table)

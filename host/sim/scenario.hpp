@@ -65,7 +65,7 @@ struct FeedforwardSpec {
     std::string kind = "none";  // none | gain | pi_inverse | pi_compensator | dahl
     double V_per_um = 0.0;      // gain
     std::string of = "base";    // pi_inverse: base | plant (the case's plant)
-    std::string placement = "feedforward";  // pi_inverse: feedforward (core) | series (host only)
+    std::string placement = "feedforward";  // pi_inverse: feedforward | series (kPiSeries)
     PiModel pi{};               // pi_compensator: r (µm) -> u (V)
     std::optional<DahlParams> dahl;  // dahl with given parameters
     std::optional<DahlIdentifySpec> identify;  // dahl identified from the plant's loops

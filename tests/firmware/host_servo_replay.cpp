@@ -69,7 +69,7 @@ int replay(const std::vector<uint32_t>& rec, float rate_Hz, float amplitude_um, 
     pipe->arm();
     StageModel stage;
     if (!stage.configure(stage_config).ok()) return 2;
-    sim::LoopStepper<T, fw::FwPipeline<T>, StageModel> loop(*pipe, stage, stage_config.sensor.gain, {}, nullptr);
+    sim::LoopStepper<T, fw::FwPipeline<T>, StageModel> loop(*pipe, stage, stage_config.sensor.gain, nullptr);
     const std::size_t frames = rec.size() / 4;
     for (std::size_t k = 0; k < frames; ++k) {
         loop.step(k, [](const auto&, const auto&, const auto&) {});

@@ -34,14 +34,8 @@ int replay(const sim::ModelDump& d) {
         return 2;
     }
     pipe->arm();
-    PiOperator<float> op;
-    sim::SeriesInverse series;
-    if (d.series) {
-        if (!op.configure(d.series_pi).ok()) return 2;
-        series = sim::SeriesInverse{&op, d.series_u_min_V, d.series_u_max_V};
-    }
     reference::LogHash hash;
-    sim::run_ticks<T>(*pipe, stage, d.stage.sensor.gain, d.ticks, series, &hash,
+    sim::run_ticks<T>(*pipe, stage, d.stage.sensor.gain, d.ticks, &hash,
                       [](const sim::TickView&, const TickSignals<T>&, const StageModel&) {});
     std::printf("%016llx\n", static_cast<unsigned long long>(hash.value()));
     return 0;

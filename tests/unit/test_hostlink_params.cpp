@@ -69,6 +69,16 @@ TEST(HostLinkParamsJson, EveryGroupSurvivesTextBitForBit) {
     EXPECT_EQ(through_text(r), r);
 }
 
+TEST(HostLinkParamsJson, SeriesPlacementHasItsName) {
+    // The kind travels as its enum value; its JSON name is "pi_series".
+    link::FeedforwardParams ff{FeedforwardKind::kPiSeries, reference::params().pi, {}};
+    EXPECT_EQ(to_json(ff).at("kind"), "pi_series");
+    EXPECT_EQ(through_text(ff), ff);
+    link::FeedforwardParams g;
+    merge_json(json::parse(R"({"kind": "pi_series"})"), g);
+    EXPECT_EQ(g.kind, FeedforwardKind::kPiSeries);
+}
+
 TEST(HostLinkParamsJson, MergeChangesOnlyTheGivenKeys) {
     link::LimitsParams g{reference::params().limits};
     const link::LimitsParams before = g;
@@ -88,7 +98,7 @@ TEST(HostLinkParamsJson, ErrorsNameTheKey) {
         merge_json(json::parse(R"({"kind": "inverse"})"), ff);
         FAIL();
     } catch (const std::invalid_argument& e) {
-        EXPECT_STREQ(e.what(), "feedforward.kind: must be one of none, pi_inverse, pi_compensator, dahl");
+        EXPECT_STREQ(e.what(), "feedforward.kind: must be one of none, pi_inverse, pi_compensator, dahl, pi_series");
     }
     try {
         merge_json(json::parse(R"({"pi": {"thresholds": [0, 1], "weights": [1]}})"), ff);

@@ -197,6 +197,29 @@ TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
     EXPECT_EQ(r_.pipeline->swaps(), 3u);  // the three accepted sets of configure_reference()
 }
 
+TYPED_TEST(LinkDevice, SeriesPlacementTravelsAndNeedsAFeedback) {
+    // pi_series (the compensator after the feedback) is one more kind value:
+    // same layout, validated by the pipeline on the device.
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const PipelineParams p = reference::params(true, true, false);
+    const FeedforwardParams series{FeedforwardKind::kPiSeries, p.pi, p.dahl};
+    ASSERT_EQ(r_.set(series).type(), MsgType::kAck);
+    r_.tick();
+    EXPECT_EQ(r_.template get<FeedforwardParams>(ParamGroup::kFeedforward), series);
+    EXPECT_EQ(r_.pipeline->params().feedforward, FeedforwardKind::kPiSeries);
+    // Without a feedback there is nothing to put the compensator after: the
+    // feedback group cannot be switched off under it, nothing changes.
+    const auto before = this->snapshot();
+    FeedbackParams none{FeedbackKind::kNone, p.sos_count, p.sos, p.pid};
+    this->expect_error(r_.set(none), ErrorCode::kInvalidParam, nullptr, "feedforward");
+    r_.tick();
+    EXPECT_EQ(this->snapshot(), before);
+    // Kind values past pi_series are still refused.
+    const FeedforwardParams unknown{static_cast<FeedforwardKind>(5), p.pi, p.dahl};
+    this->expect_error(r_.set(unknown), ErrorCode::kInvalidParam, nullptr, "feedforward");
+}
+
 TYPED_TEST(LinkDevice, LimitCriticalChangesOnlyWhileDisarmed) {
     auto& r_ = this->rig;
     this->configure_reference();

@@ -77,7 +77,7 @@ void rtext(std::array<char, N>& a) {
 
 FeedforwardParams random_ff() {
     FeedforwardParams v;
-    v.kind = static_cast<FeedforwardKind>(r8() % 4);
+    v.kind = static_cast<FeedforwardKind>(r8() % 5);  // none .. pi_series
     v.pi.input_gain = rf(); v.pi.input_offset = rf(); v.pi.p0 = rf();
     v.pi.count = static_cast<int>(r32() % (kMaxPlayOperators + 1));
     for (int j = 0; j < v.pi.count; ++j) { v.pi.thresholds[j] = rf(); v.pi.weights[j] = rf(); }

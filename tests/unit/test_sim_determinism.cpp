@@ -96,10 +96,6 @@ TEST(SimDeterminism, DumpReplayGivesTheSameHash) {
         d.wave = p.o.wave;
         d.wave.sample_rate_Hz = d.setup.rate_Hz;
         d.ticks = p.o.ticks;
-        d.series = p.b.model.series;
-        d.series_pi = p.b.model.series_pi;
-        d.series_u_min_V = p.b.model.series_u_min_V;
-        d.series_u_max_V = p.b.model.series_u_max_V;
         ModelDump back;
         ASSERT_TRUE(deserialise(serialise(d), back));
         auto pipe = std::make_unique<Pipeline<float, kSimRcCapacity>>(back.setup);
@@ -108,14 +104,8 @@ TEST(SimDeterminism, DumpReplayGivesTheSameHash) {
         ASSERT_TRUE(pipe->stage(back.params).ok());
         ASSERT_TRUE(pipe->start_wave(back.wave).ok());
         pipe->arm();
-        PiOperator<float> op;
-        SeriesInverse series;
-        if (back.series) {
-            ASSERT_TRUE(op.configure(back.series_pi).ok());
-            series = SeriesInverse{&op, back.series_u_min_V, back.series_u_max_V};
-        }
         reference::LogHash h;
-        run_ticks<float>(*pipe, stage, back.stage.sensor.gain, back.ticks, series, &h,
+        run_ticks<float>(*pipe, stage, back.stage.sensor.gain, back.ticks, &h,
                          [](const TickView&, const TickSignals<float>&, const StageModel&) {});
         EXPECT_EQ(h.value(), r.log_hash) << scen;
         // A truncated dump is refused.
