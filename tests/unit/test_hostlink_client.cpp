@@ -389,26 +389,28 @@ TEST(HostLinkClient, SilentDeviceTimesOutNamingTheRequest) {
 TEST(HostLinkClient, OtherProtocolVersionIsRefusedAtHello) {
     int sv[2];
     ASSERT_EQ(::socketpair(AF_UNIX, SOCK_STREAM, 0, sv), 0);
-    // A fake device that answers every frame with a HelloReply of version 2.
-    std::thread fake([fd = sv[1]] {
+    // A fake device that answers every frame with a HelloReply of another
+    // (future) version.
+    constexpr uint8_t kOther = link::kProtocolVersion + 1;
+    std::thread fake([fd = sv[1], kOther] {
         link::FrameDecoder d;
         std::array<uint8_t, 1024> buf;
         const ssize_t n = ::recv(fd, buf.data(), buf.size(), 0);
         if (n <= 0) return;
         d.feed(std::span<const uint8_t>(buf.data(), static_cast<std::size_t>(n)), [&](std::span<const uint8_t> p) {
             link::HelloReply h;
-            h.protocol_version = 2;
+            h.protocol_version = kOther;
             std::array<uint8_t, link::kMaxFrameSize> out;
-            const std::size_t m = link::encode_message(h, link::parse_header(p).seq, out, 2);
+            const std::size_t m = link::encode_message(h, link::parse_header(p).seq, out, kOther);
             (void)::send(fd, out.data(), m, MSG_NOSIGNAL);
         });
     });
     Client c(adopt_socket(sv[0], "test:v2"));
     try {
         c.hello();
-        FAIL() << "version 2 accepted";
+        FAIL() << "another version accepted";
     } catch (const LinkError& e) {
-        EXPECT_NE(std::string(e.what()).find("protocol version 2"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("protocol version " + std::to_string(kOther)), std::string::npos) << e.what();
     }
     fake.join();
     ::close(sv[1]);

@@ -302,7 +302,7 @@ TYPED_TEST(LinkDevice, UnknownVersionAndMalformedRequestsGetErrorsAndAreCounted)
     }
     EXPECT_EQ(r_.device->counters().unknown_type, 6u);
 
-    std::size_t n = encode_message(GetStatus{}, 5, f, 2);
+    std::size_t n = encode_message(GetStatus{}, 5, f, static_cast<uint8_t>(kProtocolVersion + 1));
     auto rs = r_.send_bytes(std::span<const uint8_t>(f.data(), n));
     ASSERT_EQ(rs.size(), 1u);
     this->expect_error(rs[0], ErrorCode::kBadVersion, nullptr, "version");
