@@ -42,16 +42,15 @@ import tempfile
 # ahmad2020: Dahl feedforward runs only in the float core, so qemu-m3 runs
 #   the open-loop case (gain feedforward), the only Ahmad case the Q31 core
 #   has. 10 kHz: 2000 ticks.
-# shan2012: pi_rc_inv places the inverse in series after the controller,
-#   which only the host simulator runs today; pi_rc until the core has it
-#   (then: "pi_rc_inv" in both columns). 1 kHz: RC N = 100 fits the boards'
+# shan2012: pi_rc_inv, the inverse in series after the controller
+#   (FeedforwardKind::kPiSeries) with RC. 1 kHz: RC N = 100 fits the boards'
 #   delay line (128).
 SCENARIO_CASES = [
     ("ahmad2020", "dahl_ff_K", "open_loop",
      ["--trajectory", "triangle", "--frequency-hz", "10", "--amplitude-um", "12"]),
     ("janaideh2016", "ff_fb", "ff_fb",
      ["--trajectory", "sine", "--frequency-hz", "10", "--amplitude-um", "40"]),
-    ("shan2012", "pi_rc", "pi_rc",
+    ("shan2012", "pi_rc_inv", "pi_rc_inv",
      ["--trajectory", "triangle", "--frequency-hz", "1000", "--amplitude-um", "10"]),
 ]
 SCENARIO_DURATION_S = "0.2"
