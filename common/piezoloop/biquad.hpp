@@ -272,8 +272,20 @@ private:
 //   computed as 2 w1 - w2 from the two previous unrounded accumulators w1, w2
 //   (the only extra state; on saturation w = y << 28, i.e. e = 0).
 //   Range: |2 y1 - y2 - c1 y1 - c2 y2| = |a1 y1 + a2 y2| <= 3, |fb| <= 2^ec
-//   <= 8 (|c1| < 4, |c2| < 2 for a stable section, so ec <= 3), |num| <= 2^eb
-//   <= 8 (configure requires eb <= 3), so |acc| < 12 * 2^59 < 2^63.
+//   <= 8 (|c1| < 4, |c2| < 2 for a stable section, so ec <= 3), |num| <= 2^eb,
+//   so for eb <= 3 |acc| < 12 * 2^59 < 2^63.
+//
+// High-gain numerators (3 < eb <= kMaxNumeratorExponent): a controller with a
+// large gain between error and command (Ahmad2020 K(s): ~500 between the
+// samples of a 40 µm error and a 16 V command) needs sum|b| far above 8 in
+// its last section. Then num is shifted LEFT by eb - 3 into Q59, after
+// clamping it to +-8 (2^62 in Q59). The clamp changes nothing that matters:
+// the other terms of acc are bounded by 3 in value, so |num| > 8 means
+// |acc| > 5 and the output saturates, with num's sign, either way. No bits
+// are lost (the products are exact and the shift is left); |acc| < 12 * 2^59
+// still. Such a section saturates for inputs above 1 / (its gain) of full
+// scale: the design decides whether that is acceptable (for a loop's error
+// it is: a large error saturates the command in any realisation).
 //
 // Error feedback: the residual e dropped when rounding acc to the Q31 output
 // re-enters the next accumulator as 2 e1 - e2, so the output is
@@ -295,11 +307,12 @@ class BiquadCascade<Q31, MaxSections> {
 public:
     static constexpr int kMaxSections = MaxSections;
     static constexpr int kGuardBits = 28;   // accumulator Q59 = Q31 + 28 bits
-    static constexpr int kMaxNumeratorExponent = 3;  // sum|b| (sample units) < 8
+    static constexpr int kPlainNumeratorExponent = 3;  // sum|b| < 8: right shifts only
+    static constexpr int kMaxNumeratorExponent = 24;   // sum|b| (sample units) < 2^24
 
     // Same contract as the float cascade, plus: the numerator of every section
     // (the first one times in.full_scale / out.full_scale) must have
-    // sum|b| < 8, and the quantised poles must still be strictly inside the
+    // sum|b| < 2^24, and the quantised poles must still be strictly inside the
     // unit circle.
     constexpr Status configure(const SosSection* sections, int count, SignalScale in, SignalScale out) {
         if (const Status s = detail::validate_sos<MaxSections>(sections, count, in, out); !s.ok()) return s;
@@ -315,7 +328,7 @@ public:
             const int eb = detail::partial_sum_exponent(b, 3);
             if (eb > kMaxNumeratorExponent)
                 return error(detail::sos_field<MaxSections>(i, detail::kB0),
-                             "sum |b| (first section: times in/out full scale) must be < 8 for Q31");
+                             "sum |b| (first section: times in/out full scale) must be < 2^24 for Q31");
             // a1 + 2 and a2 - 1 are exact in double for poles near z = 1
             // (Sterbenz), and so is their sum up to one rounding.
             const double fb[2] = {s.a1 + 2.0, s.a2 - 1.0};
@@ -333,7 +346,9 @@ public:
             const int64_t n12 = quantize_mantissa(fb_sum, ec);
             k.c1 = clamp_i32(n1);
             k.c2 = clamp_i32(n12 - n1);
-            k.num_shift = static_cast<uint8_t>(31 - kGuardBits - eb);  // 0 .. 34
+            const bool high_gain = eb > kPlainNumeratorExponent;
+            k.num_shift = high_gain ? 0 : static_cast<uint8_t>(31 - kGuardBits - eb);  // 0 .. 34
+            k.num_left = high_gain ? static_cast<uint8_t>(eb - kPlainNumeratorExponent) : 0;  // 0 .. 21
             k.fb_shift = static_cast<uint8_t>(31 - kGuardBits - ec);   // 0 .. 34
 
             // Stability of the quantised section, in mantissa units
@@ -352,7 +367,7 @@ public:
         bool small = true;
         for (int i = 0; i < count; ++i) {
             const Coef& k = c[static_cast<std::size_t>(i)];
-            small = small && k.num_shift < 32 && k.fb_shift < 32;
+            small = small && k.num_shift < 32 && k.fb_shift < 32 && k.num_left == 0;
         }
         coef_ = c;
         small_shifts_ = small;
@@ -366,9 +381,10 @@ public:
 
     // One sample through all sections. Unconfigured (count() == 0) it passes
     // the input through. Dispatches once per sample on whether every product
-    // shift is below 32 (the usual case: exponents down to -28): then each
-    // 64-bit shift is a handful of 32-bit instructions on a Cortex-M3
-    // instead of the general sequence with its >= 32 branch.
+    // shift is a right shift below 32 (the usual case: exponents down to
+    // -28): then each 64-bit shift is a handful of 32-bit instructions on a
+    // Cortex-M3 instead of the general sequence with its >= 32 branch and the
+    // high-gain numerators' clamped left shift.
     constexpr Q31 apply(Q31 in) { return small_shifts_ ? apply_impl<true>(in) : apply_impl<false>(in); }
 
     constexpr void reset() {
@@ -411,7 +427,7 @@ private:
             // pole at z = 1 and the error feedback in one step.
             int64_t acc = 2 * w[0] - w[1];
             acc -= shift_right<kSmall>(fb, c.fb_shift);
-            acc += shift_right<kSmall>(num, c.num_shift);
+            acc += numerator_q59<kSmall>(num, c);
 
             int64_t y = acc >> kGuardBits;  // floor; the residual stays in acc
             if (y > Q31::kMaxRaw) {
@@ -436,9 +452,25 @@ private:
     struct Coef {
         int32_t b0 = 0, b1 = 0, b2 = 0;  // numerator mantissas, exponent eb
         int32_t c1 = 0, c2 = 0;          // a1 + 2, a2 - 1 mantissas, exponent ec
-        uint8_t num_shift = 0;           // 3 - eb: numerator products -> Q59
+        uint8_t num_shift = 0;           // 3 - eb: numerator products -> Q59 (eb <= 3)
+        uint8_t num_left = 0;            // eb - 3: the same, shifted left (eb > 3)
         uint8_t fb_shift = 0;            // 3 - ec: feedback products -> Q59
     };
+
+    // The numerator's contribution in Q59 (see "High-gain numerators").
+    template <bool kSmall>
+    static constexpr int64_t numerator_q59(int64_t num, const Coef& c) {
+        if constexpr (!kSmall) {
+            if (c.num_left > 0) {
+                constexpr int64_t kEight = int64_t{1} << 62;  // 8 in Q59
+                const int64_t limit = kEight >> c.num_left;
+                if (num >= limit) return kEight;
+                if (num <= -limit) return -kEight;
+                return num * (int64_t{1} << c.num_left);
+            }
+        }
+        return shift_right<kSmall>(num, c.num_shift);
+    }
     static constexpr int32_t clamp_i32(int64_t v) {
         return v > Q31::kMaxRaw ? Q31::kMaxRaw : v < Q31::kMinRaw ? Q31::kMinRaw : static_cast<int32_t>(v);
     }
@@ -447,7 +479,7 @@ private:
     std::array<std::array<int32_t, 2>, MaxSections + 1> hist_{};  // {z^-1, z^-2} of each node
     std::array<std::array<int64_t, 2>, MaxSections> wide_{};  // unrounded outputs w1, w2, Q59
     int count_ = 0;
-    bool small_shifts_ = true;  // every num_shift and fb_shift < 32
+    bool small_shifts_ = true;  // every shift right and below 32 (no high-gain numerator)
 };
 
 }  // namespace piezoloop

@@ -56,7 +56,7 @@ enum class FeedforwardKind : uint8_t {
     kNone = 0,
     kPiInverse,      // `pi` is the stage's model (V -> µm); its analytic inverse runs
     kPiCompensator,  // `pi` is the compensator itself (µm -> V), e.g. Shan2012's inverse
-    kDahl,           // inversion-free Dahl feedforward (float pipeline only)
+    kDahl,           // inversion-free Dahl feedforward (float arithmetic in both pipelines)
     kPiSeries,       // `pi` is the compensator (µm -> V) in series after the feedback:
                      // u = limits(pi(r + u_fb)), the feedback's output in µm (Shan2012)
 };
@@ -311,7 +311,14 @@ private:
                 case FeedforwardKind::kPiCompensator:
                     return pi.apply(r);
                 case FeedforwardKind::kDahl:
-                    if constexpr (kFloat) return dahl.step(r); else return sample_zero<T>();
+                    // The Dahl model runs in float in both pipelines: its
+                    // state sits near an equilibrium with transients many
+                    // decades smaller (dahl.hpp, DahlDeviation), which a
+                    // fixed-point format would not resolve. In Q31 (software
+                    // float on the M3) r and u_ff are converted around it; it
+                    // depends on r only, so it runs before the reading.
+                    if constexpr (kFloat) return dahl.step(r);
+                    else return voltage.template to_sample<T>(dahl.step(position.to_physical(r)));
                 case FeedforwardKind::kPiSeries:  // runs in output_phase, after the feedback
                 case FeedforwardKind::kNone:
                     break;
@@ -355,8 +362,6 @@ private:
                     return in_group("pi", s);
                 break;
             case FeedforwardKind::kDahl:
-                if constexpr (!kFloat)
-                    return error("feedforward", "Dahl feedforward needs the float pipeline (qemu-m7, stm32h743, host float)");
                 if (const Status s = b.dahl.configure(p.dahl); !s.ok()) return in_group("dahl", s);
                 break;
             default:

@@ -174,10 +174,6 @@ int run(const SimArgs& a) {
     if (a.sample == "float") c.sample = sim::SampleType::kFloat;
     if (!a.board_case.empty() && a.fidelity != "float")
         throw BoardCaseRefused("fidelity", "the boards run the float stage model (--fidelity float)");
-    if (!a.board_case.empty() && c.sample == sim::SampleType::kQ31 && c.feedforward.kind == "dahl")
-        throw BoardCaseRefused("feedforward.kind", "Dahl runs only in the float core (qemu-m7), not with --sample q31");
-    if (c.sample == sim::SampleType::kQ31 && c.feedforward.kind == "dahl")
-        throw std::invalid_argument("--sample q31: this case uses Dahl feedforward, which runs only in the float core");
 
     sim::TrajectoryRequest t;
     t.waveform = a.trajectory == "sine" ? Waveform::kSine : Waveform::kTriangle;

@@ -288,8 +288,6 @@ CaseSpec parse_case(const Field& f, const std::filesystem::path& base) {
     if (const auto rc = ctl.get("rc")) c.rc = parse_rc(*rc);
     if (c.rc.enabled && c.feedback.kind == "none")
         ctl["rc"].fail("repetitive control plugs into a feedback loop: give controller.feedback");
-    if (c.sample == SampleType::kQ31 && c.feedforward.kind == "dahl")
-        f["sample"].fail("Dahl feedforward runs only in the float core");
     return c;
 }
 

@@ -241,6 +241,68 @@ TEST(BiquadQ31, SaturatesInsteadOfWrapping) {
     EXPECT_NEAR(y, Q31::from_double(0.5).raw(), 4);
 }
 
+TEST(BiquadQ31, HighGainNumeratorMatchesDoubleRecursion) {
+    // A lag-lead section with a numerator far above the plain range (sum|b|
+    // ~ 440 > 8, shifted left in the kernel): 220 (1 - 0.9997 z^-1)(1 + z^-1)
+    // over a pole pair at 0.999 +- 0.01j, the shape of Ahmad2020 K(s)'s last
+    // section at 10 kHz (DC gain ~1300).
+    //
+    // The coefficients are rounded to what the Q31 formats hold exactly
+    // (numerator mantissas of exponent 9: steps of 2^-22; a1 + 2 and a2 - 1
+    // with exponent -8: steps of 2^-39), so the reference, the same
+    // difference equation in double, tests the arithmetic (left shift, error
+    // feedback, histories) and not the coefficient quantisation.
+    auto grid = [](double v, double step) { return std::nearbyint(v / step) * step; };
+    const double b_step = std::ldexp(1.0, -22), c_step = std::ldexp(1.0, -39);
+    const double z0 = 0.9997, pr = 0.999, pim = 0.01;
+    const double c1 = grid(2.0 - 2.0 * pr, c_step), c2 = grid(pr * pr + pim * pim - 1.0, c_step);
+    const SosSection s{220.0, grid(220.0 * (1.0 - z0), b_step), grid(-220.0 * z0, b_step), c1 - 2.0, c2 + 1.0};
+    BiquadCascade<Q31, 1> q;
+    ASSERT_TRUE(q.configure(&s, 1, {}, {}).ok());
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    double x1 = 0, x2 = 0, y1 = 0, y2 = 0, worst = 0.0, peak = 0.0;
+    for (int n = 0; n < 20000; ++n) {
+        // A slow sine plus noise, ~2e-5 of full scale: the low-frequency gain
+        // keeps the output below 0.5 of full scale.
+        const Q31 xq = Q31::from_double(2e-5 * std::sin(0.002 * n) + 2e-6 * u(rng));
+        const double x = xq.to_double();
+        const double y = s.b0 * x + s.b1 * x1 + s.b2 * x2 - s.a1 * y1 - s.a2 * y2;
+        x2 = x1; x1 = x; y2 = y1; y1 = y;
+        const double yq = q.apply(xq).to_double();
+        worst = std::max(worst, std::fabs(yq - y));
+        peak = std::max(peak, std::fabs(y));
+    }
+    ASSERT_LT(peak, 0.5);
+    ASSERT_GT(peak, 0.01);  // the test exercises the gain, not just rounding
+    // What remains is rounding: the output's floor, shaped by the error
+    // feedback's double zero at z = 1 (|1 - z^-1|^2 <= 4: at most 4 LSB), and
+    // the floors of the shifted feedback products (2^-59 of full scale each,
+    // ~1e-15 after the DC gain). 8 LSB bounds it; a wrong shift or a lost
+    // residual is off by orders of magnitude more.
+    EXPECT_LT(worst, 8 * kLsb) << "worst error " << worst;
+    std::printf("high-gain Q31 section: peak output %.3g, worst error %.3g (%.1f LSB)\n", peak, worst,
+                worst / kLsb);
+}
+
+TEST(BiquadQ31, HighGainNumeratorSaturatesWithTheSignOfTheExactResult) {
+    // Gain 1000: a numerator of more than 8 full scales is clamped inside
+    // the kernel; the output must still saturate on the side of the exact
+    // value, for inputs just past 1/1000 of full scale up to full scale, and
+    // recover as soon as the input is small again.
+    const SosSection g{1000.0, 0.0, 0.0, 0.0, 0.0};
+    BiquadCascade<Q31, 1> q;
+    ASSERT_TRUE(q.configure(&g, 1, {}, {}).ok());
+    for (double x : {0.0011, 0.01, 0.5, 0.999}) {
+        EXPECT_EQ(q.apply(Q31::from_double(x)).raw(), Q31::kMaxRaw) << x;
+        EXPECT_EQ(q.apply(Q31::from_double(-x)).raw(), Q31::kMinRaw) << x;
+    }
+    EXPECT_EQ(q.apply(Q31::from_raw(Q31::kMinRaw)).raw(), Q31::kMinRaw);
+    // Exact below the clamp: 1000 * 2^-20 = 0.00095367431640625.
+    EXPECT_EQ(q.apply(Q31::from_raw(1 << 11)).to_double(), 1000.0 * 2048.0 * kLsb);
+    EXPECT_EQ(q.apply(Q31::from_raw(-(1 << 11))).to_double(), -1000.0 * 2048.0 * kLsb);
+}
+
 TEST(BiquadQ31, InputAndOutputScalesAreFoldedIntoTheGain) {
     // Physical gain 3 V/V from a 1 V input scale to a 6 V output scale is
     // 0.5 between samples.
@@ -458,13 +520,13 @@ TEST(BiquadConfigure, RealisationSpecificLimits) {
     st = q.configure(&too_close, 1, {}, {});
     ASSERT_FALSE(st.ok());
     EXPECT_STREQ(st.field, "sections[0].a2");
-    // Q31 numerators are limited to sum|b| < 8 in sample units, including
-    // the folded scale: 0.1 V/V from a 100 V input scale to 1 V is 10.
+    // Q31 numerators are limited to sum|b| < 2^24 in sample units, including
+    // the folded scale: 0.1 V/V from a 1e9 V input scale to 1 V is 1e8.
     const SosSection small{0.1, 0.0, 0.0, 0.0, 0.0};
-    st = q.configure(&small, 1, SignalScale{100.0f}, SignalScale{1.0f});
+    st = q.configure(&small, 1, SignalScale{1e9f}, SignalScale{1.0f});
     ASSERT_FALSE(st.ok());
     EXPECT_STREQ(st.field, "sections[0].b0");
-    EXPECT_TRUE(q.configure(&small, 1, SignalScale{10.0f}, SignalScale{1.0f}).ok());
+    EXPECT_TRUE(q.configure(&small, 1, SignalScale{1e8f}, SignalScale{1.0f}).ok());  // 1e7
     // Field names are built for every section index up to MaxSections.
     SosSection many[12];
     for (auto& s : many) s = SosSection{1.0, 0.0, 0.0, 0.0, 0.5};

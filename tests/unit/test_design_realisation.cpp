@@ -102,6 +102,42 @@ TEST(DesignRealisation, AhmadKQ31IsFit) {
     EXPECT_GE(counted, 40);  // observed 49 of 61
 }
 
+TEST(DesignRealisation, AhmadKQ31WithThePipelinesScalesIsFit) {
+    // The ahmad2020 scenario's K(s) as the Q31 pipeline runs it: 10 kHz,
+    // Tustin, error in µm (K times the sensor's 1/3 V/µm) on the 40 µm
+    // position scale, command on the 16 V voltage scale, L1-scaled. The
+    // controller's gain between these samples (~500 at its L1 norm) lands in
+    // the last section's numerator (sum|b| ~ 440, the high-gain Q31 kernel),
+    // whose gain also amplifies the earlier sections' rounding to a
+    // limit cycle of ~200 LSB (1.5 µV): the noise model accounts for it.
+    Zpk k = load_model_file(std::string(PIEZOLOOP_GOLDEN_DIR) + "/../../configs/models/ahmad2020_K.json");
+    k.gain /= 3.0;
+    const Zpk zd = tustin(k, 1e-4);
+    SosScaling sc;
+    sc.in_full_scale = 40.0;
+    sc.out_full_scale = 16.0;
+    const std::vector<SosSection> sos = scale_sos(zpk2sos(zd), sc);
+    double sum_b_last = std::fabs(sos.back().b0) + std::fabs(sos.back().b1) + std::fabs(sos.back().b2);
+    EXPECT_GT(sum_b_last, 8.0);  // beyond the plain (right-shift) numerator range
+    RealisationOptions o;
+    o.format = SampleFormat::kQ31;
+    o.in_full_scale = 40.0;
+    o.out_full_scale = 16.0;
+    const RealisationReport r = check_realisation(zd, sos, o);
+    ASSERT_TRUE(r.configured) << r.configure_error;
+    EXPECT_TRUE(r.fit) << (r.warnings.empty() ? "" : r.warnings[0]);
+    // At 10 kHz the slow pair sits at |z| = 0.99968 (1 + a1 + a2 ~ 1e-7),
+    // so Q31's 2^-44 resolution of it is ~1e-6 relative; the response
+    // (observed 0.001 dB, 0.006 deg, both at ~1.7 kHz where the record's
+    // noise is largest) within 0.01 dB and 0.1 deg.
+    EXPECT_LT(r.max_relative_pole_shift, 1e-3);
+    EXPECT_LT(r.max_error_db, 0.01);
+    EXPECT_LT(r.max_phase_error_deg, 0.1);
+    int counted = 0;
+    for (const auto& p : r.response) counted += p.counted;
+    EXPECT_GE(counted, 40);  // observed 59 of 61
+}
+
 TEST(DesignRealisation, MeasurementMatchesRoundedCoefficientsResponse) {
     // A 1 kHz notch at 100 kHz (well conditioned). The DFT of the float
     // cascade's impulse response must equal the response of the
@@ -136,16 +172,16 @@ TEST(DesignRealisation, MeasurementMatchesRoundedCoefficientsResponse) {
 }
 
 TEST(DesignRealisation, ConfigureRejectionsAreReported) {
-    // Q31: a numerator with sum |b| >= 8 (gain 100 unscaled).
+    // Q31: a numerator with sum |b| >= 2^24 (a 1 kHz low-pass's 0.0036 times 1e11).
     const Zpk z = lowpass(LowpassSpec{1e3, 0.7}, 1e5);
     std::vector<SosSection> sos = zpk2sos(z);
     for (SosSection& s : sos) {
-        s.b0 *= 1e4;
-        s.b1 *= 1e4;
-        s.b2 *= 1e4;
+        s.b0 *= 1e11;
+        s.b1 *= 1e11;
+        s.b2 *= 1e11;
     }
     Zpk big = z;
-    big.gain *= 1e4;
+    big.gain *= 1e11;
     RealisationOptions o;
     o.format = SampleFormat::kQ31;
     const RealisationReport r = check_realisation(big, sos, o);

@@ -285,7 +285,7 @@ TEST(PipelineSeries, InvalidSetsNameTheirField) {
     p.rc.q = SosSection{0.3558, 0.0, 0.0, -0.6442, 0.0};
     EXPECT_TRUE(pipe->validate(p).ok());
     EXPECT_TRUE(pipe->validate(series_params()).ok());
-    // Dahl remains float-only; kPiSeries runs on both sample types.
+    // kPiSeries runs on both sample types.
     auto q = std::make_unique<SeriesPipeline<Q31>>(setup());
     EXPECT_TRUE(q->validate(series_params()).ok());
 }

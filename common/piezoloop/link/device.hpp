@@ -292,7 +292,7 @@ public:
         set_text(r.serial, info_.serial);
         const PipelineSetup& s = pipeline_.setup();
         r.loop_rate_Hz = s.rate_Hz;
-        r.capabilities = (kFloat ? cap::kFloat | cap::kDahl : cap::kQ31) | cap::kRepetitive | cap::kSetpointStream |
+        r.capabilities = (kFloat ? cap::kFloat : cap::kQ31) | cap::kDahl | cap::kRepetitive | cap::kSetpointStream |
                          cap::kRecorder | cap::kWaveTable;
         r.sample_format = kFloat ? SampleFormat::kFloat32 : SampleFormat::kQ31;
         r.hard_u_min_V = s.hard.u_min_V;
