@@ -80,6 +80,7 @@ public:
     Status configure(const PiModel& m, SignalScale /*in*/ = {}, SignalScale /*out*/ = {}) {
         if (const Status s = validate(m); !s.ok()) return s;
         model_ = m;
+        identity_input_ = m.input_gain == 1.0f && m.input_offset == 0.0f;
         reset();
         return ok_status();
     }
@@ -102,7 +103,9 @@ private:
     template <int N>
     static float apply_n(PiOperator& p, float x) {
         const PiModel& m = p.model_;
-        const float f = m.input_gain * x + m.input_offset;
+        // The plain model (Janaideh2016) plays x itself: no multiply and add
+        // on the simulated loop's dependency chain for the stage's model.
+        const float f = p.identity_input_ ? x : m.input_gain * x + m.input_offset;
         float lane[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         int j0 = 0;
 #if PIEZOLOOP_PI_VECTOR_LANES
@@ -152,6 +155,7 @@ private:
     }
 
     PiModel model_{};
+    bool identity_input_ = true;  // input_gain 1, input_offset 0: f = x
     std::array<float, kMaxPlayOperators> w_{};
 };
 

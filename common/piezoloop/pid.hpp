@@ -129,9 +129,10 @@ public:
     constexpr float apply(float e) {
         const float p = kp_ * e;
         const float delta = e - filtered_;
-        const float d = kd_tau_ * delta;
         filtered_ = filtered_ + beta_ * delta;
-        const float pd = p + d;
+        // A PI controller (kd = 0) skips the derivative's multiply and add:
+        // they sit on the closed loop's dependency chain in simulation.
+        const float pd = kd_tau_ == 0.0f ? p : p + kd_tau_ * delta;
         const float hi = max(integrator_, u_max_ - pd);
         const float lo = min(integrator_, u_min_ - pd);
         integrator_ = min(max(integrator_ + ki_ts_ * e, lo), hi);

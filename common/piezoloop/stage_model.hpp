@@ -86,10 +86,14 @@ public:
             // conversions are the slowest part of the simulated loop's
             // dependency chain.
             code = (t + kRoundingBias) - kRoundingBias;
+            // v <= max, and the three roundings of t (v - min, inv_lsb_, the
+            // product) put it at most max_code * 3 * 2^-24 above max_code:
+            // < 0.4 up to 21 bits, so only 22 bits can round past it.
+            if (config_.bits == 22 && code > max_code_f_) code = max_code_f_;
         } else {
             code = static_cast<float>(static_cast<uint32_t>(t + 0.5f));  // round half up
+            if (code > max_code_f_) code = max_code_f_;
         }
-        if (code > max_code_f_) code = max_code_f_;
         return config_.min + code * lsb_;
     }
     float lsb() const { return lsb_; }
@@ -138,27 +142,37 @@ private:
     float b_ = 0.0f, a_ = 0.0f, x1_ = 0.0f, y1_ = 0.0f;
 };
 
-// Seeded noise without libm: xorshift32, and the sum of 4 uniforms (Irwin–
-// Hall) scaled to unit variance — a bell-shaped, bounded (±3.46 sigma)
-// approximation of Gaussian sensor noise, bit-identical on every platform.
+// Seeded noise without libm: one xorshift64 step (Marsaglia's 13, 7, 17) per
+// sample, its four 16-bit fields taken as four uniforms and summed (Irwin–
+// Hall of 4) — a bell-shaped, bounded (±3.46 sigma) approximation of Gaussian
+// sensor noise, bit-identical on every platform. The fields are summed as
+// integers (exact) and converted once: one generator step and one conversion
+// instead of four of each (the sensor noise had been the costliest part of
+// the simulated stage on the host).
 class SeededNoise {
 public:
-    void seed(uint32_t s) { state_ = s == 0 ? 1u : s; }
+    // Any seed, including 0, gives a non-zero state (kSeedMix's high half).
+    void seed(uint32_t s) { state_ = kSeedMix ^ s; }
     float next_unit() {
-        float sum = 0.0f;
-        for (int i = 0; i < 4; ++i) sum += static_cast<float>(next_u32() >> 8) * (1.0f / 16777216.0f);
-        // Each uniform has variance 1/12; four have 1/3: scale by sqrt(3).
-        return (sum - 2.0f) * 1.7320508f;
+        const uint64_t x = next_u64();
+        const uint32_t sum = static_cast<uint32_t>(x & 0xFFFFu) + static_cast<uint32_t>((x >> 16) & 0xFFFFu) +
+                             static_cast<uint32_t>((x >> 32) & 0xFFFFu) + static_cast<uint32_t>(x >> 48);
+        // Field k / 65536 (k = 0 .. 65535) has mean (1 - 2^-16) / 2 and
+        // variance (1 - 2^-32) / 12, so (sum + 2) / 65536 - 2 has mean 0 and
+        // variance (1 - 2^-32) / 3: scaled by sqrt(3). sum + 2 < 2^24 and the
+        // power-of-two scale make the first two operations exact.
+        return (static_cast<float>(sum + 2u) * (1.0f / 65536.0f) - 2.0f) * 1.7320508f;
     }
 
 private:
-    uint32_t next_u32() {
+    static constexpr uint64_t kSeedMix = 0x9E3779B97F4A7C15ull;
+    uint64_t next_u64() {
         state_ ^= state_ << 13;
-        state_ ^= state_ >> 17;
-        state_ ^= state_ << 5;
+        state_ ^= state_ >> 7;
+        state_ ^= state_ << 17;
         return state_;
     }
-    uint32_t state_ = 1;
+    uint64_t state_ = kSeedMix;
 };
 
 class StageModel {
@@ -186,6 +200,10 @@ public:
         if (const Status s = plant.configure(c.plant); !s.ok()) return in_group("plant", s);
         config_ = c;
         amp_unity_ = a.gain == 1.0f;
+        // The DAC's output never leaves [dac.min, dac.max] (NaN reads as
+        // min): when that lies within the amplifier's input range, its clamp
+        // changes nothing and is skipped.
+        amp_input_clamp_ = !(c.dac.min >= a.input_min_V && c.dac.max <= a.input_max_V);
         sensor_unity_ = c.sensor.gain == 1.0f;
         dac_ = dac;
         adc_ = adc;
@@ -235,6 +253,7 @@ private:
     float v_piezo_V_ = 0.0f;
     float x_um_ = 0.0f;
     bool amp_unity_ = true, sensor_unity_ = true;  // gains of exactly 1
+    bool amp_input_clamp_ = true;                  // the DAC range exceeds the amplifier's input range
 };
 
 }  // namespace piezoloop

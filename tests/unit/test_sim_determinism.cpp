@@ -67,18 +67,27 @@ TEST(SimDeterminism, TwoRunsAreBitIdentical) {
 TEST(SimDeterminism, HashFollowsEveryChange) {
     Prepared p = prepare("shan2012", "pi_rc", 1000.0, 10.0, SampleType::kFloat);
     const uint64_t h0 = run_loop(p.b.model, p.o).log_hash;
+    // Other noise: Shan2012's 0.06 mV rms is a fifth of an ADC step and
+    // may not move a single code in 300 ticks, so both runs get 1 mV rms.
     LoopModel m = p.b.model;
-    m.stage.sensor.seed += 1;  // other noise
-    EXPECT_NE(run_loop(m, p.o).log_hash, h0);
+    m.stage.sensor.noise_rms = 1e-3f;
+    const uint64_t noisy = run_loop(m, p.o).log_hash;
+    m.stage.sensor.seed += 1;
+    EXPECT_NE(run_loop(m, p.o).log_hash, noisy);
+    EXPECT_NE(noisy, h0);
     m = p.b.model;
     m.params.rc.k_rc = 0.7f;  // other controller
     EXPECT_NE(run_loop(m, p.o).log_hash, h0);
     m = p.b.model;
     m.sample = SampleType::kQ31;  // other core
     EXPECT_NE(run_loop(m, p.o).log_hash, h0);
-    RunOptions o = p.o;
-    o.fidelity = Fidelity::kDouble;  // other stage (same hash fold)
-    EXPECT_NE(run_loop(p.b.model, o).log_hash, h0);
+    // Other stage (same hash fold). Shan2012's two fidelities agree to an
+    // ADC step and may read the same codes for 300 ticks; Janaideh2016's
+    // differ by its sensor lag (Tustin in float, exact in double).
+    Prepared j = prepare("janaideh2016", "ff_fb", 10.0, 40.0, SampleType::kFloat);
+    const uint64_t j_float = run_loop(j.b.model, j.o).log_hash;
+    j.o.fidelity = Fidelity::kDouble;
+    EXPECT_NE(run_loop(j.b.model, j.o).log_hash, j_float);
 }
 
 // The replay path of tests/sim/sim_hash_probe.cpp, in this binary: the dump

@@ -145,17 +145,20 @@ TEST(SimPhysics, ShanRepetitiveControlAt1kHz) {
 }
 
 // The RC with a hysteresis too large for condition (21) diverges (the RMS
-// error per period grows by 5x and more over 40 periods), and with the
+// error per period grows by 5x and more over 120 periods), and with the
 // inverse it stays bounded (within 50 % of its smallest period, after the
 // first five periods of learning). The PI loop alone is bounded too, so it is
-// the repetitive controller that goes unstable.
+// the repetitive controller that goes unstable. The onset is set off by the
+// sensor noise and its time varies with the noise realisation (7 to 56
+// periods over seven seeds; then ~26 um within a few periods): 120 periods
+// leave twice the latest onset seen.
 TEST(SimPhysics, ShanRepetitiveControlWithLargeHysteresisDivergesUnlessInverted) {
     const Scenario& s = scenario("shan2012");
-    TrajectoryRequest t = triangle(1000.0, 10.0, 40);
+    TrajectoryRequest t = triangle(1000.0, 10.0, 120);
     auto growth = [&](const char* c) {
         const RunResult r = run_case(s, c, t);
         const auto& v = r.period_e_rms_um;
-        EXPECT_EQ(v.size(), 40u) << c;
+        EXPECT_EQ(v.size(), 120u) << c;
         const double mn = *std::min_element(v.begin() + 5, v.end());
         const double mx = *std::max_element(v.begin() + 5, v.end());
         std::printf("Shan2012 hysteresis x 8, %s: e_rms per period %.3g .. %.3g um\n", c, mn, mx);
