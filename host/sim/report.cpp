@@ -326,7 +326,10 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                         const RunLog& l = c->run.log;
                         std::vector<double> err;
                         for (size_t i = 0; i < l.r_um.size(); ++i) err.push_back(static_cast<double>(l.r_um[i]) - l.y_um[i]);
-                        pan["series"].push_back(series(case_of(s, n).label, time_axis(l, s.rate_Hz, l.tick.front(), scale), err));
+                        // A Q31 case dashed: it usually lies on its float twin.
+                        const CaseSpec& cs = case_of(s, n);
+                        pan["series"].push_back(series(cs.label, time_axis(l, s.rate_Hz, l.tick.front(), scale), err,
+                                                       cs.sample == SampleType::kQ31 ? "--" : ""));
                     }
                 panels.push_back(pan);
             }

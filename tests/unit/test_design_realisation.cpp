@@ -117,7 +117,7 @@ TEST(DesignRealisation, AhmadKQ31WithThePipelinesScalesIsFit) {
     sc.in_full_scale = 40.0;
     sc.out_full_scale = 16.0;
     const std::vector<SosSection> sos = scale_sos(zpk2sos(zd), sc);
-    double sum_b_last = std::fabs(sos.back().b0) + std::fabs(sos.back().b1) + std::fabs(sos.back().b2);
+    const double sum_b_last = std::fabs(sos.back().b0) + std::fabs(sos.back().b1) + std::fabs(sos.back().b2);
     EXPECT_GT(sum_b_last, 8.0);  // beyond the plain (right-shift) numerator range
     RealisationOptions o;
     o.format = SampleFormat::kQ31;
@@ -126,10 +126,11 @@ TEST(DesignRealisation, AhmadKQ31WithThePipelinesScalesIsFit) {
     const RealisationReport r = check_realisation(zd, sos, o);
     ASSERT_TRUE(r.configured) << r.configure_error;
     EXPECT_TRUE(r.fit) << (r.warnings.empty() ? "" : r.warnings[0]);
-    // At 10 kHz the slow pair sits at |z| = 0.99968 (1 + a1 + a2 ~ 1e-7),
-    // so Q31's 2^-44 resolution of it is ~1e-6 relative; the response
-    // (observed 0.001 dB, 0.006 deg, both at ~1.7 kHz where the record's
-    // noise is largest) within 0.01 dB and 0.1 deg.
+    // At 10 kHz the slow pair sits at |z| = 0.99968: 1 + a1 + a2 ~ 1.05e-7,
+    // resolved to 2^-40 (c1, c2 ~ 6.4e-4 take exponent -9), ~1e-5 relative
+    // (observed pole shift 1.1e-5 of the distance to the circle); the
+    // response (observed 0.001 dB, 0.006 deg, at ~1.7 kHz where the
+    // record's noise is largest) within 0.01 dB and 0.1 deg.
     EXPECT_LT(r.max_relative_pole_shift, 1e-3);
     EXPECT_LT(r.max_error_db, 0.01);
     EXPECT_LT(r.max_phase_error_deg, 0.1);
