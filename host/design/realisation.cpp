@@ -48,17 +48,13 @@ std::vector<cplx> realised_poles(const SosSection& s, SampleFormat format) {
 
 // Peak |node value| of every partial cascade for a unit impulse, in double.
 double peak_node_for_impulse(const std::vector<SosSection>& sections, long n) {
-    std::vector<double> s1(sections.size(), 0.0), s2(sections.size(), 0.0);
+    std::vector<SosStateDouble> st(sections.size());
     double peak = 0.0;
     for (long k = 0; k < n; ++k) {
         double x = k == 0 ? 1.0 : 0.0;
         for (size_t i = 0; i < sections.size(); ++i) {
-            const SosSection& c = sections[i];
-            const double y = c.b0 * x + s1[i];
-            s1[i] = c.b1 * x - c.a1 * y + s2[i];
-            s2[i] = c.b2 * x - c.a2 * y;
-            peak = std::max(peak, std::fabs(y));
-            x = y;
+            x = df2t_step(sections[i], st[i], x);
+            peak = std::max(peak, std::fabs(x));
         }
     }
     return peak;
@@ -74,17 +70,11 @@ double peak_node_for_impulse(const std::vector<SosSection>& sections, long n) {
 double q31_noise_amplification(const std::vector<SosSection>& sections, long n) {
     double sum = 0.0;
     for (size_t i = 0; i < sections.size(); ++i) {
-        std::vector<double> s1(sections.size(), 0.0), s2(sections.size(), 0.0);
+        std::vector<SosStateDouble> st(sections.size());
         double energy = 0.0;
         for (long k = 0; k < n; ++k) {
             double x = k == 0 ? 1.0 : k == 1 ? -2.0 : k == 2 ? 1.0 : 0.0;  // (1 - z^-1)^2
-            for (size_t j = i + 1; j < sections.size(); ++j) {
-                const SosSection& c = sections[j];
-                const double y = c.b0 * x + s1[j];
-                s1[j] = c.b1 * x - c.a1 * y + s2[j];
-                s2[j] = c.b2 * x - c.a2 * y;
-                x = y;
-            }
+            for (size_t j = i + 1; j < sections.size(); ++j) x = df2t_step(sections[j], st[j], x);
             energy += x * x;
         }
         sum += energy;

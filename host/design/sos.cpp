@@ -301,16 +301,12 @@ std::vector<double> partial_l1_norms(const std::vector<SosSection>& sections, lo
     n = std::min(std::max(n, 64L), max_samples);
     if (samples_used) *samples_used = n;
     std::vector<double> l1(m, 0.0);
-    std::vector<double> s1(m, 0.0), s2(m, 0.0);  // DF2T states
+    std::vector<SosStateDouble> st(m);
     for (long k = 0; k < n; ++k) {
         double x = k == 0 ? 1.0 : 0.0;
         for (size_t i = 0; i < m; ++i) {
-            const SosSection& c = sections[i];
-            const double y = c.b0 * x + s1[i];
-            s1[i] = c.b1 * x - c.a1 * y + s2[i];
-            s2[i] = c.b2 * x - c.a2 * y;
-            l1[i] += std::fabs(y);
-            x = y;
+            x = df2t_step(sections[i], st[i], x);
+            l1[i] += std::fabs(x);
         }
     }
     return l1;

@@ -81,6 +81,18 @@ struct SosScalingReport {
 std::vector<SosSection> scale_sos(const std::vector<SosSection>& sections, const SosScaling& scaling,
                                   SosScalingReport* report = nullptr);
 
+// One section in double, direct form II transposed: the reference the design
+// tools simulate cascades with (impulse responses, norms, noise gains).
+struct SosStateDouble {
+    double s1 = 0.0, s2 = 0.0;
+};
+inline double df2t_step(const SosSection& c, SosStateDouble& s, double x) {
+    const double y = c.b0 * x + s.s1;
+    s.s1 = c.b1 * x - c.a1 * y + s.s2;
+    s.s2 = c.b2 * x - c.a2 * y;
+    return y;
+}
+
 // Norms of all partial cascades (unscaled units, no full scales applied).
 // L1: impulse response simulated in double until it has decayed to 1e-13
 // of its start (from the largest pole radius), at most max_samples.

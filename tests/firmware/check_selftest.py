@@ -37,8 +37,8 @@ import sys
 import tempfile
 
 # The scenario cases the self-test runs, 0.2 s each:
-#   (scenario, case on the float core (qemu-m7), case on the Q31 core
-#    (qemu-m3), reference: what the scenario's tracking experiment uses)
+#   (scenario, case: the source's full controller, the same on both cores,
+#    reference: what the scenario's tracking experiment uses)
 # ahmad2020: Dahl feedforward + K(s), 10 kHz: 2000 ticks. On qemu-m3 the
 #   Q31 core runs the Dahl model in software float and K(s) with its
 #   high-gain last section (common/piezoloop/biquad.hpp).
@@ -46,11 +46,11 @@ import tempfile
 #   (FeedforwardKind::kPiSeries) with RC. 1 kHz: RC N = 100 fits the boards'
 #   delay line (128).
 SCENARIO_CASES = [
-    ("ahmad2020", "dahl_ff_K", "dahl_ff_K",
+    ("ahmad2020", "dahl_ff_K",
      ["--trajectory", "triangle", "--frequency-hz", "10", "--amplitude-um", "12"]),
-    ("janaideh2016", "ff_fb", "ff_fb",
+    ("janaideh2016", "ff_fb",
      ["--trajectory", "sine", "--frequency-hz", "10", "--amplitude-um", "40"]),
-    ("shan2012", "pi_rc_inv", "pi_rc_inv",
+    ("shan2012", "pi_rc_inv",
      ["--trajectory", "triangle", "--frequency-hz", "1000", "--amplitude-um", "10"]),
 ]
 SCENARIO_DURATION_S = "0.2"
@@ -80,8 +80,7 @@ def json_lines(text):
 def make_board_cases(piezoloop, configs, sample, tmpdir):
     """Runs the simulator for each scenario case; returns [(name, file, sim json)]."""
     out = []
-    for i, (scenario, float_case, q31_case, reference) in enumerate(SCENARIO_CASES):
-        case = float_case if sample == "float" else q31_case
+    for i, (scenario, case, reference) in enumerate(SCENARIO_CASES):
         path = os.path.join(tmpdir, f"case{i}.bin")
         cmd = [piezoloop, "sim", "--scenario", os.path.join(configs, scenario + ".json"), "--case", case,
                "--sample", sample, *reference, "--duration-s", SCENARIO_DURATION_S, "--board-case", path]
