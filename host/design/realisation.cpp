@@ -60,28 +60,6 @@ double peak_node_for_impulse(const std::vector<SosSection>& sections, long n) {
     return peak;
 }
 
-// How much more rounding noise the Q31 cascade puts out than one section
-// would: each section's output rounding re-enters as (1 - z^-1)^2 e (error
-// feedback) and then passes the sections after it. Returns
-// sqrt(sum_i ||(1 - z^-1)^2 H_{i+1} ... H_{m-1}||_2^2 / 6): 1 for a single
-// section (||(1 - z^-1)^2||^2 = 1 + 4 + 1), large when a high-gain section
-// follows others (Ahmad2020 K(s) with its gain of ~500 in the last section:
-// the earlier sections' LSB steps come out as a few hundred LSB).
-double q31_noise_amplification(const std::vector<SosSection>& sections, long n) {
-    double sum = 0.0;
-    for (size_t i = 0; i < sections.size(); ++i) {
-        std::vector<SosStateDouble> st(sections.size());
-        double energy = 0.0;
-        for (long k = 0; k < n; ++k) {
-            double x = k == 0 ? 1.0 : k == 1 ? -2.0 : k == 2 ? 1.0 : 0.0;  // (1 - z^-1)^2
-            for (size_t j = i + 1; j < sections.size(); ++j) x = df2t_step(sections[j], st[j], x);
-            energy += x * x;
-        }
-        sum += energy;
-    }
-    return std::sqrt(sum / 6.0);
-}
-
 // sum h[n] e^{-j theta n}, the phasor re-seeded exactly every 1024 samples.
 cplx dft_at(const std::vector<double>& h, double theta) {
     cplx acc = 0.0;
@@ -96,6 +74,21 @@ cplx dft_at(const std::vector<double>& h, double theta) {
 }
 
 }  // namespace
+
+double q31_noise_amplification(const std::vector<SosSection>& sections, long n) {
+    double sum = 0.0;
+    for (size_t i = 0; i < sections.size(); ++i) {
+        std::vector<SosStateDouble> st(sections.size());
+        double energy = 0.0;
+        for (long k = 0; k < n; ++k) {
+            double x = k == 0 ? 1.0 : k == 1 ? -2.0 : k == 2 ? 1.0 : 0.0;  // (1 - z^-1)^2
+            for (size_t j = i + 1; j < sections.size(); ++j) x = df2t_step(sections[j], st[j], x);
+            energy += x * x;
+        }
+        sum += energy;
+    }
+    return std::sqrt(sum / 6.0);
+}
 
 SampleFormat parse_sample_format(const std::string& name) {
     if (name == "float") return SampleFormat::kFloat;

@@ -94,4 +94,14 @@ RealisationReport check_realisation(const Zpk& design, const std::vector<SosSect
 
 nlohmann::json to_json(const RealisationReport& r);
 
+// How much more rounding noise the Q31 cascade puts out than one section
+// would: each section's output rounding re-enters as (1 - z^-1)^2 e (error
+// feedback) and then passes the sections after it. Returns
+// sqrt(sum_i ||(1 - z^-1)^2 H_{i+1} ... H_{m-1}||_2^2 / 6) over n samples:
+// 1 for a single section (||(1 - z^-1)^2||^2 = 1 + 4 + 1), large when a
+// high-gain section follows others (Ahmad2020 K(s) with its gain of ~500 in
+// the last section: the earlier sections' LSB steps come out as a few
+// hundred LSB). check_realisation scales its Q31 noise allowance by it.
+double q31_noise_amplification(const std::vector<SosSection>& sections, long n);
+
 }  // namespace piezoloop::design

@@ -139,6 +139,24 @@ TEST(DesignRealisation, AhmadKQ31WithThePipelinesScalesIsFit) {
     EXPECT_GE(counted, 40);  // observed 59 of 61
 }
 
+TEST(DesignRealisation, Q31NoiseAmplificationMatchesClosedForms) {
+    // Reference: ||(1 - z^-1)^2 H||_2^2 in closed form. A lone section: 6
+    // (1 + 4 + 1), so the amplification is 1 whatever the section. A pure
+    // gain g after it: 6 g^2 more. A first-order low-pass 1 / (1 - p z^-1)
+    // after it: the response 1, p - 2, then p^(k-2) (1 - p)^2, energy
+    // 1 + (p - 2)^2 + (1 - p)^4 / (1 - p^2). Double rounding and the cut
+    // after 2000 samples (p^4000) are ~1e-15 relative: 1e-12 allows for it.
+    const SosSection any{0.3, -0.1, 0.2, -1.2, 0.5};
+    EXPECT_NEAR(q31_noise_amplification({any}, 2000), 1.0, 1e-12);
+    const double g = 440.0;
+    EXPECT_NEAR(q31_noise_amplification({any, SosSection{g, 0.0, 0.0, 0.0, 0.0}}, 2000),
+                std::sqrt(1.0 + g * g), 1e-12 * g);
+    const double p = 0.5;
+    const double lp = 1.0 + (p - 2.0) * (p - 2.0) + std::pow(1.0 - p, 4) / (1.0 - p * p);
+    EXPECT_NEAR(q31_noise_amplification({any, SosSection{1.0, 0.0, 0.0, -p, 0.0}}, 2000),
+                std::sqrt((6.0 + lp) / 6.0), 1e-12);
+}
+
 TEST(DesignRealisation, MeasurementMatchesRoundedCoefficientsResponse) {
     // A 1 kHz notch at 100 kHz (well conditioned). The DFT of the float
     // cascade's impulse response must equal the response of the
