@@ -93,11 +93,11 @@ inline void write_body(link::Writer& w, const BoardCase& c, std::span<const uint
     w.u8(static_cast<uint8_t>(c.sample));
     for (const uint8_t b : profile) w.u8(b);
     const PipelineParams& p = c.params;
-    link::LimitsParams{p.limits}.write(w);
-    link::FeedforwardParams{p.feedforward, p.pi, p.dahl}.write(w);
-    link::FeedbackParams{p.feedback, p.sos_count, p.sos, p.pid}.write(w);
-    link::RepetitiveParams{p.rc_enabled, p.rc}.write(w);
-    c.trajectory.write(w);
+    params::write_group(w, params::limits_of(p));
+    params::write_group(w, params::feedforward_of(p));
+    params::write_group(w, params::feedback_of(p));
+    params::write_group(w, params::rc_of(p));
+    params::write_group(w, c.trajectory);
 }
 
 // A group read from the body; a value the layout cannot hold (an operator
@@ -105,7 +105,7 @@ inline void write_body(link::Writer& w, const BoardCase& c, std::span<const uint
 // group.
 template <class G>
 Status read_group(link::Reader& r, G& g, const char* group) {
-    g.read(r);
+    params::read_group(r, g);
     if (!r.ok()) return error("length", "body ends inside a parameter group");
     if (r.bad_value()) return in_group(group, error("encoding", "a count beyond the link's limit or a boolean not 0 or 1"));
     return ok_status();
@@ -202,17 +202,10 @@ inline Status decode_board_case(std::span<const uint8_t> in, BoardCase& out) {
     c.sample = static_cast<link::SampleFormat>(sample);
     if (const Status s = decode_profile(profile, c.profile); !s.ok()) return s.group == nullptr ? in_group("profile", s) : s;
 
-    PipelineParams& p = c.params;
-    p.limits = limits.limits;
-    p.feedforward = ff.kind;
-    p.pi = ff.pi;
-    p.dahl = ff.dahl;
-    p.feedback = fb.kind;
-    p.sos_count = fb.sos_count;
-    p.sos = fb.sos;
-    p.pid = fb.pid;
-    p.rc_enabled = rc.enabled;
-    p.rc = rc.rc;
+    params::set_group(c.params, limits);
+    params::set_group(c.params, ff);
+    params::set_group(c.params, fb);
+    params::set_group(c.params, rc);
     out = c;
     return ok_status();
 }
@@ -221,19 +214,7 @@ inline Status decode_board_case(std::span<const uint8_t> in, BoardCase& out) {
 // profile's loop rate, as link::Device turns a TrajectoryParams group into
 // one. The table points into `c`, which must outlive the returned value.
 inline TrajectoryConfig board_case_wave(const BoardCase& c) {
-    const link::TrajectoryParams& v = c.trajectory;
-    TrajectoryConfig w;
-    w.waveform = v.waveform;
-    w.amplitude_um = v.amplitude_um;
-    w.offset_um = v.offset_um;
-    w.frequency_Hz = v.frequency_Hz;
-    w.sample_rate_Hz = static_cast<float>(c.profile.loop_rate_Hz);
-    w.cycles = v.cycles;
-    w.start_phase_cycles = v.start_phase_cycles;
-    w.return_fraction = v.return_fraction;
-    w.duty = v.duty;
-    w.table = std::span<const float>(v.table.data(), v.table_count <= link::kMaxWaveTable ? v.table_count : 0);
-    return w;
+    return params::trajectory_config(c.trajectory, static_cast<float>(c.profile.loop_rate_Hz));
 }
 
 }  // namespace piezoloop

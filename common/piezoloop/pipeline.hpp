@@ -97,7 +97,9 @@ class Pipeline {
     static constexpr bool kFloat = std::is_same_v<T, float>;
 
 public:
+    using SampleType = T;
     using RecorderType = Recorder<T, RecChannels, RecCapacity>;
+    using RepetitiveType = RepetitiveController<T, RcCapacity>;
     using Trajectory = TrajectoryGenerator<T>;
 
     explicit Pipeline(const PipelineSetup& setup)

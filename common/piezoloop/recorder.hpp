@@ -112,6 +112,7 @@ public:
     };
     using Config = RecorderConfig<Channels>;
     using SignalVector = std::array<S, Signals>;
+    static constexpr std::size_t kChannels = Channels;
 
     static constexpr uint32_t kSeqStart = 0u - (1u << 16);
 

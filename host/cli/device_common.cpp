@@ -31,18 +31,7 @@ hostlink::Client open_device(int timeout_ms) {
 }
 
 CaseGroups case_groups(const PipelineParams& p) {
-    CaseGroups g;
-    g.limits.limits = p.limits;
-    g.feedforward.kind = p.feedforward;
-    g.feedforward.pi = p.pi;
-    g.feedforward.dahl = p.dahl;
-    g.feedback.kind = p.feedback;
-    g.feedback.sos_count = p.sos_count;
-    g.feedback.sos = p.sos;
-    g.feedback.pid = p.pid;
-    g.rc.enabled = p.rc_enabled;
-    g.rc.rc = p.rc;
-    return g;
+    return {params::limits_of(p), params::feedforward_of(p), params::feedback_of(p), params::rc_of(p)};
 }
 
 link::LimitsParams clip_to_hard_limits(const link::LimitsParams& l, const link::HelloReply& h,

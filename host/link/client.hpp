@@ -14,6 +14,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -22,6 +23,8 @@
 #include "link/transport.hpp"
 #include "piezoloop/link/framing.hpp"
 #include "piezoloop/link/messages.hpp"
+#include "piezoloop/params/field_check.hpp"
+#include "status_text.hpp"
 
 namespace piezoloop::hostlink {
 
@@ -94,8 +97,12 @@ public:
     }
     // SetParams, retried while the device answers busy (previous set not
     // yet swapped in) until the timeout.
+    // The group is checked against its declaration first (the check the
+    // board runs): std::invalid_argument naming the field, nothing sent.
     template <class G>
     void set(const G& v) {
+        params::FieldCheck check;
+        if (const Status s = check.check(v); !s.ok()) throw std::invalid_argument(describe(s));
         link::SetParams<G> m;
         m.value = v;
         const auto deadline = std::chrono::steady_clock::now() + options_.timeout;

@@ -1,327 +1,306 @@
 #include "link/params_json.hpp"
 
+#include <cstdio>
 #include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
 
-#include "link/client.hpp"
+#include "piezoloop/params/field.hpp"
 
 namespace piezoloop::hostlink {
 
 using nlohmann::json;
+using params::Field;
+using params::Travel;
 
 namespace {
 
-// Walks a JSON object of one group: each key must be consumed by a get_*
-// call; done() rejects the ones left (typos).
-class Obj {
+template <class X>
+json value_json(const Field& f, const X& x) {
+    if constexpr (std::is_enum_v<X>) {
+        return value_json(f, static_cast<std::underlying_type_t<X>>(x));
+    } else {
+        if (f.is_enum()) {
+            const auto i = static_cast<unsigned>(x);
+            return i < f.name_count ? json(f.names[i]) : json(i);
+        }
+        if (f.wire == params::Wire::kBool) return json(static_cast<bool>(x));
+        if (f.is_number()) return json(static_cast<double>(x));  // every float is a double: exact
+        if constexpr (std::is_signed_v<X>) return json(static_cast<long long>(x));
+        else return json(static_cast<unsigned long long>(x));
+    }
+}
+
+template <class C>
+std::size_t in_use(const C& n, std::size_t capacity) {
+    if constexpr (std::is_signed_v<C>)
+        if (n < 0) return 0;
+    return static_cast<std::size_t>(n) < capacity ? static_cast<std::size_t>(n) : capacity;
+}
+
+// Group -> JSON: nested objects as declared, arrays with their elements in
+// use (the count is the array's length), enums by name.
+class JsonWriter {
 public:
-    Obj(const json& j, std::string path) : j_(j), path_(std::move(path)) {
-        if (!j.is_object()) fail("", "must be a JSON object");
+    json root = json::object();
+
+    template <class X>
+    void value(const Field& f, const X& x) {
+        (*top())[f.name] = value_json(f, x);
     }
+    void begin(const char* name) {
+        (*top())[name] = json::object();
+        stack_.push_back(&(*top())[name]);
+    }
+    void end() { stack_.pop_back(); }
+    template <class C>
+    void count(const Field&, const C&) {}
+    template <class X, std::size_t N, class C>
+    void values(const Field& f, const std::array<X, N>& a, const C& n, Travel) {
+        json arr = json::array();
+        for (std::size_t i = 0; i < in_use(n, N); ++i) arr.push_back(value_json(f, a[i]));
+        (*top())[f.name] = arr;
+    }
+    template <class S, std::size_t N, class C>
+    void objects(const char* name, const std::array<S, N>& a, const C& n, Travel) {
+        json arr = json::array();
+        for (std::size_t i = 0; i < in_use(n, N); ++i) {
+            JsonWriter element;
+            params::describe(element, a[i]);
+            arr.push_back(element.root);
+        }
+        (*top())[name] = arr;
+    }
+
+private:
+    json* top() { return stack_.empty() ? &root : stack_.back(); }
+    std::vector<json*> stack_;
+};
+
+// JSON -> group, merged onto the group's current values: only the keys given
+// change. Each object level must use all its keys (a typo is an error). An
+// array sets the count it shares with later arrays (PI thresholds and
+// weights), which must then have as many values.
+class JsonMerger {
+public:
+    JsonMerger(const json& j, std::string path) { push(&j, std::move(path)); }
+
     [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-        throw std::invalid_argument(path_ + (key.empty() ? "" : "." + key) + ": " + what);
+        const std::string& p = levels_.back().path;
+        throw std::invalid_argument(p + (key.empty() ? "" : "." + key) + ": " + what);
     }
-    const json* find(const char* key) {
-        auto it = j_.find(key);
-        if (it == j_.end()) return nullptr;
-        used_.push_back(key);
-        return &*it;
+
+    template <class X>
+    void value(const Field& f, X& x) {
+        if (const json* v = find(f.name)) x = parse<X>(f, *v, f.name);
     }
-    void f32(const char* key, float& v) {
-        if (const json* x = find(key)) v = static_cast<float>(number(*x, key));
+    void begin(const char* name) {
+        const json* v = find(name);
+        push(v, levels_.back().path + "." + name);
     }
-    void f64(const char* key, double& v) {
-        if (const json* x = find(key)) v = number(*x, key);
+    void end() {
+        done();
+        levels_.pop_back();
     }
-    template <class I>
-    void integer(const char* key, I& v, long long lo, long long hi) {
-        if (const json* x = find(key)) {
-            if (!x->is_number_integer()) fail(key, "must be an integer");
-            const long long n = x->get<long long>();
-            if (n < lo || n > hi) fail(key, "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-            v = static_cast<I>(n);
+    template <class C>
+    void count(const Field&, C&) {
+        levels_.back().count_owner_array.clear();
+    }
+    template <class X, std::size_t N, class C>
+    void values(const Field& f, std::array<X, N>& a, C& n, Travel t) {
+        declare_array(f.name);
+        const json* v = find(f.name);
+        if (v == nullptr) {
+            // A count changed by an earlier array: what lies beyond it is unused.
+            if (t == Travel::kCount)
+                for (std::size_t i = in_use(n, N); i < N; ++i) a[i] = X{};
+            return;
         }
+        const std::size_t size = array_size(*v, f.name, N);
+        if (t == Travel::kAll) a = {};
+        for (std::size_t i = 0; i < size; ++i)
+            a[i] = parse<X>(f, (*v)[i], std::string(f.name) + "[" + std::to_string(i) + "]");
+        for (std::size_t i = size; i < N; ++i) a[i] = X{};
+        set_count(f.name, n, size);
     }
-    void boolean(const char* key, bool& v) {
-        if (const json* x = find(key)) {
-            if (!x->is_boolean()) fail(key, "must be true or false");
-            v = x->get<bool>();
+    template <class S, std::size_t N, class C>
+    void objects(const char* name, std::array<S, N>& a, C& n, Travel) {
+        declare_array(name);
+        const json* v = find(name);
+        if (v == nullptr) return;
+        const std::size_t size = array_size(*v, name, N);
+        for (std::size_t i = 0; i < size; ++i) {
+            JsonMerger element((*v)[i], levels_.back().path + "." + name + "[" + std::to_string(i) + "]");
+            params::describe(element, a[i]);
+            element.done();
         }
+        for (std::size_t i = size; i < N; ++i) a[i] = S{};
+        set_count(name, n, size);
     }
-    const json* object(const char* key) {
-        const json* x = find(key);
-        if (x != nullptr && !x->is_object()) fail(key, "must be a JSON object");
-        return x;
-    }
-    const json* array(const char* key) {
-        const json* x = find(key);
-        if (x != nullptr && !x->is_array()) fail(key, "must be an array");
-        return x;
-    }
-    template <class E, std::size_t N>
-    void enumeration(const char* key, E& v, const char* const (&names)[N]) {
-        if (const json* x = find(key)) {
-            std::string all;
-            for (std::size_t i = 0; i < N; ++i) {
-                if (x->is_string() && x->get<std::string>() == names[i]) {
-                    v = static_cast<E>(i);
-                    return;
-                }
-                all += (i ? ", " : "") + std::string(names[i]);
-            }
-            fail(key, "must be one of " + all);
-        }
-    }
+
     void done() const {
-        for (auto it = j_.begin(); it != j_.end(); ++it) {
+        const Level& l = levels_.back();
+        if (l.j == nullptr) return;
+        for (auto it = l.j->begin(); it != l.j->end(); ++it) {
             bool known = false;
-            for (const std::string& u : used_) known = known || u == it.key();
+            for (const std::string& u : l.used) known = known || u == it.key();
             if (!known) fail(it.key(), "unknown field");
         }
     }
-    double number(const json& x, const std::string& key) const {
-        if (!x.is_number()) fail(key, "must be a number");
-        return x.get<double>();
-    }
-    const std::string& path() const { return path_; }
 
 private:
-    const json& j_;
-    std::string path_;
-    std::vector<std::string> used_;
+    struct Level {
+        const json* j = nullptr;  // null: the object is not given, nothing changes
+        std::string path;
+        std::vector<std::string> used;
+        std::string count_owner_array;  // the first array declared after the last count
+    };
+
+    void push(const json* j, std::string path) {
+        Level l;
+        l.j = j;
+        l.path = std::move(path);
+        levels_.push_back(std::move(l));
+        if (j != nullptr && !j->is_object()) fail("", "must be a JSON object");
+    }
+
+    const json* find(const char* key) {
+        Level& l = levels_.back();
+        if (l.j == nullptr) return nullptr;
+        auto it = l.j->find(key);
+        if (it == l.j->end()) return nullptr;
+        l.used.emplace_back(key);
+        return &*it;
+    }
+
+    std::size_t array_size(const json& v, const char* key, std::size_t capacity) const {
+        if (!v.is_array()) fail(key, "must be an array");
+        if (v.size() > capacity) fail(key, "at most " + std::to_string(capacity) + " values");
+        return v.size();
+    }
+
+    // The first array declared after a count sets it; later arrays of the
+    // same count must have as many values.
+    void declare_array(const char* key) {
+        if (levels_.back().count_owner_array.empty()) levels_.back().count_owner_array = key;
+    }
+    template <class C>
+    void set_count(const char* key, C& n, std::size_t size) {
+        const Level& l = levels_.back();
+        if (l.count_owner_array == key)
+            n = static_cast<C>(size);
+        else if (size != in_use(n, static_cast<std::size_t>(-1)))
+            fail(key, "must have as many values as " + l.count_owner_array);
+    }
+
+    template <class X>
+    X parse(const Field& f, const json& v, const std::string& key) const {
+        if constexpr (std::is_enum_v<X>) {
+            return static_cast<X>(parse<std::underlying_type_t<X>>(f, v, key));
+        } else {
+            if (f.is_enum()) {
+                std::string all;
+                for (unsigned i = 0; i < f.name_count; ++i) {
+                    if (v.is_string() && v.get<std::string>() == f.names[i]) return static_cast<X>(i);
+                    all += (i ? ", " : "") + std::string(f.names[i]);
+                }
+                fail(key, "must be one of " + all);
+            }
+            if (f.wire == params::Wire::kBool) {
+                if (!v.is_boolean()) fail(key, "must be true or false");
+                return static_cast<X>(v.get<bool>());
+            }
+            if (f.is_number()) {
+                if (!v.is_number()) fail(key, "must be a number");
+                const double d = v.get<double>();
+                if (!(d >= -params::kFloatMax && d <= params::kFloatMax))
+                    fail(key, "must be finite in float32 (|x| <= 3.4028e+38)");
+                return static_cast<X>(d);
+            }
+            if (!v.is_number_integer()) fail(key, "must be an integer");
+            const double d = v.is_number_unsigned() ? static_cast<double>(v.get<unsigned long long>())
+                                                    : static_cast<double>(v.get<long long>());
+            if (d < f.min || d > f.max) {
+                char t[96];
+                std::snprintf(t, sizeof t, "must be in [%.0f, %.0f]", f.min, f.max);
+                fail(key, t);
+            }
+            return static_cast<X>(d);
+        }
+    }
+
+    std::vector<Level> levels_;
 };
 
-const char* const kFeedforwardKinds[] = {"none", "pi_inverse", "pi_compensator", "dahl", "pi_series"};
-const char* const kFeedbackKinds[] = {"none", "sos", "pid"};
-const char* const kWaveforms[] = {"sine", "triangle", "raster", "square", "steps", "table"};
-const char* const kModes[] = {"single_shot", "continuous"};
-const char* const kTriggers[] = {"immediate", "rising", "falling"};
-const char* const kSignals[] = {"r", "y", "e", "u", "u_ff", "u_fb", "u_rc"};
-const char* const kRecorderStates[] = {"idle", "armed", "triggered", "done"};
+template <class G>
+json group_json(const G& g) {
+    JsonWriter w;
+    params::describe(w, g);
+    return w.root;
+}
+
+template <class G>
+void merge_group(const json& j, G& g) {
+    JsonMerger m(j, params::group_name(G::kGroup));
+    params::describe(m, g);
+    m.done();
+}
+
+}  // namespace
+
+json to_json(const link::FeedforwardParams& g) { return group_json(g); }
+json to_json(const link::FeedbackParams& g) { return group_json(g); }
+json to_json(const link::RepetitiveParams& g) { return group_json(g); }
+json to_json(const link::LimitsParams& g) { return group_json(g); }
+json to_json(const link::TrajectoryParams& g) { return group_json(g); }
+json to_json(const link::RecorderParams& g) { return group_json(g); }
+
+void merge_json(const json& j, link::FeedforwardParams& g) { merge_group(j, g); }
+void merge_json(const json& j, link::FeedbackParams& g) { merge_group(j, g); }
+void merge_json(const json& j, link::RepetitiveParams& g) { merge_group(j, g); }
+void merge_json(const json& j, link::LimitsParams& g) { merge_group(j, g); }
+void merge_json(const json& j, link::TrajectoryParams& g) { merge_group(j, g); }
+void merge_json(const json& j, link::RecorderParams& g) { merge_group(j, g); }
+
+namespace {
+
+template <std::size_t N>
+std::string name_list(const char* const (&names)[N]) {
+    std::string all;
+    for (std::size_t i = 0; i < N; ++i) all += (i ? ", " : "") + std::string(names[i]);
+    return all;
+}
 
 template <std::size_t N>
 json name_of(const char* const (&names)[N], unsigned v) {
     return v < N ? json(names[v]) : json(v);
 }
 
-json section_json(const SosSection& s) { return {{"b0", s.b0}, {"b1", s.b1}, {"b2", s.b2}, {"a1", s.a1}, {"a2", s.a2}}; }
-
-void merge_section(const json& j, const std::string& path, SosSection& s) {
-    Obj o(j, path);
-    o.f64("b0", s.b0); o.f64("b1", s.b1); o.f64("b2", s.b2); o.f64("a1", s.a1); o.f64("a2", s.a2);
-    o.done();
-}
-
-template <std::size_t N>
-void float_array(Obj& o, const char* key, std::array<float, N>& out, int& count, int max_count) {
-    if (const json* a = o.array(key)) {
-        if (a->size() > static_cast<std::size_t>(max_count))
-            o.fail(key, "at most " + std::to_string(max_count) + " values");
-        if (count >= 0 && a->size() != static_cast<std::size_t>(count)) o.fail(key, "must have as many values as thresholds");
-        for (std::size_t i = 0; i < a->size(); ++i) out[i] = static_cast<float>(o.number((*a)[i], std::string(key) + "[" + std::to_string(i) + "]"));
-        count = static_cast<int>(a->size());
-    }
-}
-
 }  // namespace
 
 link::ParamGroup parse_group(const std::string& name) {
-    for (int g = 1; g <= 6; ++g)
+    for (int g = 1; g <= params::kGroupCount; ++g)
         if (name == link::group_name(static_cast<link::ParamGroup>(g))) return static_cast<link::ParamGroup>(g);
     throw std::invalid_argument("unknown parameter group '" + name +
                                 "' (feedforward, feedback, rc, limits, trajectory, recorder, all)");
 }
 
 uint8_t parse_signal(const std::string& name) {
-    for (uint8_t i = 0; i < 7; ++i)
-        if (name == kSignals[i]) return i;
-    throw std::invalid_argument("unknown signal '" + name + "' (r, y, e, u, u_ff, u_fb, u_rc)");
+    for (uint8_t i = 0; i < std::size(params::kSignalNames); ++i)
+        if (name == params::kSignalNames[i]) return i;
+    throw std::invalid_argument("unknown signal '" + name + "' (" + name_list(params::kSignalNames) + ")");
 }
 
 const char* waveform_name(Waveform w) {
     const auto i = static_cast<unsigned>(w);
-    return i < 6 ? kWaveforms[i] : "?";
+    return i < std::size(params::kWaveformNames) ? params::kWaveformNames[i] : "?";
 }
 
 Waveform parse_waveform(const std::string& name) {
-    for (unsigned i = 0; i < 6; ++i)
-        if (name == kWaveforms[i]) return static_cast<Waveform>(i);
-    throw std::invalid_argument("unknown waveform '" + name + "' (sine, triangle, raster, square, steps, table)");
-}
-
-json to_json(const link::FeedforwardParams& g) {
-    json th = json::array(), w = json::array();
-    for (int i = 0; i < g.pi.count && i < kMaxPlayOperators; ++i) {
-        th.push_back(g.pi.thresholds[static_cast<unsigned>(i)]);
-        w.push_back(g.pi.weights[static_cast<unsigned>(i)]);
-    }
-    const DahlParams& d = g.dahl;
-    return {{"kind", name_of(kFeedforwardKinds, static_cast<unsigned>(g.kind))},
-            {"pi", {{"input_gain", g.pi.input_gain}, {"input_offset", g.pi.input_offset}, {"p0", g.pi.p0},
-                    {"thresholds", th}, {"weights", w}}},
-            {"dahl", {{"alpha1", d.alpha1}, {"alpha2", d.alpha2}, {"beta1", d.beta1}, {"beta2", d.beta2},
-                      {"gamma_a", d.gamma_a}, {"ga", d.ga}}}};
-}
-
-void merge_json(const json& j, link::FeedforwardParams& g) {
-    Obj o(j, "feedforward");
-    o.enumeration("kind", g.kind, kFeedforwardKinds);
-    if (const json* p = o.object("pi")) {
-        Obj q(*p, "feedforward.pi");
-        q.f32("input_gain", g.pi.input_gain);
-        q.f32("input_offset", g.pi.input_offset);
-        q.f32("p0", g.pi.p0);
-        int count = -1;
-        float_array(q, "thresholds", g.pi.thresholds, count, kMaxPlayOperators);
-        if (count < 0 && q.find("weights") != nullptr) count = g.pi.count;  // weights alone: keep the count
-        int wc = count;
-        float_array(q, "weights", g.pi.weights, wc, kMaxPlayOperators);
-        if (count >= 0) {
-            g.pi.count = count;
-            for (int i = count; i < kMaxPlayOperators; ++i) {
-                g.pi.thresholds[static_cast<unsigned>(i)] = 0.0f;
-                g.pi.weights[static_cast<unsigned>(i)] = 0.0f;
-            }
-        }
-        q.done();
-    }
-    if (const json* p = o.object("dahl")) {
-        Obj q(*p, "feedforward.dahl");
-        DahlParams& d = g.dahl;
-        q.f32("alpha1", d.alpha1); q.f32("alpha2", d.alpha2); q.f32("beta1", d.beta1);
-        q.f32("beta2", d.beta2); q.f32("gamma_a", d.gamma_a); q.f32("ga", d.ga);
-        q.done();
-    }
-    o.done();
-}
-
-json to_json(const link::FeedbackParams& g) {
-    json sec = json::array();
-    for (int i = 0; i < g.sos_count && i < kMaxControllerSections; ++i) sec.push_back(section_json(g.sos[static_cast<unsigned>(i)]));
-    const PidConfig& p = g.pid;
-    return {{"kind", name_of(kFeedbackKinds, static_cast<unsigned>(g.kind))},
-            {"sos_count", g.sos_count},
-            {"sections", sec},
-            {"pid", {{"kp", p.kp}, {"ki_per_s", p.ki_per_s}, {"kd_s", p.kd_s},
-                     {"derivative_cutoff_Hz", p.derivative_cutoff_Hz}, {"u_min", p.u_min}, {"u_max", p.u_max}}}};
-}
-
-void merge_json(const json& j, link::FeedbackParams& g) {
-    Obj o(j, "feedback");
-    o.enumeration("kind", g.kind, kFeedbackKinds);
-    if (const json* a = o.array("sections")) {
-        if (a->size() > static_cast<std::size_t>(kMaxControllerSections))
-            o.fail("sections", "at most " + std::to_string(kMaxControllerSections) + " sections");
-        for (std::size_t i = 0; i < a->size(); ++i) merge_section((*a)[i], "feedback.sections[" + std::to_string(i) + "]", g.sos[i]);
-        for (std::size_t i = a->size(); i < static_cast<std::size_t>(kMaxControllerSections); ++i) g.sos[i] = SosSection{};
-        g.sos_count = static_cast<int>(a->size());
-    }
-    o.integer("sos_count", g.sos_count, 0, kMaxControllerSections);
-    if (const json* p = o.object("pid")) {
-        Obj q(*p, "feedback.pid");
-        PidConfig& c = g.pid;
-        q.f32("kp", c.kp); q.f32("ki_per_s", c.ki_per_s); q.f32("kd_s", c.kd_s);
-        q.f32("derivative_cutoff_Hz", c.derivative_cutoff_Hz); q.f32("u_min", c.u_min); q.f32("u_max", c.u_max);
-        q.done();
-    }
-    o.done();
-}
-
-json to_json(const link::RepetitiveParams& g) {
-    return {{"enabled", g.enabled}, {"period_samples", g.rc.period_samples}, {"m1", g.rc.m1},
-            {"m2", g.rc.m2},        {"k_rc", g.rc.k_rc},                     {"q", section_json(g.rc.q)}};
-}
-
-void merge_json(const json& j, link::RepetitiveParams& g) {
-    Obj o(j, "rc");
-    o.boolean("enabled", g.enabled);
-    o.integer("period_samples", g.rc.period_samples, INT32_MIN, INT32_MAX);
-    o.integer("m1", g.rc.m1, INT32_MIN, INT32_MAX);
-    o.integer("m2", g.rc.m2, INT32_MIN, INT32_MAX);
-    o.f32("k_rc", g.rc.k_rc);
-    if (const json* q = o.object("q")) merge_section(*q, "rc.q", g.rc.q);
-    o.done();
-}
-
-json to_json(const link::LimitsParams& g) {
-    const LimitsConfig& l = g.limits;
-    return {{"u_min_V", l.u_min_V}, {"u_max_V", l.u_max_V}, {"slew_V_per_s", l.slew_V_per_s},
-            {"saturation_trip_s", l.saturation_trip_s}};
-}
-
-void merge_json(const json& j, link::LimitsParams& g) {
-    Obj o(j, "limits");
-    o.f32("u_min_V", g.limits.u_min_V);
-    o.f32("u_max_V", g.limits.u_max_V);
-    o.f32("slew_V_per_s", g.limits.slew_V_per_s);
-    o.f32("saturation_trip_s", g.limits.saturation_trip_s);
-    o.done();
-}
-
-json to_json(const link::TrajectoryParams& g) {
-    json t = json::array();
-    for (std::size_t i = 0; i < g.table_count && i < g.table.size(); ++i) t.push_back(g.table[i]);
-    return {{"waveform", name_of(kWaveforms, static_cast<unsigned>(g.waveform))},
-            {"amplitude_um", g.amplitude_um},
-            {"offset_um", g.offset_um},
-            {"frequency_Hz", g.frequency_Hz},
-            {"cycles", g.cycles},
-            {"start_phase_cycles", g.start_phase_cycles},
-            {"return_fraction", g.return_fraction},
-            {"duty", g.duty},
-            {"table", t}};
-}
-
-void merge_json(const json& j, link::TrajectoryParams& g) {
-    Obj o(j, "trajectory");
-    o.enumeration("waveform", g.waveform, kWaveforms);
-    o.f32("amplitude_um", g.amplitude_um);
-    o.f32("offset_um", g.offset_um);
-    o.f32("frequency_Hz", g.frequency_Hz);
-    o.integer("cycles", g.cycles, 0, UINT32_MAX);
-    o.f32("start_phase_cycles", g.start_phase_cycles);
-    o.f32("return_fraction", g.return_fraction);
-    o.f32("duty", g.duty);
-    if (const json* a = o.array("table")) {
-        if (a->size() > link::kMaxWaveTable) o.fail("table", "at most 96 values");
-        g.table = {};
-        for (std::size_t i = 0; i < a->size(); ++i) g.table[i] = static_cast<float>(o.number((*a)[i], "table"));
-        g.table_count = static_cast<uint16_t>(a->size());
-    }
-    o.done();
-}
-
-json to_json(const link::RecorderParams& g) {
-    json ch = json::array();
-    for (std::size_t i = 0; i < g.channel_count && i < g.channels.size(); ++i) ch.push_back(name_of(kSignals, g.channels[i]));
-    return {{"channels", ch},
-            {"decimation", g.decimation},
-            {"mode", name_of(kModes, static_cast<unsigned>(g.mode))},
-            {"trigger", name_of(kTriggers, static_cast<unsigned>(g.trigger))},
-            {"trigger_signal", name_of(kSignals, g.trigger_signal)},
-            {"trigger_level", g.trigger_level},
-            {"pre_trigger", g.pre_trigger},
-            {"length", g.length}};
-}
-
-void merge_json(const json& j, link::RecorderParams& g) {
-    Obj o(j, "recorder");
-    if (const json* a = o.array("channels")) {
-        if (a->size() > link::kMaxLogChannels) o.fail("channels", "at most 8 channels");
-        g.channels = {};
-        for (std::size_t i = 0; i < a->size(); ++i) {
-            if (!(*a)[i].is_string()) o.fail("channels", "signal names (r, y, e, u, u_ff, u_fb, u_rc)");
-            g.channels[i] = parse_signal((*a)[i].get<std::string>());
-        }
-        g.channel_count = static_cast<uint8_t>(a->size());
-    }
-    o.integer("decimation", g.decimation, 0, UINT32_MAX);
-    o.enumeration("mode", g.mode, kModes);
-    o.enumeration("trigger", g.trigger, kTriggers);
-    o.enumeration("trigger_signal", g.trigger_signal, kSignals);
-    o.f32("trigger_level", g.trigger_level);
-    o.integer("pre_trigger", g.pre_trigger, 0, UINT32_MAX);
-    o.integer("length", g.length, 0, UINT32_MAX);
-    o.done();
+    for (unsigned i = 0; i < std::size(params::kWaveformNames); ++i)
+        if (name == params::kWaveformNames[i]) return static_cast<Waveform>(i);
+    throw std::invalid_argument("unknown waveform '" + name + "' (" + name_list(params::kWaveformNames) + ")");
 }
 
 json to_json(const link::HelloReply& h) {
@@ -351,6 +330,7 @@ json to_json(const link::HelloReply& h) {
 }
 
 json to_json(const link::StatusReply& s) {
+    const char* const recorder_states[] = {"idle", "armed", "triggered", "done"};
     json faults = json::array();
     const char* const fault_names[] = {"hard_limits_invalid", "tick_overrun", "setpoint_underrun", "recorder_overrun",
                                        "link_errors"};
@@ -364,7 +344,7 @@ json to_json(const link::StatusReply& s) {
             {"wave_running", s.wave_running},
             {"streaming", s.streaming},
             {"swap_pending", s.swap_pending},
-            {"recorder_state", name_of(kRecorderStates, static_cast<unsigned>(s.recorder_state))},
+            {"recorder_state", name_of(recorder_states, static_cast<unsigned>(s.recorder_state))},
             {"faults", faults},
             {"faults_bits", s.faults},
             {"tick_count", s.tick_count},

@@ -147,11 +147,11 @@ TEST(BoardCase, LayoutAtDocumentedOffsets) {
     EXPECT_TRUE(std::equal(profile.begin(), profile.end(), b.begin() + kProfileAt));
     std::array<uint8_t, 2048> groups{};
     link::Writer w(groups);
-    link::LimitsParams{c.params.limits}.write(w);
-    link::FeedforwardParams{c.params.feedforward, c.params.pi, c.params.dahl}.write(w);
-    link::FeedbackParams{c.params.feedback, c.params.sos_count, c.params.sos, c.params.pid}.write(w);
-    link::RepetitiveParams{c.params.rc_enabled, c.params.rc}.write(w);
-    c.trajectory.write(w);
+    params::write_group(w, params::limits_of(c.params));
+    params::write_group(w, params::feedforward_of(c.params));
+    params::write_group(w, params::feedback_of(c.params));
+    params::write_group(w, params::rc_of(c.params));
+    params::write_group(w, c.trajectory);
     ASSERT_TRUE(w.ok());
     ASSERT_EQ(kLimitsAt + w.size(), b.size());
     EXPECT_TRUE(std::equal(groups.begin(), groups.begin() + static_cast<long>(w.size()), b.begin() + kLimitsAt));
@@ -279,8 +279,8 @@ TEST(BoardCase, EveryRejectionNamesItsField) {
              BoardCase c = sample_case();
              std::array<uint8_t, 2048> g{};
              link::Writer w(g);
-             link::FeedforwardParams{c.params.feedforward, c.params.pi, c.params.dahl}.write(w);
-             link::FeedbackParams{c.params.feedback, c.params.sos_count, c.params.sos, c.params.pid}.write(w);
+             params::write_group(w, params::feedforward_of(c.params));
+             params::write_group(w, params::feedback_of(c.params));
              b[kFeedforwardAt + w.size()] = 2;  // RepetitiveParams::enabled
              reseal(b);
          },

@@ -236,8 +236,9 @@ TEST(HostLinkClient, ErrorReplyBecomesDeviceErrorNamingTheField) {
         FAIL() << "non-ascending thresholds accepted";
     } catch (const DeviceError& e) {
         EXPECT_EQ(e.code(), link::ErrorCode::kInvalidParam);
-        EXPECT_EQ(e.group(), "pi");
-        EXPECT_NE(std::string(e.what()).find("pi.thresholds"), std::string::npos) << e.what();
+        EXPECT_EQ(e.group(), "feedforward");
+        EXPECT_EQ(e.field(), "pi.thresholds");
+        EXPECT_NE(std::string(e.what()).find("feedforward.pi.thresholds[2]"), std::string::npos) << e.what();
     }
     // The rejected set changed nothing.
     EXPECT_EQ(c.get<link::FeedforwardParams>().pi.thresholds, reference::params().pi.thresholds);

@@ -147,14 +147,14 @@ TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
 
     FeedforwardParams ff{p.feedforward, p.pi, p.dahl};
     ff.pi.weights[3] = nan;
-    this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "pi", "weights", 3);
+    this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "feedforward", "pi.weights", 3);
     ff = {p.feedforward, p.pi, p.dahl};
     ff.pi.thresholds[5] = ff.pi.thresholds[4];  // not ascending
-    this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "pi", "thresholds", 5);
+    this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "feedforward", "pi.thresholds", 5);
 
     FeedbackParams fb{p.feedback, p.sos_count, p.sos, p.pid};
     fb.sos[1].a2 = std::numeric_limits<double>::quiet_NaN();
-    this->expect_error(r_.set(fb), ErrorCode::kInvalidParam, "sos", "sections", 1);
+    this->expect_error(r_.set(fb), ErrorCode::kInvalidParam, "feedback", "sections[1].a2");
     fb = {p.feedback, p.sos_count, p.sos, p.pid};
     fb.sos[0].a2 = 1.5;  // a pole outside the unit circle
     const Reply unstable = r_.set(fb);
@@ -172,7 +172,7 @@ TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
     this->expect_error(r_.set(rc), ErrorCode::kInvalidParam, "rc", "k_rc");
     rc = {true, p.rc};
     rc.rc.q.b1 = std::numeric_limits<double>::infinity();
-    this->expect_error(r_.set(rc), ErrorCode::kInvalidParam, "rc", "q");
+    this->expect_error(r_.set(rc), ErrorCode::kInvalidParam, "rc", "q.b1");
 
     TrajectoryParams tp;
     tp.frequency_Hz = 60000.0f;  // above Nyquist
@@ -184,7 +184,7 @@ TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
     RecorderParams rp;
     rp.channel_count = 4;
     rp.channels = {0, 1, 2, 9};
-    this->expect_error(r_.set(rp), ErrorCode::kInvalidParam, "recorder", "channels");
+    this->expect_error(r_.set(rp), ErrorCode::kInvalidParam, "recorder", "channels", 3);
     rp.channel_count = 3;
     this->expect_error(r_.set(rp), ErrorCode::kUnsupported, "recorder", "channel_count");
 
@@ -214,9 +214,9 @@ TYPED_TEST(LinkDevice, SeriesPlacementTravelsAndNeedsAFeedback) {
     this->expect_error(r_.set(none), ErrorCode::kInvalidParam, nullptr, "feedforward");
     r_.tick();
     EXPECT_EQ(this->snapshot(), before);
-    // Kind values past pi_series are still refused.
+    // Kind values past pi_series are still refused, by their declared names.
     const FeedforwardParams unknown{static_cast<FeedforwardKind>(5), p.pi, p.dahl};
-    this->expect_error(r_.set(unknown), ErrorCode::kInvalidParam, nullptr, "feedforward");
+    this->expect_error(r_.set(unknown), ErrorCode::kInvalidParam, "feedforward", "kind");
 }
 
 TYPED_TEST(LinkDevice, LimitCriticalChangesOnlyWhileDisarmed) {
@@ -238,7 +238,7 @@ TYPED_TEST(LinkDevice, LimitCriticalChangesOnlyWhileDisarmed) {
     this->expect_error(r_.set(fb), ErrorCode::kArmed, "feedback", "sos_count");
     fb = {p.feedback, p.sos_count, p.sos, p.pid};
     fb.pid.u_max = 100.0f;
-    this->expect_error(r_.set(fb), ErrorCode::kArmed, "pid", "u_max");
+    this->expect_error(r_.set(fb), ErrorCode::kArmed, "feedback", "pid.u_max");
     FeedforwardParams ff{FeedforwardKind::kNone, p.pi, p.dahl};
     this->expect_error(r_.set(ff), ErrorCode::kArmed, "feedforward", "kind");
     this->expect_error(r_.set(RepetitiveParams{true, p.rc}), ErrorCode::kArmed, "rc", "enabled");

@@ -22,6 +22,8 @@
 #include "piezoloop/limits.hpp"
 #include "piezoloop/link/framing.hpp"
 #include "piezoloop/link/wire.hpp"
+#include "piezoloop/params/groups.hpp"
+#include "piezoloop/params/wire_codec.hpp"
 #include "piezoloop/pi_model.hpp"
 #include "piezoloop/pid.hpp"
 #include "piezoloop/pipeline.hpp"
@@ -101,27 +103,6 @@ constexpr const char* error_code_name(ErrorCode c) {
     return "?";
 }
 
-enum class ParamGroup : uint8_t {
-    kFeedforward = 1,  // kind, PI model, Dahl
-    kFeedback = 2,     // kind, SOS sections, PID
-    kRepetitive = 3,   // RC on/off and its configuration
-    kLimits = 4,       // runtime output limits (within the hard limits)
-    kTrajectory = 5,   // wave generator
-    kRecorder = 6,     // recorder configuration
-};
-
-constexpr const char* group_name(ParamGroup g) {
-    switch (g) {
-        case ParamGroup::kFeedforward: return "feedforward";
-        case ParamGroup::kFeedback: return "feedback";
-        case ParamGroup::kRepetitive: return "rc";
-        case ParamGroup::kLimits: return "limits";
-        case ParamGroup::kTrajectory: return "trajectory";
-        case ParamGroup::kRecorder: return "recorder";
-    }
-    return "?";
-}
-
 // Capability bits of the hello reply.
 namespace cap {
 inline constexpr uint32_t kFloat = 1u << 0;           // float pipeline (samples in physical units)
@@ -140,8 +121,6 @@ inline constexpr std::size_t kSerialSize = 32;         // up to 31 characters
 inline constexpr std::size_t kGroupTextSize = 16;     // error reply texts
 inline constexpr std::size_t kFieldTextSize = 32;
 inline constexpr std::size_t kMessageTextSize = 96;
-inline constexpr std::size_t kMaxWaveTable = 96;      // points of a kSteps/kTable wave
-inline constexpr std::size_t kMaxLogChannels = 8;
 inline constexpr std::size_t kMaxSetpointsPerBlock = 120;
 inline constexpr std::size_t kLogBlockHeader = 28;    // body bytes before the samples
 // Samples per log block: 480 bytes of samples whatever the channel count.
@@ -152,158 +131,18 @@ constexpr std::size_t log_frames_per_block(std::size_t channels) {
 }
 
 // ---- parameter groups ------------------------------------------------------
+// Declared once, with their layouts, in params/groups.hpp.
 
-namespace wire_detail {
-inline void write(Writer& w, const SosSection& s) { w.f64(s.b0); w.f64(s.b1); w.f64(s.b2); w.f64(s.a1); w.f64(s.a2); }
-inline void read(Reader& r, SosSection& s) { s.b0 = r.f64(); s.b1 = r.f64(); s.b2 = r.f64(); s.a1 = r.f64(); s.a2 = r.f64(); }
-}  // namespace wire_detail
-
-struct FeedforwardParams {
-    static constexpr ParamGroup kGroup = ParamGroup::kFeedforward;
-    FeedforwardKind kind = FeedforwardKind::kNone;
-    PiModel pi{};
-    DahlParams dahl{};
-    bool operator==(const FeedforwardParams&) const = default;
-
-    void write(Writer& w) const {
-        w.u8(static_cast<uint8_t>(kind));
-        w.f32(pi.input_gain); w.f32(pi.input_offset); w.f32(pi.p0);
-        const int n = pi.count < 0 ? 0 : (pi.count > kMaxPlayOperators ? kMaxPlayOperators : pi.count);
-        w.u8(static_cast<uint8_t>(n));
-        for (int j = 0; j < n; ++j) w.f32(pi.thresholds[static_cast<unsigned>(j)]);
-        for (int j = 0; j < n; ++j) w.f32(pi.weights[static_cast<unsigned>(j)]);
-        w.f32(dahl.alpha1); w.f32(dahl.alpha2); w.f32(dahl.beta1); w.f32(dahl.beta2); w.f32(dahl.gamma_a); w.f32(dahl.ga);
-    }
-    void read(Reader& r) {
-        kind = static_cast<FeedforwardKind>(r.u8());
-        pi = PiModel{};
-        pi.input_gain = r.f32(); pi.input_offset = r.f32(); pi.p0 = r.f32();
-        const uint8_t n = r.u8();
-        if (n > kMaxPlayOperators) { r.mark_bad(); return; }
-        pi.count = n;
-        for (unsigned j = 0; j < n; ++j) pi.thresholds[j] = r.f32();
-        for (unsigned j = 0; j < n; ++j) pi.weights[j] = r.f32();
-        dahl.alpha1 = r.f32(); dahl.alpha2 = r.f32(); dahl.beta1 = r.f32(); dahl.beta2 = r.f32(); dahl.gamma_a = r.f32(); dahl.ga = r.f32();
-    }
-};
-
-struct FeedbackParams {
-    static constexpr ParamGroup kGroup = ParamGroup::kFeedback;
-    FeedbackKind kind = FeedbackKind::kNone;
-    int sos_count = 0;
-    std::array<SosSection, kMaxControllerSections> sos{};
-    PidConfig pid{};
-    bool operator==(const FeedbackParams&) const = default;
-
-    void write(Writer& w) const {
-        w.u8(static_cast<uint8_t>(kind));
-        // All kMaxControllerSections sections travel (fixed layout); sos_count
-        // is sent as is so the device validates it.
-        w.u8(static_cast<uint8_t>(sos_count));
-        for (const SosSection& s : sos) wire_detail::write(w, s);
-        w.f32(pid.kp); w.f32(pid.ki_per_s); w.f32(pid.kd_s); w.f32(pid.derivative_cutoff_Hz); w.f32(pid.u_min); w.f32(pid.u_max);
-    }
-    void read(Reader& r) {
-        kind = static_cast<FeedbackKind>(r.u8());
-        sos_count = r.u8();
-        for (SosSection& s : sos) wire_detail::read(r, s);
-        pid.kp = r.f32(); pid.ki_per_s = r.f32(); pid.kd_s = r.f32(); pid.derivative_cutoff_Hz = r.f32(); pid.u_min = r.f32(); pid.u_max = r.f32();
-    }
-};
-
-struct RepetitiveParams {
-    static constexpr ParamGroup kGroup = ParamGroup::kRepetitive;
-    bool enabled = false;
-    RepetitiveConfig rc{};
-    bool operator==(const RepetitiveParams&) const = default;
-
-    void write(Writer& w) const {
-        w.boolean(enabled);
-        w.i32(rc.period_samples); w.i32(rc.m1); w.i32(rc.m2); w.f32(rc.k_rc);
-        wire_detail::write(w, rc.q);
-    }
-    void read(Reader& r) {
-        enabled = r.boolean();
-        rc.period_samples = r.i32(); rc.m1 = r.i32(); rc.m2 = r.i32(); rc.k_rc = r.f32();
-        wire_detail::read(r, rc.q);
-    }
-};
-
-struct LimitsParams {
-    static constexpr ParamGroup kGroup = ParamGroup::kLimits;
-    LimitsConfig limits{};
-    bool operator==(const LimitsParams& o) const {
-        return limits.u_min_V == o.limits.u_min_V && limits.u_max_V == o.limits.u_max_V &&
-               limits.slew_V_per_s == o.limits.slew_V_per_s && limits.saturation_trip_s == o.limits.saturation_trip_s;
-    }
-
-    void write(Writer& w) const { w.f32(limits.u_min_V); w.f32(limits.u_max_V); w.f32(limits.slew_V_per_s); w.f32(limits.saturation_trip_s); }
-    void read(Reader& r) { limits.u_min_V = r.f32(); limits.u_max_V = r.f32(); limits.slew_V_per_s = r.f32(); limits.saturation_trip_s = r.f32(); }
-};
-
-// The wave generator's settings; its sample rate is the device's loop rate.
-struct TrajectoryParams {
-    static constexpr ParamGroup kGroup = ParamGroup::kTrajectory;
-    Waveform waveform = Waveform::kSine;
-    float amplitude_um = 0.0f;
-    float offset_um = 0.0f;
-    float frequency_Hz = 1.0f;
-    uint32_t cycles = 0;
-    float start_phase_cycles = 0.0f;
-    float return_fraction = 0.1f;
-    float duty = 0.5f;
-    uint16_t table_count = 0;
-    std::array<float, kMaxWaveTable> table{};
-    bool operator==(const TrajectoryParams&) const = default;
-
-    void write(Writer& w) const {
-        w.u8(static_cast<uint8_t>(waveform));
-        w.f32(amplitude_um); w.f32(offset_um); w.f32(frequency_Hz); w.u32(cycles);
-        w.f32(start_phase_cycles); w.f32(return_fraction); w.f32(duty);
-        const uint16_t n = table_count > kMaxWaveTable ? static_cast<uint16_t>(kMaxWaveTable) : table_count;
-        w.u16(n);
-        for (std::size_t i = 0; i < n; ++i) w.f32(table[i]);
-    }
-    void read(Reader& r) {
-        waveform = static_cast<Waveform>(r.u8());
-        amplitude_um = r.f32(); offset_um = r.f32(); frequency_Hz = r.f32(); cycles = r.u32();
-        start_phase_cycles = r.f32(); return_fraction = r.f32(); duty = r.f32();
-        table_count = r.u16();
-        if (table_count > kMaxWaveTable) { r.mark_bad(); return; }
-        table = {};
-        for (std::size_t i = 0; i < table_count; ++i) table[i] = r.f32();
-    }
-};
-
-struct RecorderParams {
-    static constexpr ParamGroup kGroup = ParamGroup::kRecorder;
-    uint8_t channel_count = 0;
-    std::array<uint8_t, kMaxLogChannels> channels{};  // SignalId values, first channel_count used
-    uint32_t decimation = 1;
-    RecordMode mode = RecordMode::kContinuous;
-    TriggerMode trigger = TriggerMode::kImmediate;
-    uint8_t trigger_signal = 0;
-    float trigger_level = 0.0f;  // physical units of the trigger signal (µm or V)
-    uint32_t pre_trigger = 0;
-    uint32_t length = 0;
-    bool operator==(const RecorderParams&) const = default;
-
-    void write(Writer& w) const {
-        w.u8(channel_count);
-        for (const uint8_t c : channels) w.u8(c);
-        w.u32(decimation);
-        w.u8(static_cast<uint8_t>(mode)); w.u8(static_cast<uint8_t>(trigger)); w.u8(trigger_signal);
-        w.f32(trigger_level); w.u32(pre_trigger); w.u32(length);
-    }
-    void read(Reader& r) {
-        channel_count = r.u8();
-        for (uint8_t& c : channels) c = r.u8();
-        if (channel_count > kMaxLogChannels) r.mark_bad();
-        decimation = r.u32();
-        mode = static_cast<RecordMode>(r.u8()); trigger = static_cast<TriggerMode>(r.u8()); trigger_signal = r.u8();
-        trigger_level = r.f32(); pre_trigger = r.u32(); length = r.u32();
-    }
-};
+using params::FeedbackParams;
+using params::FeedforwardParams;
+using params::group_name;
+using params::kMaxLogChannels;
+using params::kMaxWaveTable;
+using params::LimitsParams;
+using params::ParamGroup;
+using params::RecorderParams;
+using params::RepetitiveParams;
+using params::TrajectoryParams;
 
 // ---- messages -----------------------------------------------------------------
 
@@ -367,10 +206,13 @@ struct GroupMessage {
     static constexpr MsgType kType = Type;
     G value{};
     bool operator==(const GroupMessage&) const = default;
-    void write(Writer& w) const { w.u8(static_cast<uint8_t>(G::kGroup)); value.write(w); }
+    void write(Writer& w) const {
+        w.u8(static_cast<uint8_t>(G::kGroup));
+        params::write_group(w, value);
+    }
     void read(Reader& r) {
         if (r.u8() != static_cast<uint8_t>(G::kGroup)) r.mark_bad();
-        value.read(r);
+        params::read_group(r, value);
     }
 };
 template <class G> using SetParams = GroupMessage<MsgType::kSetParams, G>;

@@ -1,0 +1,205 @@
+// What the device does with a parameter group it is sent (SetParams), and
+// which set it reports (GetParams).
+//
+// A group goes through, in this order:
+//   1. equal to the running group and nothing waiting: acknowledged, nothing staged;
+//   2. busy while a previous set waits for its swap (ErrorCode::kBusy);
+//   3. limit-critical fields (declared in params/groups.hpp) change only
+//      while disarmed (ErrorCode::kArmed, naming the first changed field);
+//   4. the field check against the declaration (params/field_check.hpp);
+//   5. the block's own checks, then Pipeline::stage(): a new PipelineParams
+//      is the running one plus this group, so a rejected set leaves the
+//      running one untouched and an accepted one is swapped in at the next
+//      tick boundary.
+// Limit-critical: limits (every field, they bound the output), the PID's
+// u_min / u_max, and feedforward kind, feedback kind, sos_count, rc enabled
+// (they replace a block, which would restart from rest inside a running
+// loop). Everything else is swapped in while armed, with the limiter (not
+// banked) slewing the output across the change.
+// The trajectory is validated by a scratch generator and stored (StartWave
+// runs it); the recorder is configured at once, inside the tick mask.
+#pragma once
+
+#include <array>
+#include <cstddef>
+
+#include "piezoloop/link/messages.hpp"
+#include "piezoloop/params/field_check.hpp"
+#include "piezoloop/pipeline.hpp"
+
+namespace piezoloop::link {
+
+template <class Pipeline>
+class ParamPolicy {
+public:
+    using T = typename Pipeline::SampleType;
+    using RecorderType = typename Pipeline::RecorderType;
+    static constexpr std::size_t kRecChannels = RecorderType::kChannels;
+
+    ParamPolicy(Pipeline& pipeline, void (*mask_tick)(bool)) : pipeline_(pipeline), mask_tick_(mask_tick) {}
+
+    // Applies a group; on error, code() says which ErrorCode the reply carries.
+    template <class G>
+    Status set(const G& v) {
+        const Status s = apply(v);
+        if (!s.ok() && s.group == nullptr) return in_group(group_name(G::kGroup), s);
+        return s;
+    }
+    ErrorCode code() const { return code_; }
+
+    // The newest accepted set (GetParams): the staged one until it is swapped in.
+    const PipelineParams& params() const { return pipeline_.swap_pending() ? staged_ : pipeline_.params(); }
+    bool wave_set() const { return wave_set_; }
+    const TrajectoryParams& wave() const { return wave_; }
+
+    TrajectoryConfig wave_config() const { return trajectory_config(wave_); }
+
+    RecorderParams recorder() const {
+        const auto& c = pipeline_.recorder().config();
+        RecorderParams r;
+        r.channel_count = pipeline_.recorder().configured() ? static_cast<uint8_t>(kRecChannels) : 0;
+        for (std::size_t i = 0; i < kRecChannels; ++i) r.channels[i] = c.channels[i];
+        r.decimation = c.decimation;
+        r.mode = c.mode;
+        r.trigger = c.trigger;
+        r.trigger_signal = c.trigger_signal;
+        r.trigger_level = c.trigger_level;
+        r.pre_trigger = c.pre_trigger;
+        r.length = c.length;
+        return r;
+    }
+
+private:
+    void mask(bool m) const {
+        if (mask_tick_ != nullptr) mask_tick_(m);
+    }
+
+    Status fail(ErrorCode code, Status s) {
+        code_ = code;
+        return s;
+    }
+
+    // Steps 2 and 3.
+    template <class G>
+    Status busy_or_armed(const G& from, const G& to) {
+        if (pipeline_.swap_pending())
+            return fail(ErrorCode::kBusy, error("params", "previous parameter set not yet swapped in; retry after one tick"));
+        if (pipeline_.armed()) {
+            if (const char* field = params::first_critical_change(from, to, critical_field_))
+                return fail(ErrorCode::kArmed, error(field, "limit-critical: changes only while disarmed"));
+        }
+        return ok_status();
+    }
+
+    // Steps 2 to 5 for a group of the pipeline's parameter set.
+    template <class G>
+    Status stage_group(const G& current, const G& v) {
+        if (const Status s = busy_or_armed(current, v); !s.ok()) return s;
+        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        if (const Status s = block_checks(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        PipelineParams p = pipeline_.params();
+        params::set_group(p, v);
+        const Status s = pipeline_.stage(p);
+        if (!s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        staged_ = p;
+        return s;
+    }
+
+    // A block's error "thresholds" reported as the group's field "pi.thresholds".
+    Status nested(const char* prefix, Status s) {
+        if (s.ok()) return s;
+        nested_field_.clear();
+        nested_field_.append(prefix);
+        nested_field_.append(".");
+        nested_field_.append(s.field);
+        s.field = nested_field_.c_str();
+        return s;
+    }
+
+    Status block_checks(const FeedforwardParams& v) { return nested("pi", piezoloop::validate(v.pi)); }
+    Status block_checks(const FeedbackParams&) { return ok_status(); }
+    Status block_checks(const LimitsParams&) { return ok_status(); }
+    Status block_checks(const RepetitiveParams& v) {
+        if (!v.enabled) return ok_status();
+        // Checked here even though the pipeline checks RC only with a feedback,
+        // so the error names the RC field. (No scratch RepetitiveController:
+        // its delay line would put RcCapacity samples on the main loop's stack.)
+        if (const Status s = Pipeline::RepetitiveType::validate(v.rc); !s.ok()) return s;
+        BiquadCascade<T, 1> q;
+        const SignalScale unit{1.0f};
+        if (const Status s = q.configure(&v.rc.q, 1, unit, unit); !s.ok()) return error("q", s.message);
+        return ok_status();
+    }
+
+    Status apply(const FeedforwardParams& v) {
+        const FeedforwardParams cur = params::feedforward_of(pipeline_.params());
+        if (v == cur && !pipeline_.swap_pending()) return ok_status();
+        return stage_group(cur, v);
+    }
+    Status apply(const FeedbackParams& v) {
+        const FeedbackParams cur = params::feedback_of(pipeline_.params());
+        if (v == cur && !pipeline_.swap_pending()) return ok_status();
+        return stage_group(cur, v);
+    }
+    Status apply(const RepetitiveParams& v) {
+        const RepetitiveParams cur = params::rc_of(pipeline_.params());
+        if (v == cur && !pipeline_.swap_pending()) return ok_status();
+        return stage_group(cur, v);
+    }
+    Status apply(const LimitsParams& v) {
+        const LimitsParams cur = params::limits_of(pipeline_.params());
+        // Limits also configure the limiter, so an unchanged set is staged
+        // anyway while nothing has configured it yet.
+        if (v == cur && pipeline_.limiter().configured() && !pipeline_.swap_pending()) return ok_status();
+        return stage_group(cur, v);
+    }
+
+    Status apply(const TrajectoryParams& v) {
+        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        // Validated by a scratch generator at the loop rate; stored, and run by StartWave.
+        TrajectoryGenerator<T, kMaxWaveTable> scratch(pipeline_.setup().position);
+        if (const Status s = scratch.configure(trajectory_config(v)); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        wave_ = v;
+        wave_set_ = true;
+        return ok_status();
+    }
+
+    Status apply(const RecorderParams& v) {
+        if (v.channel_count != kRecChannels)
+            return fail(ErrorCode::kUnsupported, error("channel_count", "must equal the device's recorder channel count (hello)"));
+        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        typename RecorderType::Config c{};
+        for (std::size_t i = 0; i < kRecChannels; ++i) c.channels[i] = v.channels[i];
+        c.decimation = v.decimation;
+        c.mode = v.mode;
+        c.trigger = v.trigger;
+        c.trigger_signal = v.trigger_signal;
+        c.trigger_level = v.trigger_level;
+        // r, y, e are positions; u, u_ff, u_fb, u_rc voltages.
+        c.trigger_scale = v.trigger_signal <= signal_index(SignalId::kE) ? pipeline_.setup().position
+                                                                          : pipeline_.setup().voltage;
+        c.pre_trigger = v.pre_trigger;
+        c.length = v.length;
+        mask(true);
+        const Status s = pipeline_.recorder().configure(c);
+        mask(false);
+        if (!s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        return ok_status();
+    }
+
+    TrajectoryConfig trajectory_config(const TrajectoryParams& v) const {
+        return params::trajectory_config(v, pipeline_.setup().rate_Hz);
+    }
+
+    Pipeline& pipeline_;
+    void (*mask_tick_)(bool) = nullptr;
+    ErrorCode code_ = ErrorCode::kInvalidParam;
+    PipelineParams staged_{};
+    TrajectoryParams wave_{};
+    bool wave_set_ = false;
+    params::FieldCheck check_{};
+    params::TextBuffer<32> critical_field_{};
+    params::TextBuffer<32> nested_field_{};
+};
+
+}  // namespace piezoloop::link

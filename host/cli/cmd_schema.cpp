@@ -1,0 +1,32 @@
+// `piezoloop schema`: the parameter tree as JSON Schema (draft 2020-12), the
+// contract other clients use to name parameters; `--markdown`: the tables of
+// docs/protocol.md, section 3.
+#include <iostream>
+#include <memory>
+
+#include "commands.hpp"
+#include "link/params_schema.hpp"
+
+namespace piezoloop::cli {
+
+namespace {
+
+void add_schema(CLI::App& app) {
+    auto markdown = std::make_shared<bool>(false);
+    CLI::App* cmd = app.add_subcommand(
+        "schema", "Print the board's parameter groups as JSON Schema (draft 2020-12): every field's type, unit, "
+                  "range, default and whether it is limit-critical.");
+    cmd->add_flag("--markdown", *markdown, "print the Markdown tables of docs/protocol.md instead");
+    cmd->callback([markdown] {
+        if (*markdown)
+            std::cout << hostlink::parameter_tables_markdown();
+        else
+            std::cout << hostlink::parameter_schema().dump(2) << "\n";
+    });
+}
+
+const bool registered = register_command(65, add_schema);
+
+}  // namespace
+
+}  // namespace piezoloop::cli
