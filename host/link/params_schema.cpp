@@ -182,7 +182,6 @@ json parameter_schema() {
     groups["trajectory"] = group_schema<link::TrajectoryParams>("the wave generator (its rate is the loop rate)");
     groups["recorder"] = group_schema<link::RecorderParams>("the signal recorder");
     return {{"$schema", "https://json-schema.org/draft/2020-12/schema"},
-            {"$id", "https://piezoloop.org/schema/parameters.json"},
             {"title", "piezoloop parameter groups"},
             {"description",
              "Parameter groups of a piezoloop board (GetParams / SetParams), as `piezoloop --device ADDR get|set` "
