@@ -1,5 +1,5 @@
 // `piezoloop analyze`: loop, repetitive-control and PI-composition analysis
-// (SPEC §3, §6, §8.1, §9) on model files (design/model_json.hpp).
+// (SPEC §3, §6, §8.1, §9) on model files (lti/model_json.hpp).
 //
 //   analyze loop --plant P.json --controller K.json [--we We.json]
 //                [--wy Wy.json] [--hm Hm.json] [--rate-hz F]
@@ -38,16 +38,16 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "design/analysis.hpp"
-#include "design/c2d.hpp"
-#include "design/freqresp.hpp"
-#include "design/hinf.hpp"
-#include "design/lti_convert.hpp"
-#include "design/margins.hpp"
-#include "design/model_json.hpp"
-#include "design/pi_composition.hpp"
-#include "design/rc_analysis.hpp"
-#include "design/robust.hpp"
+#include "analysis/analysis.hpp"
+#include "lti/c2d.hpp"
+#include "lti/freqresp.hpp"
+#include "analysis/hinf.hpp"
+#include "lti/lti_convert.hpp"
+#include "analysis/margins.hpp"
+#include "lti/model_json.hpp"
+#include "analysis/pi_composition.hpp"
+#include "analysis/rc_analysis.hpp"
+#include "analysis/robust.hpp"
 #include "piezoloop/pi_generalized.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "status_text.hpp"

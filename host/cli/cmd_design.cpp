@@ -25,11 +25,11 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "design/c2d.hpp"
-#include "design/filters.hpp"
-#include "design/model_json.hpp"
-#include "design/realisation.hpp"
-#include "design/sos.hpp"
+#include "lti/c2d.hpp"
+#include "lti/filters.hpp"
+#include "lti/model_json.hpp"
+#include "lti/realisation.hpp"
+#include "lti/sos.hpp"
 
 namespace piezoloop::cli {
 namespace {

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "design/dahl_fit.hpp"
+#include "ident/dahl_fit.hpp"
 #include "sim/closed_loop.hpp"
 #include "sim/scenario.hpp"
 
@@ -20,7 +20,7 @@ namespace piezoloop::sim {
 struct BuildOptions {
     double reference_frequency_Hz = 0.0;  // for the RC period "auto"
     int substeps = 10;                    // double fidelity: sub-steps per tick
-    bool check_realisation = true;        // run design/realisation on the controller (slow for slow poles)
+    bool check_realisation = true;        // run lti/realisation on the controller (slow for slow poles)
 };
 
 // A Dahl compensator identified from the stage (SPEC §4, §7).

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "design/hinf.hpp"
+#include "analysis/hinf.hpp"
 
 using namespace piezoloop::design;
 

@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "design/analysis.hpp"
-#include "design/lti_convert.hpp"
+#include "analysis/analysis.hpp"
+#include "lti/lti_convert.hpp"
 
 using namespace piezoloop::design;
 

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "design/pi_composition.hpp"
+#include "analysis/pi_composition.hpp"
 #include "piezoloop/pi_inverse.hpp"
 
 using namespace piezoloop;

@@ -6,10 +6,10 @@
 
 #include <gtest/gtest.h>
 
-#include "design/analysis.hpp"
-#include "design/freqresp.hpp"
-#include "design/lti_convert.hpp"
-#include "design/rc_analysis.hpp"
+#include "analysis/analysis.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
+#include "analysis/rc_analysis.hpp"
 
 using namespace piezoloop::design;
 

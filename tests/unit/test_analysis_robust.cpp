@@ -6,9 +6,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "design/analysis.hpp"
-#include "design/lti_convert.hpp"
-#include "design/robust.hpp"
+#include "analysis/analysis.hpp"
+#include "lti/lti_convert.hpp"
+#include "analysis/robust.hpp"
 
 using namespace piezoloop::design;
 

@@ -1,4 +1,4 @@
-// host/design/c2d against tests/golden/design_c2d.json
+// host/lti/c2d against tests/golden/design_c2d.json
 // (tools/ref/design_c2d.py: the exact responses of the Tustin, ZOH and
 // matched discretisations from mpmath at 60 digits; scipy's bilinear_zpk
 // and cont2discrete for comparison), plus analytic cases.
@@ -13,9 +13,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "design/c2d.hpp"
-#include "design/freqresp.hpp"
-#include "design/lti_convert.hpp"
+#include "lti/c2d.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
 
 using namespace piezoloop::design;
 using nlohmann::json;

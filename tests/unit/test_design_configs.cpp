@@ -14,9 +14,9 @@
 #include <Eigen/Eigenvalues>
 #include <nlohmann/json.hpp>
 
-#include "design/freqresp.hpp"
-#include "design/lti_convert.hpp"
-#include "design/model_json.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
+#include "lti/model_json.hpp"
 
 using namespace piezoloop::design;
 using nlohmann::json;

@@ -1,4 +1,4 @@
-// host/design/lti_convert and freqresp on the sources' models, against
+// host/lti/lti_convert and freqresp on the sources' models, against
 // tests/golden/design_convert.json (tools/ref/design_convert.py: exact roots,
 // polynomials and responses from mpmath at 60 digits; scipy for comparison),
 // plus round trips tf <-> zpk <-> ss and analytic cases.
@@ -14,8 +14,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "design/freqresp.hpp"
-#include "design/lti_convert.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
 
 using namespace piezoloop::design;
 using nlohmann::json;

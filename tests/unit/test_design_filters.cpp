@@ -1,4 +1,4 @@
-// host/design/filters: notch, low-pass and lead-lag against their analytic
+// host/lti/filters: notch, low-pass and lead-lag against their analytic
 // properties, continuous and after pre-warped Tustin.
 #include <gtest/gtest.h>
 
@@ -7,8 +7,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "design/filters.hpp"
-#include "design/freqresp.hpp"
+#include "lti/filters.hpp"
+#include "lti/freqresp.hpp"
 
 using namespace piezoloop::design;
 

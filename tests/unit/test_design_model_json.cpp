@@ -1,4 +1,4 @@
-// host/design/model_json: the three model forms, ts, series, writing back,
+// host/lti/model_json: the three model forms, ts, series, writing back,
 // and that every malformed model names the offending field.
 #include <gtest/gtest.h>
 
@@ -10,9 +10,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "design/freqresp.hpp"
-#include "design/lti_convert.hpp"
-#include "design/model_json.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
+#include "lti/model_json.hpp"
 
 using namespace piezoloop::design;
 using nlohmann::json;

@@ -1,4 +1,4 @@
-// host/design/realisation: the check runs the core's BiquadCascade itself.
+// host/lti/realisation: the check runs the core's BiquadCascade itself.
 // The canonical case (SPEC §5): Ahmad2020 K(s) at 100 kHz is unfit in
 // float32 DF2T and fit in Q31. The measurement itself is checked against an
 // independent computation (the response of the float-rounded coefficients
@@ -11,12 +11,12 @@
 #include <string>
 #include <vector>
 
-#include "design/c2d.hpp"
-#include "design/filters.hpp"
-#include "design/freqresp.hpp"
-#include "design/model_json.hpp"
-#include "design/realisation.hpp"
-#include "design/sos.hpp"
+#include "lti/c2d.hpp"
+#include "lti/filters.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/model_json.hpp"
+#include "lti/realisation.hpp"
+#include "lti/sos.hpp"
 
 using namespace piezoloop;
 using namespace piezoloop::design;

@@ -1,4 +1,4 @@
-// host/design/sos: pairing/ordering against scipy.signal.zpk2sos
+// host/lti/sos: pairing/ordering against scipy.signal.zpk2sos
 // (tests/golden/design_sos.json, tools/ref/design_sos.py), partial-cascade
 // L1 norms against scipy sosfilt, and the scaling's invariants.
 #include <gtest/gtest.h>
@@ -12,10 +12,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "design/c2d.hpp"
-#include "design/freqresp.hpp"
-#include "design/lti_convert.hpp"
-#include "design/sos.hpp"
+#include "lti/c2d.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
+#include "lti/sos.hpp"
 
 using namespace piezoloop;
 using namespace piezoloop::design;

@@ -1,4 +1,4 @@
-// Balanced truncation and Hankel singular values (host/design/balred.hpp).
+// Balanced truncation and Hankel singular values (host/ident/balred.hpp).
 // References: scipy's Lyapunov solvers and a numpy square-root balanced
 // truncation (tools/ref/ident_balred.py) on Janaideh2016's D(s) and a
 // random 9th-order model (continuous and ZOH-discretised); the Kronecker
@@ -17,7 +17,7 @@
 
 #include <unsupported/Eigen/KroneckerProduct>
 
-#include "design/balred.hpp"
+#include "ident/balred.hpp"
 #include "test_support.hpp"
 
 using namespace piezoloop::design;

@@ -1,4 +1,4 @@
-// CSV data files for identification (host/design/csv_data.hpp): parsing,
+// CSV data files for identification (host/ident/csv_data.hpp): parsing,
 // and errors that name the line and the column.
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "design/csv_data.hpp"
+#include "ident/csv_data.hpp"
 #include "test_support.hpp"
 
 using namespace piezoloop::design;

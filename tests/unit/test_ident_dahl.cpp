@@ -1,4 +1,4 @@
-// Dahl parameter fit (host/design/dahl_fit.hpp).
+// Dahl parameter fit (host/ident/dahl_fit.hpp).
 // References: (1) the model's ODE integrated by classical RK4 along a
 // prescribed displacement path gives the voltages that produce it; the
 // double-precision plant port must return that path. (2) The core's float
@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "design/dahl_fit.hpp"
+#include "ident/dahl_fit.hpp"
 #include "test_support.hpp"
 
 using namespace piezoloop;

@@ -1,4 +1,4 @@
-// PI weight fit (host/design/pi_fit.hpp). References: numpy lstsq and
+// PI weight fit (host/ident/pi_fit.hpp). References: numpy lstsq and
 // scipy.optimize.nnls on the same data (tools/ref/ident_pi.py), recovery of
 // the known weights within their standard errors, Shan2012's grid, and
 // refusal of data that cannot separate the operators.
@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "design/pi_fit.hpp"
+#include "ident/pi_fit.hpp"
 #include "test_support.hpp"
 #include "piezoloop/pi_inverse.hpp"
 

@@ -1,4 +1,4 @@
-// RLS and ARX / output-error identification (host/design/rls.hpp).
+// RLS and ARX / output-error identification (host/ident/rls.hpp).
 // References: closed-form (weighted, regularised) least squares that the
 // recursion must reproduce exactly; numpy's batch ARX estimate
 // (tools/ref/ident_rls.py); recovery of known parameters from simulated
@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "design/rls.hpp"
+#include "ident/rls.hpp"
 #include "test_support.hpp"
 
 using namespace piezoloop::design;

@@ -2,7 +2,7 @@
 // the model its inverse was computed from (the kind of mismatch an
 // identification leaves), driven by that inverse alone, outputs
 //     y = rho r + Xi,   |Xi| <= sum_j |p_eta_j| r_eta_j
-// with rho and the bound from the design toolkit (design/pi_composition),
+// with rho and the bound from the design toolkit (analysis/pi_composition),
 // which computes them from the two models without simulating.
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "design/pi_composition.hpp"
+#include "analysis/pi_composition.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "piezoloop/reference_stage.hpp"
 #include "sim/build_case.hpp"

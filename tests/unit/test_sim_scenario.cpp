@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "design/lti_convert.hpp"
+#include "lti/lti_convert.hpp"
 #include "piezoloop/reference_stage.hpp"
 #include "sim/build_case.hpp"
 #include "sim/metrics.hpp"

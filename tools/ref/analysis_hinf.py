@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """H-infinity norms of the sources' models, by brute force with numpy/scipy
-(reference for host/design/hinf.cpp, whose method is a Hamiltonian level-set
+(reference for host/analysis/hinf.cpp, whose method is a Hamiltonian level-set
 iteration). Each model is split into sections of one or two poles (numpy
 roots of the published polynomials, scipy's bilinear_zpk for the discrete
 ones); the sections' roots are written out so the C++ test realises the very

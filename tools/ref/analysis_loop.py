@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Loop analysis references (for host/design/analysis.cpp and margins.cpp),
+"""Loop analysis references (for host/analysis/analysis.cpp and margins.cpp),
 computed from the factored frequency responses with numpy/scipy only:
 L = P K evaluated from roots, S = 1/(1+L), T = L/(1+L), KS = K S, GS = P S;
 H-infinity norms as the maximum over a 100k-point grid refined by a bounded

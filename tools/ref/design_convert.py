@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Reference for host/design/lti_convert and freqresp on the sources' models.
+"""Reference for host/lti/lti_convert and freqresp on the sources' models.
 
 Each model is a product of small factors with the published coefficients
 (SPEC §5, §8). For each one this writes

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Reference Hankel singular values and balanced truncations (for
-host/design/balred.hpp), computed with scipy independently of the C++ code.
+host/ident/balred.hpp), computed with scipy independently of the C++ code.
 
 Models (state-space matrices are stored, so the C++ test needs no
 conversion code):

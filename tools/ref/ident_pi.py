@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Reference data for the PI weight fit (host/design/pi_fit.hpp), computed
+"""Reference data for the PI weight fit (host/ident/pi_fit.hpp), computed
 with numpy/scipy independently of the C++ code.
 
 Data (inputs and noisy outputs rounded to 1e-6, as a data file holds
