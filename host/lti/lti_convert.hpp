@@ -25,6 +25,9 @@
 //  * Only zpk2tf / ss2tf multiply polynomials out (that is what a Tf is);
 //    use Zpk wherever possible.
 //
+// Implemented in lti_convert.cpp (Tf <-> Zpk, series), zpk2ss.cpp, ss2zpk.cpp
+// (with balancing) and poly.cpp, sharing lti_convert_detail.hpp.
+//
 // All functions throw std::invalid_argument with a message naming what is
 // wrong (e.g. "tf.den[0]: leading coefficient must be non-zero").
 #pragma once
