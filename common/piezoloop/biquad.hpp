@@ -12,7 +12,7 @@
 //    is fine for well-conditioned sections, NOT for poles very close to z = 1
 //    at high sample rates (rounding a1, a2 to 24 bits moves such poles by
 //    ~1e-7, which for the Ahmad2020 controller at 100 kHz changes its gain at
-//    1 Hz by an order of magnitude; see tests/unit/test_biquad.cpp).
+//    1 Hz by an order of magnitude; see tests/common/test_biquad.cpp).
 //
 //  * Q31: direct form I, 64-bit accumulation, with the feedback written as an
 //    offset from a double pole at z = 1 plus second-order error feedback, so

@@ -67,7 +67,7 @@
 // transient, so this too is persistent only if alpha1 == 0 (then z is a
 // function of x alone and the loop has width 2*|beta1*z2(x)|). Taken in µm
 // the published set's transient lasts ~1 nm of path and H = 26.97 µm
-// thereafter; tests/unit/test_dahl.cpp shows the loops.
+// thereafter; tests/common/test_dahl.cpp shows the loops.
 #pragma once
 
 #include <limits>

@@ -88,7 +88,7 @@ constexpr PipelineParams params(bool feedforward = true, bool feedback = true, b
     feedback_sections(p.sos.data());
     p.rc_enabled = with_rc;
     p.rc = RepetitiveConfig{};
-    p.rc.m1 = 3;  // Q's low-frequency group delay (see tests/unit/test_repetitive.cpp)
+    p.rc.m1 = 3;  // Q's low-frequency group delay (see tests/common/test_repetitive.cpp)
     p.limits = LimitsConfig{-10.0f, 10.0f, 2.0e5f, 0.0f};
     return p;
 }

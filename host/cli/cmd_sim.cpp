@@ -338,7 +338,7 @@ void add_sim(CLI::App& app) {
         ->check(CLI::Range(1, 1 << 30));
     cmd->add_option("--plot", a->plot, "draw r, y, e and the loop to a PNG (tools/plot_sim.py)");
     cmd->add_option("--dump-model", a->dump_model,
-                    "write the run's core parameters as raw bytes (for tests/sim/sim_hash_probe, float fidelity)");
+                    "write the run's core parameters as raw bytes (for tests/host/sim/sim_hash_probe, float fidelity)");
     cmd->add_option("--board-case", a->board_case,
                     "also write this run as a board case for the QEMU boards' self-test (limits clipped to their "
                     "hard limits and simulated so; docs/boards.md, Self-test)");

@@ -1,8 +1,8 @@
 // Determinism of the float (and Q31) simulation: the same run twice gives
 // bit-identical logs (equal log hashes and equal samples); the hash moves
 // when anything in the loop moves. The cross-build half (the same loop
-// compiled at -O0 and -O2 apart from this binary) is tests/cli/check_sim.py
-// with tests/sim/sim_hash_probe.cpp; here the in-process replay through the
+// compiled at -O0 and -O2 apart from this binary) is tests/host/cli/check_sim.py
+// with tests/host/sim/sim_hash_probe.cpp; here the in-process replay through the
 // dump format is checked, which that test relies on.
 #include <gtest/gtest.h>
 
@@ -90,7 +90,7 @@ TEST(SimDeterminism, HashFollowsEveryChange) {
     EXPECT_NE(run_loop(j.b.model, j.o).log_hash, j_float);
 }
 
-// The replay path of tests/sim/sim_hash_probe.cpp, in this binary: the dump
+// The replay path of tests/host/sim/sim_hash_probe.cpp, in this binary: the dump
 // round trip and run_ticks alone give the simulator's hash (Dahl
 // feedforward, float, Ahmad2020 at 10 kHz; series inverse, Shan2012).
 TEST(SimDeterminism, DumpReplayGivesTheSameHash) {

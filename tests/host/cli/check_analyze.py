@@ -96,7 +96,7 @@ if out:
     check(out["stable"] is True and 0.99 < out["poles_max_abs"] < 1.0, f"ahmad2020 at 10 kHz: {out.get('poles_max_abs')}")
     check(out["ts"] == 1e-4, "ts of the discretised loop")
 
-# ---- analyze rc: T = z^-1, Q = 1, m1 = 0, m2 = 1 (see test_analysis_rc.cpp):
+# ---- analyze rc: T = z^-1, Q = 1, m1 = 0, m2 = 1 (see test_rc_analysis.cpp):
 # k_rc_max = 2 exactly, |root| = |1 - k_rc|^(1/N).
 T = write("T.json", {"zeros": [], "poles": [0], "gain": 1, "ts": 1e-5})
 Q1 = write("Q1.json", {"num": [1], "den": [1], "ts": 1e-5})

@@ -29,7 +29,7 @@ struct Design {
 };
 
 // K(s) at 100 kHz, Tustin, scaled for 10 mV in / 10 V out (L1): the setup
-// of tests/unit/test_biquad.cpp.
+// of tests/common/test_biquad.cpp.
 Design ahmad_k() {
     Design d;
     d.zpk = tustin(load_model_file(std::string(PIEZOLOOP_GOLDEN_DIR) + "/../../configs/models/ahmad2020_K.json"),
@@ -64,7 +64,7 @@ TEST(DesignRealisation, AhmadKFloat32IsUnfit) {
     EXPECT_TRUE(any_contains(r.warnings, "section 2")) << r.warnings.size();
     EXPECT_TRUE(any_contains(r.warnings, "unfit"));
     EXPECT_TRUE(any_contains(r.warnings, "--format q31"));
-    // Low-frequency gain off by an order of magnitude (tests/unit/test_biquad.cpp
+    // Low-frequency gain off by an order of magnitude (tests/common/test_biquad.cpp
     // measures ~90 % at 1 Hz with sines).
     EXPECT_GT(r.max_error_db, 6.0);
     EXPECT_LT(r.worst_f_hz, 100.0);
@@ -80,7 +80,7 @@ TEST(DesignRealisation, AhmadKQ31IsFit) {
     ASSERT_TRUE(r.configured) << r.configure_error;
     EXPECT_TRUE(r.fit) << (r.warnings.empty() ? "" : r.warnings[0]);
     // Q31 resolves 1 + a1 + a2 ~ 1.06e-9 of the slow section to 2^-44
-    // (relative 5.4e-5, tests/unit/test_biquad.cpp): the pole moves by
+    // (relative 5.4e-5, tests/common/test_biquad.cpp): the pole moves by
     // ~6e-5 of its distance to the circle; 1e-3 allows 15x.
     EXPECT_LT(r.max_relative_pole_shift, 1e-3);
     // The same 5.4e-5 relative on the slow section's gain, amplified near

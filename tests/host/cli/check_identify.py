@@ -67,7 +67,7 @@ g = json.load(open(f"{golden_dir}/ident_rls.json"))
 arx_csv = write_csv("arx.csv", ["t", "u", "y"], [g["t"], g["u"], g["y"]])
 out = ok_json("rls arx", run("identify", "rls", "--data", arx_csv))
 if out:
-    # RLS with its 1e-6 prior vs numpy's batch least squares: 1e-6 (see test_ident_rls.cpp).
+    # RLS with its 1e-6 prior vs numpy's batch least squares: 1e-6 (see test_rls.cpp).
     check("rls arx a", close(out["a"], g["lstsq"]["a"], 1e-6), f"{out['a']} vs {g['lstsq']['a']}")
     check("rls arx b", close(out["b"], g["lstsq"]["b"], 1e-6), f"{out['b']} vs {g['lstsq']['b']}")
     m = out["model"]
@@ -92,7 +92,7 @@ set15_csv = write_csv("set15.csv", ["u", "y"], [p["u"], p["set15"]["y"]])
 thr = ",".join(repr(r) for r in p["set15"]["thresholds"])
 out = ok_json("pi set15", run("identify", "pi", "--data", set15_csv, "--thresholds", thr))
 if out:
-    # Same least-squares problem as numpy's lstsq: 1e-9 (see test_ident_pi.cpp).
+    # Same least-squares problem as numpy's lstsq: 1e-9 (see test_pi_fit.cpp).
     check("pi set15 weights", close(out["weights"], p["set15"]["lstsq"], 1e-9), str(out["weights"]))
     check("pi set15 thresholds", out["thresholds"] == [0.0] + p["set15"]["thresholds"], str(out["thresholds"]))
     check("pi set15 invertible", out["invertible"] is True and out["grid"] == "explicit", str(out["invertible"]))
@@ -106,7 +106,7 @@ if out:
 out = ok_json("pi monotone", run("identify", "pi", "--data", nm_csv, "--operators", "8", "--monotone",
                                  "--min-slope", repr(nm["min_slope"])))
 if out:
-    # scipy.optimize.nnls on the slope parametrisation: 1e-8 (see test_ident_pi.cpp).
+    # scipy.optimize.nnls on the slope parametrisation: 1e-8 (see test_pi_fit.cpp).
     check("pi monotone weights", close(out["weights"], nm["monotone"], 1e-8), str(out["weights"]))
     check("pi monotone invertible", out["invertible"] is True and out["active_constraints"] == 1, json.dumps(out)[:300])
 
@@ -164,7 +164,7 @@ json.dump(model, open(model_path, "w"))
 out = ok_json("reduce", run("reduce", "--model", model_path, "--order", "6"))
 if out:
     # HSVs do not depend on the realisation: scipy's on another realisation,
-    # 1e-7 sigma_1 (test_ident_balred.cpp holds its own realisations to 1e-9).
+    # 1e-7 sigma_1 (test_balred.cpp holds its own realisations to 1e-9).
     check("reduce hsv", close(out["hsv"], hsv_ref, 1e-7 * hsv_ref[0]), str(out["hsv"]))
     check("reduce bound", abs(out["error_bound"] - b["cases"][0]["reduced"][1]["bound"]) < 1e-8,
           str(out["error_bound"]))

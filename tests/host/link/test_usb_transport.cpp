@@ -10,7 +10,7 @@
 //     requests (serial, product) are control URBs answered by it, so a
 //     descriptor change in the firmware shows up here;
 //   - bulk OUT URBs on EP1 OUT (0x01) feed a link::Device<float> on the
-//     reference pipeline (as tests/unit/test_link_client.hpp), and its reply
+//     reference pipeline (as tests/support/test_link_client.hpp), and its reply
 //     frames complete the IN URBs queued on EP1 IN (0x81);
 //   - an unplug completes the queued URBs with -ESHUTDOWN and answers every
 //     later request with ENODEV, as the kernel's usbfs does.

@@ -3,7 +3,7 @@
 
  - sim prints the SPEC §9 figures as JSON; the same run twice gives the same
    log hash; the run replayed by two separately compiled probes (-O0, -O2,
-   tests/sim/sim_hash_probe.cpp) gives that hash too (cross-build
+   tests/host/sim/sim_hash_probe.cpp) gives that hash too (cross-build
    determinism), for float and Q31 cores and for the series
    inverse (the core's pi_series);
  - --out writes the CSV log, --hash prints only the hash;
