@@ -2,7 +2,7 @@
 // tests and the firmware self-test share, so every figure they print refers
 // to the same loop.
 //
-// Stage: Janaideh2016's 15-operator PI model (SPEC §8.2, ±10 V in, ±44 µm
+// Stage: Janaideh2016's 15-operator PI model (docs/models.md, 'Janaideh2016', ±10 V in, ±44 µm
 // out) feeding a lightly damped 1 kHz resonance (zeta 0.05), at 100 kHz. The
 // simulated stage is not exactly that model: its linear weight is 5 % higher
 // and its play weights 10 % lower, the kind of mismatch identification leaves,

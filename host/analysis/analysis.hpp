@@ -1,4 +1,4 @@
-// Loop analysis of a plant P and a controller K (SPEC §9): the four
+// Loop analysis of a plant P and a controller K (docs/models.md, 'Metrics'): the four
 // closed-loop maps as state-space models, their H∞ norms, closed-loop poles
 // and stability, gain and phase margins, the −3 dB bandwidth of T and the
 // phase lag of T at given frequencies.

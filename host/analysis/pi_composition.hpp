@@ -1,4 +1,4 @@
-// Composition of a PI model with an estimated inverse, SPEC §3
+// Composition of a PI model with an estimated inverse, docs/models.md, 'Analytic PI inverse'
 // (Janaideh2016 §III): applying P̂⁻¹ and then the true P gives another PI
 // operator whose loading curve is η = φ ∘ ψ̂ (φ: P's loading curve, ψ̂:
 // P̂⁻¹'s). Writing that operator as p0η v + Σ p_ηj F_{r_ηj}[v] and using

@@ -1,4 +1,4 @@
-// Stability analysis of the plug-in repetitive controller, SPEC §6
+// Stability analysis of the plug-in repetitive controller, docs/models.md, 'Repetitive control'
 // (Shan2012 §2.1, §5), for a discrete closed loop T(z) (the feedback loop
 // without RC) and the RC parameters N, m1, m2, k_rc, Q(z).
 //
@@ -37,13 +37,13 @@
 //       loop with RC and the hysteresis gain), ||G2||∞ is computed as
 //       ||T_g0||∞ / |g0| — by hinf_norm on its state space when that has at
 //       most 800 states, otherwise as the maximum on the dense grid refined
-//       by golden-section search. "sup_j ||d(γ_j)||_1" of the SPEC is read as
+//       by golden-section search. "sup_j ||d(γ_j)||_1" of Shan2012 is read as
 //       the l1 norm of the density sequence (for a positive density it is the
-//       sup over n of the partial sums): with SPEC §2's PI sum, whose weights
+//       sup over n of the partial sums): with the PI sum of docs/models.md, whose weights
 //       are d(γ_j) themselves, that is the incremental gain of η. If the
 //       density samples a continuous d(γ) (Shan2012's integral form), the
 //       integral ρ Σ |d_j| is reported beside it.
-//  If (21) fails, inverse-PI feedforward is required (SPEC §6).
+//  If (21) fails, inverse-PI feedforward is required (Shan2012).
 #pragma once
 
 #include <optional>

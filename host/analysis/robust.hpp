@@ -1,4 +1,4 @@
-// Robustness checks of SPEC §8.1 (Ahmad2020): the weighted nominal
+// Robustness checks of Ahmad2020 (docs/models.md, 'Ahmad2020'): the weighted nominal
 // performance norms and robust stability over a coefficient family.
 //
 // What is computed:

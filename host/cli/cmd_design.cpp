@@ -1,5 +1,5 @@
 // `piezoloop design`: from a continuous model (or a standard filter) to the
-// biquad sections the core runs, with the realisation check (SPEC §5).
+// biquad sections the core runs, with the realisation check (docs/models.md, 'Biquad cascades').
 //
 //   design c2d --model M.json --rate-hz F [--method tustin|zoh|matched]
 //              [--prewarp-hz F] [--format float|q31] [scaling options]

@@ -1,5 +1,5 @@
 // `piezoloop sim`: one closed-loop run of a scenario case (configs/*.json)
-// on the host, with the SPEC §9 figures of its last (steady-state) period as
+// on the host, with the metrics (docs/models.md) of its last (steady-state) period as
 // JSON on stdout. With --board-case FILE it also writes the run as a board
 // case (common/piezoloop/board_case.hpp) for the QEMU boards' self-test,
 // after clipping the case's limits to the boards' hard limits (and
@@ -313,7 +313,7 @@ int run(const SimArgs& a) {
 void add_sim(CLI::App& app) {
     auto a = std::make_shared<SimArgs>();
     CLI::App* cmd = app.add_subcommand(
-        "sim", "Closed-loop simulation of a scenario case: SPEC §9 figures of the last period as JSON");
+        "sim", "Closed-loop simulation of a scenario case: metrics of the last period as JSON");
     cmd->add_option("--scenario", a->scenario, "scenario file (configs/*.json)")->required()->check(CLI::ExistingFile);
     cmd->add_option("--case", a->case_name, "controller case of the scenario (see --list)");
     cmd->add_flag("--list", a->list, "list the scenario's cases and experiments");

@@ -1,4 +1,4 @@
-// Balanced truncation with Hankel singular values (SPEC §7; how Ahmad2020
+// Balanced truncation with Hankel singular values (docs/models.md, 'Identification'; how Ahmad2020
 // and Janaideh2016 reduced their 36th/11th-order controllers to 6th/5th),
 // for stable continuous or discrete SISO state-space models.
 //

@@ -1,4 +1,4 @@
-// Dahl model identification (SPEC §7): Levenberg–Marquardt fit of
+// Dahl model identification (docs/models.md, 'Identification'): Levenberg–Marquardt fit of
 // (alpha1, alpha2, beta1, beta2, ga) — with gamma_a held — to a measured
 // or simulated loop, voltage v in, displacement x out, using the plant form
 // of common/piezoloop/dahl.hpp: x = ga v - H(x).

@@ -1,8 +1,8 @@
-// Prandtl–Ishlinskii weight fit (SPEC §7): thresholds on a grid, weights by
+// Prandtl–Ishlinskii weight fit (docs/models.md, 'Identification'): thresholds on a grid, weights by
 // linear least squares on the play-operator regressors (the model
 //     y[k] = p0 u[k] + sum_j p_j F_{r_j}[u][k]
 // is linear in the weights), optionally constrained to a monotone loading
-// curve so the result has an analytic inverse (SPEC §3).
+// curve so the result has an analytic inverse (docs/models.md, 'Analytic PI inverse').
 //
 // Plays start from w = 0 before the first sample, as PiOperator<float> after
 // reset() does (for the first input that is Janaideh2016's initial state).

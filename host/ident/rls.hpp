@@ -1,4 +1,4 @@
-// Recursive least squares (SPEC §7, Ahmad2020 eq. 1–3) and the linear
+// Recursive least squares (docs/models.md, 'Identification'; Ahmad2020 eq. 1–3) and the linear
 // discrete-time models it identifies from input/output data: ARX and
 // output-error (OE).
 //
@@ -29,7 +29,7 @@
 
 namespace piezoloop::design {
 
-// The recursion of Ahmad2020 eq. 1–3 in SPEC §7's notation: theta is the
+// The recursion of Ahmad2020 eq. 1–3 in the notation of docs/models.md: theta is the
 // regressor, Psi the parameter vector, W the covariance:
 //   e0 = y - Psi' theta
 //   W  = (W - W theta theta' W / (lambda + theta' W theta)) / lambda

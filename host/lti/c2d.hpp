@@ -1,4 +1,4 @@
-// Continuous -> discrete (SPEC §5), on the factored form so that nothing of
+// Continuous -> discrete (docs/models.md, 'Biquad cascades'), on the factored form so that nothing of
 // high order is multiplied out:
 //
 //  * Tustin (bilinear), optionally pre-warped at w_p: s = K (z - 1)/(z + 1)

@@ -1,4 +1,4 @@
-// The filters every commercial piezo controller offers (SPEC §5), as
+// The filters every commercial piezo controller offers (docs/models.md, 'Biquad cascades'), as
 // continuous Zpk from physical parameters, and discretised by Tustin
 // pre-warped at the filter's own frequency (so the notch centre / corner /
 // lead-lag centre lands exactly where asked, whatever the rate).

@@ -1,4 +1,4 @@
-// Discrete Zpk -> cascade of second-order sections (SPEC §5), and the
+// Discrete Zpk -> cascade of second-order sections (docs/models.md, 'Biquad cascades'), and the
 // per-section scaling for fixed point.
 //
 // Pairing and ordering follow scipy.signal.zpk2sos(pairing='nearest')
@@ -16,7 +16,7 @@
 // |P_k| * in_full_scale / out_full_scale = headroom: its node reaches, but
 // does not exceed, the Q31 full scale for any input within full scale. The
 // norm is L1 (sum of |impulse response|, the exact worst case over all
-// bounded inputs: the default, SPEC §5's "no internal node overflows for a
+// bounded inputs: the default, docs/models.md's "no internal node overflows for a
 // full-scale input") or L∞ (peak of |P_k(e^{jw})|, which bounds
 // sinusoidal inputs only and leaves more resolution). The last node is the
 // output: its norm is the design's and is reported, not changed.

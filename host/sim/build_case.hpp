@@ -23,7 +23,8 @@ struct BuildOptions {
     bool check_realisation = true;        // run lti/realisation on the controller (slow for slow poles)
 };
 
-// A Dahl compensator identified from the stage (SPEC §4, §7).
+// A Dahl compensator identified from the stage (docs/models.md, 'Dahl model and
+// feedforward', 'Identification').
 struct DahlIdentification {
     DahlParams params{};           // as the core runs it (command V -> µm)
     design::DahlFitResult fit;
@@ -55,7 +56,7 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
 void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& out, int* sections = nullptr);
 
 // The analytic inverse of a hysteresis as a compensator from r (µm) to the
-// command u (V) at the amplifier input (SPEC §3 on the factored form; any
+// command u (V) at the amplifier input (docs/models.md, 'Analytic PI inverse', on the factored form; any
 // constant offset of the affine input is dropped and reported in `note`).
 PiModel inverse_compensator(const HysteresisSpec& h, double amplifier_gain, std::string& note);
 

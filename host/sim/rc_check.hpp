@@ -1,4 +1,4 @@
-// The RC stability conditions of SPEC §6 (Shan2012 eq. 1-3, 15, 21) for a
+// The RC stability conditions of docs/models.md, 'Repetitive control' (Shan2012 eq. 1-3, 15, 21) for a
 // scenario case with PI(D) feedback, plug-in RC and a Shan-type PI
 // hysteresis, evaluated by the design toolkit (analysis/rc_analysis) on the
 // sampled linear loop the simulator runs:

@@ -1,4 +1,5 @@
-// Dahl model (SPEC §4): integrator, feedforward and plant against the exact
+// Dahl model (docs/models.md, 'Dahl model and feedforward'): integrator,
+// feedforward and plant against the exact
 // solution of the model's ODE.
 //
 // Reference: for a fixed direction s the model in the path variable is the
@@ -184,7 +185,7 @@ std::vector<NamedParams> all_sets() {
             {"lossless", kLossless, 35.0}};
 }
 
-// Hysteresis % (SPEC §9) of one up/down cycle given as samples of the input
+// Hysteresis % (docs/models.md, 'Metrics') of one up/down cycle given as samples of the input
 // u and the output y, the up branch first: at the input midpoint, the output
 // gap between the two branches over the output range, by linear
 // interpolation on each (monotone) branch.
@@ -277,7 +278,7 @@ TEST(Dahl, ValidateNamesTheBadField) {
         EXPECT_EQ(integ.model().params().alpha2, kVisible.alpha2);
         EXPECT_EQ(integ.model().params().ga, kVisible.ga);
     }
-    // The published set as printed in SPEC §4.
+    // The published set as printed in Ahmad2020.
     EXPECT_EQ(kLiteral.alpha1, 1.76e3f);
     EXPECT_EQ(kLiteral.alpha2, 3.46e7f);
     EXPECT_EQ(kLiteral.beta1, 0.0f);
@@ -687,7 +688,7 @@ TEST(Dahl, ActuatorMovesWithItsVoltage) {
 
 TEST(Dahl, HysteresisLoops) {
     // Loops of the plant under a voltage triangle (the voltages of an exact
-    // 0..35 µm displacement triangle), hysteresis % per SPEC §9 from the
+    // 0..35 µm displacement triangle), hysteresis % (docs/models.md, 'Metrics') from the
     // actuator's samples vs the same from the exact path, per cycle.
     // Tolerance 0.2 percentage points: x is within ~2e-3 µm (previous test)
     // of exact, i.e. < 0.01 % of the range, plus the midpoint interpolation

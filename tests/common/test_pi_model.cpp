@@ -1,4 +1,5 @@
-// PI model, analytic inverse and Shan2012 structures (SPEC §2, §3).
+// PI model, analytic inverse and Shan2012 structures (docs/models.md,
+// 'Prandtl–Ishlinskii model', 'Analytic PI inverse').
 // References: the direct formula (sum of plays), numpy data from
 // tools/ref/pi_ref.py, and the identity inverse(forward(u)) = u.
 #include <gtest/gtest.h>

@@ -67,7 +67,8 @@ PipelineParams series_params(float slew_V_per_s = 1e7f) {
     return p;
 }
 
-// The play-operator sum in double, written from SPEC §2 (not the core's code).
+// The play-operator sum in double, written from docs/models.md,
+// 'Prandtl–Ishlinskii model' (not the core's code).
 struct DoublePi {
     PiModel m;
     std::array<double, kMaxPlayOperators> w{};

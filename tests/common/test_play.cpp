@@ -1,4 +1,4 @@
-// Play and stop operators against their definitions (SPEC §1).
+// Play and stop operators against their definitions (docs/models.md, 'Play and stop operators').
 #include <gtest/gtest.h>
 
 #include <random>

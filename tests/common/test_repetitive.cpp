@@ -1,4 +1,4 @@
-// Plug-in repetitive controller (SPEC §6).
+// Plug-in repetitive controller (docs/models.md, 'Repetitive control').
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -165,8 +165,8 @@ TEST(AnalysisLoop, MatchesScipy) {
 }
 
 // Ahmad2020 G (eq. 4) and K (eq. 24) from the published coefficients, read
-// in the SPEC's order, through this project's own tf2zpk: the loop is stable
-// (SPEC §5) and the figures agree with the numpy-rooted reference to the
+// in the order docs/models.md gives, through this project's own tf2zpk: the loop is stable
+// and the figures agree with the numpy-rooted reference to the
 // same tolerances (the two root finders agree to ~1e-10).
 TEST(AnalysisLoop, Ahmad2020FromPublishedCoefficients) {
     const Tf g{{2.01e11, 4.74e15, 2.76e19, 1.84e23}, {1.0, 1.08e4, 2.95e8, 1.98e12, 1.65e16, 5.79e19, 2.05e23}};

@@ -161,7 +161,7 @@ TEST(AnalysisHinf, DiscreteFirstOrder) {
     r = hinf_norm(canon({0.5}, {1.0, 0.75}, ts));
     EXPECT_NEAR(r.norm, 0.5 / 0.25, 1e-6);
     EXPECT_NEAR(r.peak_w_rad_s, kPi / ts, 1e-6 / ts);
-    // A pole at |z| = 0.99997 (SPEC §5's slow controller pair at 100 kHz):
+    // A pole at |z| = 0.99997 (Ahmad2020 K(s)'s slow pole pair at 100 kHz):
     // peak 1/(1 - 0.99997) = 33333.3 at DC.
     r = hinf_norm(canon({1.0}, {1.0, -0.99997}, ts));
     EXPECT_NEAR(r.norm, 1.0 / 0.00003, 1e-6 / 0.00003);

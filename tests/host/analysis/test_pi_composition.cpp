@@ -17,7 +17,7 @@ using namespace piezoloop::design;
 
 namespace {
 
-// SPEC §8.2 numerical example: p0 = 0.1 on threshold 0, then 10 operators
+// Janaideh2016 §IV-C numerical example: p0 = 0.1 on threshold 0, then 10 operators
 // on 4, 8, …, 40.
 PiModel numerical_example(double weight_scale = 1.0) {
     const float r[] = {0, 4, 8, 12, 16, 20, 24, 28, 32, 36, 40};
@@ -28,7 +28,7 @@ PiModel numerical_example(double weight_scale = 1.0) {
     return m;
 }
 
-// The 15-operator set of SPEC §8.2 (negative weights, monotone curve).
+// Janaideh2016's 15-operator set (negative weights, monotone curve).
 PiModel set15(double weight_scale = 1.0) {
     const float r[] = {0.095f, 0.38f, 0.84f, 1.46f, 2.21f, 3.07f, 4.01f, 4.98f,
                        5.96f, 6.89f, 7.76f, 8.52f, 9.14f, 9.61f, 9.9f};

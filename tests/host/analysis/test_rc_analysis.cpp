@@ -106,7 +106,7 @@ TEST(AnalysisRc, ShanQFilterOnADelay) {
     const double a = 0.6442;
     const double wc = std::acos((1.0 + a * a - 2.0 * (1.0 - a) * (1.0 - a)) / (2.0 * a)) / kTs;
     EXPECT_NEAR(r.q_cutoff_Hz, wc / (2 * kPi), 1e-7 * wc);
-    EXPECT_NEAR(r.q_cutoff_Hz, 7120.0, 10.0);  // SPEC §6: cutoff ≈ 7 kHz
+    EXPECT_NEAR(r.q_cutoff_Hz, 7120.0, 10.0);  // Shan2012's Q: cutoff ≈ 7 kHz
     ASSERT_TRUE(r.phase_90_at_Hz);
     EXPECT_NEAR(*r.phase_90_at_Hz, 25000.0, 1e-7 * 25000.0);
     EXPECT_NEAR(r.max_phase_deg, wc * kTs * 180.0 / kPi, 1e-7);

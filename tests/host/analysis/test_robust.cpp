@@ -29,7 +29,7 @@ std::vector<double> scale_of(int index, int n, double rel) {
     return s;
 }
 
-// H_m of SPEC §8.1 from its published parameters, factored.
+// H_m of Ahmad2020 (docs/models.md, 'Ahmad2020') from its published parameters, factored.
 Zpk ahmad_hm() {
     std::vector<Zpk> f;
     auto quad = [](double num1, double num0, double den1, double den0) {

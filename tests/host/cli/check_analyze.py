@@ -54,7 +54,7 @@ def run_json(*args):
     return json.loads(r.stdout)
 
 
-# Models as users write them (SPEC 5, 8.1).
+# Models as users write them (docs/models.md, 'Published controllers', 'Ahmad2020').
 G = write("G.json", {"num": [2.01e11, 4.74e15, 2.76e19, 1.84e23],
                      "den": [1, 1.08e4, 2.95e8, 1.98e12, 1.65e16, 5.79e19, 2.05e23]})
 K = write("K.json", {"num": [5.29e6, 1.78e10, 1.04e15, 7.66e17, 1.51e22, 4.73e22],

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """`piezoloop demo --json` on the reference stage: every controller part must
-help, as SPEC §8 expects of feedforward and feedback, in float and Q31.
+help, as docs/models.md, 'Stages and scenarios' expects of feedforward and feedback, in float and Q31.
 Usage: check_demo.py PIEZOLOOP_BINARY"""
 import json
 import subprocess

@@ -14,7 +14,7 @@ must give r, y, e, u equal bit for bit to
   piezoloop sim --scenario ahmad2020.json --case dahl_ff_K --trajectory triangle
       --frequency-hz 10 --amplitude-um 12 --duration-s 1 --out sim.csv
 (the CSVs print floats with 9 significant digits, which identify a float
-exactly), the same log_hash and SPEC 9 figures, and zero lost blocks. A
+exactly), the same log_hash and metrics (docs/models.md), and zero lost blocks. A
 second record from rest repeats the first exactly. Also: get all / set all
 round trip, a rejected group prints the device's error naming the field and
 exits non-zero, a streamed wave is consumed completely, wave start/stop, and
@@ -141,7 +141,7 @@ try:
     check(records[0].get("log_hash") == sj["log_hash"], "record log_hash equals `piezoloop sim`'s",
           f"{records[0].get('log_hash')} vs {sj['log_hash']}")
     check(all(records[0].get(k) == sj[k] for k in ("e_max_um", "e_rms_um", "hysteresis_pct")),
-          "SPEC 9 figures over the last period equal the simulator's")
+          "metrics over the last period equal the simulator's")
     check(records[1].get("log_hash") == records[0].get("log_hash"), "a second record from rest repeats the first")
 
     r = run(*d, "disarm")

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """`piezoloop sim` and `piezoloop reproduce` end to end.
 
- - sim prints the SPEC §9 figures as JSON; the same run twice gives the same
+ - sim prints the metrics (docs/models.md, 'Metrics') as JSON; the same run twice gives the same
    log hash; the run replayed by two separately compiled probes (-O0, -O2,
    tests/host/sim/sim_hash_probe.cpp) gives that hash too (cross-build
    determinism), for float and Q31 cores and for the series

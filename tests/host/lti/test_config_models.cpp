@@ -1,8 +1,8 @@
-// configs/models/*.json: the models of SPEC §5 and §8 transcribed once.
+// configs/models/*.json: the published models (docs/models.md) transcribed once.
 // Each check recomputes a property from the published numbers directly
 // (DC gains, pole locations, the closed loop K·G) and compares with the
 // file as parsed; G and K are also compared with the exact responses of
-// tests/golden/design_convert.json (generated from SPEC's numbers).
+// tests/golden/design_convert.json (generated from the published numbers).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -81,7 +81,7 @@ TEST(DesignConfigs, AhmadG) {
 TEST(DesignConfigs, AhmadKAndTheClosedLoop) {
     const Zpk k = load("ahmad2020_K.json");
     EXPECT_NEAR(dc_gain(k), 4.73e22 / 7.79e19, 1e-12 * 607.2);
-    // SPEC §5: slowest pole pair near -3.2 +- 0.6j rad/s.
+    // docs/models.md, 'Published controllers': slowest pole pair near -3.2 +- 0.6j rad/s.
     EXPECT_NEAR(k.poles[0].real(), -3.2, 0.05);
     EXPECT_NEAR(std::fabs(k.poles[0].imag()), 0.6, 0.05);
     EXPECT_EQ(k.poles[1], std::conj(k.poles[0]));
@@ -134,7 +134,7 @@ TEST(DesignConfigs, JanaidehD) {
     const double want = -20.7 * (-1.22e5) * 2.99e4 * (-2.776e4) * (-1.07e4) * 1430.0 * 3.2e9 /
                         (4.59e5 * 1.4e7 * 4e9 * 3.95e9);
     EXPECT_NEAR(dc_gain(d), want, 1e-12 * std::fabs(want));
-    EXPECT_NEAR(dc_gain(d), 1.0, 0.02);  // "DC gain ~ 1" (SPEC §8.2)
+    EXPECT_NEAR(dc_gain(d), 1.0, 0.02);  // "DC gain ~ 1" (Janaideh2016)
     // Non-minimum phase: three right-half-plane zeros.
     int rhp = 0;
     for (const cplx& z : d.zeros) rhp += z.real() > 0.0;
@@ -155,7 +155,7 @@ TEST(DesignConfigs, ShanQAndPI) {
     const Zpk q = load("shan2012_Q.json");
     EXPECT_EQ(q.ts, 1e-5);
     EXPECT_NEAR(dc_gain(q), 1.0, 1e-12);  // 0.3558 / (1 - 0.6442)
-    // Cutoff ~ 7 kHz (SPEC §6): the -3 dB point of 0.3558 / (z - 0.6442).
+    // Cutoff ~ 7 kHz (docs/models.md, 'Repetitive control'): the -3 dB point of 0.3558 / (z - 0.6442).
     double f3 = 0.0;
     for (double f = 100.0; f < 50e3; f += 10.0)
         if (std::abs(freqresp(q, {2.0 * std::numbers::pi * f})[0]) < 1.0 / std::sqrt(2.0)) {

@@ -150,7 +150,7 @@ TEST(DesignConvert, Tf2ZpkOfMultipliedOutModels) {
 }
 
 TEST(DesignConvert, AhmadKSlowPolePairAndDcGain) {
-    // SPEC §5: K's slowest pole pair is near -3.2 +- 0.6j rad/s.
+    // docs/models.md, 'Published controllers': K's slowest pole pair is near -3.2 +- 0.6j rad/s.
     const Zpk k = tf2zpk(multiplied(model("ahmad2020_K")));
     ASSERT_EQ(k.poles.size(), 6u);
     EXPECT_NEAR(k.poles[0].real(), -3.2, 0.1);

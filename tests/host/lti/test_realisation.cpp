@@ -1,5 +1,5 @@
 // host/lti/realisation: the check runs the core's BiquadCascade itself.
-// The canonical case (SPEC §5): Ahmad2020 K(s) at 100 kHz is unfit in
+// The canonical case (docs/models.md, 'Biquad cascades'): Ahmad2020 K(s) at 100 kHz is unfit in
 // float32 DF2T and fit in Q31. The measurement itself is checked against an
 // independent computation (the response of the float-rounded coefficients
 // evaluated in double) on a well-conditioned filter, and configure()

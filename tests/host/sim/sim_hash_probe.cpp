@@ -3,7 +3,7 @@
 // file twice, at -O0 and at -O2 (both with the core's -ffp-contract=off),
 // apart from the piezoloop executable (-O3): equal hashes show that the
 // simulated loop does not depend on how the same code was compiled
-// (DESIGN.md "Determinism"). Uses the core and sim/loop_kernel.hpp only.
+// (docs/architecture.md, "Determinism"). Uses the core and sim/loop_kernel.hpp only.
 #include <cstdio>
 #include <fstream>
 #include <iterator>

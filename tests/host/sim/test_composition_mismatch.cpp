@@ -1,4 +1,5 @@
-// SPEC §3 composition on the simulator: a stage whose hysteresis differs from
+// PI composition (docs/models.md, 'Analytic PI inverse') on the simulator:
+// a stage whose hysteresis differs from
 // the model its inverse was computed from (the kind of mismatch an
 // identification leaves), driven by that inverse alone, outputs
 //     y = rho r + Xi,   |Xi| <= sum_j |p_eta_j| r_eta_j

@@ -1,4 +1,4 @@
-// SPEC §9 metrics against analytic values.
+// Metrics (docs/models.md, 'Metrics') against analytic values.
 #include <gtest/gtest.h>
 
 #include <cmath>

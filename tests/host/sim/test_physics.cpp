@@ -59,7 +59,7 @@ TrajectoryRequest sine(double f, double range_um, int periods) {
 
 }  // namespace
 
-// Ahmad2020 loops (SPEC §8.1): 10 Hz triangles of 10..40 V on the piezo.
+// Ahmad2020 loops (docs/models.md, 'Ahmad2020'): 10 Hz triangles of 10..40 V on the piezo.
 TEST(SimPhysics, AhmadFeedforwardLowersHysteresisAndFeedbackLowersItFurther) {
     const Scenario& s = scenario("ahmad2020");
     for (const double v : {10.0, 20.0, 30.0, 40.0}) {
@@ -74,7 +74,7 @@ TEST(SimPhysics, AhmadFeedforwardLowersHysteresisAndFeedbackLowersItFurther) {
     }
 }
 
-// Janaideh2016 loops (SPEC §8.2): sinusoids of +-5 V and +-10 V. At 1 Hz
+// Janaideh2016 loops (docs/models.md, 'Janaideh2016'): sinusoids of +-5 V and +-10 V. At 1 Hz
 // rather than the source's 0.1 Hz to keep the test short: the hysteresis is
 // rate independent and D(s) is flat there (the report runs 0.1 Hz).
 TEST(SimPhysics, JanaidehInverseLowersHysteresisAndFeedbackLowersItFurther) {
@@ -129,7 +129,7 @@ TEST(SimPhysics, TrackingErrorGrowsWithFrequencyAndFeedbackHelpsAtEvery) {
     }
 }
 
-// Shan2012 at 1 kHz (SPEC §8.3), 10 um triangles over the full range.
+// Shan2012 at 1 kHz (docs/models.md, 'Shan2012'), 10 um triangles over the full range.
 TEST(SimPhysics, ShanRepetitiveControlAt1kHz) {
     const Scenario& s = scenario("shan2012");
     TrajectoryRequest t = triangle(1000.0, 10.0, 10);

@@ -1,6 +1,6 @@
 // Scenario files (configs/*.json) and the simulator's building blocks:
 // validation errors name the field path; the shipped scenarios load and every
-// case builds; the streamed SPEC §9 figures equal metrics.hpp's on the same
+// case builds; the streamed metrics (docs/models.md, 'Metrics') equal metrics.hpp's on the same
 // samples; the double-fidelity stage against analytic responses.
 #include <gtest/gtest.h>
 
