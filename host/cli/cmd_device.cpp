@@ -51,15 +51,9 @@ json read_json_arg(const std::string& arg) {
 }
 
 json get_group(Client& c, link::ParamGroup g) {
-    switch (g) {
-        case link::ParamGroup::kFeedforward: return hostlink::to_json(c.get<link::FeedforwardParams>());
-        case link::ParamGroup::kFeedback: return hostlink::to_json(c.get<link::FeedbackParams>());
-        case link::ParamGroup::kRepetitive: return hostlink::to_json(c.get<link::RepetitiveParams>());
-        case link::ParamGroup::kLimits: return hostlink::to_json(c.get<link::LimitsParams>());
-        case link::ParamGroup::kTrajectory: return hostlink::to_json(c.get<link::TrajectoryParams>());
-        case link::ParamGroup::kRecorder: return hostlink::to_json(c.get<link::RecorderParams>());
-    }
-    return {};
+    json out;
+    params::with_group(g, [&](auto tag) { out = hostlink::to_json(c.get<typename decltype(tag)::type>()); });
+    return out;
 }
 
 // Merges j onto the board's group and sends it unless nothing changed (an
@@ -73,21 +67,15 @@ void merge_and_set(Client& c, const json& j) {
 }
 
 void set_group(Client& c, link::ParamGroup g, const json& j) {
-    switch (g) {
-        case link::ParamGroup::kFeedforward: return merge_and_set<link::FeedforwardParams>(c, j);
-        case link::ParamGroup::kFeedback: return merge_and_set<link::FeedbackParams>(c, j);
-        case link::ParamGroup::kRepetitive: return merge_and_set<link::RepetitiveParams>(c, j);
-        case link::ParamGroup::kLimits: return merge_and_set<link::LimitsParams>(c, j);
-        case link::ParamGroup::kTrajectory: return merge_and_set<link::TrajectoryParams>(c, j);
-        case link::ParamGroup::kRecorder: return merge_and_set<link::RecorderParams>(c, j);
-    }
+    params::with_group(g, [&](auto tag) { merge_and_set<typename decltype(tag)::type>(c, j); });
 }
 
 // Groups in the order a session sends them: limits first (the limiter is
 // "not configured" until then), rc after the feedback it needs.
 const link::ParamGroup kGroupOrder[] = {link::ParamGroup::kLimits, link::ParamGroup::kFeedforward,
                                         link::ParamGroup::kFeedback, link::ParamGroup::kRepetitive,
-                                        link::ParamGroup::kTrajectory, link::ParamGroup::kRecorder};
+                                        link::ParamGroup::kTrajectory, link::ParamGroup::kRecorder,
+                                        link::ParamGroup::kLink};
 
 // ---- status / get / set -------------------------------------------------------
 
@@ -263,6 +251,18 @@ void add_arm(CLI::App& app) {
             print({{"device", c.address()}, {"tripped", st.tripped}, {"trip_reason", trip_reason_name(st.trip_reason)}});
         });
     });
+    app.add_subcommand("stop", "Stop the running wave and setpoint stream, whoever started them; the setpoint holds "
+                               "its last value and the loop stays armed (needs --device)")
+        ->callback([] {
+            guarded([] {
+                Client c = open_device();
+                c.stop_wave();
+                c.stream_stop(false);
+                const link::StatusReply st = c.status();
+                print({{"device", c.address()}, {"wave_running", st.wave_running}, {"streaming", st.streaming},
+                       {"armed", st.armed}});
+            });
+        });
 }
 
 // ---- wave -----------------------------------------------------------------------
@@ -306,7 +306,8 @@ void add_wave(CLI::App& app) {
             c.set(p);
             if (!a->no_start) {
                 if (c.status().wave_running) c.stop_wave();
-                c.start_wave(a->arm ? hostlink::wave_flag::kArm : 0);
+                // A wave started from the command line runs on after it exits.
+                c.start_wave(hostlink::wave_flag::kDetached | (a->arm ? hostlink::wave_flag::kArm : 0));
             }
             const link::StatusReply st = c.status();
             print({{"device", c.address()}, {"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>())},

@@ -72,6 +72,10 @@ void Client::on_payload(std::span<const uint8_t> payload) {
         log_.add(b);
         return;
     }
+    if (keepalive_seq_ && h.seq == *keepalive_seq_) {
+        keepalive_seq_.reset();  // a keep-alive's status: taken in passing
+        return;
+    }
     if (!awaited_ || h.seq != *awaited_ || reply_) {
         ++counters_.stale_replies;
         return;
@@ -90,7 +94,28 @@ void Client::read_some(milliseconds timeout) {
     decoder_.feed(std::span<const uint8_t>(buf.data(), n), [this](std::span<const uint8_t> p) { on_payload(p); });
 }
 
+void Client::send_frame(uint8_t type, uint16_t seq, std::span<const uint8_t> body, uint8_t version) {
+    std::array<uint8_t, link::kMaxFrameSize + 1> frame{};
+    // A leading delimiter ends any partial frame a previous session left in
+    // the device's receiver (an empty frame is idle fill, not counted).
+    frame[0] = 0;
+    const std::size_t n = link::encode_frame(type, version, seq, body, std::span<uint8_t>(frame).subspan(1));
+    if (n == 0) throw LinkError(address() + ": " + request_name(type) + ": frame does not fit");
+    ++counters_.requests;
+    transport_->write(std::span<const uint8_t>(frame.data(), n + 1));
+    last_sent_ = steady_clock::now();
+}
+
 std::size_t Client::pump(milliseconds timeout) {
+    // While the host only listens (a record), the board must still hear from
+    // it, or it stops the wave this client started (link group,
+    // client_timeout_s): a status request now and then, its reply taken in
+    // passing.
+    if (steady_clock::now() - last_sent_ > kKeepAliveInterval) {
+        const uint16_t seq = ++seq_;
+        keepalive_seq_ = seq;
+        send_frame(static_cast<uint8_t>(MsgType::kGetStatus), seq, {}, link::kProtocolVersion);
+    }
     const uint64_t before = counters_.log_blocks;
     const auto deadline = steady_clock::now() + timeout;
     do {
@@ -107,17 +132,10 @@ std::size_t Client::pump(milliseconds timeout) {
 }
 
 Client::RawReply Client::transact(uint8_t type, std::span<const uint8_t> body, uint8_t version) {
-    std::array<uint8_t, link::kMaxFrameSize + 1> frame{};
     const uint16_t seq = ++seq_;
-    // A leading delimiter ends any partial frame a previous session left in
-    // the device's receiver (an empty frame is idle fill, not counted).
-    frame[0] = 0;
-    const std::size_t n = link::encode_frame(type, version, seq, body, std::span<uint8_t>(frame).subspan(1));
-    if (n == 0) throw LinkError(address() + ": " + request_name(type) + ": frame does not fit");
     awaited_ = seq;
     reply_.reset();
-    ++counters_.requests;
-    transport_->write(std::span<const uint8_t>(frame.data(), n + 1));
+    send_frame(type, seq, body, version);
     const auto deadline = steady_clock::now() + options_.timeout;
     while (!reply_) {
         const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());

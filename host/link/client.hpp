@@ -51,6 +51,7 @@ namespace wave_flag {
 inline constexpr uint8_t kArm = link::StartWave::kArmLoop;               // arm the loop
 inline constexpr uint8_t kArmRecorder = link::StartWave::kArmRecorder;   // arm the recorder
 inline constexpr uint8_t kRestartStage = link::StartWave::kRestartStage; // restart the emulated stage at rest
+inline constexpr uint8_t kDetached = link::StartWave::kDetached;         // keep running when this client goes silent
 }  // namespace wave_flag
 
 struct ClientCounters {
@@ -187,6 +188,11 @@ private:
     [[noreturn]] void unexpected(const RawReply& r, uint8_t request_type);
     void on_payload(std::span<const uint8_t> payload);
     void read_some(std::chrono::milliseconds timeout);
+    void send_frame(uint8_t type, uint16_t seq, std::span<const uint8_t> body, uint8_t version);
+
+    // A tenth of the board's default client timeout (1 s): an emulated board's
+    // clock may run ahead of the host's.
+    static constexpr std::chrono::milliseconds kKeepAliveInterval{100};
 
     std::unique_ptr<Transport> transport_;
     Options options_;
@@ -194,6 +200,8 @@ private:
     std::optional<link::HelloReply> hello_;
     uint16_t seq_ = 0;
     std::optional<uint16_t> awaited_;
+    std::optional<uint16_t> keepalive_seq_;
+    std::chrono::steady_clock::time_point last_sent_{};
     std::optional<RawReply> reply_;
     uint32_t next_block_seq_ = 0;
     LogCollector log_;

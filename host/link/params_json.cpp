@@ -255,6 +255,7 @@ json to_json(const link::RepetitiveParams& g) { return group_json(g); }
 json to_json(const link::LimitsParams& g) { return group_json(g); }
 json to_json(const link::TrajectoryParams& g) { return group_json(g); }
 json to_json(const link::RecorderParams& g) { return group_json(g); }
+json to_json(const link::LinkParams& g) { return group_json(g); }
 
 void merge_json(const json& j, link::FeedforwardParams& g) { merge_group(j, g); }
 void merge_json(const json& j, link::FeedbackParams& g) { merge_group(j, g); }
@@ -262,6 +263,7 @@ void merge_json(const json& j, link::RepetitiveParams& g) { merge_group(j, g); }
 void merge_json(const json& j, link::LimitsParams& g) { merge_group(j, g); }
 void merge_json(const json& j, link::TrajectoryParams& g) { merge_group(j, g); }
 void merge_json(const json& j, link::RecorderParams& g) { merge_group(j, g); }
+void merge_json(const json& j, link::LinkParams& g) { merge_group(j, g); }
 
 namespace {
 
@@ -282,8 +284,9 @@ json name_of(const char* const (&names)[N], unsigned v) {
 link::ParamGroup parse_group(const std::string& name) {
     for (int g = 1; g <= params::kGroupCount; ++g)
         if (name == link::group_name(static_cast<link::ParamGroup>(g))) return static_cast<link::ParamGroup>(g);
-    throw std::invalid_argument("unknown parameter group '" + name +
-                                "' (feedforward, feedback, rc, limits, trajectory, recorder, all)");
+    std::string all;
+    for (int g = 1; g <= params::kGroupCount; ++g) all += std::string(link::group_name(static_cast<link::ParamGroup>(g))) + ", ";
+    throw std::invalid_argument("unknown parameter group '" + name + "' (" + all + "all)");
 }
 
 uint8_t parse_signal(const std::string& name) {
@@ -333,8 +336,8 @@ json to_json(const link::StatusReply& s) {
     const char* const recorder_states[] = {"idle", "armed", "triggered", "done"};
     json faults = json::array();
     const char* const fault_names[] = {"hard_limits_invalid", "tick_overrun", "setpoint_underrun", "recorder_overrun",
-                                       "link_errors"};
-    for (unsigned i = 0; i < 5; ++i)
+                                       "link_errors", "client_lost"};
+    for (unsigned i = 0; i < std::size(fault_names); ++i)
         if (s.faults & (1u << i)) faults.push_back(fault_names[i]);
     if (s.faults >> 8) faults.push_back("board_faults");
     const link::LinkCounters& c = s.link;

@@ -20,6 +20,7 @@ nlohmann::json to_json(const link::RepetitiveParams& g);
 nlohmann::json to_json(const link::LimitsParams& g);
 nlohmann::json to_json(const link::TrajectoryParams& g);
 nlohmann::json to_json(const link::RecorderParams& g);
+nlohmann::json to_json(const link::LinkParams& g);
 nlohmann::json to_json(const link::HelloReply& h);
 nlohmann::json to_json(const link::StatusReply& s);
 
@@ -29,6 +30,7 @@ void merge_json(const nlohmann::json& j, link::RepetitiveParams& g);
 void merge_json(const nlohmann::json& j, link::LimitsParams& g);
 void merge_json(const nlohmann::json& j, link::TrajectoryParams& g);
 void merge_json(const nlohmann::json& j, link::RecorderParams& g);
+void merge_json(const nlohmann::json& j, link::LinkParams& g);
 
 // "feedforward", "feedback", "rc", "limits", "trajectory", "recorder" -> group;
 // throws std::invalid_argument listing the names for anything else.

@@ -181,6 +181,7 @@ json parameter_schema() {
     groups["limits"] = group_schema<link::LimitsParams>("runtime output limits, within the board's hard limits");
     groups["trajectory"] = group_schema<link::TrajectoryParams>("the wave generator (its rate is the loop rate)");
     groups["recorder"] = group_schema<link::RecorderParams>("the signal recorder");
+    groups["link"] = group_schema<link::LinkParams>("what the board does when its client goes silent");
     return {{"$schema", "https://json-schema.org/draft/2020-12/schema"},
             {"title", "piezoloop parameter groups"},
             {"description",
@@ -195,7 +196,7 @@ json parameter_schema() {
 std::string parameter_tables_markdown() {
     return group_table<link::FeedforwardParams>() + group_table<link::FeedbackParams>() +
            group_table<link::RepetitiveParams>() + group_table<link::LimitsParams>() +
-           group_table<link::TrajectoryParams>() + group_table<link::RecorderParams>();
+           group_table<link::TrajectoryParams>() + group_table<link::RecorderParams>() + group_table<link::LinkParams>();
 }
 
 }  // namespace piezoloop::hostlink

@@ -75,6 +75,7 @@ public:
         if (payload.size() < kHeaderSize) { LinkCounters::inc(counters().truncated); return; }
         const FrameHeader h = parse_header(payload);
         const std::span<const uint8_t> body = payload.subspan(kHeaderSize);
+        last_frame_tick_ = pipeline_.tick_count();  // the client is alive
         if (h.type == static_cast<uint8_t>(MsgType::kHello)) {
             // Any version: the reply tells the client which one we speak.
             reply(make_hello(), h.seq, send);
@@ -143,6 +144,7 @@ public:
                 // Running with an empty FIFO counts underruns from now on:
                 // a client that wants none sends prefill > 0.
                 stream_.start(m.prefill);
+                bind_client(true);
                 return reply(stream_.ack(), h.seq, send);
             }
             case MsgType::kSetpoints: setpoints(h, body, send); return;
@@ -180,8 +182,10 @@ public:
 
     // Sends at most one log block of recorded frames; returns true if it did
     // (link/log_stream.hpp says when a block is sent).
+    // Also the main loop's regular call: it watches for a lost client.
     template <class Send>
     bool poll_log(Send&& send) {
+        watch_client();
         return log_.poll(pipeline_.recorder(), std::span<uint8_t>(tx_), send);
     }
 
@@ -264,12 +268,40 @@ public:
         if (r.setpoint_underruns != 0) f |= fault::kSetpointUnderrun;
         if (r.recorder_overruns != 0) f |= fault::kRecorderOverrun;
         if (r.link.dropped() != 0) f |= fault::kLinkErrors;
+        if (client_lost_) f |= fault::kClientLost;
         f |= tick_stats_.board_faults << 8;
         r.faults = f;
         return r;
     }
 
 private:
+    // ---- client loss --------------------------------------------------------
+    // A setpoint stream, or a wave started without the detached flag, is the
+    // client's: if no intact frame arrives for the link group's
+    // client_timeout_s, it is stopped (the setpoint holds its last value),
+    // the loop is disarmed if on_client_loss says so, and the status reports
+    // client_lost until the next stream or wave starts. Checked in the main
+    // loop against the tick count: nothing is added to the tick.
+    void bind_client(bool bound) {
+        client_bound_ = bound;
+        client_lost_ = false;
+    }
+
+    void watch_client() {
+        if (!client_bound_) return;
+        if (!stream_.open() && !pipeline_.wave_running()) {
+            client_bound_ = false;  // ended on its own
+            return;
+        }
+        const uint32_t timeout = policy_.client_timeout_ticks();
+        if (timeout == 0 || pipeline_.tick_count() - last_frame_tick_ < timeout) return;
+        stream_.stop(false);
+        pipeline_.stop_wave();
+        if (policy_.link().on_client_loss == params::ClientLossAction::kDisarm) pipeline_.disarm();
+        client_bound_ = false;
+        client_lost_ = true;
+    }
+
     void mask(bool m) const {
         if (hooks_.mask_tick != nullptr) hooks_.mask_tick(m);
     }
@@ -356,6 +388,7 @@ private:
         if ((f & StartWave::kArmRecorder) != 0) (void)pipeline_.recorder().arm();  // configured: cannot fail
         mask(false);
         if ((f & StartWave::kArmRecorder) != 0) log_.restart();
+        bind_client((f & StartWave::kDetached) == 0);
         ack(h, send);
     }
 
@@ -363,28 +396,19 @@ private:
 
     template <class Send>
     void get_params(const FrameHeader& h, ParamGroup g, Send& send) {
-        const PipelineParams& p = params();
-        switch (g) {
-            case ParamGroup::kFeedforward: return reply(ParamsReply<FeedforwardParams>{params::feedforward_of(p)}, h.seq, send);
-            case ParamGroup::kFeedback: return reply(ParamsReply<FeedbackParams>{params::feedback_of(p)}, h.seq, send);
-            case ParamGroup::kRepetitive: return reply(ParamsReply<RepetitiveParams>{params::rc_of(p)}, h.seq, send);
-            case ParamGroup::kLimits: return reply(ParamsReply<LimitsParams>{params::limits_of(p)}, h.seq, send);
-            case ParamGroup::kTrajectory: return reply(ParamsReply<TrajectoryParams>{policy_.wave()}, h.seq, send);
-            case ParamGroup::kRecorder: return reply(ParamsReply<RecorderParams>{policy_.recorder()}, h.seq, send);
-        }
-        fail(h, ErrorCode::kBadGroup, error("group", "unknown parameter group"), send);
+        const bool known = params::with_group(g, [&](auto tag) {
+            using G = typename decltype(tag)::type;
+            reply(ParamsReply<G>{policy_.template get<G>()}, h.seq, send);
+        });
+        if (!known) fail(h, ErrorCode::kBadGroup, error("group", "unknown parameter group"), send);
     }
 
     template <class Send>
     void set_params(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
-        switch (static_cast<ParamGroup>(body_group(body))) {
-            case ParamGroup::kFeedforward: return set_group<FeedforwardParams>(h, body, send);
-            case ParamGroup::kFeedback: return set_group<FeedbackParams>(h, body, send);
-            case ParamGroup::kRepetitive: return set_group<RepetitiveParams>(h, body, send);
-            case ParamGroup::kLimits: return set_group<LimitsParams>(h, body, send);
-            case ParamGroup::kTrajectory: return set_group<TrajectoryParams>(h, body, send);
-            case ParamGroup::kRecorder: return set_group<RecorderParams>(h, body, send);
-        }
+        const bool known = params::with_group(static_cast<ParamGroup>(body_group(body)), [&](auto tag) {
+            set_group<typename decltype(tag)::type>(h, body, send);
+        });
+        if (known) return;
         LinkCounters::inc(counters().bad_value);
         fail(h, ErrorCode::kBadGroup, error("group", "unknown parameter group"), send);
     }
@@ -429,6 +453,9 @@ private:
     std::array<uint8_t, kMaxFrameSize> tx_{};
     TickStats tick_stats_{};
     ParamPolicy<PipelineType> policy_;
+    uint32_t last_frame_tick_ = 0;
+    bool client_bound_ = false;
+    bool client_lost_ = false;
     SetpointStream<T, SetpointCapacity> stream_{};
     LogStreamType log_{};
 };

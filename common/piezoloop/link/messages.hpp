@@ -139,6 +139,7 @@ using params::group_name;
 using params::kMaxLogChannels;
 using params::kMaxWaveTable;
 using params::LimitsParams;
+using params::LinkParams;
 using params::ParamGroup;
 using params::RecorderParams;
 using params::RepetitiveParams;
@@ -173,7 +174,8 @@ struct StartWave {
     static constexpr uint8_t kArmLoop = 1u << 0;       // arm the loop (refused if already armed)
     static constexpr uint8_t kArmRecorder = 1u << 1;   // arm the recorder (configured first)
     static constexpr uint8_t kRestartStage = 1u << 2;  // emulated stage back at rest (DeviceHooks::restart_stage)
-    static constexpr uint8_t kKnownFlags = kArmLoop | kArmRecorder | kRestartStage;
+    static constexpr uint8_t kDetached = 1u << 3;      // the wave runs on when the client goes silent
+    static constexpr uint8_t kKnownFlags = kArmLoop | kArmRecorder | kRestartStage | kDetached;
     uint8_t flags = 0;
     bool operator==(const StartWave&) const = default;
     // Flags 0 travel as the empty body, byte for byte the old message, and
@@ -374,6 +376,7 @@ inline constexpr uint32_t kTickOverrun = 1u << 1;        // the tick missed a pe
 inline constexpr uint32_t kSetpointUnderrun = 1u << 2;   // streamed setpoints ran out at least once
 inline constexpr uint32_t kRecorderOverrun = 1u << 3;    // log frames dropped since recorder arm
 inline constexpr uint32_t kLinkErrors = 1u << 4;         // link counters show dropped frames
+inline constexpr uint32_t kClientLost = 1u << 5;         // a stream or wave was stopped: its client went silent
 inline constexpr uint32_t kBoardFault = 1u << 8;         // bits 8..31: board-specific (TickStats::board_faults)
 }  // namespace fault
 

@@ -22,6 +22,8 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
+#include <type_traits>
 
 #include "piezoloop/link/messages.hpp"
 #include "piezoloop/params/field_check.hpp"
@@ -51,6 +53,21 @@ public:
     const PipelineParams& params() const { return pipeline_.swap_pending() ? staged_ : pipeline_.params(); }
     bool wave_set() const { return wave_set_; }
     const TrajectoryParams& wave() const { return wave_; }
+    const LinkParams& link() const { return link_; }
+    // The client timeout in ticks (0: never).
+    uint32_t client_timeout_ticks() const { return client_timeout_ticks_; }
+
+    // Each group as GetParams returns it.
+    template <class G>
+    G get() const {
+        if constexpr (std::is_same_v<G, TrajectoryParams>) return wave_;
+        else if constexpr (std::is_same_v<G, RecorderParams>) return recorder();
+        else if constexpr (std::is_same_v<G, LinkParams>) return link_;
+        else if constexpr (std::is_same_v<G, FeedforwardParams>) return params::feedforward_of(params());
+        else if constexpr (std::is_same_v<G, FeedbackParams>) return params::feedback_of(params());
+        else if constexpr (std::is_same_v<G, RepetitiveParams>) return params::rc_of(params());
+        else return params::limits_of(params());
+    }
 
     TrajectoryConfig wave_config() const { return trajectory_config(wave_); }
 
@@ -187,6 +204,14 @@ private:
         return ok_status();
     }
 
+    Status apply(const LinkParams& v) {
+        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        link_ = v;
+        // At most 3600 s x the loop rate (< 2^32 ticks at up to 1 MHz).
+        client_timeout_ticks_ = static_cast<uint32_t>(static_cast<double>(v.client_timeout_s) * pipeline_.setup().rate_Hz);
+        return ok_status();
+    }
+
     TrajectoryConfig trajectory_config(const TrajectoryParams& v) const {
         return params::trajectory_config(v, pipeline_.setup().rate_Hz);
     }
@@ -197,6 +222,9 @@ private:
     PipelineParams staged_{};
     TrajectoryParams wave_{};
     bool wave_set_ = false;
+    LinkParams link_{};
+    uint32_t client_timeout_ticks_ = static_cast<uint32_t>(static_cast<double>(LinkParams{}.client_timeout_s) *
+                                                           pipeline_.setup().rate_Hz);
     params::FieldCheck check_{};
     params::TextBuffer<32> critical_field_{};
     params::TextBuffer<32> nested_field_{};

@@ -37,8 +37,9 @@ enum class ParamGroup : uint8_t {
     kLimits = 4,       // runtime output limits (within the hard limits)
     kTrajectory = 5,   // wave generator
     kRecorder = 6,     // recorder configuration
+    kLink = 7,         // what the board does when its client goes silent
 };
-inline constexpr int kGroupCount = 6;
+inline constexpr int kGroupCount = 7;
 
 constexpr const char* group_name(ParamGroup g) {
     switch (g) {
@@ -48,6 +49,7 @@ constexpr const char* group_name(ParamGroup g) {
         case ParamGroup::kLimits: return "limits";
         case ParamGroup::kTrajectory: return "trajectory";
         case ParamGroup::kRecorder: return "recorder";
+        case ParamGroup::kLink: return "link";
     }
     return "?";
 }
@@ -62,6 +64,7 @@ inline constexpr const char* kWaveformNames[] = {"sine", "triangle", "raster", "
 inline constexpr const char* kRecordModeNames[] = {"single_shot", "continuous"};
 inline constexpr const char* kTriggerModeNames[] = {"immediate", "rising", "falling"};
 inline constexpr const char* kSignalNames[] = {"r", "y", "e", "u", "u_ff", "u_fb", "u_rc"};
+inline constexpr const char* kClientLossNames[] = {"hold", "disarm"};
 static_assert(std::size(kSignalNames) == kSignalCount);
 static_assert(std::size(kWaveformNames) == static_cast<std::size_t>(Waveform::kTable) + 1);
 static_assert(std::size(kFeedforwardKindNames) == static_cast<std::size_t>(FeedforwardKind::kPiSeries) + 1);
@@ -134,6 +137,20 @@ struct RecorderParams {
     uint32_t pre_trigger = 0;
     uint32_t length = 0;
     bool operator==(const RecorderParams&) const = default;
+};
+
+// What the board does when the client that started a setpoint stream or a
+// wave goes silent (link/device.hpp, "client loss").
+enum class ClientLossAction : uint8_t {
+    kHold = 0,    // stop the stream or wave: the setpoint holds, the loop stays armed
+    kDisarm = 1,  // the same, and disarm the loop
+};
+
+struct LinkParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kLink;
+    float client_timeout_s = 1.0f;  // 0: never
+    ClientLossAction on_client_loss = ClientLossAction::kHold;
+    bool operator==(const LinkParams&) const = default;
 };
 
 // ---- the declarations ---------------------------------------------------------
@@ -243,6 +260,41 @@ constexpr void describe(V& v, G& g) {
     v.value(f32("trigger_level", "um or V", "level, in the trigger signal's unit"), g.trigger_level);
     v.value(u32("pre_trigger", "frames", "frames kept from before the trigger"), g.pre_trigger);
     v.value(u32("length", "frames", "frames of a single-shot record"), g.length);
+}
+
+template <class V, GroupRef<LinkParams> G>
+constexpr void describe(V& v, G& g) {
+    v.value(f32("client_timeout_s", "s",
+                "silence (no valid frame) after which a setpoint stream or a wave the client started is stopped; "
+                "0: never")
+                .range(0, 3600),
+            g.client_timeout_s);
+    v.value(enumeration("on_client_loss", kClientLossNames,
+                        "hold: the setpoint holds, the loop stays armed; disarm: the loop is disarmed too"),
+            g.on_client_loss);
+}
+
+// ---- dispatch by group id ------------------------------------------------------
+
+template <class G>
+struct GroupTag {
+    using type = G;
+};
+
+// Calls f(GroupTag<G>{}) with the group whose id is g; false for an unknown id.
+// The one list of groups: the device, the host's get / set and the schema use it.
+template <class F>
+constexpr bool with_group(ParamGroup g, F&& f) {
+    switch (g) {
+        case ParamGroup::kFeedforward: f(GroupTag<FeedforwardParams>{}); return true;
+        case ParamGroup::kFeedback: f(GroupTag<FeedbackParams>{}); return true;
+        case ParamGroup::kRepetitive: f(GroupTag<RepetitiveParams>{}); return true;
+        case ParamGroup::kLimits: f(GroupTag<LimitsParams>{}); return true;
+        case ParamGroup::kTrajectory: f(GroupTag<TrajectoryParams>{}); return true;
+        case ParamGroup::kRecorder: f(GroupTag<RecorderParams>{}); return true;
+        case ParamGroup::kLink: f(GroupTag<LinkParams>{}); return true;
+    }
+    return false;
 }
 
 // ---- groups of a pipeline parameter set ----------------------------------------

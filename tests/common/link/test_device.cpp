@@ -772,3 +772,106 @@ TYPED_TEST(LinkDevice, RestartFlagWithoutAStageIsUnsupported) {
     EXPECT_TRUE(r_.pipeline->armed());
     EXPECT_TRUE(r_.pipeline->wave_running());
 }
+
+// ---- client loss ---------------------------------------------------------------
+
+namespace {
+
+template <class T>
+class LinkClientLoss : public LinkDevice<T> {
+protected:
+    // The main loop's regular call, which watches the client.
+    void main_loop() {
+        this->rig.device->poll_log([](std::span<const uint8_t>) {});
+    }
+    // n ticks of silence, the main loop running after each.
+    void silence(int n) {
+        for (int i = 0; i < n; ++i) {
+            this->rig.tick();
+            main_loop();
+        }
+    }
+    int timeout_ticks(float s) const { return static_cast<int>(s * reference::setup().rate_Hz); }
+    void start_triangle(uint8_t flags) {
+        TrajectoryParams tp;
+        tp.waveform = Waveform::kTriangle;
+        tp.amplitude_um = 12.0f;
+        tp.frequency_Hz = 10.0f;
+        ASSERT_EQ(this->rig.set(tp).type(), MsgType::kAck);
+        ASSERT_EQ(this->rig.request(StartWave{flags}).type(), MsgType::kAck);
+    }
+};
+TYPED_TEST_SUITE(LinkClientLoss, SampleTypes);
+
+TYPED_TEST(LinkClientLoss, AnAbandonedStreamIsClosedAndTheSetpointHolds) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(LinkParams{0.01f, params::ClientLossAction::kHold}).type(), MsgType::kAck);
+    EXPECT_EQ(r_.request(StreamStart{0}).type(), MsgType::kSetpointAck);
+    SetpointBlock b;
+    b.count = 10;
+    for (int i = 0; i < 10; ++i) b.setpoint_um[static_cast<unsigned>(i)] = 1.0f + 0.1f * static_cast<float>(i);
+    ASSERT_EQ(r_.request(b).type(), MsgType::kSetpointAck);
+    EXPECT_EQ(r_.request(Arm{}).type(), MsgType::kAck);
+    // The client dies: the FIFO runs dry (underruns, never silent) until the
+    // timeout, then the stream is closed; the loop stays armed.
+    this->silence(this->timeout_ticks(0.01f) - 1);
+    EXPECT_TRUE(r_.device->streaming());
+    this->silence(2);
+    EXPECT_FALSE(r_.device->streaming());
+    EXPECT_TRUE(r_.pipeline->armed());
+    const StatusReply st = r_.request(GetStatus{}).template as<StatusReply>();
+    EXPECT_NE(st.faults & fault::kClientLost, 0u);
+    EXPECT_NEAR(st.r_um, 1.9f, 1e-3f);  // the last streamed setpoint holds
+    // A new client can start a wave at once; the report clears.
+    this->start_triangle(0);
+    EXPECT_EQ(r_.request(GetStatus{}).template as<StatusReply>().faults & fault::kClientLost, 0u);
+}
+
+TYPED_TEST(LinkClientLoss, AWaveStopsWhenItsClientGoesSilentAndDisarmsIfAsked) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(LinkParams{0.02f, params::ClientLossAction::kDisarm}).type(), MsgType::kAck);
+    this->start_triangle(StartWave::kArmLoop);
+    // A client that keeps talking keeps its wave.
+    for (int k = 0; k < 5; ++k) {
+        this->silence(this->timeout_ticks(0.02f) / 2);
+        EXPECT_EQ(r_.request(GetStatus{}).type(), MsgType::kStatusReply);
+    }
+    EXPECT_TRUE(r_.pipeline->wave_running());
+    this->silence(this->timeout_ticks(0.02f) + 2);
+    EXPECT_FALSE(r_.pipeline->wave_running());
+    EXPECT_FALSE(r_.pipeline->armed());
+    EXPECT_NE(r_.request(GetStatus{}).template as<StatusReply>().faults & fault::kClientLost, 0u);
+}
+
+TYPED_TEST(LinkClientLoss, ADetachedWaveRunsOnAndZeroMeansNever) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(LinkParams{0.01f, params::ClientLossAction::kHold}).type(), MsgType::kAck);
+    this->start_triangle(StartWave::kDetached);
+    this->silence(this->timeout_ticks(0.01f) * 3);
+    EXPECT_TRUE(r_.pipeline->wave_running());
+    EXPECT_EQ(r_.request(StopWave{}).type(), MsgType::kAck);
+    r_.tick();
+    ASSERT_EQ(r_.set(LinkParams{0.0f, params::ClientLossAction::kHold}).type(), MsgType::kAck);
+    this->start_triangle(0);
+    this->silence(this->timeout_ticks(0.05f));
+    EXPECT_TRUE(r_.pipeline->wave_running());
+}
+
+TYPED_TEST(LinkClientLoss, TheLinkGroupIsCheckedAndReadBack) {
+    auto& r_ = this->rig;
+    const LinkParams defaults = r_.template get<LinkParams>(ParamGroup::kLink);
+    EXPECT_EQ(defaults.client_timeout_s, 1.0f);
+    this->expect_error(r_.set(LinkParams{-1.0f, params::ClientLossAction::kHold}), ErrorCode::kInvalidParam, "link",
+                       "client_timeout_s");
+    this->expect_error(r_.set(LinkParams{1.0f, static_cast<params::ClientLossAction>(2)}), ErrorCode::kInvalidParam,
+                       "link", "on_client_loss");
+    EXPECT_EQ(r_.template get<LinkParams>(ParamGroup::kLink), defaults);
+    const LinkParams l{2.5f, params::ClientLossAction::kDisarm};
+    EXPECT_EQ(r_.set(l).type(), MsgType::kAck);
+    EXPECT_EQ(r_.template get<LinkParams>(ParamGroup::kLink), l);
+}
+
+}  // namespace

@@ -161,6 +161,30 @@ try:
     r = run(*d, "wave", "--stop")
     check(r.returncode == 0 and not json.loads(r.stdout)["wave_running"], "wave --stop", r.stderr)
 
+    # A killed stream client: the board closes the stream itself when the
+    # link stays silent (docs/protocol.md, "Client loss"); waves work again.
+    killed = subprocess.Popen([exe, *d, "stream", *wave, "--duration-s", "60"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 30
+    while time.time() < deadline and not json.loads(run(*d, "status").stdout)["status"]["streaming"]:
+        time.sleep(0.1)
+    killed.kill()
+    killed.wait()
+    st = {}
+    deadline = time.time() + 30
+    while time.time() < deadline:
+        st = json.loads(run(*d, "status").stdout)["status"]
+        if not st["streaming"]:
+            break
+        time.sleep(0.2)
+    check(not st.get("streaming", True) and "client_lost" in st.get("faults", []),
+          "a killed stream client: the board closes its stream and reports client_lost", json.dumps(st))
+    r = run(*d, "wave", "--trajectory", "sine", "--frequency-hz", "5", "--amplitude-um", "4")
+    check(r.returncode == 0 and json.loads(r.stdout).get("wave_running"), "wave after a lost client", r.stderr)
+    r = run(*d, "stop")
+    j = json.loads(r.stdout) if r.returncode == 0 else {}
+    check(r.returncode == 0 and not j.get("wave_running", True) and not j.get("streaming", True), "stop", r.stderr)
+
     qemu_pid = info["pid"]
     emu.send_signal(signal.SIGTERM)
     rc = emu.wait(timeout=20)
