@@ -99,6 +99,14 @@ try:
     check(g.returncode == 0 and groups["feedforward"]["kind"] in ("dahl", "pi_inverse", "pi_compensator") and
           groups["feedback"]["kind"] == "sos",
           "get all: the case's controller is on the board")
+    # The board's groups conform to the published schema (an independent
+    # validator: python3-jsonschema).
+    import jsonschema
+    schema = json.loads(run("schema").stdout)
+    invalid = [f"{name}: {e.message}" for name in groups if name in schema["properties"]
+               for e in jsonschema.Draft202012Validator(schema["properties"][name]).iter_errors(groups[name])]
+    check(set(schema["properties"]) <= set(groups) and not invalid, "get all conforms to `piezoloop schema`",
+          "; ".join(invalid))
     path = os.path.join(tmp, "all.json")
     with open(path, "w") as f:
         json.dump(groups, f)
