@@ -118,8 +118,8 @@ struct Loop {
         pipe->arm();
     }
 
-    sim::LoopStepper<T, PipelineT, StageModel> hashed{*pipe, stage, 1.0f, &hash};
-    sim::LoopStepper<T, PipelineT, StageModel> plain{*pipe, stage, 1.0f, nullptr};
+    sim::LoopKernel<T, PipelineT, StageModel> hashed{*pipe, stage, 1.0f, &hash};
+    sim::LoopKernel<T, PipelineT, StageModel> plain{*pipe, stage, 1.0f, nullptr};
     uint64_t k = 0;
     double sq = 0.0;
 

@@ -13,12 +13,9 @@
 // sends).
 //
 // Layout, little-endian, no padding (version 1):
-//   header, 16 bytes
-//     0  u32  magic 0x43425A50 ("PZBC" in memory order)
-//     4  u16  version (1)
-//     6  u16  reserved, 0
-//     8  u32  body length in bytes
-//    12  u32  CRC-32 (link/crc32.hpp, IEEE 802.3) of the body
+//   header, 16 bytes: the stored-blob header (blob_header.hpp), magic
+//     0x43425A50 ("PZBC" in memory order), version 1, body length (at most
+//     a slot less the header), CRC-32 of the body
 //   body (variable: the link groups carry only the operators / table
 //   points in use)
 //     48 bytes  name, "<scenario>/<case>", zero-padded (at least one zero)
@@ -41,10 +38,10 @@
 #include <cstdint>
 #include <span>
 
+#include "piezoloop/blob_header.hpp"
 #include "piezoloop/det_math.hpp"
 #include "piezoloop/emulation_profile.hpp"
 #include "piezoloop/limits.hpp"
-#include "piezoloop/link/crc32.hpp"
 #include "piezoloop/link/messages.hpp"
 #include "piezoloop/link/wire.hpp"
 #include "piezoloop/pipeline.hpp"
@@ -73,7 +70,9 @@ inline constexpr std::size_t kBoardCaseSlotBytes = 2048;
 inline constexpr int kBoardCaseSlots = 3;
 inline constexpr uint32_t kBoardCaseMagic = 0x43425A50u;  // "PZBC"
 inline constexpr uint16_t kBoardCaseVersion = 1;
-inline constexpr std::size_t kBoardCaseHeaderBytes = 16;
+inline constexpr BlobKind kBoardCaseBlob{kBoardCaseMagic, kBoardCaseVersion, "must be 0x43425A50 (\"PZBC\")",
+                                         "must be 1"};
+inline constexpr std::size_t kBoardCaseHeaderBytes = kBlobHeaderBytes;
 static_assert(kBoardCaseAddress + kBoardCaseSlots * kBoardCaseSlotBytes <= kEmulationProfileAddress);
 
 // What the QEMU boards can run, stated here so the host refuses a case
@@ -124,21 +123,12 @@ inline std::size_t encode_board_case(const BoardCase& c, std::span<uint8_t> out)
     board_case_detail::write_body(wb, c, profile);
     if (!wb.ok()) return 0;
     const std::span<const uint8_t> body(out.data() + kBoardCaseHeaderBytes, wb.size());
-    link::Writer wh(out.subspan(0, kBoardCaseHeaderBytes));
-    wh.u32(kBoardCaseMagic);
-    wh.u16(kBoardCaseVersion);
-    wh.u16(0);
-    wh.u32(static_cast<uint32_t>(body.size()));
-    wh.u32(link::crc32(body));
+    if (!write_blob_header(kBoardCaseBlob, body, out)) return 0;
     return kBoardCaseHeaderBytes + body.size();
 }
 
 // True if `in` starts with the board-case magic (a case is present, valid or not).
-inline bool board_case_present(std::span<const uint8_t> in) {
-    if (in.size() < 4) return false;
-    link::Reader r(in.subspan(0, 4));
-    return r.u32() == kBoardCaseMagic;
-}
+inline bool board_case_present(std::span<const uint8_t> in) { return blob_present(in, kBoardCaseMagic); }
 
 // Reads and checks a case from the start of `in` (which may extend beyond
 // it, e.g. a whole slot). `out` is written only when everything is valid.
@@ -149,21 +139,12 @@ inline bool board_case_present(std::span<const uint8_t> in) {
 // The parameter values themselves are the pipeline's to validate when the
 // board stages them (Pipeline::stage names the field).
 inline Status decode_board_case(std::span<const uint8_t> in, BoardCase& out) {
-    if (in.size() < kBoardCaseHeaderBytes) return error("length", "shorter than the 16-byte header");
-    link::Reader h(in.subspan(0, kBoardCaseHeaderBytes));
-    const uint32_t magic = h.u32();
-    const uint16_t version = h.u16();
-    const uint16_t reserved = h.u16();
-    const uint32_t length = h.u32();
-    const uint32_t crc = h.u32();
-    if (magic != kBoardCaseMagic) return error("magic", "must be 0x43425A50 (\"PZBC\")");
-    if (version != kBoardCaseVersion) return error("version", "must be 1");
-    if (reserved != 0) return error("reserved", "must be 0");
-    if (length > kBoardCaseSlotBytes - kBoardCaseHeaderBytes)
+    BlobHeader h;
+    if (const Status s = read_blob_header(in, kBoardCaseBlob, h); !s.ok()) return s;
+    if (h.length > kBoardCaseSlotBytes - kBoardCaseHeaderBytes)
         return error("length", "body must fit a 2048-byte slot with its header");
-    if (in.size() - kBoardCaseHeaderBytes < length) return error("length", "body extends beyond the data");
-    const std::span<const uint8_t> body = in.subspan(kBoardCaseHeaderBytes, length);
-    if (link::crc32(body) != crc) return error("crc", "CRC-32 of the body does not match the header");
+    std::span<const uint8_t> body;
+    if (const Status s = blob_body(in, h, body); !s.ok()) return s;
 
     BoardCase c;
     link::Reader r(body);

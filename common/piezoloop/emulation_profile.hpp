@@ -8,12 +8,9 @@
 // stage at 100 kHz.
 //
 // Layout, little-endian, no padding (version 1):
-//   header, 16 bytes
-//     0  u32  magic 0x4D455A50 ("PZEM" in memory order)
-//     4  u16  version (1)
-//     6  u16  reserved, 0
-//     8  u32  body length in bytes (kEmulationProfileBodyBytes for version 1)
-//    12  u32  CRC-32 (link/crc32.hpp, IEEE 802.3) of the body
+//   header, 16 bytes: the stored-blob header (blob_header.hpp), magic
+//     0x4D455A50 ("PZEM" in memory order), version 1, body length
+//     kEmulationProfileBodyBytes, CRC-32 of the body
 //   body, kEmulationProfileBodyBytes bytes
 //     u32 loop_rate_Hz, f32 position_full_scale_um, f32 voltage_full_scale_V
 //     stage: f32 rate_Hz
@@ -36,8 +33,8 @@
 #include <cstdint>
 #include <span>
 
+#include "piezoloop/blob_header.hpp"
 #include "piezoloop/det_math.hpp"
-#include "piezoloop/link/crc32.hpp"
 #include "piezoloop/link/wire.hpp"
 #include "piezoloop/stage_model.hpp"
 #include "piezoloop/status.hpp"
@@ -59,7 +56,9 @@ inline constexpr uint32_t kEmulationProfileAddress = 0x003FFC00u;
 inline constexpr std::size_t kEmulationProfileMaxBytes = 1024;
 inline constexpr uint32_t kEmulationProfileMagic = 0x4D455A50u;  // "PZEM"
 inline constexpr uint16_t kEmulationProfileVersion = 1;
-inline constexpr std::size_t kEmulationProfileHeaderBytes = 16;
+inline constexpr BlobKind kEmulationProfileBlob{kEmulationProfileMagic, kEmulationProfileVersion,
+                                                "must be 0x4D455A50 (\"PZEM\")", "must be 1"};
+inline constexpr std::size_t kEmulationProfileHeaderBytes = kBlobHeaderBytes;
 inline constexpr std::size_t kEmulationProfileBodyBytes = 491;
 // The MPS2 tick timer clock (CMSDK TIMER0 on the 25 MHz APB): the loop rate
 // must divide it into a whole number of counts.
@@ -154,41 +153,23 @@ inline std::size_t encode_profile(const EmulationProfile& p, std::span<uint8_t> 
     link::Writer wb(body);
     profile_detail::write_body(wb, p);
     if (!wb.ok() || wb.size() != kEmulationProfileBodyBytes) return 0;  // layout and constant disagree
-    link::Writer wh(out.subspan(0, kEmulationProfileHeaderBytes));
-    wh.u32(kEmulationProfileMagic);
-    wh.u16(kEmulationProfileVersion);
-    wh.u16(0);
-    wh.u32(static_cast<uint32_t>(kEmulationProfileBodyBytes));
-    wh.u32(link::crc32(std::span<const uint8_t>(body.data(), body.size())));
+    if (!write_blob_header(kEmulationProfileBlob, body, out)) return 0;
     return total;
 }
 
 // True if `in` starts with the profile magic (a profile is present, valid or not).
-inline bool profile_present(std::span<const uint8_t> in) {
-    if (in.size() < 4) return false;
-    link::Reader r(in.subspan(0, 4));
-    return r.u32() == kEmulationProfileMagic;
-}
+inline bool profile_present(std::span<const uint8_t> in) { return blob_present(in, kEmulationProfileMagic); }
 
 // Reads and validates a profile from the start of `in` (which may extend
 // beyond it, e.g. the whole reserved RAM area). `out` is written only when
 // everything is valid. Errors name the header field ("magic", "version",
 // "reserved", "length", "crc") or the value's field.
 inline Status decode_profile(std::span<const uint8_t> in, EmulationProfile& out) {
-    if (in.size() < kEmulationProfileHeaderBytes) return error("length", "shorter than the 16-byte header");
-    link::Reader h(in.subspan(0, kEmulationProfileHeaderBytes));
-    const uint32_t magic = h.u32();
-    const uint16_t version = h.u16();
-    const uint16_t reserved = h.u16();
-    const uint32_t length = h.u32();
-    const uint32_t crc = h.u32();
-    if (magic != kEmulationProfileMagic) return error("magic", "must be 0x4D455A50 (\"PZEM\")");
-    if (version != kEmulationProfileVersion) return error("version", "must be 1");
-    if (reserved != 0) return error("reserved", "must be 0");
-    if (length != kEmulationProfileBodyBytes) return error("length", "body must be 491 bytes (version 1)");
-    if (in.size() - kEmulationProfileHeaderBytes < length) return error("length", "body extends beyond the data");
-    const std::span<const uint8_t> body = in.subspan(kEmulationProfileHeaderBytes, length);
-    if (link::crc32(body) != crc) return error("crc", "CRC-32 of the body does not match the header");
+    BlobHeader h;
+    if (const Status s = read_blob_header(in, kEmulationProfileBlob, h); !s.ok()) return s;
+    if (h.length != kEmulationProfileBodyBytes) return error("length", "body must be 491 bytes (version 1)");
+    std::span<const uint8_t> body;
+    if (const Status s = blob_body(in, h, body); !s.ok()) return s;
     EmulationProfile p;
     link::Reader r(body);
     profile_detail::read_body(r, p);

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <type_traits>
 
+#include "piezoloop/loop_stepper.hpp"
 #include "piezoloop/reference_stage.hpp"
 
 namespace piezoloop::reference {
@@ -40,8 +41,9 @@ struct RunResult {
 };
 
 // The pipeline is passed in (it is large: boards keep it in static storage).
-// 10 Hz triangle, 15 µm amplitude, feedforward + feedback, one tick of
-// compute delay, y converted to the sample type as an ADC would.
+// 10 Hz triangle, 15 µm amplitude, feedforward + feedback, stepped by the
+// LoopStepper every closed loop uses (loop_stepper.hpp): one tick of compute
+// delay, y converted to the sample type as an ADC would.
 // The reference feedback crosses over near 150 Hz (the 1 kHz resonance sets
 // that), so the closed loop's phase lag passes 90° far below the RC's Q
 // cutoff: the RC condition |theta_T + theta_2| < 90° (docs/models.md, 'Repetitive control') fails and an RC
@@ -62,19 +64,19 @@ RunResult run_closed_loop(PipelineT& pipe, HammersteinPlant& plant, uint32_t tic
     wave.sample_rate_Hz = kRate_Hz;
     pipe.arm();
     if (!pipe.start_wave(wave).ok()) return res;
-    const SignalScale pos = setup().position, volt = setup().voltage;
+    const SignalScale pos = setup().position;
+    LoopStepper<T> loop(pos, setup().voltage, 1.0f);  // the plant reads in µm
     LogHash hash;
-    float y_um = 0.0f;
     for (uint32_t k = 0; k < ticks; ++k) {
-        const T y = pos.to_sample<T>(y_um);
-        const T u = pipe.tick(y);
+        const T y = loop.reading();
+        const T u = loop.tick(pipe);
         hash.add_sample(pipe.last().r);
         hash.add_sample(y);
         hash.add_sample(u);
         hash.add_sample(rc.apply(pipe.last().e));
         const float e = pos.to_physical(pipe.last().e);
         if (k >= 2000 && (e > res.e_max_um || -e > res.e_max_um)) res.e_max_um = e < 0.0f ? -e : e;
-        y_um = plant.step(volt.to_physical(u));
+        loop.step(plant);
     }
     res.log_hash = hash.value();
     res.ticks = ticks;

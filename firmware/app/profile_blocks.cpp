@@ -26,7 +26,7 @@
 #include "app/tick_stats.hpp"
 #include "board_config.hpp"
 #include "bsp/bsp.hpp"
-#include "bsp/emulated_stage.hpp"
+#include "piezoloop/emulated_stage.hpp"
 #include "piezoloop/pi_inverse.hpp"
 
 namespace {
@@ -106,7 +106,7 @@ int app_main() {
     const SelfTestCase& c = kSelfTestCases[0];  // reference_all_blocks
     g_pipe = new (g_pipe_storage) FwPipeline<T>(pipeline_setup(kEmulatedAnalog));
     FwPipeline<T>& pipe = *g_pipe;
-    EmulatedStage stage;
+    EmulatedStage<T> stage;
     if (!prepare_case<T>(pipe, stage, c).ok() ||
         !configure(c.params, pipe.setup().position, pipe.setup().voltage)) {
         JsonLine j;
@@ -116,7 +116,7 @@ int app_main() {
     std::array<typename FwPipeline<T>::RecorderType::Frame, 64> frames;
 
     for (uint32_t k = 0; k < kTicks; ++k) {
-        const T y = timed(kAdc, [&] { return stage.position_sample<T>(); });
+        const T y = timed(kAdc, [&] { return stage.reading(); });
         const T u = timed(kWhole, [&] { return pipe.tick(y); });
         timed(kDac, [&] {
             stage.command(u);

@@ -11,8 +11,8 @@
 #include "app/selftest_report.hpp"
 #include "board_config.hpp"
 #include "bsp/bsp.hpp"
-#include "bsp/emulated_stage.hpp"
 #include "piezoloop/board_case.hpp"
+#include "piezoloop/emulated_stage.hpp"
 
 namespace piezoloop::fw {
 
@@ -84,7 +84,7 @@ void wait_until_stopped(ControlLoop& loop) {
 int run_case(ControlLoop& loop, const SelfTestCase& c, const PipelineSetup* setup = nullptr,
              uint32_t rate_Hz = kLoopRateInt_Hz) {
     BoardPipeline& pipe = setup != nullptr ? loop.rebuild(*setup) : loop.rebuild();
-    EmulatedStage& stage = bsp::emulated_stage();
+    EmulatedStage<CoreSample>& stage = bsp::emulated_stage();
     JsonLine j;
     if (const Status s = prepare_case<CoreSample>(pipe, stage, c); !s.ok()) {
         begin(j).str("name", c.name).str("error", s.field).str("message", s.message).flush();

@@ -44,8 +44,8 @@
 #include <cstdint>
 
 #include "app/control_config.hpp"
-#include "bsp/emulated_stage.hpp"
 #include "piezoloop/board_case.hpp"
+#include "piezoloop/emulated_stage.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "piezoloop/reference_stage.hpp"
 
@@ -106,7 +106,7 @@ constexpr PipelineSetup scenario_setup(const BoardCase& bc, const HardLimits& ha
 // stage at rest, pipeline armed, wave started -- the order in which the
 // simulator (host/sim/closed_loop.cpp) starts a run.
 template <class T, class PipelineT>
-Status prepare_case(PipelineT& pipe, EmulatedStage& stage, const SelfTestCase& c) {
+Status prepare_case(PipelineT& pipe, EmulatedStage<T>& stage, const SelfTestCase& c) {
     if (const Status s = pipe.stage(c.params); !s.ok()) return s;
     if (const Status s = pipe.recorder().configure(log_recorder_config<T>()); !s.ok()) return s;
     if (!pipe.recorder().arm()) return error("recorder", "arm refused");

@@ -29,7 +29,7 @@
 #include "board_config.hpp"
 #include "bsp/bsp.hpp"
 #include "bsp/cortex-m/semihosting.hpp"
-#include "bsp/emulated_stage.hpp"
+#include "piezoloop/emulated_stage.hpp"
 #include "piezoloop/emulation_profile.hpp"
 #include "piezoloop/reference_stage.hpp"
 

@@ -13,8 +13,11 @@
 #include <cstddef>
 #include <cstdint>
 
-namespace piezoloop::fw {
-class EmulatedStage;  // bsp/emulated_stage.hpp
+#include "app/core_sample.hpp"
+
+namespace piezoloop {
+template <class T>
+class EmulatedStage;  // piezoloop/emulated_stage.hpp
 }
 
 namespace piezoloop::bsp {
@@ -91,13 +94,13 @@ uint32_t stopwatch_elapsed(uint32_t start);
 // (bsp/converter16.hpp; adc_read() / dac_write() are the raw converters).
 // Boards without converters (QEMU), and the STM32 in loopback: the emulated
 // stage's reading and command in physical units, exactly as host/sim passes
-// them (bsp/emulated_stage.hpp).
+// them (common/piezoloop/emulated_stage.hpp).
 
 // The emulated stage (StageModel, the simulator's float stage) whose reading
 // the next tick uses. emulated_stage_step() advances it by one sample (the
 // physics between this tick's output and the next tick's input); it does
 // nothing where the converters are real and loopback is off.
-fw::EmulatedStage& emulated_stage();
+EmulatedStage<fw::CoreSample>& emulated_stage();
 void emulated_stage_step();
 // Hardware boards: route adc_read/dac_write to the emulated stage (self-test
 // without a stage attached). Boards without converters are always in

@@ -15,7 +15,7 @@
 
 // The board's identity and endpoints, shared with the firmware: header-only
 // and freestanding, so the host includes it straight from firmware/.
-#include "../../firmware/usb/descriptors.hpp"
+#include "piezoloop/usb/descriptors.hpp"
 
 namespace piezoloop::hostlink {
 

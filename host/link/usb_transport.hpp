@@ -1,6 +1,6 @@
-// USB transport to the STM32 vendor-bulk board (firmware/usb/): libusb-1.0,
+// USB transport to the STM32 vendor-bulk board (its USB side: firmware/bsp/stm32h743/usb_otg_fs.*): libusb-1.0,
 // VID 0x1209 / PID 0x0001, vendor interface 0, bulk EP1 OUT 0x01 / EP1 IN
-// 0x81 (the constants come from firmware/usb/descriptors.hpp, so host and
+// 0x81 (the constants come from common/piezoloop/usb/descriptors.hpp, so host and
 // firmware cannot drift apart).
 //
 // Data path: several asynchronous IN transfers stay queued on EP1 IN at all

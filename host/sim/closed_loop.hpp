@@ -4,8 +4,9 @@
 //            u_k (V) -> stage.step: applied for one tick -> reading latched
 //            -> y_{k+1} = reading / sensor gain
 //
-// This is the timing of the emulated boards (firmware/bsp/emulated_stage.hpp)
-// and of common/piezoloop/reference_run.hpp: one tick of compute delay, the
+// The loop is stepped by the core's LoopStepper (common/piezoloop/
+// loop_stepper.hpp), as on the emulated boards (emulated_stage.hpp) and in
+// common/piezoloop/reference_run.hpp: one tick of compute delay, the
 // command computed at tick k shows in the reading of tick k + 1. y_0 = 0 (the
 // stage at rest before its first sample).
 //

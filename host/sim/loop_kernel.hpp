@@ -5,13 +5,17 @@
 //   tick k:  y_k -> Pipeline::tick -> u_k -> stage.step
 //            -> reading latched -> y_{k+1} = reading / sensor gain
 //
-// One tick of compute delay, as on the emulated boards. y_0 = 0. Every
-// placement of the inverse (feedforward or Shan2012's series) is the core's
+// The loop itself is the core's LoopStepper (common/piezoloop/
+// loop_stepper.hpp), the one the emulated boards and the reference run step
+// too: one tick of compute delay, y_0 = 0. This adds what the simulator
+// wants around it: the log hash and a per-tick observer. Every placement of
+// the inverse (feedforward or Shan2012's series) is the core's
 // (FeedforwardKind), so a board running the same parameters computes the same.
 #pragma once
 
 #include <cstdint>
 
+#include "piezoloop/loop_stepper.hpp"
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "piezoloop/sample.hpp"
@@ -24,45 +28,41 @@ struct TickView {
     float u_V;         // command applied to the stage during this tick
 };
 
-// One loop, one tick at a time: the state between ticks is the reading y.
+// One loop, one tick at a time.
 template <class T, class PipelineT, class Stage>
-class LoopStepper {
+class LoopKernel {
 public:
-    LoopStepper(PipelineT& pipe, Stage& stage, float sensor_gain, reference::LogHash* hash)
-        : pipe_(pipe), stage_(stage), gain_(sensor_gain), hash_(hash),
-          pos_(pipe.setup().position), volt_(pipe.setup().voltage) {}
+    LoopKernel(PipelineT& pipe, Stage& stage, float sensor_gain, reference::LogHash* hash)
+        : pipe_(pipe), stage_(stage), hash_(hash), pos_(pipe.setup().position), volt_(pipe.setup().voltage),
+          loop_(pos_, volt_, sensor_gain) {}
 
     // Tick k; observe(const TickView&, const TickSignals<T>&, const Stage&)
     // is called after the stage has been stepped with u_k (so the stage's
     // piezo voltage and displacement are those of tick k).
     template <class Observer>
     void step(uint64_t k, Observer&& observe) {
-        const T y = pos_.template to_sample<T>(y_um_);
-        const T u = pipe_.tick(y);
+        const T u = loop_.tick(pipe_);
         const TickSignals<T>& sig = pipe_.last();
         if (hash_) {
             hash_->add_sample(sig.r);
-            // sig.y is y (the pipeline stores the reading as given); taken
-            // from memory so that y itself stays in a float register across
-            // the tick (folding y's bits kept it in an integer register, two
+            // sig.y is the reading the tick used, taken from memory so that
+            // the reading itself stays in a float register across the tick
+            // (folding its bits kept it in an integer register, two
             // cross-domain moves on the loop's dependency chain: bench_sim
             // ~200x -> ~190x real time).
             hash_->add_sample(sig.y);
             hash_->add_sample(u);
         }
-        const float u_V = volt_.to_physical(u);
-        const float reading = stage_.step(u_V);
-        observe(TickView{k, pos_.to_physical(sig.r), pos_.to_physical(y), u_V}, sig, stage_);
-        y_um_ = gain_ == 1.0f ? reading : reading / gain_;
+        loop_.step(stage_);
+        observe(TickView{k, pos_.to_physical(sig.r), pos_.to_physical(sig.y), volt_.to_physical(u)}, sig, stage_);
     }
 
 private:
     PipelineT& pipe_;
     Stage& stage_;
-    float gain_;
     reference::LogHash* hash_;
     SignalScale pos_, volt_;
-    float y_um_ = 0.0f;
+    LoopStepper<T> loop_;
 };
 
 // Runs `ticks` ticks from rest. With `hash`, r, y, u of every tick (core
@@ -70,7 +70,7 @@ private:
 template <class T, class PipelineT, class Stage, class Observer>
 inline void run_ticks(PipelineT& pipe, Stage& stage, float sensor_gain, uint64_t ticks, reference::LogHash* hash,
                       Observer&& observe) {
-    LoopStepper<T, PipelineT, Stage> loop(pipe, stage, sensor_gain, hash);
+    LoopKernel<T, PipelineT, Stage> loop(pipe, stage, sensor_gain, hash);
     for (uint64_t k = 0; k < ticks; ++k) loop.step(k, observe);
 }
 

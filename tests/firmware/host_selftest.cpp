@@ -1,7 +1,8 @@
 // Host replay of the firmware self-test (firmware/app/selftest_cases.hpp):
-// the same pipeline type, the same emulated stage (StageModel, values passed
-// as host/sim passes them), the same case setup and the same per-tick sequence
-//   reading -> emulated_control_step (pipeline tick) -> command -> stage step
+// the same pipeline type, the same emulated stage (common/piezoloop/
+// emulated_stage.hpp: StageModel behind the loop stepper the simulator uses),
+// the same case setup and the same per-tick sequence
+//   reading -> pipeline tick -> command -> stage step
 // as the board's 100 kHz interrupt, in a plain loop. Prints one JSON line
 // per case through the firmware's own JSON writer, so the log fields are
 // formatted by the same code as on the board:
@@ -26,7 +27,7 @@
 #include "app/json_line.hpp"
 #include "app/selftest_cases.hpp"
 #include "app/selftest_report.hpp"
-#include "bsp/emulated_stage.hpp"
+#include "piezoloop/emulated_stage.hpp"
 
 // The firmware's console, on the host: stdout.
 namespace piezoloop::bsp {
@@ -41,7 +42,7 @@ using namespace piezoloop::fw;
 template <class T>
 int run_case(const SelfTestCase& c, const char* sample, const PipelineSetup& setup) {
     auto pipe = std::make_unique<FwPipeline<T>>(setup);
-    auto stage = std::make_unique<EmulatedStage>();
+    auto stage = std::make_unique<EmulatedStage<T>>();
     JsonLine j;
     j.str("board", "host").str("name", c.name);
     if (const Status s = prepare_case<T>(*pipe, *stage, c); !s.ok()) {
@@ -51,7 +52,7 @@ int run_case(const SelfTestCase& c, const char* sample, const PipelineSetup& set
     LogAccumulator<T> acc(pipe->setup().position, pipe->setup().voltage, c.metric_start_tick);
     std::array<typename FwPipeline<T>::RecorderType::Frame, 64> frames;
     for (uint32_t k = 0; k < c.ticks; ++k) {
-        emulated_control_step<T>(*pipe, *stage);
+        stage->tick(*pipe);
         stage->step();
         for (std::size_t n; (n = pipe->recorder().read(std::span(frames))) != 0;)
             for (std::size_t i = 0; i < n; ++i) acc.add(frames[i]);

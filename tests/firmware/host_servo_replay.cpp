@@ -1,6 +1,7 @@
 // Replays a run recorded from servo.elf over the link (tests/firmware/
-// check_servo.py) with the host simulator's own loop kernel
-// (host/sim/loop_kernel.hpp, what `piezoloop sim --fidelity float` runs):
+// check_servo.py) with the loop stepper `piezoloop sim --fidelity float`
+// runs (common/piezoloop/loop_stepper.hpp, inside host/sim/loop_kernel.hpp),
+// stepped here on its own rather than through the emulated stage:
 // the board's pipeline setup, the reference controller, the reference stage
 // as a StageModel of ideal parts, the wave check_servo.py sets, started the
 // way the simulator starts (start_wave + arm before tick 0, stage at rest).
@@ -23,11 +24,11 @@
 
 #include "app/control_config.hpp"
 #include "app/selftest_cases.hpp"
-#include "bsp/emulated_stage.hpp"
+#include "piezoloop/emulated_stage.hpp"
 #include "piezoloop/emulation_profile.hpp"
+#include "piezoloop/loop_stepper.hpp"
 #include "piezoloop/reference_stage.hpp"
 #include "piezoloop/stage_model.hpp"
-#include "sim/loop_kernel.hpp"
 
 namespace {
 
@@ -43,7 +44,7 @@ template <class T>
 int replay(const std::vector<uint32_t>& rec, float rate_Hz, float amplitude_um, float offset_um, float frequency_Hz,
            const EmulationProfile* profile) {
     PipelineSetup setup = fw::pipeline_setup(fw::kEmulatedAnalog, rate_Hz);
-    StageConfig stage_config = fw::ideal_stage(reference::plant(), rate_Hz);
+    StageConfig stage_config = ideal_stage(reference::plant(), rate_Hz);
     PipelineParams params = reference::params(true, true, false);
     if (profile != nullptr) {
         setup = fw::pipeline_setup(fw::BoardAnalog{fw::kEmulatedAnalog.hard, profile->position_full_scale_um,
@@ -69,10 +70,11 @@ int replay(const std::vector<uint32_t>& rec, float rate_Hz, float amplitude_um, 
     pipe->arm();
     StageModel stage;
     if (!stage.configure(stage_config).ok()) return 2;
-    sim::LoopStepper<T, fw::FwPipeline<T>, StageModel> loop(*pipe, stage, stage_config.sensor.gain, nullptr);
+    LoopStepper<T> loop(setup.position, setup.voltage, stage_config.sensor.gain);
     const std::size_t frames = rec.size() / 4;
     for (std::size_t k = 0; k < frames; ++k) {
-        loop.step(k, [](const auto&, const auto&, const auto&) {});
+        loop.tick(*pipe);
+        loop.step(stage);
         const TickSignals<T>& s = pipe->last();
         const uint32_t want[4] = {bits(s.r), bits(s.y), bits(s.e), bits(s.u)};
         for (int c = 0; c < 4; ++c)

@@ -10,14 +10,14 @@
 #include "bsp/cortex-m/nvic.hpp"
 #include "bsp/cortex-m/semihosting.hpp"
 #include "bsp/cortex-m/systick.hpp"
-#include "bsp/emulated_stage.hpp"
 #include "bsp/mps2/cmsdk_timer.hpp"
 #include "bsp/mps2/cmsdk_uart.hpp"
+#include "piezoloop/emulated_stage.hpp"
 
 namespace piezoloop::bsp {
 
 namespace mps2 {
-fw::EmulatedStage g_emulated_stage;
+EmulatedStage<fw::CoreSample> g_emulated_stage;
 }  // namespace mps2
 
 namespace {
@@ -124,7 +124,7 @@ uint32_t stopwatch_elapsed(uint32_t start) {
     return n < 0 ? 0u : static_cast<uint32_t>(n);  // only while calibrating can n be < 0
 }
 
-fw::EmulatedStage& emulated_stage() { return mps2::g_emulated_stage; }
+EmulatedStage<fw::CoreSample>& emulated_stage() { return mps2::g_emulated_stage; }
 void emulated_stage_step() { mps2::g_emulated_stage.step(); }
 bool set_loopback(bool on) { return on; }  // no real converters: always emulated
 

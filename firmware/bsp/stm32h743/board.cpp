@@ -33,15 +33,15 @@
 #include "bsp/cortex-m/nvic.hpp"
 #include "bsp/cortex-m/scb.hpp"
 #include "bsp/cortex-m/semihosting.hpp"
-#include "bsp/emulated_stage.hpp"
 #include "bsp/stm32h743/regs.hpp"
 #include "bsp/stm32h743/usb_otg_fs.hpp"
-#include "usb/serial_number.hpp"
+#include "piezoloop/emulated_stage.hpp"
+#include "piezoloop/usb/serial_number.hpp"
 
 namespace piezoloop::bsp {
 
 namespace stm32 {
-fw::EmulatedStage g_emulated_stage;
+EmulatedStage<fw::CoreSample> g_emulated_stage;
 bool g_loopback = false;
 bool clock_init();  // clock.cpp
 }  // namespace stm32
@@ -260,7 +260,7 @@ uint32_t timestamp() { return reg(core::kDwtCyccnt); }
 uint32_t stopwatch_start() { return reg(core::kDwtCyccnt); }
 uint32_t stopwatch_elapsed(uint32_t start) { return reg(core::kDwtCyccnt) - start - g_stopwatch_offset; }
 
-fw::EmulatedStage& emulated_stage() { return g_emulated_stage; }
+EmulatedStage<fw::CoreSample>& emulated_stage() { return g_emulated_stage; }
 void emulated_stage_step() {
     if (g_loopback) g_emulated_stage.step();
 }

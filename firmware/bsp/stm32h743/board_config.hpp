@@ -35,7 +35,7 @@ inline constexpr uint32_t kOverrunTestRate_Hz = 4'000'000;
 
 // The board's serial number, the same text as USB iSerialNumber and the
 // link's HelloReply serial: the STM32's 96-bit unique device ID as 24
-// upper-case hex digits (usb/serial_number.hpp; read in board.cpp). Boards
+// upper-case hex digits (common/piezoloop/usb/serial_number.hpp; read in board.cpp). Boards
 // without a unique ID (QEMU) do not define PIEZOLOOP_BOARD_UNIQUE_SERIAL.
 #define PIEZOLOOP_BOARD_UNIQUE_SERIAL 1
 namespace piezoloop::bsp {

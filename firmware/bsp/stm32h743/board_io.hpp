@@ -5,15 +5,16 @@
 
 #include <cstdint>
 
+#include "app/core_sample.hpp"
 #include "board_config.hpp"
 #include "bsp/converter16.hpp"
-#include "bsp/emulated_stage.hpp"
 #include "bsp/stm32h743/regs.hpp"
+#include "piezoloop/emulated_stage.hpp"
 
 namespace piezoloop::bsp {
 
 namespace stm32 {
-extern fw::EmulatedStage g_emulated_stage;  // board.cpp
+extern EmulatedStage<fw::CoreSample> g_emulated_stage;  // board.cpp
 extern bool g_loopback;
 }  // namespace stm32
 
@@ -47,7 +48,7 @@ inline void dac_write(int32_t code) {
 template <class T, class PipelineT>
 inline void control_io(PipelineT& pipe) {
     if (stm32::g_loopback) {
-        fw::emulated_output<T>(pipe, stm32::g_emulated_stage);
+        stm32::g_emulated_stage.output(pipe);
         return;
     }
     constexpr fw::Converter16 kAdc{config::kPositionFullScale_um};

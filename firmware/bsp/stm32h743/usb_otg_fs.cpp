@@ -4,7 +4,7 @@
 
 #include "bsp/cortex-m/nvic.hpp"
 #include "bsp/stm32h743/regs.hpp"
-#include "usb/control.hpp"
+#include "piezoloop/usb/control.hpp"
 
 namespace piezoloop::bsp::stm32::usbfs {
 

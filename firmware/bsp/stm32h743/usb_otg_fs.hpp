@@ -2,7 +2,7 @@
 // STM32H743's second OTG core ("OTG2_FS", a Synopsys DWC2 at 0x40080000,
 // interrupt 101) with its embedded full-speed PHY on PA11 (DM) / PA12 (DP),
 // AF10. A vendor-class device with bulk EP1 OUT and EP1 IN (64 bytes); the
-// chapter-9 logic is firmware/usb/control.hpp (host-tested), this is the
+// chapter-9 logic is common/piezoloop/usb/control.hpp (host-tested), this is the
 // register-level part only, written from RM0433 §57 ("USB on-the-go
 // high-speed", programming model). NOT RUN: no hardware here.
 //
@@ -15,7 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "usb/byte_ring.hpp"
+#include "piezoloop/usb/byte_ring.hpp"
 
 namespace piezoloop::bsp::stm32::usbfs {
 

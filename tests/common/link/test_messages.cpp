@@ -209,7 +209,7 @@ TEST(LinkMessages, LargestMessagesFitTheFrame) {
 
 TEST(LinkMessages, HelloReplyCarriesTheStm32UniqueIdWhole) {
     // The STM32's serial is its 96-bit unique ID as 24 hex digits
-    // (firmware/usb/serial_number.hpp); all 24 must arrive (version 1 cut
+    // (common/piezoloop/usb/serial_number.hpp); all 24 must arrive (version 1 cut
     // the last one), and a text longer than the field keeps its zero.
     HelloReply h;
     const char* uid = "0123456789ABCDEF01234567";

@@ -1,4 +1,4 @@
-// The USB driver's byte ring (firmware/usb/byte_ring.hpp): FIFO order,
+// The USB driver's byte ring (common/piezoloop/usb/byte_ring.hpp): FIFO order,
 // capacity limits, wrap of the buffer index and of the uint32 counters, and
 // a seeded random interleaving checked against std::deque. Exact (bytes).
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "usb/byte_ring.hpp"
+#include "piezoloop/usb/byte_ring.hpp"
 
 using piezoloop::usb::ByteRing;
 

@@ -1,5 +1,5 @@
 // Chapter-9 request handling of the firmware's USB device
-// (firmware/usb/control.hpp) against the USB 2.0 specification §9.4, driven
+// (common/piezoloop/usb/control.hpp) against the USB 2.0 specification §9.4, driven
 // through a fake device controller that records what the handler asks of
 // the hardware. Replies are checked byte for byte (no tolerances: protocol).
 #include <gtest/gtest.h>
@@ -9,8 +9,8 @@
 #include <cstring>
 #include <vector>
 
-#include "usb/control.hpp"
-#include "usb/serial_number.hpp"
+#include "piezoloop/usb/control.hpp"
+#include "piezoloop/usb/serial_number.hpp"
 
 using namespace piezoloop::usb;
 using Kind = ControlReply::Kind;

@@ -1,4 +1,4 @@
-// USB descriptors of the firmware (firmware/usb/descriptors.hpp) against the
+// USB descriptors of the firmware (common/piezoloop/usb/descriptors.hpp) against the
 // layouts of the USB 2.0 specification, chapter 9 (Tables 9-8, 9-10, 9-12,
 // 9-13, 9-15, 9-16). Byte-exact: a descriptor is either right or it is not,
 // so there is no tolerance anywhere.
@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "usb/descriptors.hpp"
-#include "usb/serial_number.hpp"
+#include "piezoloop/usb/descriptors.hpp"
+#include "piezoloop/usb/serial_number.hpp"
 
 using namespace piezoloop::usb;
 
@@ -101,7 +101,7 @@ TEST(UsbDescriptors, StringsRefuseWhatCannotBeEncoded) {
     EXPECT_EQ(string_descriptor(over.c_str(), out, sizeof out), 0u);
 }
 
-// The serial number from the 96-bit unique device ID (firmware/usb/serial_number.hpp).
+// The serial number from the 96-bit unique device ID (common/piezoloop/usb/serial_number.hpp).
 // Reference: the C library's `%08X%08X%08X` of the three words, which is
 // the documented format; exact text, no tolerance.
 TEST(UsbSerialNumber, IsTheThreeWordsInHexInAddressOrder) {

@@ -4,7 +4,7 @@
 // a testbed, and forwards every usbdevfs ioctl on the board's node to the
 // handler below. The handler plays the board:
 //   - descriptors and EP0 requests come from the firmware's own chapter-9
-//     code (firmware/usb/control.hpp + descriptors.hpp): the kernel's
+//     code (common/piezoloop/usb/control.hpp + descriptors.hpp): the kernel's
 //     enumeration (SET_ADDRESS, GET_DESCRIPTOR, SET_CONFIGURATION) is replayed
 //     through it to make the sysfs "descriptors" file, and libusb's string
 //     requests (serial, product) are control URBs answered by it, so a
@@ -57,8 +57,8 @@
 #include "link/usb_transport.hpp"
 #include "piezoloop/link/device.hpp"
 #include "piezoloop/reference_stage.hpp"
-#include "usb/control.hpp"
-#include "usb/descriptors.hpp"
+#include "piezoloop/usb/control.hpp"
+#include "piezoloop/usb/descriptors.hpp"
 
 namespace {
 

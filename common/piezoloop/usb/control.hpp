@@ -41,8 +41,8 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "usb/descriptors.hpp"
-#include "usb/setup.hpp"
+#include "piezoloop/usb/descriptors.hpp"
+#include "piezoloop/usb/setup.hpp"
 
 namespace piezoloop::usb {
 
