@@ -42,7 +42,7 @@ public:
         switch (ev) {
             case E::object_start:
             case E::array_start:
-                if (depth > max_depth_)
+                if (depth >= max_depth_)  // depth counts from 0 at the top level
                     fail(value_path(), "nested deeper than " + std::to_string(max_depth_) + " levels");
                 stack_.push_back({ev == E::object_start, value_path(), {}, {}, 0});
                 break;
