@@ -18,9 +18,8 @@
 // Tustin loop has exactly the continuous margins and norms on a warped
 // frequency axis, --plant-c2d zoh models the sampled plant instead).
 // JSON on stdout. Bad input: "error: <field>: <what>" on stderr, exit code
-// 2, nothing on stdout. --plot writes the curves to a temporary JSON file
-// and runs tools/plot.py with Debian's /usr/bin/python3 (matplotlib); the
-// script is found next to this source tree or at $PIEZOLOOP_PLOT_SCRIPT.
+// 2, nothing on stdout. --plot draws the curves with tools/plot.py
+// (sim/plotting.hpp).
 #include <unistd.h>
 
 #include <cmath>
@@ -39,17 +38,19 @@
 
 #include "commands.hpp"
 #include "analysis/analysis.hpp"
-#include "lti/c2d.hpp"
-#include "lti/freqresp.hpp"
 #include "analysis/hinf.hpp"
-#include "lti/lti_convert.hpp"
 #include "analysis/margins.hpp"
-#include "lti/model_json.hpp"
 #include "analysis/pi_composition.hpp"
 #include "analysis/rc_analysis.hpp"
 #include "analysis/robust.hpp"
+#include "json/json_reader.hpp"
+#include "lti/c2d.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
+#include "lti/model_json.hpp"
 #include "piezoloop/pi_generalized.hpp"
 #include "piezoloop/pi_inverse.hpp"
+#include "sim/plotting.hpp"
 #include "status_text.hpp"
 
 namespace piezoloop::cli {
@@ -71,38 +72,7 @@ json roots_json(const std::vector<cplx>& r) {
 
 // ------------------------------------------------------------- plotting
 
-std::string plot_script() {
-    if (const char* env = std::getenv("PIEZOLOOP_PLOT_SCRIPT")) return env;
-    // This file is host/cli/cmd_analyze.cpp of the source tree.
-    std::string here = __FILE__;
-    for (int i = 0; i < 3; ++i) here = here.substr(0, here.find_last_of('/'));
-    return here + "/tools/plot.py";
-}
-
-void plot(const json& spec, const std::string& png) {
-    char name[] = "/tmp/piezoloop-plot-XXXXXX";
-    const int fd = mkstemp(name);
-    if (fd < 0) throw std::runtime_error("plot: cannot create a temporary file");
-    close(fd);
-    {
-        std::ofstream f(name);
-        f << spec.dump();
-    }
-    const std::string script = plot_script();
-    if (!std::ifstream(script)) {
-        std::remove(name);
-        throw std::runtime_error("plot: " + script + " not found (set PIEZOLOOP_PLOT_SCRIPT)");
-    }
-    auto quote = [](const std::string& s) {
-        std::string q = "'";
-        for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-        return q + "'";
-    };
-    const std::string cmd = "/usr/bin/python3 " + quote(script) + " " + quote(name) + " " + quote(png) + " 1>&2";
-    const int rc = std::system(cmd.c_str());
-    std::remove(name);
-    if (rc != 0) throw std::runtime_error("plot: tools/plot.py failed (exit " + std::to_string(rc) + ")");
-}
+void plot(const json& spec, const std::string& png) { sim::plot_spec("plot.py", spec, {png}); }
 
 json series_json(const std::string& label, const std::vector<double>& x, const std::vector<double>& y,
                  const std::string& style = "-") {
@@ -489,32 +459,26 @@ void run_rc(const RcArgs& a) {
 // ------------------------------------------------------------- pi
 
 PiModel load_pi(const std::string& file, const char* what) {
-    std::ifstream in(file);
-    if (!in) throw std::invalid_argument(std::string(what) + ": cannot open " + file);
+    if (!std::ifstream(file)) throw std::invalid_argument(std::string(what) + ": cannot open " + file);
     json j;
     try {
-        j = json::parse(in);
-    } catch (const std::exception& e) {
-        throw std::invalid_argument(std::string(what) + ": " + file + ": invalid JSON");
+        j = hostjson::read_file(file);
+    } catch (const hostjson::JsonError& e) {
+        throw std::invalid_argument(std::string(what) + ": " + e.what());
     }
+    const hostjson::Field f(j, what);
+    f.only({"thresholds", "weights", "p0"});
     auto list = [&](const char* key) {
-        if (!j.contains(key) || !j[key].is_array())
-            throw std::invalid_argument(std::string(what) + "." + key + ": required array of numbers");
+        const hostjson::Field a = f[key];
         std::vector<float> v;
-        for (const auto& x : j[key]) {
-            if (!x.is_number()) throw std::invalid_argument(std::string(what) + "." + key + ": must hold numbers");
-            v.push_back(x.get<float>());
-        }
+        for (std::size_t i = 0; i < a.size(64); ++i) v.push_back(a.at(i).number_f32());
         return v;
     };
     const std::vector<float> r = list("thresholds"), p = list("weights");
     if (r.size() != p.size())
         throw std::invalid_argument(std::string(what) + ".weights: must have as many entries as thresholds");
     std::optional<float> p0;
-    if (j.contains("p0")) {
-        if (!j["p0"].is_number()) throw std::invalid_argument(std::string(what) + ".p0: must be a number");
-        p0 = j["p0"].get<float>();
-    }
+    if (const auto x = f.get("p0")) p0 = x->number_f32();
     PiModel m;
     if (const Status s = pi_model_from_lists(r.data(), p.data(), static_cast<int>(r.size()), p0 ? &*p0 : nullptr, m);
         !s.ok())

@@ -86,10 +86,7 @@ void add_demo(CLI::App& app) {
         ->check(CLI::Range(0.1, 30.0));
     cmd->add_option("--sample", args->sample, "core sample type")->check(CLI::IsMember({"float", "q31"}));
     cmd->add_flag("--json", args->json, "print JSON instead of a table");
-    cmd->callback([args] {
-        const int rc = run(*args);
-        if (rc != 0) throw CLI::RuntimeError(rc);
-    });
+    cmd->callback([args] { guarded([&] { return run(*args); }); });
 }
 
 namespace {

@@ -11,7 +11,7 @@
 // (b0, b1, b2, a1, a2; a0 = 1) scaled for the format, the scaling report and
 // the realisation check. Warnings also go to stderr. Bad input: "error:
 // <field>: <what>" on stderr, exit code 2, nothing on stdout. With --strict
-// an unfit realisation exits with code 3 (after printing the JSON).
+// an unfit realisation exits with code 1 (after printing the JSON).
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -25,6 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "format/number.hpp"
 #include "lti/c2d.hpp"
 #include "lti/filters.hpp"
 #include "lti/model_json.hpp"
@@ -74,12 +75,6 @@ struct LeadLagArgs : Common {
     double zero_hz = 0.0, pole_hz = 0.0, gain = 1.0;
 };
 
-std::string num(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
-}
-
 void require(bool ok, const std::string& field, const std::string& what) {
     if (!ok) throw InputError(field + ": " + what);
 }
@@ -123,7 +118,7 @@ bool realise(const Zpk& discrete, const Common& c, json& out) {
                            "scaled (an integrator belongs in the core's PID block, not in a biquad)");
     else if (rep.output_may_saturate && format == SampleFormat::kQ31)  // float samples do not saturate
         warnings.push_back("the output's " + std::string(sos_norm_name(sc.norm)) + " norm times in/out full scale is " +
-                           num(rep.partial_norms.back()) +
+                           format::significant(rep.partial_norms.back()) +
                            " > 1: a full-scale input can saturate the output (raise out_full_scale)");
     bool fit = true;
     if (!c.no_check) {
@@ -143,7 +138,7 @@ bool realise(const Zpk& discrete, const Common& c, json& out) {
 
 int finish(const json& out, bool fit, const Common& c) {
     std::cout << out.dump(1) << "\n";
-    return (c.strict && !fit) ? 3 : 0;
+    return (c.strict && !fit) ? kExitFailure : kExitOk;
 }
 
 int run_c2d(const C2dArgs& a) {
@@ -157,7 +152,7 @@ int run_c2d(const C2dArgs& a) {
     Zpk discrete;
     if (is_discrete(model.ts)) {
         require(std::fabs(model.ts - ts) <= 1e-12 * ts, "model.ts",
-                "the model is discrete with ts = " + num(model.ts) + " s, not 1 / rate_hz = " + num(ts) + " s");
+                "the model is discrete with ts = " + format::significant(model.ts) + " s, not 1 / rate_hz = " + format::significant(ts) + " s");
         require(!a.prewarp_hz, "prewarp_hz", "the model is already discrete");
         out["method"] = "none (the model is already discrete at this rate)";
         discrete = model;
@@ -193,19 +188,6 @@ int run_filter(const std::string& type, const Zpk& continuous, const Zpk& discre
     return finish(out, fit, c);
 }
 
-// Runs f, turning every exception into "error: …" and exit code 2.
-template <class F>
-void guarded(F f) {
-    int rc = 0;
-    try {
-        rc = f();
-    } catch (const std::exception& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        rc = 2;
-    }
-    if (rc != 0) throw CLI::RuntimeError(rc);
-}
-
 void add_common(CLI::App* cmd, Common& c) {
     cmd->add_option("--rate-hz", c.rate_hz, "loop rate (Hz)")->required();
     cmd->add_option("--format", c.format, "core sample type the sections are checked for")
@@ -218,7 +200,7 @@ void add_common(CLI::App* cmd, Common& c) {
     cmd->add_option("--out-full-scale", c.out_full_scale,
                     "physical output (and internal nodes) at Q31 full scale (default 1)");
     cmd->add_option("--headroom", c.headroom, "target norm of the internal nodes, (0, 1] (default 1)");
-    cmd->add_flag("--strict", c.strict, "exit with code 3 if the realisation is unfit");
+    cmd->add_flag("--strict", c.strict, "exit with code 1 if the realisation is unfit");
     cmd->add_flag("--no-check", c.no_check, "skip the realisation check");
 }
 

@@ -173,7 +173,7 @@ int run_emulate(const EmulateArgs& a) {
     pid_t pid = 0;
     const int rc = posix_spawnp(&pid, argv[0], &fa, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0) throw std::runtime_error(std::string("cannot start ") + argv[0] + ": " + std::strerror(rc));
+    if (rc != 0) throw hostlink::LinkError(std::string("cannot start ") + argv[0] + ": " + std::strerror(rc));
 
     auto stop_qemu = [&] {
         ::kill(pid, SIGTERM);
@@ -194,13 +194,13 @@ int run_emulate(const EmulateArgs& a) {
     bool ready = false;
     while (!ready) {
         if (g_stop) {
-            stop_qemu();
-            return 130;
+            stop_qemu();  // interrupted while booting: what the user asked for
+            return kExitOk;
         }
-        if (exited(status)) throw std::runtime_error("QEMU exited before the board answered (status " + std::to_string(status) + ")");
+        if (exited(status)) throw hostlink::LinkError("QEMU exited before the board answered (status " + std::to_string(status) + ")");
         if (std::chrono::steady_clock::now() > deadline) {
             stop_qemu();
-            throw std::runtime_error("the emulated board did not answer on " + address + ": " + last_error);
+            throw hostlink::LinkError("the emulated board did not answer on " + address + ": " + last_error);
         }
         try {
             hostlink::Client::Options o;
@@ -227,7 +227,7 @@ int run_emulate(const EmulateArgs& a) {
     while (!g_stop) {
         if (exited(status)) {
             std::cerr << "QEMU exited (status " << status << ")\n";
-            return WIFEXITED(status) && WEXITSTATUS(status) == 0 ? 0 : 3;
+            return WIFEXITED(status) && WEXITSTATUS(status) == 0 ? kExitOk : kExitLinkOrDevice;
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
@@ -252,12 +252,10 @@ void add_emulate(CLI::App& app) {
     cmd->add_option("--boot-timeout-s", a->boot_timeout_s, "give up if the board does not answer")
         ->check(CLI::Range(0.5, 600.0));
     cmd->callback([a] {
-        int rc = 0;
         guarded([&] {
             if (!a->case_name.empty() && a->scenario.empty()) throw std::invalid_argument("--case needs --scenario");
-            rc = run_emulate(*a);
+            return run_emulate(*a);
         });
-        if (rc != 0) throw CLI::RuntimeError(rc);
     });
 }
 

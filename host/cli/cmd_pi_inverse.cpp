@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "format/number.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "status_text.hpp"
 
@@ -24,17 +25,13 @@ struct PiInverseArgs {
 
 // float printed with 7 significant digits (the precision a float carries),
 // stored as the double nearest that decimal so the JSON reads naturally.
-double decimal(float x) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%.7g", static_cast<double>(x));
-    return std::stod(text);
-}
+double decimal(float x) { return format::rounded(static_cast<double>(x), 7); }
 
 int run(const PiInverseArgs& a) {
     if (a.thresholds.size() != a.weights.size()) {
         std::cerr << "error: weights: must have as many entries as thresholds ("
                   << a.thresholds.size() << "), got " << a.weights.size() << "\n";
-        return 2;
+        return kExitBadInput;
     }
     PiModel forward;
     Status s = pi_model_from_lists(a.thresholds.data(), a.weights.data(),
@@ -44,7 +41,7 @@ int run(const PiInverseArgs& a) {
     if (s.ok()) s = invert_pi(forward, inverse);
     if (!s.ok()) {
         std::cerr << "error: " << describe(s) << "\n";
-        return 2;
+        return kExitBadInput;
     }
     nlohmann::json out;
     out["thresholds"] = {0.0};
@@ -54,7 +51,7 @@ int run(const PiInverseArgs& a) {
         out["weights"].push_back(decimal(inverse.weights[static_cast<unsigned>(j)]));
     }
     std::cout << out.dump() << "\n";
-    return 0;
+    return kExitOk;
 }
 
 }  // namespace
@@ -71,10 +68,7 @@ void add_pi_inverse(CLI::App& app) {
         ->required()->delimiter(',');
     cmd->add_option("--p0", args->p0, "weight of the linear term")
         ->each([args](const std::string&) { args->has_p0 = true; });
-    cmd->callback([args] {
-        const int rc = run(*args);
-        if (rc != 0) throw CLI::RuntimeError(rc);
-    });
+    cmd->callback([args] { guarded([&] { return run(*args); }); });
 }
 
 namespace {

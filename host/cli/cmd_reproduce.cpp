@@ -88,7 +88,7 @@ int run(const ReproduceArgs& a) {
     }
     if (!a.no_plots) {
         std::fprintf(stderr, "drawing %zu figures\n", figures.size());
-        sim::run_plot_script(spec_file);
+        sim::run_plot_script("plot_sim.py", {spec_file.string()});
     }
     summary["report"] = (out / "report.md").string();
     summary["figures"] = figures.size();
@@ -113,18 +113,7 @@ void add_reproduce(CLI::App& app) {
     cmd->add_flag("--no-fidelity", a->no_fidelity, "skip the float/double fidelity comparison");
     cmd->add_flag("--no-plots", a->no_plots, "write the report and figures.json, but do not draw");
     cmd->callback([a] {
-        // Exit codes as the other commands: 2 bad input (the message names
-        // the field), 1 anything else (a file that cannot be written, a plot
-        // that failed).
-        try {
-            run(*a);
-        } catch (const std::invalid_argument& e) {
-            std::fprintf(stderr, "error: %s\n", e.what());
-            throw CLI::RuntimeError(2);
-        } catch (const std::exception& e) {
-            std::fprintf(stderr, "error: %s\n", e.what());
-            throw CLI::RuntimeError(1);
-        }
+        guarded([&] { return run(*a); });
     });
 }
 

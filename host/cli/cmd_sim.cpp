@@ -24,6 +24,7 @@
 
 #include "commands.hpp"
 #include "device_common.hpp"
+#include "format/number.hpp"
 #include "piezoloop/board_case.hpp"
 #include "sim/build_case.hpp"
 #include "sim/experiments.hpp"
@@ -228,7 +229,7 @@ int run(const SimArgs& a) {
     if (!a.board_case.empty()) write_board_case(a.board_case, s, c, b, o);
 
     if (a.hash_only) {
-        std::cout << sim::hex64(r.log_hash) << "\n";
+        std::cout << format::hex64(r.log_hash) << "\n";
     } else {
         nlohmann::json out;
         out["scenario"] = s.name;
@@ -254,7 +255,7 @@ int run(const SimArgs& a) {
         out["e_pp_um"] = r.tracking.e_pp_um;
         out["realtime_factor"] = r.realtime_factor;
         out["wall_s"] = r.wall_s;
-        out["log_hash"] = sim::hex64(r.log_hash);
+        out["log_hash"] = format::hex64(r.log_hash);
         out["limiter"] = {{"trip", trip_reason_name(r.trip)}, {"clamped_samples", r.clamped_samples}};
         for (const std::string& n : b.notes) out["notes"].push_back(n);
         if (!a.board_case.empty()) out["board_case"] = {{"file", a.board_case}, {"clipped", clipped}};
@@ -272,23 +273,21 @@ int run(const SimArgs& a) {
         if (!f) throw std::runtime_error("--out: cannot write " + a.out_csv);
         f << "tick,t_s,r_um,y_um,e_um,u_V,u_ff_V,u_fb_V,v_piezo_V,x_um\n";
         const sim::RunLog& l = r.log;
-        char line[256];
+        // 9 significant digits: the float samples round-trip.
+        auto cell = [](double v) { return "," + format::significant(v, 9); };
         for (size_t i = 0; i < l.tick.size(); ++i) {
-            std::snprintf(line, sizeof line, "%llu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n",
-                          static_cast<unsigned long long>(l.tick[i]), static_cast<double>(l.tick[i]) / s.rate_Hz,
-                          l.r_um[i], l.y_um[i], l.r_um[i] - l.y_um[i], l.u_V[i], l.u_ff_V[i], l.u_fb_V[i],
-                          l.v_piezo_V[i], l.x_um[i]);
-            f << line;
+            f << l.tick[i] << cell(static_cast<double>(l.tick[i]) / s.rate_Hz) << cell(l.r_um[i]) << cell(l.y_um[i])
+              << cell(l.r_um[i] - l.y_um[i]) << cell(l.u_V[i]) << cell(l.u_ff_V[i]) << cell(l.u_fb_V[i])
+              << cell(l.v_piezo_V[i]) << cell(l.x_um[i]) << "\n";
         }
     }
     if (!a.plot.empty()) {
         nlohmann::json spec;
         spec["kind"] = "sim";
         spec["output"] = std::filesystem::absolute(a.plot).string();
-        char title[256];
-        std::snprintf(title, sizeof title, "%s: %s, %s %g Hz, %g um p-p (%s fidelity)", s.name.c_str(), c.label.c_str(),
-                      a.trajectory.c_str(), a.frequency_Hz, t.range_um, sim::to_string(o.fidelity));
-        spec["title"] = title;
+        spec["title"] = s.name + ": " + c.label + ", " + a.trajectory + " " + format::significant(a.frequency_Hz) +
+                        " Hz, " + format::significant(t.range_um) + " um p-p (" + sim::to_string(o.fidelity) +
+                        " fidelity)";
         const sim::RunLog& l = r.log;
         nlohmann::json t_s = nlohmann::json::array();
         for (const uint64_t k : l.tick) t_s.push_back(static_cast<double>(k) / s.rate_Hz);
@@ -297,13 +296,7 @@ int run(const SimArgs& a) {
         spec["y_um"] = l.y_um;
         spec["u_V"] = l.u_V;
         spec["window_start_s"] = static_cast<double>(o.window_start) / s.rate_Hz;
-        const std::filesystem::path tmp = std::filesystem::path(a.plot).replace_extension(".plot.json");
-        {
-            std::ofstream f(tmp);
-            f << spec.dump();
-        }
-        sim::run_plot_script(tmp);
-        std::filesystem::remove(tmp);
+        sim::plot_spec("plot_sim.py", spec);
     }
     return 0;
 }
@@ -344,18 +337,7 @@ void add_sim(CLI::App& app) {
                     "hard limits and simulated so; docs/boards.md, Self-test)");
     cmd->add_flag("--hash", a->hash_only, "print only the log hash of r, y, u (compare with the board self-test)");
     cmd->callback([a] {
-        // Exit codes as the other commands: 2 bad input (the message names
-        // the field), 1 anything else (a file that cannot be written, a plot
-        // that failed).
-        try {
-            run(*a);
-        } catch (const std::invalid_argument& e) {
-            std::fprintf(stderr, "error: %s\n", e.what());
-            throw CLI::RuntimeError(2);
-        } catch (const std::exception& e) {
-            std::fprintf(stderr, "error: %s\n", e.what());
-            throw CLI::RuntimeError(1);
-        }
+        guarded([&] { return run(*a); });
     });
 }
 

@@ -2,15 +2,18 @@
 // function that adds its subcommand(s) to the app, and registers it with
 //     const bool registered = register_command(<order>, add_xxx);
 // at namespace scope; main() adds them in ascending order (the order of
-// `piezoloop --help`). Errors go to stderr with a non-zero exit
-// (throw CLI::RuntimeError(code) from a callback).
+// `piezoloop --help`). A command's failures are exceptions; guarded() (or
+// main(), for anything that escapes) turns them into "error: ..." on stderr
+// and the exit code of the policy in exit_codes.hpp.
 #pragma once
 
 #include <CLI/CLI.hpp>
 
 #include <exception>
 #include <iostream>
-#include <stdexcept>
+#include <type_traits>
+
+#include "exit_codes.hpp"
 
 namespace piezoloop::cli {
 
@@ -19,19 +22,16 @@ using AddCommand = void (*)(CLI::App&);
 bool register_command(int order, AddCommand add);
 void add_registered_commands(CLI::App& app);
 
-// Runs a subcommand's body: a bad input (std::invalid_argument from the
-// libraries) prints "error: ..." and exits 2, any other failure exits 3.
+// Runs a subcommand's body, which may return its exit code (0: ok); a
+// failure is reported with the code of exit_codes.hpp's policy.
 template <class F>
 void guarded(F body) {
     int rc = 0;
     try {
-        body();
-    } catch (const std::invalid_argument& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        rc = 2;
+        if constexpr (std::is_same_v<decltype(body()), void>) body();
+        else rc = body();
     } catch (const std::exception& e) {
-        std::cerr << "error: " << e.what() << "\n";
-        rc = 3;
+        rc = report_failure(e);
     }
     if (rc != 0) throw CLI::RuntimeError(rc);
 }

@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "device_common.hpp"
+#include "exit_codes.hpp"
 
 namespace piezoloop::cli {
 namespace {
@@ -43,6 +44,6 @@ int main(int argc, char** argv) {
                    "serial:PATH[@BAUD] (default: $PIEZOLOOP_DEVICE)")
         ->envname("PIEZOLOOP_DEVICE");
     piezoloop::cli::add_registered_commands(app);
-    CLI11_PARSE(app, argc, argv);
-    return 0;
+    piezoloop::cli::require_finite_numbers(app);
+    return piezoloop::cli::run_app(app, argc, argv);
 }

@@ -56,6 +56,9 @@ const std::vector<double>& CsvData::column(std::string_view name) const {
 CsvData parse_csv(std::string_view text, const std::string& source) {
     CsvData d;
     d.source = source;
+    // A UTF-8 byte-order mark (spreadsheets write one) is not part of the
+    // first column's name.
+    if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
     int line_no = 0;
     bool have_header = false;
     std::size_t pos = 0;

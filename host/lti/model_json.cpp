@@ -1,6 +1,7 @@
 #include "lti/model_json.hpp"
 #include "lti/text.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -9,50 +10,46 @@
 #include <stdexcept>
 #include <vector>
 
+#include "format/number.hpp"
+#include "json/json_reader.hpp"
 #include "lti/lti_convert.hpp"
 
 namespace piezoloop::design {
 namespace {
 
 using nlohmann::json;
+using hostjson::Field;
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
     throw std::invalid_argument(cat(path, ": ", what));
 }
 
-std::string index_path(const std::string& path, size_t i) { return cat(path, "[", std::to_string(i), "]"); }
-
-double number(const json& v, const std::string& path) {
-    if (!v.is_number()) fail(path, cat("must be a number, got ", std::string(v.type_name())));
-    const double d = v.get<double>();
-    if (!std::isfinite(d)) fail(path, "must be finite");
-    return d;
+std::vector<double> coefficients(const Field& f) {
+    if (!f.is_array()) f.fail("must be an array of numbers (descending powers)");
+    if (f.size() == 0) f.fail("must not be empty");
+    if (f.size() > kMaxModelOrder + 1)
+        f.fail(cat("at most ", std::to_string(kMaxModelOrder + 1), " coefficients (order ",
+                   std::to_string(kMaxModelOrder), "), got ", std::to_string(f.size())));
+    return f.numbers();
 }
 
-std::vector<double> coefficients(const json& j, const std::string& path) {
-    if (!j.is_array()) fail(path, "must be an array of numbers (descending powers)");
-    if (j.empty()) fail(path, "must not be empty");
-    std::vector<double> out;
-    for (size_t i = 0; i < j.size(); ++i) out.push_back(number(j[i], index_path(path, i)));
-    return out;
-}
-
-std::vector<cplx> roots(const json& j, const std::string& path) {
-    if (!j.is_array()) fail(path, "must be an array of roots, each [re, im] or a real number");
+std::vector<cplx> roots(const Field& f) {
+    if (!f.is_array()) f.fail("must be an array of roots, each [re, im] or a real number");
+    if (f.size() > kMaxModelOrder)
+        f.fail(cat("at most ", std::to_string(kMaxModelOrder), " roots, got ", std::to_string(f.size())));
     std::vector<cplx> out;
-    for (size_t i = 0; i < j.size(); ++i) {
-        const std::string p = index_path(path, i);
-        const json& r = j[i];
+    for (size_t i = 0; i < f.size(); ++i) {
+        const Field r = f.at(i);
         if (r.is_number()) {
-            out.emplace_back(number(r, p), 0.0);
+            out.emplace_back(r.number(), 0.0);
         } else if (r.is_array() && r.size() == 2) {
-            out.emplace_back(number(r[0], index_path(p, 0)), number(r[1], index_path(p, 1)));
+            out.emplace_back(r.at(0).number(), r.at(1).number());
         } else {
-            fail(p, "must be [re, im] or a real number");
+            r.fail("must be [re, im] or a real number");
         }
     }
     // Complex roots of a real model come in conjugate pairs.
-    canonical_roots(out, path.c_str());
+    canonical_roots(out, f.path().c_str());
     return out;
 }
 
@@ -61,7 +58,10 @@ bool is_doc_key(const std::string& k) {
            (!k.empty() && k[0] == '_');
 }
 
-Zpk parse(const json& j, const std::string& path, std::optional<double> inherited_ts) {
+// depth: series within series so far (bounded: each level recurses).
+Zpk parse(const Field& f, std::optional<double> inherited_ts, int depth) {
+    const json& j = f.json();
+    const std::string& path = f.path();
     if (!j.is_object()) fail(path, "must be an object with num/den, zeros/poles/gain or series");
     for (const auto& [key, value] : j.items()) {
         (void)value;
@@ -80,11 +80,11 @@ Zpk parse(const json& j, const std::string& path, std::optional<double> inherite
 
     double ts = 0.0;
     if (j.contains("ts")) {
-        ts = number(j["ts"], cat(path, ".ts"));
+        ts = f["ts"].number();
         if (!(ts > 0.0)) fail(cat(path, ".ts"), "must be > 0 (seconds); omit it for a continuous model");
         if (inherited_ts && *inherited_ts != ts)
-            fail(cat(path, ".ts"), cat("is ", fmt(ts, 17), " but the enclosing series has ts ", fmt(*inherited_ts, 17),
-                                       " (a series of mixed ts)"));
+            fail(cat(path, ".ts"), cat("is ", format::significant(ts, 17), " but the enclosing series has ts ",
+                                       format::significant(*inherited_ts, 17), " (a series of mixed ts)"));
     } else if (inherited_ts) {
         ts = *inherited_ts;
     }
@@ -93,8 +93,8 @@ Zpk parse(const json& j, const std::string& path, std::optional<double> inherite
         if (!j.contains("num")) fail(path, "has den but no num");
         if (!j.contains("den")) fail(path, "has num but no den");
         Tf tf;
-        tf.num = coefficients(j["num"], cat(path, ".num"));
-        tf.den = coefficients(j["den"], cat(path, ".den"));
+        tf.num = coefficients(f["num"]);
+        tf.den = coefficients(f["den"]);
         tf.ts = ts;
         if (tf.den[0] == 0.0) fail(cat(path, ".den[0]"), "leading coefficient must be non-zero");
         return tf2zpk(tf);
@@ -103,26 +103,35 @@ Zpk parse(const json& j, const std::string& path, std::optional<double> inherite
         for (const char* k : {"zeros", "poles", "gain"})
             if (!j.contains(k)) fail(path, cat("zero-pole-gain form needs \"", k, "\" (use [] for none)"));
         Zpk z;
-        z.zeros = canonical_roots(roots(j["zeros"], cat(path, ".zeros")), "zeros");
-        z.poles = canonical_roots(roots(j["poles"], cat(path, ".poles")), "poles");
-        z.gain = number(j["gain"], cat(path, ".gain"));
+        z.zeros = canonical_roots(roots(f["zeros"]), "zeros");
+        z.poles = canonical_roots(roots(f["poles"]), "poles");
+        z.gain = f["gain"].number();
         z.ts = ts;
         return z;
     }
-    const json& s = j["series"];
-    const std::string sp = cat(path, ".series");
+    const Field s = f["series"];
+    const std::string& sp = s.path();
     if (!s.is_array()) fail(sp, "must be an array of models");
-    if (s.empty()) fail(sp, "must not be empty");
+    if (s.size() == 0) fail(sp, "must not be empty");
+    if (depth >= kMaxModelNesting)
+        fail(sp, cat("series nested deeper than ", std::to_string(kMaxModelNesting), " levels"));
     // Members inherit the series' ts (its own, or the one it inherited);
     // otherwise they must agree with each other.
     std::optional<double> member_ts;
     if (j.contains("ts") || inherited_ts) member_ts = ts;
     std::vector<Zpk> parts;
-    for (size_t i = 0; i < s.size(); ++i) parts.push_back(parse(s[i], index_path(sp, i), member_ts));
+    std::size_t order = 0;
+    for (size_t i = 0; i < s.size(); ++i) {
+        parts.push_back(parse(s.at(i), member_ts, depth + 1));
+        order += std::max(parts.back().zeros.size(), parts.back().poles.size());
+        if (order > kMaxModelOrder)
+            s.at(i).fail(cat("the series reaches order ", std::to_string(order), ", above the ",
+                             std::to_string(kMaxModelOrder), " a model may have"));
+    }
     for (size_t i = 1; i < parts.size(); ++i)
         if (parts[i].ts != parts[0].ts)
-            fail(cat(index_path(sp, i), ".ts"), cat("is ", fmt(parts[i].ts, 17), " but ", index_path(sp, 0),
-                                                    " has ts ", fmt(parts[0].ts, 17), " (a series of mixed ts)"));
+            fail(cat(s.at(i).path(), ".ts"), cat("is ", format::significant(parts[i].ts, 17), " but ", s.at(0).path(),
+                                                 " has ts ", format::significant(parts[0].ts, 17), " (a series of mixed ts)"));
     Zpk out = series(parts);
     out.zeros = canonical_roots(out.zeros, "zeros");
     out.poles = canonical_roots(out.poles, "poles");
@@ -138,7 +147,7 @@ json root_json(const std::vector<cplx>& roots) {
 }  // namespace
 
 Zpk parse_model(const json& j, const std::string& path, const ModelParseOptions& opt) {
-    Zpk z = parse(j, path, std::nullopt);
+    Zpk z = parse(Field(j, path), std::nullopt, 0);
     if (!opt.allow_improper && z.zeros.size() > z.poles.size())
         fail(path, cat("improper model: ", std::to_string(z.zeros.size()), " zeros but only ",
                        std::to_string(z.poles.size()), " poles (numerator degree above denominator degree)"));
@@ -146,15 +155,16 @@ Zpk parse_model(const json& j, const std::string& path, const ModelParseOptions&
 }
 
 Zpk load_model_file(const std::string& filename, const ModelParseOptions& opt) {
-    std::ifstream f(filename);
-    if (!f) throw std::invalid_argument(cat(filename, ": cannot open the model file"));
-    std::stringstream buf;
-    buf << f.rdbuf();
+    if (!std::ifstream(filename)) throw std::invalid_argument(cat(filename, ": cannot open the model file"));
     json j;
     try {
-        j = json::parse(buf.str());
-    } catch (const json::exception& e) {  // parse errors, numbers out of double range
-        throw std::invalid_argument(cat(filename, ": not valid JSON: ", e.what()));
+        // Bounded: a model file is a few hundred bytes; 1 MiB and 32
+        // levels of nesting leave room for any real one.
+        j = hostjson::read_file(filename, {std::size_t{1} << 20, 2 * kMaxModelNesting + 4});
+    } catch (const hostjson::JsonError& e) {
+        const std::string m = e.what();
+        if (m.rfind(filename, 0) == 0) throw;  // names the file already
+        throw std::invalid_argument(cat(filename, ": model.", m));
     }
     try {
         return parse_model(j, "model", opt);

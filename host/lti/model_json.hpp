@@ -18,6 +18,7 @@
 //   "model.series[1].den[0]: leading coefficient must be non-zero".
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -25,6 +26,12 @@
 #include "lti/lti.hpp"
 
 namespace piezoloop::design {
+
+// Bounds on what a model may be (what a hostile file can cost): its order
+// (coefficients of num/den: at most order + 1; roots; a series' total) and
+// how deep series nest in series.
+inline constexpr std::size_t kMaxModelOrder = 200;
+inline constexpr int kMaxModelNesting = 16;
 
 struct ModelParseOptions {
     // The top-level model must be proper (#zeros <= #poles) unless this is

@@ -5,6 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "format/number.hpp"
 #include "lti/realisation.hpp"
 #include "lti/sos.hpp"
 #include "piezoloop/pi_inverse.hpp"
@@ -16,13 +17,6 @@ namespace piezoloop::sim {
 namespace {
 
 float f32(double x) { return static_cast<float>(x); }
-
-std::string num(double x, int digits = 4) {
-    std::ostringstream s;
-    s.precision(digits);
-    s << x;
-    return s.str();
-}
 
 [[noreturn]] void fail(const std::string& path, const Status& s) {
     std::string text = path;
@@ -51,9 +45,10 @@ std::string realisation_note(const design::Zpk& discrete, const PipelineParams& 
     const design::RealisationReport r = design::check_realisation(discrete, sos, ro);
     std::string text = std::string(design::sample_format_name(ro.format)) + " realisation of the controller (lti/realisation): ";
     if (!r.configured) return text + "rejected: " + r.configure_error;
-    text += "response within " + num(r.max_error_db, 2) + " dB / " + num(r.max_phase_error_deg, 2) +
-            " deg of the design (worst at " + num(r.worst_f_hz, 3) + " Hz), poles moved by up to " +
-            num(100.0 * r.max_relative_pole_shift, 2) + " % of their distance to the unit circle";
+    text += "response within " + format::significant(r.max_error_db, 2) + " dB / " +
+            format::significant(r.max_phase_error_deg, 2) + " deg of the design (worst at " +
+            format::significant(r.worst_f_hz, 3) + " Hz), poles moved by up to " +
+            format::significant(100.0 * r.max_relative_pole_shift, 2) + " % of their distance to the unit circle";
     text += r.fit ? " (fit)." : " - UNFIT:";
     if (!r.fit)
         for (const std::string& w : r.warnings) text += " " + w;
@@ -99,7 +94,7 @@ PiModel inverse_compensator(const HysteresisSpec& h, double amplifier_gain, std:
     c.p0 = f32(inv.p0 / (a * g));
     for (int j = 0; j < c.count; ++j) c.weights[static_cast<size_t>(j)] = f32(inv.weights[static_cast<size_t>(j)] / (a * g));
     if (h.in_offset != 0.0)
-        note = "the inverse omits the model's constant input offset (" + num(-h.in_offset / (a * g)) +
+        note = "the inverse omits the model's constant input offset (" + format::significant(-h.in_offset / (a * g), 4) +
                " V of command); the feedback's integral action takes it up";
     return c;
 }
@@ -197,8 +192,8 @@ const DahlIdentification& DahlCache::get(const Scenario& s, const CaseSpec& c, i
     d.params = d.fit.params_float;
     d.samples = u.size();
     std::string amps;
-    for (const double a : id.amplitudes_V) amps += (amps.empty() ? "" : ", ") + num(a);
-    d.data = num(id.frequency_Hz) + " Hz triangles of " + amps + " V peak-to-peak on the piezo, " +
+    for (const double a : id.amplitudes_V) amps += (amps.empty() ? "" : ", ") + format::significant(a, 4);
+    d.data = format::significant(id.frequency_Hz, 4) + " Hz triangles of " + amps + " V peak-to-peak on the piezo, " +
              std::to_string(id.cycles) + " cycles each from rest, every " + std::to_string(id.decimate) +
              "th tick (" + std::to_string(u.size()) + " samples of command u and measured y)";
     return done_.emplace(key, d).first->second;
@@ -233,7 +228,7 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         if (ff.placement == "series")
             b.notes.push_back("inverse in series after the controller (Shan2012's structure, the core's pi_series): "
                               "u = limits(P^-1(r + u_fb)), the feedback's output in um (its published volts at " +
-                              num(s.command_um_per_V()) + " um/V); the limits stay last, in volts");
+                              format::significant(s.command_um_per_V(), 4) + " um/V); the limits stay last, in volts");
     } else if (ff.kind == "pi_compensator") {
         p.feedforward = FeedforwardKind::kPiCompensator;
         p.pi = ff.pi;
@@ -305,7 +300,7 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
             const double exact = s.rate_Hz / o.reference_frequency_Hz;
             n = static_cast<int>(std::llround(exact));
             if (std::fabs(exact - n) > 1e-6 * exact)
-                throw ScenarioError(c.rc.path + ".period_samples: rate / reference frequency = " + num(exact, 8) +
+                throw ScenarioError(c.rc.path + ".period_samples: rate / reference frequency = " + format::significant(exact, 8) +
                                     " is not a whole number of ticks");
             if (n < 2 || n > kSimRcCapacity)
                 throw ScenarioError(c.rc.path + ".period_samples: rate / reference frequency = " +

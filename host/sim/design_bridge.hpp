@@ -11,7 +11,6 @@
 
 #include "lti/lti.hpp"
 #include "piezoloop/biquad.hpp"
-#include "sim/json_field.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::sim {

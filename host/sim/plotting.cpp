@@ -1,9 +1,12 @@
 #include "sim/plotting.hpp"
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <stdexcept>
-#include <sys/wait.h>
 
 namespace piezoloop::sim {
 
@@ -31,12 +34,13 @@ std::string quote(const std::string& s) {
 
 }  // namespace
 
-void run_plot_script(const std::filesystem::path& spec_json, const std::string& python) {
-    const std::filesystem::path script = repository_root() / "tools" / "plot_sim.py";
-    if (!std::filesystem::exists(script))
-        throw std::runtime_error("plot: " + script.string() + " not found (set PIEZOLOOP_ROOT to the repository)");
-    // Its messages go to stderr: stdout carries the commands' JSON.
-    const std::string cmd = quote(python) + " " + quote(script.string()) + " " + quote(spec_json.string()) + " 1>&2";
+void run_plot_script(const std::string& script, const std::vector<std::string>& args) {
+    const std::filesystem::path path = repository_root() / "tools" / script;
+    if (!std::filesystem::exists(path))
+        throw std::runtime_error("plot: " + path.string() + " not found (set PIEZOLOOP_ROOT to the repository)");
+    std::string cmd = quote("/usr/bin/python3") + " " + quote(path.string());
+    for (const std::string& a : args) cmd += " " + quote(a);
+    cmd += " 1>&2";
     std::fflush(stdout);
     const int rc = std::system(cmd.c_str());
     if (rc != 0) {
@@ -45,10 +49,23 @@ void run_plot_script(const std::filesystem::path& spec_json, const std::string& 
     }
 }
 
-std::string hex64(unsigned long long h) {
-    char buf[17];
-    std::snprintf(buf, sizeof buf, "%016llx", h);
-    return buf;
+void plot_spec(const std::string& script, const nlohmann::json& spec, const std::vector<std::string>& extra_args) {
+    char name[] = "/tmp/piezoloop-plot-XXXXXX";
+    const int fd = ::mkstemp(name);
+    if (fd < 0) throw std::runtime_error("plot: cannot create a temporary file");
+    ::close(fd);
+    struct Remove {
+        const char* file;
+        ~Remove() { std::remove(file); }
+    } remove{name};
+    {
+        std::ofstream f(name);
+        f << spec.dump();
+        if (!f) throw std::runtime_error(std::string("plot: cannot write ") + name);
+    }
+    std::vector<std::string> args{name};
+    args.insert(args.end(), extra_args.begin(), extra_args.end());
+    run_plot_script(script, args);
 }
 
 }  // namespace piezoloop::sim

@@ -1,9 +1,14 @@
-// Figures: the simulator writes its data as JSON and tools/plot_sim.py
-// (matplotlib, run by Debian's /usr/bin/python3) draws the PNGs.
+// Figures, launched one way: a command writes what to draw as JSON and a
+// script of tools/ (matplotlib, run by Debian's /usr/bin/python3, which has
+// it) draws the PNGs: tools/plot_sim.py for time series (sim, record,
+// reproduce), tools/plot.py for frequency-domain panels (analyze).
 #pragma once
 
 #include <filesystem>
 #include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
 
 namespace piezoloop::sim {
 
@@ -11,12 +16,13 @@ namespace piezoloop::sim {
 // binary was built from, else the current directory.
 std::filesystem::path repository_root();
 
-// Runs `python tools/plot_sim.py <spec.json>`; throws std::runtime_error with
-// the command and its exit status if it fails. python defaults to
-// /usr/bin/python3 (the interpreter with matplotlib, see docs/architecture.md).
-void run_plot_script(const std::filesystem::path& spec_json, const std::string& python = "/usr/bin/python3");
+// Runs `/usr/bin/python3 tools/<script> <args...>` with the script's output
+// on stderr (stdout carries the commands' JSON); throws std::runtime_error
+// with the command and its exit status if it fails or is missing.
+void run_plot_script(const std::string& script, const std::vector<std::string>& args);
 
-// Hex string of a 64-bit hash, 16 digits.
-std::string hex64(unsigned long long h);
+// Writes spec to a temporary JSON file, runs tools/<script> on it followed
+// by extra_args, and removes the file.
+void plot_spec(const std::string& script, const nlohmann::json& spec, const std::vector<std::string>& extra_args = {});
 
 }  // namespace piezoloop::sim

@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "format/number.hpp"
 #include "piezoloop/limits.hpp"
 #include "sim/rc_check.hpp"
 
@@ -15,36 +16,10 @@ namespace piezoloop::sim {
 
 namespace {
 
-std::string fixed(double x, int decimals) {
-    if (!std::isfinite(x)) return "–";
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, x);
-    return buf;
-}
-
-// Three significant digits, plain notation where reasonable.
-std::string sig(double x, int digits = 3) {
-    if (!std::isfinite(x)) return "–";
-    if (x == 0.0) return "0";
-    const double a = std::fabs(x);
-    if (a >= 1e-3 && a < 1e6) {
-        const int mag = static_cast<int>(std::floor(std::log10(a)));
-        return fixed(x, std::max(0, digits - 1 - mag));
-    }
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*g", digits, x);
-    return buf;
-}
-
 // Up to 3 significant digits without trailing zeros (0.01, 12, 1500).
 std::string short_num(double x) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.3g", x);
-    std::string s = buf;
-    if (s.find('e') != std::string::npos) {
-        std::snprintf(buf, sizeof buf, "%.0f", x);
-        if (std::fabs(x) >= 1.0) return buf;
-    }
+    const std::string s = format::significant(x, 3);
+    if (s.find('e') != std::string::npos && std::fabs(x) >= 1.0) return format::fixed(x, 0);
     return s;
 }
 
@@ -103,21 +78,21 @@ std::vector<double> time_axis(const RunLog& l, double rate, uint64_t origin, dou
 }
 
 std::string describe_hysteresis(const HysteresisSpec& h) {
-    if (h.kind == "none") return "none (linear, " + sig(h.gain_um_per_V) + " µm/V)";
+    if (h.kind == "none") return "none (linear, " + format::plain(h.gain_um_per_V) + " µm/V)";
     if (h.kind == "pi")
-        return "PI model, " + std::to_string(h.pi.count) + " play operators + linear term (p0 = " + sig(h.pi.p0) +
+        return "PI model, " + std::to_string(h.pi.count) + " play operators + linear term (p0 = " + format::plain(h.pi.p0) +
                " µm/V)";
     if (h.kind == "shan_pi")
         return "Shan2012 PI model (exponential density), " + std::to_string(h.pi.count) +
-               " play operators, input " + sig(h.in_gain) + " × v + " + sig(h.in_offset) + ", output × " +
-               sig(h.out_gain) + " µm";
+               " play operators, input " + format::plain(h.in_gain) + " × v + " + format::plain(h.in_offset) + ", output × " +
+               format::plain(h.out_gain) + " µm";
     return "Dahl model";
 }
 
 std::string describe_ff(const CaseSpec& c) {
     const FeedforwardSpec& f = c.feedforward;
     if (f.kind == "none") return "–";
-    if (f.kind == "gain") return "gain " + sig(f.V_per_um) + " V/µm";
+    if (f.kind == "gain") return "gain " + format::plain(f.V_per_um) + " V/µm";
     if (f.kind == "pi_inverse") return std::string("analytic inverse PI of the ") + (f.of == "plant" ? "case's" : "stage's") + " model";
     if (f.kind == "pi_compensator") return "PI compensator (" + std::to_string(f.pi.count) + " operators)";
     return f.identify ? "Dahl (identified)" : "Dahl (given parameters)";
@@ -126,12 +101,12 @@ std::string describe_ff(const CaseSpec& c) {
 std::string describe_fb(const CaseSpec& c, const BuiltCase* b) {
     const FeedbackSpec& f = c.feedback;
     if (f.kind == "none") return "–";
-    std::string unit = f.error_per_um != 1.0 ? " (error × " + sig(f.error_per_um) + " /µm)" : "";
+    std::string unit = f.error_per_um != 1.0 ? " (error × " + format::plain(f.error_per_um) + " /µm)" : "";
     if (f.kind == "pid")
-        return "PI(D): Kp " + sig(f.pid.kp) + ", Ki " + sig(f.pid.ki_per_s) + " /s" +
-               (f.pid.kd_s != 0.0f ? ", Kd " + sig(f.pid.kd_s) + " s" : "") + unit;
+        return "PI(D): Kp " + format::plain(f.pid.kp) + ", Ki " + format::plain(f.pid.ki_per_s) + " /s" +
+               (f.pid.kd_s != 0.0f ? ", Kd " + format::plain(f.pid.kd_s) + " s" : "") + unit;
     std::string s = "continuous model (" + std::to_string(f.model->zpk.poles.size()) + " poles), " + f.method;
-    if (f.prewarp_Hz > 0.0) s += " pre-warped at " + sig(f.prewarp_Hz) + " Hz";
+    if (f.prewarp_Hz > 0.0) s += " pre-warped at " + format::plain(f.prewarp_Hz) + " Hz";
     if (b) s += ", " + std::to_string(b->controller_sections) + " sections";
     return s + unit;
 }
@@ -140,7 +115,7 @@ std::string describe_rc(const CaseSpec& c) {
     if (!c.rc.enabled) return "–";
     const RepetitiveConfig& r = c.rc.rc;
     return std::string("N = ") + (c.rc.period_samples ? std::to_string(c.rc.period_samples) : "rate/f") +
-           ", m1 = " + std::to_string(r.m1) + ", m2 = " + std::to_string(r.m2) + ", k_rc = " + sig(r.k_rc);
+           ", m1 = " + std::to_string(r.m1) + ", m2 = " + std::to_string(r.m2) + ", k_rc = " + format::plain(r.k_rc);
 }
 
 }  // namespace
@@ -168,7 +143,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
     std::ostringstream md;
     md << "## " << s.title << "\n\n";
     if (!s.source.empty()) md << "Source: " << s.source << ".\n\n";
-    md << "Scenario file: `" << s.file.filename().string() << "`; loop rate " << sig(s.rate_Hz / 1e3) << " kHz.\n\n";
+    md << "Scenario file: `" << s.file.filename().string() << "`; loop rate " << format::plain(s.rate_Hz / 1e3) << " kHz.\n\n";
     if (!s.notes.empty()) {
         md << "### What the scenario assumes\n\n";
         for (const std::string& n : s.notes) md << "- " << n << "\n";
@@ -178,12 +153,12 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
     // Stage.
     const PlantSpec& p = s.plant;
     md << "### Stage\n\n";
-    md << "- DAC: " << (p.dac.bits ? std::to_string(p.dac.bits) + " bit" : std::string("ideal")) << ", " << sig(p.dac.min)
-       << " … " << sig(p.dac.max) << " V\n";
-    md << "- Amplifier: gain " << sig(p.amplifier.gain) << " V/V, input " << sig(p.amplifier.input_min_V) << " … "
-       << sig(p.amplifier.input_max_V) << " V, output " << sig(p.amplifier.output_min_V) << " … "
-       << sig(p.amplifier.output_max_V) << " V, bandwidth "
-       << (p.amplifier.bandwidth_Hz > 0.0f ? sig(p.amplifier.bandwidth_Hz) + " Hz" : std::string("not limited")) << "\n";
+    md << "- DAC: " << (p.dac.bits ? std::to_string(p.dac.bits) + " bit" : std::string("ideal")) << ", " << format::plain(p.dac.min)
+       << " … " << format::plain(p.dac.max) << " V\n";
+    md << "- Amplifier: gain " << format::plain(p.amplifier.gain) << " V/V, input " << format::plain(p.amplifier.input_min_V) << " … "
+       << format::plain(p.amplifier.input_max_V) << " V, output " << format::plain(p.amplifier.output_min_V) << " … "
+       << format::plain(p.amplifier.output_max_V) << " V, bandwidth "
+       << (p.amplifier.bandwidth_Hz > 0.0f ? format::plain(p.amplifier.bandwidth_Hz) + " Hz" : std::string("not limited")) << "\n";
     md << "- Hysteresis: " << describe_hysteresis(p.hysteresis) << "\n";
     if (p.dynamics) {
         md << "- Dynamics: " << p.dynamics->source << ", " << p.dynamics->zpk.poles.size() << " poles, "
@@ -193,13 +168,13 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
         if (sections) md << ", " << sections << " biquad sections";
         md << "\n";
     }
-    md << "- Sensor: " << sig(p.sensor.gain) << " per µm, bandwidth "
-       << (p.sensor.bandwidth_Hz > 0.0f ? sig(p.sensor.bandwidth_Hz) + " Hz" : std::string("not limited"))
-       << ", noise " << sig(p.sensor.noise_rms) << " rms (seed " << p.sensor.seed << ")\n";
-    md << "- ADC: " << (p.adc.bits ? std::to_string(p.adc.bits) + " bit" : std::string("ideal")) << ", " << sig(p.adc.min)
-       << " … " << sig(p.adc.max) << "\n";
-    md << "- Command limits " << sig(s.limits.u_min_V) << " … " << sig(s.limits.u_max_V) << " V, slew "
-       << sig(s.limits.slew_V_per_s) << " V/s\n\n";
+    md << "- Sensor: " << format::plain(p.sensor.gain) << " per µm, bandwidth "
+       << (p.sensor.bandwidth_Hz > 0.0f ? format::plain(p.sensor.bandwidth_Hz) + " Hz" : std::string("not limited"))
+       << ", noise " << format::plain(p.sensor.noise_rms) << " rms (seed " << p.sensor.seed << ")\n";
+    md << "- ADC: " << (p.adc.bits ? std::to_string(p.adc.bits) + " bit" : std::string("ideal")) << ", " << format::plain(p.adc.min)
+       << " … " << format::plain(p.adc.max) << "\n";
+    md << "- Command limits " << format::plain(s.limits.u_min_V) << " … " << format::plain(s.limits.u_max_V) << " V, slew "
+       << format::plain(s.limits.slew_V_per_s) << " V/s\n\n";
 
     // Cases.
     md << "### Controller cases\n\n";
@@ -220,9 +195,9 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
         if (const auto& d = it->second.dahl) {
             const DahlParams& q = d->params;
             md << "- *" << c.label << "*: Dahl compensator identified (ident/dahl_fit, docs/models.md) from " << d->data
-               << ": α1 = " << sig(q.alpha1) << ", α2 = " << sig(q.alpha2) << ", β1 = " << sig(q.beta1)
-               << ", β2 = " << sig(q.beta2) << ", γa = " << sig(q.gamma_a) << " (held), ga = " << sig(q.ga)
-               << " µm/V; fit error " << sig(d->fit.rms_error) << " µm rms (" << sig(d->fit.nrmse_percent)
+               << ": α1 = " << format::plain(q.alpha1) << ", α2 = " << format::plain(q.alpha2) << ", β1 = " << format::plain(q.beta1)
+               << ", β2 = " << format::plain(q.beta2) << ", γa = " << format::plain(q.gamma_a) << " (held), ga = " << format::plain(q.ga)
+               << " µm/V; fit error " << format::plain(d->fit.rms_error) << " µm rms (" << format::plain(d->fit.nrmse_percent)
                << " % NRMSE), " << d->fit.evaluations << " model evaluations.\n";
         }
     }
@@ -240,7 +215,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
             md << short_num(x.frequencies_Hz.front()) << " Hz " << wave << "s, " << (x.offset == "unipolar" ? "from 0" : "centred on 0")
                << "; hysteresis % of the measured output against the reference (docs/models.md) on the last of "
                << x.periods << " periods";
-            if (volts) md << "; references given as peak-to-peak piezo voltage (× " << sig(s.nominal_um_per_V) << " µm/V)";
+            if (volts) md << "; references given as peak-to-peak piezo voltage (× " << format::plain(s.nominal_um_per_V) << " µm/V)";
             md << ".\n\n";
             std::vector<std::string> head{"Hysteresis %"};
             const auto first = cells_of(e, x.cases.front());
@@ -249,7 +224,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
             for (const std::string& n : x.cases) {
                 std::vector<std::string> row{case_of(s, n).label};
                 for (const CellResult* c : cells_of(e, n)) {
-                    std::string v = c->error.empty() ? fixed(c->run.hysteresis_pct, 2) : "error";
+                    std::string v = c->error.empty() ? format::fixed(c->run.hysteresis_pct, 2) : "error";
                     const std::string f = cell_failure(*c);
                     if (!f.empty() && c->error.empty()) v += " (" + f + ")";
                     row.push_back(v);
@@ -277,7 +252,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
         } else if (x.kind == "tracking") {
             md << x.waveform_name << " references, " << (x.offset == "unipolar" ? "from 0" : "centred on 0")
                << "; figures on the last of " << x.periods << " periods"
-               << (x.min_duration_s > 0 ? " (at least " + sig(x.min_duration_s) + " s)" : std::string()) << ".\n\n";
+               << (x.min_duration_s > 0 ? " (at least " + format::plain(x.min_duration_s) + " s)" : std::string()) << ".\n\n";
             for (const double a : x.amplitudes_um) {
                 std::vector<std::string> head{short_num(a) + " µm p-p: e_max % / e_rms %"};
                 for (const double f : x.frequencies_Hz) head.push_back(freq_label(f));
@@ -290,7 +265,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                             row.push_back("error");
                             continue;
                         }
-                        std::string v = fixed(c->run.tracking.e_max_pct, 2) + " / " + fixed(c->run.tracking.e_rms_pct, 2);
+                        std::string v = format::fixed(c->run.tracking.e_max_pct, 2) + " / " + format::fixed(c->run.tracking.e_rms_pct, 2);
                         const std::string f = cell_failure(*c);
                         if (!f.empty()) v += " (" + f + ")";
                         row.push_back(v);
@@ -304,7 +279,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                     std::vector<std::string> row{case_of(s, n).label};
                     for (const CellResult* c : cells_of(e, n)) {
                         if (c->range_um != a) continue;
-                        row.push_back(c->error.empty() ? sig(c->run.tracking.e_max_um) + " / " + sig(c->run.tracking.e_rms_um)
+                        row.push_back(c->error.empty() ? format::plain(c->run.tracking.e_max_um) + " / " + format::plain(c->run.tracking.e_rms_um)
                                                        : "error");
                     }
                     md << table_row(row);
@@ -333,9 +308,9 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                     }
                 panels.push_back(pan);
             }
-            figures.push_back({fig_base + ".png", {{"title", s.name + ": " + x.title + " (" + sig(a0) + " µm p-p)"}, {"panels", panels}}});
+            figures.push_back({fig_base + ".png", {{"title", s.name + ": " + x.title + " (" + format::plain(a0) + " µm p-p)"}, {"panels", panels}}});
         } else if (x.kind == "bode") {
-            md << "Sinusoids of " << sig(x.amplitudes_um.front()) << " µm peak-to-peak; y/r from the DFT bin of the last of "
+            md << "Sinusoids of " << format::plain(x.amplitudes_um.front()) << " µm peak-to-peak; y/r from the DFT bin of the last of "
                << x.periods << " periods.\n\n";
             std::vector<std::string> head{"case", "−3 dB bandwidth"};
             for (const double f : x.frequencies_Hz) head.push_back(freq_label(f));
@@ -345,7 +320,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
             for (const std::string& n : x.cases) {
                 const auto cs = cells_of(e, n);
                 const double bw = bandwidth_3db_Hz(cs);
-                std::vector<std::string> row{case_of(s, n).label, bw > 0 ? sig(bw) + " Hz" : "> " + freq_label(x.frequencies_Hz.back())};
+                std::vector<std::string> row{case_of(s, n).label, bw > 0 ? format::plain(bw) + " Hz" : "> " + freq_label(x.frequencies_Hz.back())};
                 std::vector<double> fs, db, deg;
                 double unwrap = 0.0, last = 0.0;
                 for (const CellResult* c : cs) {
@@ -363,7 +338,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                     fs.push_back(c->frequency_Hz);
                     db.push_back(20.0 * std::log10(std::abs(g)));
                     deg.push_back(last);
-                    row.push_back(fixed(db.back(), 2) + " dB, " + fixed(last, 1) + "°");
+                    row.push_back(format::fixed(db.back(), 2) + " dB, " + format::fixed(last, 1) + "°");
                 }
                 md << table_row(row);
                 mag["series"].push_back(series(case_of(s, n).label, fs, db, "o-"));
@@ -373,8 +348,8 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
             figures.push_back({fig_base + ".png", {{"title", s.name + ": " + x.title}, {"panels", {mag, ph}}}});
         } else if (x.kind == "steps") {
             md << "Levels";
-            for (const double v : x.steps_um) md << " " << sig(v);
-            md << " µm, each held " << sig(x.hold_s * 1e3) << " ms. Overshoot in % of the step, settling to ±2 % of the step.\n\n";
+            for (const double v : x.steps_um) md << " " << format::plain(v);
+            md << " µm, each held " << format::plain(x.hold_s * 1e3) << " ms. Overshoot in % of the step, settling to ±2 % of the step.\n\n";
             md << table_row({"case", "max overshoot %", "max 2 % settling (ms)", "error at the end of the holds (µm, max)"})
                << table_rule(4);
             nlohmann::json pan = {{"title", "steps"}, {"xlabel", "time (ms)"}, {"ylabel", "µm"}};
@@ -403,7 +378,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                     settle = std::max(settle, (last_out + 1.0) / s.rate_Hz * 1e3);
                     end_err = std::max(end_err, final_err);
                 }
-                md << table_row({case_of(s, n).label, fixed(over, 1), fixed(settle, 2), sig(end_err)});
+                md << table_row({case_of(s, n).label, format::fixed(over, 1), format::fixed(settle, 2), format::plain(end_err)});
                 const auto t = time_axis(l, s.rate_Hz, 0, 1e3);
                 if (!ref_drawn) {
                     pan["series"].push_back(series("reference", t, to_d(l.r_um), "k--"));
@@ -414,7 +389,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
             md << "\n";
             figures.push_back({fig_base + ".png", {{"title", s.name + ": " + x.title}, {"panels", {pan}}}});
         } else {  // growth
-            md << "RMS tracking error per reference period over " << sig(x.min_duration_s * 1e3)
+            md << "RMS tracking error per reference period over " << format::plain(x.min_duration_s * 1e3)
                << " ms: a loop that is not L2-stable shows a growing oscillation.\n\n";
             md << table_row({"case", "frequency", "e_rms first period (µm)", "smallest (µm)", "last (µm)", "last / smallest",
                              "verdict"})
@@ -432,8 +407,8 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                     const double mn = *std::min_element(v.begin(), v.end());
                     const double ratio = v.back() / std::max(mn, 1e-12);
                     const std::string verdict = ratio > 3.0 || c->run.trip != TripReason::kNone ? "grows (unstable)" : "bounded";
-                    md << table_row({case_of(s, n).label, freq_label(c->frequency_Hz), sig(v.front()), sig(mn), sig(v.back()),
-                                     sig(ratio), verdict + (cell_failure(*c).empty() ? "" : ", " + cell_failure(*c))});
+                    md << table_row({case_of(s, n).label, freq_label(c->frequency_Hz), format::plain(v.front()), format::plain(mn), format::plain(v.back()),
+                                     format::plain(ratio), verdict + (cell_failure(*c).empty() ? "" : ", " + cell_failure(*c))});
                     const RunLog& l = c->run.log;
                     std::vector<double> err, idx;
                     for (size_t i = 0; i < l.r_um.size(); ++i) err.push_back(static_cast<double>(l.r_um[i]) - l.y_um[i]);
@@ -460,12 +435,12 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                                                                                     : " (the feedforward inverse leaves it in the loop)")
                                             : "";
                 rows += table_row(
-                    {cs.label, fixed(a->max_phase_deg, 1) + "° " + (a->phase_ok ? "(ok)" : "(fails)"),
-                     sig(a->k_rc_max) + (a->gain_ok ? " (ok)" : " (fails)"),
-                     a->rc_max_abs_root ? sig(*a->rc_max_abs_root, 6) : std::string("–"),
-                     sig(a->g0) + " vs " + (a->gain_margin_rc ? sig(*a->gain_margin_rc) : std::string("∞")) +
+                    {cs.label, format::fixed(a->max_phase_deg, 1) + "° " + (a->phase_ok ? "(ok)" : "(fails)"),
+                     format::plain(a->k_rc_max) + (a->gain_ok ? " (ok)" : " (fails)"),
+                     a->rc_max_abs_root ? format::plain(*a->rc_max_abs_root, 6) : std::string("–"),
+                     format::plain(a->g0) + " vs " + (a->gain_margin_rc ? format::plain(*a->gain_margin_rc) : std::string("∞")) +
                          (a->g0_ok ? " (ok)" : " (fails)"),
-                     sig(a->density_l1) + " vs " + sig(a->density_bound) + (a->density_ok ? " (ok)" : " (fails)") + inv});
+                     format::plain(a->density_l1) + " vs " + format::plain(a->density_bound) + (a->density_ok ? " (ok)" : " (fails)") + inv});
             }
             if (!rows.empty()) {
                 md << "Repetitive-control conditions (docs/models.md) on the sampled linear loop L = Gc · G_zoh with the hysteresis as v = g0 u + η "
@@ -500,9 +475,9 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
             double dy = 0.0;
             const size_t n = std::min(a.run.log.y_um.size(), b.run.log.y_um.size());
             for (size_t k = 0; k < n; ++k) dy = std::max(dy, std::fabs(static_cast<double>(a.run.log.y_um[k]) - b.run.log.y_um[k]));
-            md << table_row({a.case_label, run, sig(a.run.tracking.e_max_um) + " / " + sig(b.run.tracking.e_max_um),
-                             sig(a.run.tracking.e_rms_um) + " / " + sig(b.run.tracking.e_rms_um),
-                             fixed(a.run.hysteresis_pct, 2) + " / " + fixed(b.run.hysteresis_pct, 2), sig(dy)});
+            md << table_row({a.case_label, run, format::plain(a.run.tracking.e_max_um) + " / " + format::plain(b.run.tracking.e_max_um),
+                             format::plain(a.run.tracking.e_rms_um) + " / " + format::plain(b.run.tracking.e_rms_um),
+                             format::fixed(a.run.hysteresis_pct, 2) + " / " + format::fixed(b.run.hysteresis_pct, 2), format::plain(dy)});
         }
         md << "\n";
     }
@@ -525,8 +500,8 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
         for (const std::string& e : errors) md << "- " << e << "\n";
         md << "\n";
     }
-    md << "*" << runs << " runs, " << sig(sim_s) << " s simulated in " << sig(cpu_s) << " s of loop time ("
-       << sig(cpu_s > 0 ? sim_s / cpu_s : 0.0) << "× real time per thread); scenario wall time " << sig(r.wall_s)
+    md << "*" << runs << " runs, " << format::plain(sim_s) << " s simulated in " << format::plain(cpu_s) << " s of loop time ("
+       << format::plain(cpu_s > 0 ? sim_s / cpu_s : 0.0) << "× real time per thread); scenario wall time " << format::plain(r.wall_s)
        << " s.*\n\n";
     return md.str();
 }

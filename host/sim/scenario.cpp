@@ -425,13 +425,15 @@ Scenario parse_scenario(const nlohmann::json& j, const std::filesystem::path& ba
 }
 
 Scenario load_scenario(const std::filesystem::path& file) {
-    std::ifstream in(file);
-    if (!in) throw ScenarioError(file.string() + ": cannot open");
     nlohmann::json j;
     try {
-        j = nlohmann::json::parse(in);
-    } catch (const nlohmann::json::parse_error& e) {
-        throw ScenarioError(file.string() + ": not valid JSON: " + e.what());
+        j = hostjson::read_file(file.string());
+    } catch (const ScenarioError& e) {
+        // Errors of the text itself name the file, or the field (a
+        // duplicate key, a number no double holds): prefixed by the file.
+        const std::string m = e.what();
+        if (m.rfind(file.string(), 0) == 0) throw;
+        throw ScenarioError(file.filename().string() + ": " + m);
     }
     try {
         Scenario s = parse_scenario(j, file.parent_path());

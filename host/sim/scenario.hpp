@@ -16,9 +16,14 @@
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/stage_model.hpp"
 #include "sim/closed_loop.hpp"
-#include "sim/json_field.hpp"
+#include "json/json_reader.hpp"
 
 namespace piezoloop::sim {
+
+// Scenario files are read with the host's JSON reader: every error is a
+// ScenarioError whose message starts with the field path.
+using hostjson::Field;
+using ScenarioError = hostjson::JsonError;
 
 // A continuous (or discrete) linear model read from a model file or inline,
 // in the design toolkit's JSON model format.

@@ -80,10 +80,10 @@ if k:
     norms = k["scaling"]["partial_norms"]
     check(all(abs(v - 1.0) < 1e-9 for v in norms[:-1]) and norms[-1] < 1.0, f"K scaling {norms}")
 
-# --- the same in float32: unfit, said clearly, --strict exits 3.
+# --- the same in float32: unfit, said clearly, --strict exits 1 (a failed check, not bad input).
 r = run("c2d", "--model", model("ahmad2020_K.json"), "--rate-hz", "100000", "--format", "float", "--strict")
 kf = json.loads(r.stdout) if r.stdout else None
-check(r.returncode == 3 and kf and kf["realisation"]["fit"] is False, f"K float unfit, exit {r.returncode}")
+check(r.returncode == 1 and kf and kf["realisation"]["fit"] is False, f"K float unfit, exit {r.returncode}")
 check("unfit" in r.stderr and "--format q31" in r.stderr, "K float warning on stderr")
 
 # --- ZOH and matched of G(s) and D(s): run, and match the exact responses.
@@ -153,9 +153,14 @@ with tempfile.TemporaryDirectory() as tmp:
               f"bad model {name}: exit {r.returncode}, stderr {r.stderr.strip()!r}")
     path = os.path.join(tmp, "broken.json")
     with open(path, "w") as f:
+        f.write('{"num": [1], "den": [1, 1')
+    r = run("c2d", "--model", path, "--rate-hz", "100000")
+    check(r.returncode == 2 and "not valid JSON" in r.stderr and r.stdout == "", f"broken json: {r.stderr!r}")
+    with open(path, "w") as f:
         f.write('{"num": [1], "den": [1, 1e999]}')
     r = run("c2d", "--model", path, "--rate-hz", "100000")
-    check(r.returncode != 0 and "not valid JSON" in r.stderr and r.stdout == "", f"broken json: {r.stderr!r}")
+    check(r.returncode == 2 and "model.den[1]: number out of the range of a double" in r.stderr and r.stdout == "",
+          f"number beyond a double: {r.stderr!r}")
 r = run("c2d", "--model", os.path.join(models, "no_such_model.json"), "--rate-hz", "100000")
 check(r.returncode != 0 and "cannot open" in r.stderr, f"missing file: {r.stderr!r}")
 for args, field in ((["c2d", "--model", model("ahmad2020_K.json"), "--rate-hz", "0"], "rate_hz"),

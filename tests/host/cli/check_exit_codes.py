@@ -1,0 +1,108 @@
+#!/usr/bin/python3
+"""The exit-code policy of every command (README.md, "Exit codes"): 0 ok,
+1 other failure, 2 bad input, 3 link or device, 4 lost data (the record
+tests in check_device_e2e.py). Then the class "a non-finite number in a
+numeric option": every floating-point option of every subcommand, found in
+`--help`, refuses nan, inf, -inf and 1e309 with exit 2 and the option's name.
+Usage: check_exit_codes.py PIEZOLOOP_BINARY CONFIGS_DIR"""
+import os
+import re
+import socket
+import subprocess
+import sys
+import tempfile
+
+exe, configs = sys.argv[1], sys.argv[2]
+passed = failed = 0
+
+
+def run(*args):
+    env = dict(os.environ)
+    env.pop("PIEZOLOOP_DEVICE", None)
+    return subprocess.run([exe, *args], capture_output=True, text=True, env=env, timeout=120)
+
+
+def check(name, ok, detail=""):
+    global passed, failed
+    if ok:
+        passed += 1
+    else:
+        failed += 1
+        print(f"FAIL {name}: {detail}")
+
+
+def expect(name, args, code, *needles):
+    r = run(*args)
+    check(name, r.returncode == code and all(n in r.stderr for n in needles),
+          f"exit {r.returncode} (want {code}), stderr {r.stderr[-400:]!r}")
+    return r
+
+
+def closed_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+scenario = os.path.join(configs, "ahmad2020.json")
+tmp = tempfile.mkdtemp(prefix="piezoloop-exit-")
+unwritable = os.path.join(tmp, "no-such-dir", "x")
+
+# 0: ok, help included.
+expect("help", ["--help"], 0)
+expect("subcommand help", ["identify", "rls", "--help"], 0)
+# 2: option errors of the parser (CLI11's own codes are 104-109).
+expect("value out of range", ["identify", "rls", "--ts", "0", "--data", "x.csv"], 2, "--ts")
+expect("missing required option", ["sim"], 2, "--scenario")
+expect("not a number", ["demo", "--frequency-hz", "ten"], 2, "--frequency-hz")
+expect("unknown option", ["demo", "--bogus"], 2, "--bogus")
+expect("unknown subcommand", ["bogus"], 2)
+expect("no subcommand", [], 2)
+expect("missing input file (sim)", ["sim", "--scenario", "/nonexistent.json", "--case", "x"], 2, "--scenario")
+expect("missing input file (design)", ["design", "c2d", "--model", "/nonexistent.json", "--rate-hz", "1000"], 2,
+       "cannot open")
+expect("bad value (sim)", ["sim", "--scenario", scenario, "--case", "no_such_case"], 2, "no such case")
+expect("missing input file (reproduce)", ["reproduce", "ahmad2020", "--out", tmp, "--configs", "/nonexistent"], 2)
+# 1: an output that cannot be written.
+cases = run("sim", "--scenario", scenario, "--list").stdout
+case = re.search(r'"name":\s*"([^"]+)"', cases)
+check("sim --list names a case", case is not None, cases[:200])
+if case:
+    expect("sim --out unwritable", ["sim", "--scenario", scenario, "--case", case.group(1), "--amplitude-um", "10",
+                                    "--out", unwritable + ".csv"], 1, "cannot write")
+expect("reproduce --out unwritable", ["reproduce", "ahmad2020", "--out", "/proc/piezoloop-no", "--no-plots",
+                                      "--no-fidelity"], 1)
+# 3: link or device.
+refused = f"tcp:127.0.0.1:{closed_port()}"
+expect("connection refused", ["--device", refused, "status"], 3, "connection refused")
+expect("record, connection refused", ["--device", refused, "record", "--duration-s", "0.1"], 3)
+
+# Every floating-point option of every subcommand refuses non-finite values.
+def subcommands(path):
+    text = run(*path, "--help").stdout
+    m = re.search(r"^Subcommands:\n((?:  .*\n?)*)", text, re.M)
+    names = re.findall(r"^  (\S+)", m.group(1), re.M) if m else []
+    return text, names
+
+
+def walk(path):
+    text, names = subcommands(path)
+    yield path, text
+    for n in names:
+        yield from walk([*path, n])
+
+
+float_options = []
+for path, text in walk([]):
+    for opt in re.findall(r"^\s+(?:-\w,)?(--[\w-]+)(?:,-\w)? FLOAT", text, re.M):
+        float_options.append((path, opt))
+check("float options found", len(float_options) >= 40, f"only {len(float_options)}: {float_options}")
+for path, opt in float_options:
+    for bad in ("nan", "inf", "-inf", "1e309"):
+        r = run(*path, opt, bad)
+        check(f"{' '.join(path)} {opt} {bad}", r.returncode == 2 and opt in r.stderr,
+              f"exit {r.returncode}, stderr {r.stderr[-300:]!r}")
+print(f"exit codes: {passed} passed, {failed} failed ({len(float_options)} floating-point options)")
+sys.exit(1 if failed else 0)

@@ -1,0 +1,119 @@
+#!/usr/bin/python3
+"""Hostile input files: every command that reads a model, a scenario, a CSV
+or JSON parameters refuses them with exit 2 and a message naming the field
+(or the file), quickly and without crashing:
+
+  a model nested 16,000 series deep (design c2d, analyze loop, reduce, sim
+  with the model inline in a scenario), a 20,000-coefficient denominator,
+  /dev/zero as a model, duplicate keys (model, scenario, set --json), a
+  number no double holds (1e309) in a scenario; and a CSV that starts with
+  a UTF-8 byte-order mark is read like any other.
+Usage: check_hostile_input.py PIEZOLOOP_BINARY CONFIGS_DIR"""
+import json
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+
+exe, configs = sys.argv[1], os.path.abspath(sys.argv[2])
+passed = failed = 0
+tmp = tempfile.mkdtemp(prefix="piezoloop-hostile-")
+
+
+def run(*args):
+    env = dict(os.environ)
+    env.pop("PIEZOLOOP_DEVICE", None)
+    try:
+        return subprocess.run([exe, *args], capture_output=True, text=True, env=env, timeout=120)
+    except subprocess.TimeoutExpired:
+        return subprocess.CompletedProcess(args, -999, "", "timed out after 120 s")
+
+
+def check(name, ok, detail=""):
+    global passed, failed
+    if ok:
+        passed += 1
+    else:
+        failed += 1
+        print(f"FAIL {name}: {detail}")
+
+
+def refused(name, args, *needles):
+    r = run(*args)
+    check(name, r.returncode == 2 and r.stdout == "" and all(n in r.stderr for n in needles),
+          f"exit {r.returncode}, missing {[n for n in needles if n not in r.stderr]}, stderr {r.stderr[-300:]!r}")
+
+
+def write(name, text):
+    path = os.path.join(tmp, name)
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+deep_text = '{"series":[' * 16000 + '{"num":[1],"den":[1,1]}' + "]}" * 16000
+deep = write("deep.json", deep_text)
+wide = write("wide.json", json.dumps({"num": [1.0], "den": [1.0] * 20000}))
+plant = os.path.join(configs, "models", "ahmad2020_G.json")
+controller = os.path.join(configs, "models", "ahmad2020_K.json")
+
+refused("design c2d: model nested 16000 deep", ["design", "c2d", "--model", deep, "--rate-hz", "10000"],
+        "deep.json", "nested deeper than")
+refused("analyze loop: plant nested 16000 deep", ["analyze", "loop", "--plant", deep, "--controller", controller],
+        "nested deeper than")
+refused("reduce: model nested 16000 deep", ["reduce", "--model", deep, "--order", "2"], "nested deeper than")
+refused("design c2d: 20000 coefficients", ["design", "c2d", "--model", wide, "--rate-hz", "10000"],
+        "model.den", "at most 201 coefficients")
+refused("reduce: 20000 coefficients", ["reduce", "--model", wide, "--order", "2"], "model.den")
+refused("design c2d: /dev/zero", ["design", "c2d", "--model", "/dev/zero", "--rate-hz", "10000"],
+        "/dev/zero", "larger than")
+dup_model = write("dup.json", '{"num": [1], "den": [1, 1], "den": [1, 2]}')
+refused("design c2d: duplicate key", ["design", "c2d", "--model", dup_model, "--rate-hz", "10000"],
+        "den", "duplicate key")
+
+# Scenarios: a copy of a shipped one, edited as text.
+base = json.load(open(os.path.join(configs, "janaideh2016.json")))
+case = base["cases"][0]["name"]
+
+
+def scenario(name, text):
+    path = write(name, text)
+    # Model files named in the scenario are relative to it.
+    models = os.path.join(tmp, "models")
+    if not os.path.exists(models):
+        os.symlink(os.path.join(configs, "models"), models)
+    return path
+
+
+good = json.dumps(base)
+refused("sim: 1e309 in a scenario", ["sim", "--scenario", scenario("big.json", good.replace(
+    '"rate_Hz": ' + json.dumps(base["loop"]["rate_Hz"]), '"rate_Hz": 1e309', 1)), "--case", case],
+        "loop.rate_Hz", "out of the range of a double")
+refused("sim: duplicate key in a scenario", ["sim", "--scenario", scenario("dupkey.json", good.replace(
+    '"loop": {', '"loop": {"rate_Hz": 1, ', 1)), "--case", case], "loop.rate_Hz", "duplicate key")
+inline = dict(base)
+inline["cases"] = [dict(base["cases"][0])]
+deep_inline = good.replace('"cases": [', '"x_deep": ' + deep_text + ', "cases": [', 1)
+refused("sim: a model nested 16000 deep inline", ["sim", "--scenario", scenario("deep_inline.json", deep_inline),
+                                                 "--case", case], "nested deeper than")
+
+# set --json is checked before any board is contacted.
+s = socket.socket()
+s.bind(("127.0.0.1", 0))
+port = s.getsockname()[1]
+s.close()
+refused("set --json duplicate key", ["--device", f"tcp:127.0.0.1:{port}", "set", "limits", "--json",
+                                     '{"u_max_V": 5, "u_max_V": 6}'], "--json", "u_max_V", "duplicate key")
+
+# CSV with a byte-order mark (and CRLF line ends), as spreadsheets write it.
+rows = "\r\n".join(f"{k * 1e-3:.3f},{(k % 7) - 3},{0.5 * ((k - 1) % 7) - 1.5 if k else 0}" for k in range(200))
+bom = os.path.join(tmp, "bom.csv")
+with open(bom, "w", encoding="utf-8-sig", newline="") as f:
+    f.write("t,u,y\r\n" + rows + "\r\n")
+r = run("identify", "rls", "--data", bom, "--na", "1", "--nb", "1")
+check("identify rls reads a CSV with a byte-order mark", r.returncode == 0 and '"fit"' in r.stdout,
+      f"exit {r.returncode}, stderr {r.stderr[-300:]!r}")
+
+print(f"hostile input: {passed} passed, {failed} failed")
+sys.exit(1 if failed else 0)
