@@ -207,12 +207,14 @@ double Field::number(const char* key, double fallback) const {
     return f ? f->number() : fallback;
 }
 
-float Field::number_f32() const {
+float Field::number_f32() const { return static_cast<float>(number_in_f32_range()); }
+
+double Field::number_in_f32_range() const {
     const double x = number();
     if (!(std::fabs(x) <= static_cast<double>(std::numeric_limits<float>::max())))
         fail("must be within the range of a float (|x| <= " +
              format::significant(static_cast<double>(std::numeric_limits<float>::max())) + ")");
-    return static_cast<float>(x);
+    return x;
 }
 
 int Field::integer(int lo, int hi) const { return static_cast<int>(integer64(lo, hi)); }

@@ -79,6 +79,8 @@ public:
     double number(const char* key, double fallback) const;
     // As a float (the boards' type): finite after the conversion too.
     float number_f32() const;
+    // A double that is finite as a float too (|x| <= FLT_MAX), kept in double.
+    double number_in_f32_range() const;
     int integer(int lo, int hi) const;
     long long integer64(long long lo, long long hi) const;
     bool boolean() const;
@@ -91,6 +93,7 @@ public:
     std::size_t enumeration(const char* const (&names)[N]) const {
         return enumeration_index(names, N);
     }
+    std::size_t enumeration(const char* const* names, std::size_t n) const { return enumeration_index(names, n); }
     std::vector<double> numbers() const;             // array of finite numbers
     std::vector<double> numbers(size_t max) const;   // ... at most max of them
 

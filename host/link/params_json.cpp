@@ -1,11 +1,12 @@
 #include "link/params_json.hpp"
 
-#include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <vector>
 
+#include "json/json_reader.hpp"
 #include "piezoloop/params/field.hpp"
 
 namespace piezoloop::hostlink {
@@ -79,25 +80,24 @@ private:
 };
 
 // JSON -> group, merged onto the group's current values: only the keys given
-// change. Each object level must use all its keys (a typo is an error). An
-// array sets the count it shares with later arrays (PI thresholds and
-// weights), which must then have as many values.
+// change. Read with the host's one JSON reader (host/json), so every error
+// names the field's path; each object level must use only its declared keys
+// (a typo is an error). An array sets the count it shares with later arrays
+// (PI thresholds and weights), which must then have as many values.
 class JsonMerger {
 public:
-    JsonMerger(const json& j, std::string path) { push(&j, std::move(path)); }
-
-    [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-        const std::string& p = levels_.back().path;
-        throw std::invalid_argument(p + (key.empty() ? "" : "." + key) + ": " + what);
-    }
+    explicit JsonMerger(const hostjson::Field& f) { push(f); }
 
     template <class X>
     void value(const Field& f, X& x) {
-        if (const json* v = find(f.name)) x = parse<X>(f, *v, f.name);
+        if (const auto v = find(f.name)) x = parse<X>(f, *v);
     }
     void begin(const char* name) {
-        const json* v = find(name);
-        push(v, levels_.back().path + "." + name);
+        const auto v = find(name);
+        if (v)
+            push(*v);
+        else
+            levels_.emplace_back();
     }
     void end() {
         done();
@@ -110,123 +110,83 @@ public:
     template <class X, std::size_t N, class C>
     void values(const Field& f, std::array<X, N>& a, C& n, Travel t) {
         declare_array(f.name);
-        const json* v = find(f.name);
-        if (v == nullptr) {
+        const auto v = find(f.name);
+        if (!v) {
             // A count changed by an earlier array: what lies beyond it is unused.
             if (t == Travel::kCount)
                 for (std::size_t i = in_use(n, N); i < N; ++i) a[i] = X{};
             return;
         }
-        const std::size_t size = array_size(*v, f.name, N);
+        const std::size_t size = v->size(N);
         if (t == Travel::kAll) a = {};
-        for (std::size_t i = 0; i < size; ++i)
-            a[i] = parse<X>(f, (*v)[i], std::string(f.name) + "[" + std::to_string(i) + "]");
+        for (std::size_t i = 0; i < size; ++i) a[i] = parse<X>(f, v->at(i));
         for (std::size_t i = size; i < N; ++i) a[i] = X{};
-        set_count(f.name, n, size);
+        set_count(*v, f.name, n, size);
     }
     template <class S, std::size_t N, class C>
     void objects(const char* name, std::array<S, N>& a, C& n, Travel) {
         declare_array(name);
-        const json* v = find(name);
-        if (v == nullptr) return;
-        const std::size_t size = array_size(*v, name, N);
+        const auto v = find(name);
+        if (!v) return;
+        const std::size_t size = v->size(N);
         for (std::size_t i = 0; i < size; ++i) {
-            JsonMerger element((*v)[i], levels_.back().path + "." + name + "[" + std::to_string(i) + "]");
+            JsonMerger element(v->at(i));
             params::describe(element, a[i]);
             element.done();
         }
         for (std::size_t i = size; i < N; ++i) a[i] = S{};
-        set_count(name, n, size);
+        set_count(*v, name, n, size);
     }
 
     void done() const {
         const Level& l = levels_.back();
-        if (l.j == nullptr) return;
-        for (auto it = l.j->begin(); it != l.j->end(); ++it) {
-            bool known = false;
-            for (const std::string& u : l.used) known = known || u == it.key();
-            if (!known) fail(it.key(), "unknown field");
-        }
+        if (l.field) l.field->only(l.declared);
     }
 
 private:
     struct Level {
-        const json* j = nullptr;  // null: the object is not given, nothing changes
-        std::string path;
-        std::vector<std::string> used;
+        std::optional<hostjson::Field> field;  // none: the object is not given, nothing changes
+        std::vector<std::string> declared;
         std::string count_owner_array;  // the first array declared after the last count
     };
 
-    void push(const json* j, std::string path) {
-        Level l;
-        l.j = j;
-        l.path = std::move(path);
-        levels_.push_back(std::move(l));
-        if (j != nullptr && !j->is_object()) fail("", "must be a JSON object");
+    void push(const hostjson::Field& f) {
+        if (!f.is_object()) f.fail("must be a JSON object");
+        levels_.emplace_back();
+        levels_.back().field = f;
     }
 
-    const json* find(const char* key) {
+    std::optional<hostjson::Field> find(const char* key) {
         Level& l = levels_.back();
-        if (l.j == nullptr) return nullptr;
-        auto it = l.j->find(key);
-        if (it == l.j->end()) return nullptr;
-        l.used.emplace_back(key);
-        return &*it;
+        l.declared.emplace_back(key);
+        if (!l.field) return std::nullopt;
+        return l.field->get(key);
     }
 
-    std::size_t array_size(const json& v, const char* key, std::size_t capacity) const {
-        if (!v.is_array()) fail(key, "must be an array");
-        if (v.size() > capacity) fail(key, "at most " + std::to_string(capacity) + " values");
-        return v.size();
-    }
-
-    // The first array declared after a count sets it; later arrays of the
-    // same count must have as many values.
     void declare_array(const char* key) {
         if (levels_.back().count_owner_array.empty()) levels_.back().count_owner_array = key;
     }
     template <class C>
-    void set_count(const char* key, C& n, std::size_t size) {
+    void set_count(const hostjson::Field& v, const char* key, C& n, std::size_t size) {
         const Level& l = levels_.back();
         if (l.count_owner_array == key)
             n = static_cast<C>(size);
         else if (size != in_use(n, static_cast<std::size_t>(-1)))
-            fail(key, "must have as many values as " + l.count_owner_array);
+            v.fail("must have as many values as " + l.count_owner_array);
     }
 
     template <class X>
-    X parse(const Field& f, const json& v, const std::string& key) const {
+    static X parse(const Field& f, const hostjson::Field& v) {
         if constexpr (std::is_enum_v<X>) {
-            return static_cast<X>(parse<std::underlying_type_t<X>>(f, v, key));
+            return static_cast<X>(parse<std::underlying_type_t<X>>(f, v));
         } else {
-            if (f.is_enum()) {
-                std::string all;
-                for (unsigned i = 0; i < f.name_count; ++i) {
-                    if (v.is_string() && v.get<std::string>() == f.names[i]) return static_cast<X>(i);
-                    all += (i ? ", " : "") + std::string(f.names[i]);
-                }
-                fail(key, "must be one of " + all);
-            }
-            if (f.wire == params::Wire::kBool) {
-                if (!v.is_boolean()) fail(key, "must be true or false");
-                return static_cast<X>(v.get<bool>());
-            }
-            if (f.is_number()) {
-                if (!v.is_number()) fail(key, "must be a number");
-                const double d = v.get<double>();
-                if (!(d >= -params::kFloatMax && d <= params::kFloatMax))
-                    fail(key, "must be finite in float32 (|x| <= 3.4028e+38)");
-                return static_cast<X>(d);
-            }
-            if (!v.is_number_integer()) fail(key, "must be an integer");
-            const double d = v.is_number_unsigned() ? static_cast<double>(v.get<unsigned long long>())
-                                                    : static_cast<double>(v.get<long long>());
-            if (d < f.min || d > f.max) {
-                char t[96];
-                std::snprintf(t, sizeof t, "must be in [%.0f, %.0f]", f.min, f.max);
-                fail(key, t);
-            }
-            return static_cast<X>(d);
+            if (f.is_enum()) return static_cast<X>(v.enumeration(f.names, f.name_count));
+            if (f.wire == params::Wire::kBool) return static_cast<X>(v.boolean());
+            // Numbers must be finite in float32, the core's type, whatever
+            // their wire type: the board checks the same after conversion.
+            if (f.is_number()) return f.wire == params::Wire::kF64 ? static_cast<X>(v.number_in_f32_range())
+                                                                     : static_cast<X>(v.number_f32());
+            return static_cast<X>(v.integer64(static_cast<long long>(f.min), static_cast<long long>(f.max)));
         }
     }
 
@@ -242,7 +202,7 @@ json group_json(const G& g) {
 
 template <class G>
 void merge_group(const json& j, G& g) {
-    JsonMerger m(j, params::group_name(G::kGroup));
+    JsonMerger m(hostjson::Field(j, params::group_name(G::kGroup)));
     params::describe(m, g);
     m.done();
 }

@@ -90,15 +90,15 @@ TEST(HostLinkParamsJson, MergeChangesOnlyTheGivenKeys) {
 }
 
 TEST(HostLinkParamsJson, ErrorsNameTheKey) {
-    EXPECT_EQ(error_of(json::parse(R"({"u_max": 5})"), {}), "limits.u_max: unknown field");
-    EXPECT_EQ(error_of(json::parse(R"({"u_max_V": "5"})"), {}), "limits.u_max_V: must be a number");
+    EXPECT_EQ(error_of(json::parse(R"({"u_max": 5})"), {}), "limits.u_max: unknown field (allowed here: u_min_V, u_max_V, slew_V_per_s, saturation_trip_s)");
+    EXPECT_EQ(error_of(json::parse(R"({"u_max_V": "5"})"), {}), "limits.u_max_V: must be a number, not string");
     EXPECT_EQ(error_of(json::parse("[1]"), {}), "limits: must be a JSON object");
     link::FeedforwardParams ff;
     try {
         merge_json(json::parse(R"({"kind": "inverse"})"), ff);
         FAIL();
     } catch (const std::invalid_argument& e) {
-        EXPECT_STREQ(e.what(), "feedforward.kind: must be one of none, pi_inverse, pi_compensator, dahl, pi_series");
+        EXPECT_STREQ(e.what(), "feedforward.kind: must be one of none|pi_inverse|pi_compensator|dahl|pi_series (got \"inverse\")");
     }
     try {
         merge_json(json::parse(R"({"pi": {"thresholds": [0, 1], "weights": [1]}})"), ff);
@@ -111,7 +111,7 @@ TEST(HostLinkParamsJson, ErrorsNameTheKey) {
         merge_json(json::parse(R"({"channels": ["r", "x"]})"), r);
         FAIL();
     } catch (const std::invalid_argument& e) {
-        EXPECT_STREQ(e.what(), "recorder.channels[1]: must be one of r, y, e, u, u_ff, u_fb, u_rc");
+        EXPECT_STREQ(e.what(), "recorder.channels[1]: must be one of r|y|e|u|u_ff|u_fb|u_rc (got \"x\")");
     }
     EXPECT_THROW(parse_group("gains"), std::invalid_argument);
     EXPECT_EQ(parse_group("rc"), link::ParamGroup::kRepetitive);
