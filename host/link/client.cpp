@@ -243,8 +243,28 @@ void Client::stream_stop(bool drain) {
 StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const std::function<void(double)>& progress) {
     const auto t0 = steady_clock::now();
     const double rate = info().loop_rate_Hz > 0.0f ? info().loop_rate_Hz : 100000.0;
+    // Checked before anything moves, as the board checks each block: a bad
+    // value found half-way would leave the stream open with the stage moving.
+    for (std::size_t j = 0; j < sp.size(); ++j)
+        if (!(std::isfinite(sp[j]) && std::fabs(sp[j]) <= 1.0e6f))
+            throw std::invalid_argument("setpoint " + std::to_string(j) + ": " + std::to_string(sp[j]) +
+                                        " um: must be finite and within +-1e6 um");
     StreamResult res;
     link::SetpointAck ack = stream_start(prefill);
+    // Whatever ends the stream early (a refused block, a lost link, Ctrl-C
+    // turned into an exception) closes it on the board, so no stream is left
+    // behind (the board's client timeout would close it too, later).
+    struct CloseOnError {
+        Client& c;
+        bool done = false;
+        ~CloseOnError() {
+            if (done) return;
+            try {
+                c.stream_stop(false);
+            } catch (...) {
+            }
+        }
+    } close_on_error{*this};
     res.capacity = ack.capacity;
     std::size_t free = ack.free;
     std::size_t i = 0;
@@ -280,6 +300,7 @@ StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const s
         last_progress = steady_clock::now();
         if (progress) progress(static_cast<double>(i) / static_cast<double>(sp.size()));
     }
+    close_on_error.done = true;
     stream_stop(true);
     // The drained stream ends when its FIFO runs empty: wait for that
     // (about capacity / rate) and read the final counts.

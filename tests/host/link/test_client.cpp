@@ -7,6 +7,8 @@
 // Comparisons are exact: the link moves bit patterns.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -291,6 +293,25 @@ TEST(HostLinkClient, StreamUnderrunsAreReported) {
     const link::SetpointAck a = c.send_setpoints(sp);
     EXPECT_GT(a.underruns, 0u);
     c.stream_stop(false);
+}
+
+TEST(HostLinkClient, AStreamWithABadSetpointNeverStarts) {
+    // Values finite in double but not in float, or beyond the board's range:
+    // refused before StreamStart, naming the setpoint; nothing streams.
+    DeviceServer s;
+    Client c = connect(s);
+    configure_reference(c);
+    for (const float bad : {std::numeric_limits<float>::infinity(), 2.0e6f, std::numeric_limits<float>::quiet_NaN()}) {
+        std::vector<float> sp(500, 1.0f);
+        sp[321] = bad;
+        try {
+            c.stream(sp, 100);
+            FAIL() << "stream accepted " << bad;
+        } catch (const std::invalid_argument& e) {
+            EXPECT_NE(std::string(e.what()).find("setpoint 321:"), std::string::npos) << e.what();
+        }
+        EXPECT_FALSE(c.status().streaming);
+    }
 }
 
 TEST(HostLinkClient, LogBlocksReassembleWithoutLoss) {
