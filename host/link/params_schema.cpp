@@ -52,7 +52,9 @@ public:
     template <class X>
     void value(const Field& f, const X& x) {
         json s = value_schema(f);
-        s["default"] = default_json(f, x);
+        // A default the range refuses (the limits' zero slew: the board
+        // starts with its limiter unconfigured) is no default at all.
+        if (in_range(f, x)) s["default"] = default_json(f, x);
         if (f.critical) s["limitCritical"] = true;
         add(f.name, s);
     }
@@ -92,6 +94,15 @@ private:
             if (f.wire == params::Wire::kBool) return static_cast<bool>(x);
             return static_cast<double>(x);
         }
+    }
+    template <class X>
+    static bool in_range(const Field& f, const X& x) {
+        double v = 0.0;
+        if constexpr (std::is_enum_v<X>)
+            v = static_cast<double>(static_cast<std::underlying_type_t<X>>(x));
+        else
+            v = static_cast<double>(x);
+        return (f.min_open ? v > f.min : v >= f.min) && (f.max_open ? v < f.max : v <= f.max);
     }
     json* top() { return stack_.empty() ? &root : stack_.back(); }
     void add(const char* name, json s) { (*top())["properties"][name] = std::move(s); }

@@ -463,7 +463,7 @@ def run_checks(link, check, machine, seconds, replay=None):
     e = parse_error(b) if t == R_ERROR else {}
     check(t == R_ERROR and e.get("code") == ERR_INVALID and e.get("field") == "u_max_V",
           f"NaN limit -> invalid_param naming u_max_V: {e}")
-    t, b = link.request(T_START_WAVE, bytes([0x08]))
+    t, b = link.request(T_START_WAVE, bytes([0x10]))
     e = parse_error(b) if t == R_ERROR else {}
     check(t == R_ERROR and e.get("code") == ERR_MALFORMED and e.get("field") == "flags",
           f"StartWave unknown flag bit -> malformed naming flags: {e}")

@@ -277,24 +277,35 @@ public:
 private:
     // ---- client loss --------------------------------------------------------
     // A setpoint stream, or a wave started without the detached flag, is the
-    // client's: if no intact frame arrives for the link group's
-    // client_timeout_s, it is stopped (the setpoint holds its last value),
-    // the loop is disarmed if on_client_loss says so, and the status reports
-    // client_lost until the next stream or wave starts. Checked in the main
-    // loop against the tick count: nothing is added to the tick.
+    // client's. A stream that has been sent no setpoints for the link group's
+    // client_timeout_s (and is not draining) has lost its feeder, whatever
+    // else talks to the board meanwhile; a wave is lost when no intact frame
+    // arrives for that long.
+    // Then it is stopped (the setpoint holds its last value), the loop is
+    // disarmed if on_client_loss says so, and the status reports client_lost
+    // until the next stream or wave starts. Checked in the main loop against
+    // the tick count: nothing is added to the tick.
     void bind_client(bool bound) {
         client_bound_ = bound;
         client_lost_ = false;
+        stream_fed_tick_ = pipeline_.tick_count();
     }
 
     void watch_client() {
         if (!client_bound_) return;
-        if (!stream_.open() && !pipeline_.wave_running()) {
+        const uint32_t now = pipeline_.tick_count();
+        uint32_t since = 0;
+        if (stream_.open()) {
+            if (stream_.draining()) return;  // the client said it is done
+            since = stream_fed_tick_;
+        } else if (pipeline_.wave_running()) {
+            since = last_frame_tick_;
+        } else {
             client_bound_ = false;  // ended on its own
             return;
         }
         const uint32_t timeout = policy_.client_timeout_ticks();
-        if (timeout == 0 || pipeline_.tick_count() - last_frame_tick_ < timeout) return;
+        if (timeout == 0 || now - since < timeout) return;
         stream_.stop(false);
         pipeline_.stop_wave();
         if (policy_.link().on_client_loss == params::ClientLossAction::kDisarm) pipeline_.disarm();
@@ -434,7 +445,9 @@ private:
         int bad = -1;
         using Refusal = typename SetpointStream<T, SetpointCapacity>::Refusal;
         switch (stream_.push(m, pipeline_.setup().position, bad)) {
-            case Refusal::kNone: return reply(stream_.ack(), h.seq, send);
+            case Refusal::kNone:
+                stream_fed_tick_ = pipeline_.tick_count();
+                return reply(stream_.ack(), h.seq, send);
             case Refusal::kNotOpen:
                 return fail(h, ErrorCode::kNotConfigured, error("stream", "no stream open: send StreamStart first"), send);
             case Refusal::kSequence:
@@ -454,6 +467,7 @@ private:
     TickStats tick_stats_{};
     ParamPolicy<PipelineType> policy_;
     uint32_t last_frame_tick_ = 0;
+    uint32_t stream_fed_tick_ = 0;  // tick of the last setpoint block accepted
     bool client_bound_ = false;
     bool client_lost_ = false;
     SetpointStream<T, SetpointCapacity> stream_{};

@@ -207,9 +207,14 @@ private:
     Status apply(const LinkParams& v) {
         if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
         link_ = v;
-        // At most 3600 s x the loop rate (< 2^32 ticks at up to 1 MHz).
-        client_timeout_ticks_ = static_cast<uint32_t>(static_cast<double>(v.client_timeout_s) * pipeline_.setup().rate_Hz);
+        client_timeout_ticks_ = timeout_ticks(v.client_timeout_s);
         return ok_status();
+    }
+
+    // Seconds to ticks, to the nearest tick; at most 3600 s x the loop rate
+    // (< 2^32 ticks up to 1 MHz).
+    uint32_t timeout_ticks(float s) const {
+        return static_cast<uint32_t>(static_cast<double>(s) * static_cast<double>(pipeline_.setup().rate_Hz) + 0.5);
     }
 
     TrajectoryConfig trajectory_config(const TrajectoryParams& v) const {
@@ -223,8 +228,7 @@ private:
     TrajectoryParams wave_{};
     bool wave_set_ = false;
     LinkParams link_{};
-    uint32_t client_timeout_ticks_ = static_cast<uint32_t>(static_cast<double>(LinkParams{}.client_timeout_s) *
-                                                           pipeline_.setup().rate_Hz);
+    uint32_t client_timeout_ticks_ = timeout_ticks(LinkParams{}.client_timeout_s);
     params::FieldCheck check_{};
     params::TextBuffer<32> critical_field_{};
     params::TextBuffer<32> nested_field_{};

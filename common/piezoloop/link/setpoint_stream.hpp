@@ -87,6 +87,7 @@ public:
     }
 
     bool open() const { return state() != kIdle; }
+    bool draining() const { return __atomic_load_n(&drain_, __ATOMIC_ACQUIRE); }
     uint32_t underruns() const { return __atomic_load_n(&underruns_, __ATOMIC_RELAXED); }
     uint32_t next_block_seq() const { return next_block_seq_; }
     std::size_t free_slots() const { return Capacity - (head_ - __atomic_load_n(&tail_, __ATOMIC_ACQUIRE)); }

@@ -725,7 +725,7 @@ TYPED_TEST(LinkStartWaveFlags, UnknownBitsAreMalformed) {
     ASSERT_EQ(r_.set(this->wave()).type(), MsgType::kAck);
     ASSERT_EQ(r_.set(this->recorder()).type(), MsgType::kAck);
     const uint32_t bad0 = r_.device->counters().bad_value;
-    for (const uint8_t flags : {uint8_t{0x08}, uint8_t{0x81}, uint8_t{0xFF}}) {
+    for (const uint8_t flags : {uint8_t{0x10}, uint8_t{0x81}, uint8_t{0xFF}}) {
         this->expect_error(r_.request(StartWave{flags}), ErrorCode::kMalformed, nullptr, "flags");
         this->expect_nothing_started();
     }
@@ -791,7 +791,7 @@ protected:
             main_loop();
         }
     }
-    int timeout_ticks(float s) const { return static_cast<int>(s * reference::setup().rate_Hz); }
+    int timeout_ticks(float s) const { return static_cast<int>(static_cast<double>(s) * reference::setup().rate_Hz + 0.5); }
     void start_triangle(uint8_t flags) {
         TrajectoryParams tp;
         tp.waveform = Waveform::kTriangle;
@@ -813,9 +813,11 @@ TYPED_TEST(LinkClientLoss, AnAbandonedStreamIsClosedAndTheSetpointHolds) {
     for (int i = 0; i < 10; ++i) b.setpoint_um[static_cast<unsigned>(i)] = 1.0f + 0.1f * static_cast<float>(i);
     ASSERT_EQ(r_.request(b).type(), MsgType::kSetpointAck);
     EXPECT_EQ(r_.request(Arm{}).type(), MsgType::kAck);
-    // The client dies: the FIFO runs dry (underruns, never silent) until the
-    // timeout, then the stream is closed; the loop stays armed.
-    this->silence(this->timeout_ticks(0.01f) - 1);
+    // The client dies: the FIFO runs dry after 10 ticks (underruns, never
+    // silent); a status request from elsewhere does not feed the stream; one
+    // timeout after the last block the stream is closed, the loop stays armed.
+    this->silence(this->timeout_ticks(0.01f) - 2);
+    EXPECT_EQ(r_.request(GetStatus{}).type(), MsgType::kStatusReply);
     EXPECT_TRUE(r_.device->streaming());
     this->silence(2);
     EXPECT_FALSE(r_.device->streaming());
@@ -825,6 +827,27 @@ TYPED_TEST(LinkClientLoss, AnAbandonedStreamIsClosedAndTheSetpointHolds) {
     EXPECT_NEAR(st.r_um, 1.9f, 1e-3f);  // the last streamed setpoint holds
     // A new client can start a wave at once; the report clears.
     this->start_triangle(0);
+    EXPECT_EQ(r_.request(GetStatus{}).template as<StatusReply>().faults & fault::kClientLost, 0u);
+}
+
+TYPED_TEST(LinkClientLoss, AStreamLeftPrimingIsClosedToo) {
+    // Killed before the prefill was reached: nothing consumed, nothing
+    // empty, but nothing sent either.
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(LinkParams{0.01f, params::ClientLossAction::kHold}).type(), MsgType::kAck);
+    EXPECT_EQ(r_.request(StreamStart{1000}).type(), MsgType::kSetpointAck);
+    SetpointBlock b;
+    b.count = 100;
+    ASSERT_EQ(r_.request(b).type(), MsgType::kSetpointAck);
+    this->silence(this->timeout_ticks(0.01f) + 1);
+    EXPECT_FALSE(r_.device->streaming());
+    // A drained stream is the client's own end: never cut short.
+    EXPECT_EQ(r_.request(StreamStart{0}).type(), MsgType::kSetpointAck);
+    ASSERT_EQ(r_.request(b).type(), MsgType::kSetpointAck);
+    ASSERT_EQ(r_.request(StreamStop{true}).type(), MsgType::kAck);
+    this->silence(120);  // the 100 buffered setpoints, then the drained end
+    EXPECT_FALSE(r_.device->streaming());
     EXPECT_EQ(r_.request(GetStatus{}).template as<StatusReply>().faults & fault::kClientLost, 0u);
 }
 

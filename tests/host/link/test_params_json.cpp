@@ -91,7 +91,7 @@ TEST(HostLinkParamsJson, MergeChangesOnlyTheGivenKeys) {
 
 TEST(HostLinkParamsJson, ErrorsNameTheKey) {
     EXPECT_EQ(error_of(json::parse(R"({"u_max": 5})"), {}), "limits.u_max: unknown field (allowed here: u_min_V, u_max_V, slew_V_per_s, saturation_trip_s)");
-    EXPECT_EQ(error_of(json::parse(R"({"u_max_V": "5"})"), {}), "limits.u_max_V: must be a number, not string");
+    EXPECT_EQ(error_of(json::parse(R"({"u_max_V": "5"})"), {}), "limits.u_max_V: must be a number, not a string");
     EXPECT_EQ(error_of(json::parse("[1]"), {}), "limits: must be a JSON object");
     link::FeedforwardParams ff;
     try {
