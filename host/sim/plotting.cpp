@@ -12,12 +12,11 @@ namespace piezoloop::sim {
 
 std::filesystem::path repository_root() {
     if (const char* env = std::getenv("PIEZOLOOP_ROOT"); env && *env) return env;
-    // This file is host/sim/plotting.cpp in the tree the binary was built from.
-    const std::filesystem::path here(__FILE__);
-    if (here.is_absolute()) {
-        const std::filesystem::path root = here.parent_path().parent_path().parent_path();
-        if (std::filesystem::exists(root / "tools" / "plot_sim.py")) return root;
-    }
+#ifdef PIEZOLOOP_SOURCE_DIR
+    // The source tree the binary was built from.
+    if (std::filesystem::exists(std::filesystem::path(PIEZOLOOP_SOURCE_DIR) / "tools" / "plot_sim.py"))
+        return PIEZOLOOP_SOURCE_DIR;
+#endif
     return std::filesystem::current_path();
 }
 
