@@ -12,6 +12,7 @@
 #include "lti/freqresp.hpp"
 #include "analysis/hinf.hpp"
 #include "lti/lti_convert.hpp"
+#include "lti/text.hpp"
 #include "analysis/margins.hpp"
 
 namespace piezoloop::design {
@@ -32,11 +33,6 @@ void validate(const RcConfig& rc, double ts) {
     if (!(rc.k_rc > 0.0) || !std::isfinite(rc.k_rc)) throw std::invalid_argument("rc: k_rc must be > 0");
 }
 
-std::string fmt(const char* f, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
-    char buf[400];
-    std::snprintf(buf, sizeof buf, f, a, b, c, d);
-    return buf;
-}
 
 double hz(double w) { return w / (2.0 * kPi); }
 
@@ -114,8 +110,8 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
     const SsEvaluator et(t), eq(q), el(l);
     r.loop_stable = is_stable(t);
     if (!r.loop_stable)
-        r.failures.push_back(fmt("the loop without RC is unstable (largest |z| = %.6g): RC analysis presumes a stable T",
-                                 stability_measure(t)));
+        r.failures.push_back(cat("the loop without RC is unstable (largest |z| = ", format::significant(stability_measure(t)),
+                                 "): RC analysis presumes a stable T"));
 
     // Q's cutoff.
     std::vector<cplx> crit = ss_poles(t);
@@ -155,10 +151,10 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
     r.max_phase_at_Hz = hz(max_w);
     r.phase_ok = r.max_phase_deg < 90.0;
     if (!r.phase_ok)
-        r.failures.push_back(fmt("(3) |thetaT + theta2| reaches %.4g deg at %.6g Hz, below Q's cutoff %.6g Hz "
-                                 "(limit 90 deg): the Q cutoff must stay below %.6g Hz",
-                                 r.max_phase_deg, r.max_phase_at_Hz, r.q_cutoff_Hz,
-                                 r.phase_90_at_Hz ? *r.phase_90_at_Hz : 0.0));
+        r.failures.push_back(cat("(3) |thetaT + theta2| reaches ", format::significant(r.max_phase_deg, 4), " deg at ",
+                                 format::significant(r.max_phase_at_Hz), " Hz, below Q's cutoff ", format::significant(r.q_cutoff_Hz),
+                                 " Hz (limit 90 deg): the Q cutoff must stay below ",
+                                 format::significant(r.phase_90_at_Hz ? *r.phase_90_at_Hz : 0.0), " Hz"));
 
     // (2): k_rc_max = min over (0, ωc] of 2 cos θ / A.
     {
@@ -178,9 +174,9 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
         r.k_rc_max_at_Hz = hz(w);
         r.gain_ok = rc.k_rc < r.k_rc_max;
         if (!r.gain_ok)
-            r.failures.push_back(fmt("(2) k_rc = %.6g is not below 2 cos(theta)/A = %.6g (at %.6g Hz): "
-                                     "exceeds it by %.6g",
-                                     rc.k_rc, r.k_rc_max, r.k_rc_max_at_Hz, rc.k_rc - r.k_rc_max));
+            r.failures.push_back(cat("(2) k_rc = ", format::significant(rc.k_rc), " is not below 2 cos(theta)/A = ", format::significant(r.k_rc_max),
+                                     " (at ", format::significant(r.k_rc_max_at_Hz), " Hz): exceeds it by ",
+                                     format::significant(rc.k_rc - r.k_rc_max)));
     }
 
     // (1): sup |Q| |1 − k_rc e^{jθ2} T| up to Nyquist.
@@ -193,9 +189,8 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
         r.small_gain_at_Hz = hz(w);
         r.small_gain_ok = v < 1.0;
         if (!r.small_gain_ok)
-            r.failures.push_back(fmt("(1) sup |Q| |1 - k_rc z^m2 T| = %.6g >= 1 (at %.6g Hz): the sufficient "
-                                     "condition behind (2)-(3) fails",
-                                     v, r.small_gain_at_Hz));
+            r.failures.push_back(cat("(1) sup |Q| |1 - k_rc z^m2 T| = ", format::significant(v), " >= 1 (at ", format::significant(r.small_gain_at_Hz),
+                                     " Hz): the sufficient condition behind (2)-(3) fails"));
     }
 
     // Exact: roots of 1 − M.
@@ -209,7 +204,7 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
             r.rc_max_abs_root = mx;
             r.rc_stable = mx < 1.0 && r.loop_stable;
             if (mx >= 1.0)
-                r.failures.push_back(fmt("exact: the RC loop is unstable, a root of 1 - M lies at |z| = %.8g", mx));
+                r.failures.push_back(cat("exact: the RC loop is unstable, a root of 1 - M lies at |z| = ", format::significant(mx, 8)));
         }
     }
 
@@ -255,11 +250,11 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
         const FeedbackLoop f = feedback_loop(gl, rc_plus_one(rc, ts));
         r.g0_loop_stable = f.T.A.rows() <= kMaxDelayStates + 64 ? is_stable(f.T) : r.g0_ok;
         if (!r.g0_ok)
-            r.failures.push_back(fmt("(15) g0 = %.6g exceeds the RC loop's gain margin M_GL = %.6g (at %.6g Hz)",
-                                     pi->g0, *r.gain_margin_rc, *r.gain_margin_rc_at_Hz));
+            r.failures.push_back(cat("(15) g0 = ", format::significant(pi->g0), " exceeds the RC loop's gain margin M_GL = ",
+                                     format::significant(*r.gain_margin_rc), " (at ", format::significant(*r.gain_margin_rc_at_Hz), " Hz)"));
         if (!r.g0_loop_stable)
-            r.failures.push_back(fmt("(15) the RC loop with the hysteresis gain g0 = %.6g is unstable (eigenvalues)",
-                                     pi->g0));
+            r.failures.push_back(cat("(15) the RC loop with the hysteresis gain g0 = ", format::significant(pi->g0),
+                                     " is unstable (eigenvalues)"));
         // (21): ||G2||∞ = ||T_g0||∞ / |g0|.
         auto tg0 = [&](double w) {
             const cplx x = pi->g0 * lrc(w);
@@ -284,9 +279,9 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
             r.failures.push_back("(21) cannot hold: the linear RC loop with the hysteresis gain is unstable, so G2 "
                                  "is unbounded; inverse-PI feedforward alone will not make it stable");
         else if (!r.density_ok)
-            r.failures.push_back(fmt("(21) ||d||_1 = %.6g is not below 1/(|g0| ||G2||inf) = %.6g (||G2||inf = %.6g "
-                                     "at %.6g Hz): inverse-PI feedforward is required",
-                                     r.density_l1, r.density_bound, r.hinf_G2, r.hinf_G2_at_Hz));
+            r.failures.push_back(cat("(21) ||d||_1 = ", format::significant(r.density_l1), " is not below 1/(|g0| ||G2||inf) = ",
+                                     format::significant(r.density_bound), " (||G2||inf = ", format::significant(r.hinf_G2), " at ",
+                                     format::significant(r.hinf_G2_at_Hz), " Hz): inverse-PI feedforward is required"));
     }
     return r;
 }

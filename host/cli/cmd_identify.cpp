@@ -3,7 +3,11 @@
 // and balanced truncation (host/ident/rls, pi_fit, dahl_fit, balred). JSON
 // on stdout; a bad file, column, option or unidentifiable data gives
 // "error: <field>: <why>" on stderr and exit code 2.
+#include <unistd.h>
+
+#include <chrono>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <stdexcept>
@@ -26,6 +30,33 @@ namespace {
 
 using nlohmann::json;
 namespace d = piezoloop::design;
+
+// What a long fit is doing, on stderr once it has run for a second: a line
+// rewritten in place on a terminal, else a line every 10 s.
+class FitProgress {
+public:
+    explicit FitProgress(std::string label)
+        : label_(std::move(label)), tty_(isatty(STDERR_FILENO) != 0), t0_(std::chrono::steady_clock::now()) {}
+    ~FitProgress() {
+        if (shown_ && tty_) std::cerr << "\n";
+    }
+    void operator()(const std::string& what) {
+        const auto now = std::chrono::steady_clock::now();
+        const double elapsed = std::chrono::duration<double>(now - t0_).count();
+        const double since = std::chrono::duration<double>(now - last_).count();
+        if (elapsed < 1.0 || (shown_ && since < (tty_ ? 0.5 : 10.0))) return;
+        last_ = now;
+        shown_ = true;
+        std::cerr << (tty_ ? "\r" : "") << label_ << ": " << what << " (" << static_cast<int>(elapsed) << " s)"
+                  << (tty_ ? "   " : "\n") << std::flush;
+    }
+
+private:
+    std::string label_;
+    bool tty_;
+    bool shown_ = false;
+    std::chrono::steady_clock::time_point t0_, last_;
+};
 
 // Non-finite numbers (e.g. the fit of a diverging model) as JSON null.
 json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
@@ -69,6 +100,8 @@ void run_rls(const RlsArgs& a) {
     spec.structure = a.structure == "oe" ? d::LinearStructure::kOutputError : d::LinearStructure::kArx;
     spec.input_name = a.data.input;
     spec.output_name = a.data.output;
+    FitProgress progress("identify rls");
+    spec.progress = std::ref(progress);
     const d::LinearIdentResult r = d::identify_linear(u, y, ts, spec);
     json out;
     out["method"] = r.method;
@@ -210,6 +243,8 @@ void run_dahl(const DahlArgs& a) {
                                         std::to_string(a.start.size()) + ")");
         o.start = d::DahlParamsD{a.start[0], a.start[1], a.start[2], a.start[3], a.gamma_a, a.start[4]};
     }
+    FitProgress progress("identify dahl");
+    o.progress = std::ref(progress);
     const d::DahlFitResult r = d::fit_dahl(v, x, o);
     json out;
     out["params"] = dahl_json(r.params);

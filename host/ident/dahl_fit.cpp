@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -165,11 +166,13 @@ struct OutputError {
     Scaling sc;
     double penalty = 0.0;  // residual used when the model cannot be simulated
     int* count = nullptr;
+    std::function<void()> on_simulation;  // progress
 
     int inputs() const { return 5; }
     int values() const { return static_cast<int>(x.size()); }
     int operator()(const Eigen::VectorXd& q, Eigen::VectorXd& f) const {
         if (count) ++*count;
+        if (on_simulation) on_simulation();
         const DahlParamsD p = sc.params(q);
         f.resize(values());
         if (!usable(p)) {
@@ -318,7 +321,13 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
         Scaling sc{o.gamma_a, 0.0, std::fabs(s.beta2)};
         if (!(sc.sb2 > 0.0)) sc.sb2 = s.alpha2 * (*xmax - *xmin) / std::fabs(o.gamma_a);
         sc.sb1 = std::fabs(s.beta1) > 0.0 ? std::fabs(s.beta1) : sc.sb2 / std::sqrt(s.alpha2);
-        OutputError fn{v, x, sc, 1e3 * (xrms + 1.0), &evaluations};
+        OutputError fn{v, x, sc, 1e3 * (xrms + 1.0), &evaluations, {}};
+        if (o.progress) {
+            const std::string run = "LM run " + std::to_string(best.starts + 1) + " of " + std::to_string(starts.size());
+            fn.on_simulation = [&o, &evaluations, run] {
+                o.progress(run + ", " + std::to_string(evaluations) + " model simulations");
+            };
+        }
         Eigen::NumericalDiff<OutputError> nd(fn);
         Eigen::LevenbergMarquardt<Eigen::NumericalDiff<OutputError>> lm(nd);
         lm.parameters.maxfev = std::max<Eigen::Index>(10, o.max_evaluations / 6);
@@ -347,7 +356,7 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
     best.beta2_gamma_a = p.beta2 * p.gamma_a;
 
     // Jacobian in the parameters' own units, by central differences.
-    OutputError fn{v, x, best_sc, 1e3 * (xrms + 1.0), &evaluations};
+    OutputError fn{v, x, best_sc, 1e3 * (xrms + 1.0), &evaluations, {}};
     Eigen::VectorXd f0;
     fn(best_q, f0);
     const int m = static_cast<int>(x.size());

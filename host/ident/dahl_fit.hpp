@@ -32,6 +32,7 @@
 // three best grid points and the lowest output error wins.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -63,6 +64,9 @@ struct DahlFitOptions {
     int max_evaluations = 4000;         // model simulations per LM run
     std::string input_name = "v";       // column names used in error messages
     std::string output_name = "x";
+    // Called after every model simulation with what the fit is doing
+    // ("LM run 2 of 4, 120 simulations"); for progress output.
+    std::function<void(const std::string&)> progress;
 };
 
 struct DahlFitResult {

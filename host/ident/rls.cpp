@@ -233,6 +233,9 @@ LinearIdentResult identify_linear(std::span<const double> u, std::span<const dou
         res.method = "steiglitz-mcbride-oe";
         res.converged = false;
         for (int it = 1; it <= spec.max_iterations; ++it) {
+            if (spec.progress)
+                spec.progress("Steiglitz-McBride pass " + std::to_string(it) + " of " +
+                              std::to_string(spec.max_iterations));
             const std::vector<double> f = stabilised(res.a);
             const std::vector<double> uf = all_pole_filter(f, u);
             const std::vector<double> yf = all_pole_filter(f, y);

@@ -19,6 +19,7 @@
 // unstable. Ahmad2020 identify by RLS, i.e. the ARX structure.
 #pragma once
 
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -65,6 +66,9 @@ struct LinearIdentSpec {
     double tolerance = 1e-10;  // OE: stop when |d params| <= tolerance * |params|
     std::string input_name = "u";   // column names used in error messages
     std::string output_name = "y";
+    // Called before every Steiglitz-McBride pass (OE) with what the fit is
+    // doing ("Steiglitz-McBride pass 3 of 50"); for progress output.
+    std::function<void(const std::string&)> progress;
 };
 
 struct LinearIdentResult {

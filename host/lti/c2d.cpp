@@ -53,8 +53,8 @@ Zpk tustin(const Zpk& c, double ts, double prewarp_rad_s) {
     if (prewarp_rad_s > 0.0) {
         const double half = 0.5 * prewarp_rad_s * ts;
         if (!(half < 0.5 * std::numbers::pi))
-            throw std::invalid_argument(cat("prewarp: ", fmt(prewarp_rad_s / (2.0 * std::numbers::pi)),
-                                            " Hz must be below Nyquist (", fmt(0.5 / ts), " Hz)"));
+            throw std::invalid_argument(cat("prewarp: ", format::significant(prewarp_rad_s / (2.0 * std::numbers::pi)),
+                                            " Hz must be below Nyquist (", format::significant(0.5 / ts), " Hz)"));
         k = prewarp_rad_s / std::tan(half);
     }
     Zpk d;
@@ -62,7 +62,7 @@ Zpk tustin(const Zpk& c, double ts, double prewarp_rad_s) {
     cplx num = c.gain, den = 1.0;
     auto map = [&](cplx r, const char* what) {
         if (r == cplx(k, 0.0))
-            throw std::invalid_argument(cat("c2d: a ", what, " at s = 2/Ts (", fmt(k), ") maps to infinity"));
+            throw std::invalid_argument(cat("c2d: a ", what, " at s = 2/Ts (", format::significant(k), ") maps to infinity"));
         return (k + r) / (k - r);
     };
     for (const cplx& z : c.zeros) {

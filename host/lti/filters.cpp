@@ -22,7 +22,7 @@ void check_rate(double rate_hz) {
 
 void check_below_nyquist(double f, double rate_hz, const char* field) {
     require(std::isfinite(f) && f > 0.0 && f < 0.5 * rate_hz, field,
-            cat("must be in (0, rate/2 = ", fmt(0.5 * rate_hz), ") Hz"));
+            cat("must be in (0, rate/2 = ", format::significant(0.5 * rate_hz), ") Hz"));
 }
 
 // Roots of s^2 + 2 zeta w0 s + w0^2 (complex pair for zeta < 1, else two

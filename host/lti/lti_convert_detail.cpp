@@ -102,7 +102,7 @@ void check_ss(const Ss& ss) {
 }
 
 void check_ts(double a, double b, const char* what) {
-    if (a != b) fail(cat(what, ": models must have the same ts (", fmt(a, 17), " vs ", fmt(b, 17), ")"));
+    if (a != b) fail(cat(what, ": models must have the same ts (", format::significant(a, 17), " vs ", format::significant(b, 17), ")"));
 }
 
 Block cascade(const Block& first, const Block& second) {

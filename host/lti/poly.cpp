@@ -140,7 +140,7 @@ void split_conjugates(const std::vector<cplx>& roots, std::vector<double>& real,
             }
         }
         if (best == roots.size())
-            fail(cat(what, "[", std::to_string(i), "]: complex root (", fmt(r.real(), 17), ", ", fmt(r.imag(), 17),
+            fail(cat(what, "[", std::to_string(i), "]: complex root (", format::significant(r.real(), 17), ", ", format::significant(r.imag(), 17),
                      ") has no complex-conjugate partner (a real model needs both)"));
         used[best] = true;
         const cplx o = roots[best];

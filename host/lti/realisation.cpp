@@ -16,10 +16,9 @@
 namespace piezoloop::design {
 namespace {
 
-std::string fmt(const char* f, double v) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, f, v);
-    return buf;
+// The imaginary part of a root with its sign: "+0.5j", "-0.5j".
+std::string imaginary(double v, int digits) {
+    return (std::signbit(v) ? "" : "+") + format::significant(v, digits) + "j";
 }
 
 constexpr int kMax = kMaxCheckedSections;
@@ -161,9 +160,9 @@ RealisationReport check_realisation(const Zpk& design, const std::vector<SosSect
         if (ps.relative_shift > opt.max_pole_shift && ps.design.imag() >= 0.0) {  // one warning per pair
             r.warnings.push_back(cat(
                 "section ", std::to_string(ps.section), ": the ", fmt_name, " coefficients move the pole at ",
-                fmt("%.9g", ps.design.real()), fmt("%+.3gj", ps.design.imag()), " to ",
-                fmt("%.9g", ps.realised.real()), fmt("%+.3gj", ps.realised.imag()), " (|dz| = ",
-                fmt("%.3g", ps.shift), ", ", fmt("%.3g", 100.0 * ps.relative_shift),
+                format::significant(ps.design.real(), 9), imaginary(ps.design.imag(), 3), " to ",
+                format::significant(ps.realised.real(), 9), imaginary(ps.realised.imag(), 3), " (|dz| = ",
+                format::significant(ps.shift, 3), ", ", format::significant(100.0 * ps.relative_shift, 3),
                 " % of its distance to the unit circle): this realisation is unfit",
                 opt.format == SampleFormat::kFloat ? "; use --format q31" : ""));
         }
@@ -224,7 +223,7 @@ RealisationReport check_realisation(const Zpk& design, const std::vector<SosSect
     const double tail_noise = 100.0 * static_cast<double>(n / 10) * sample_noise * sample_noise;
     if (total > 0.0 && tail > 1e-12 * total + tail_noise)
         r.warnings.push_back(cat("the impulse response has not decayed after ", std::to_string(n),
-                                 " samples (tail energy ", fmt("%.2g", tail / total),
+                                 " samples (tail energy ", format::significant(tail / total, 2),
                                  "): the realisation is (nearly) unstable or slower than the design"));
 
     // 4. Response at log-spaced frequencies up to Nyquist.
@@ -251,10 +250,11 @@ RealisationReport check_realisation(const Zpk& design, const std::vector<SosSect
     }
     if (!(r.max_error_db <= opt.max_error_db) || !(r.max_phase_error_deg <= opt.max_phase_error_deg))
         r.warnings.push_back(cat("the ", fmt_name, " response deviates from the design by up to ",
-                                 fmt("%.3g", r.max_error_db), " dB (worst at ", fmt("%.4g", r.worst_f_hz),
-                                 " Hz) and ", fmt("%.3g", r.max_phase_error_deg),
-                                 " deg (limits ", fmt("%.3g", opt.max_error_db), " dB, ",
-                                 fmt("%.3g", opt.max_phase_error_deg), " deg): this realisation is unfit",
+                                 format::significant(r.max_error_db, 3), " dB (worst at ",
+                                 format::significant(r.worst_f_hz, 4),
+                                 " Hz) and ", format::significant(r.max_phase_error_deg, 3),
+                                 " deg (limits ", format::significant(opt.max_error_db, 3), " dB, ",
+                                 format::significant(opt.max_phase_error_deg, 3), " deg): this realisation is unfit",
                                  opt.format == SampleFormat::kFloat ? "; use --format q31" : ""));
     r.fit = r.warnings.empty();
     return r;

@@ -1,8 +1,10 @@
-// Building the error messages of the design tools.
+// Building the error messages of the design tools: pieces appended with
+// cat(), numbers formatted by format::significant (host/format/number.hpp).
 #pragma once
 
-#include <cstdio>
 #include <string>
+
+#include "format/number.hpp"
 
 namespace piezoloop::design {
 
@@ -12,13 +14,6 @@ std::string cat(const Parts&... parts) {
     std::string s;
     ((s += parts), ...);
     return s;
-}
-
-// A number with `significant` digits (%g): 6 for messages, 17 to round-trip.
-inline std::string fmt(double v, int significant = 6) {
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.*g", significant, v);
-    return buf;
 }
 
 }  // namespace piezoloop::design

@@ -72,8 +72,8 @@ check("sim --list names a case", case is not None, cases[:200])
 if case:
     expect("sim --out unwritable", ["sim", "--scenario", scenario, "--case", case.group(1), "--amplitude-um", "10",
                                     "--out", unwritable + ".csv"], 1, "cannot write")
-expect("reproduce --out unwritable", ["reproduce", "ahmad2020", "--out", "/proc/piezoloop-no", "--no-plots",
-                                      "--no-fidelity"], 1)
+expect("reproduce --out unwritable", ["reproduce", "ahmad2020", "--configs", configs, "--out", "/proc/piezoloop-no",
+                                      "--no-plots", "--no-fidelity"], 1)
 # 3: link or device.
 refused = f"tcp:127.0.0.1:{closed_port()}"
 expect("connection refused", ["--device", refused, "status"], 3, "connection refused")

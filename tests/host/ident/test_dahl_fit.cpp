@@ -191,6 +191,29 @@ TEST(IdentDahl, ConvergesFromAGivenStart) {
     }
 }
 
+TEST(IdentDahl, ReportsProgressPerSimulation) {
+    // The progress callback (stderr output of `identify dahl`) sees every
+    // model simulation, named by its LM run; it does not change the fit.
+    const std::vector<double> v = loops(40.0, 15.0, 3, 200);
+    const std::vector<double> x = noisy(simulate_dahl_plant(kVisible, v), 0.005, 1);
+    DahlFitOptions o;
+    o.gamma_a = kVisible.gamma_a;
+    const DahlFitResult quiet = fit_dahl(v, x, o);
+    int calls = 0;
+    std::string last;
+    o.progress = [&](const std::string& what) {
+        ++calls;
+        last = what;
+    };
+    const DahlFitResult r = fit_dahl(v, x, o);
+    EXPECT_GT(calls, 0);
+    EXPECT_LE(calls, r.evaluations);
+    EXPECT_EQ(last.rfind("LM run ", 0), 0u) << last;
+    EXPECT_NE(last.find("model simulations"), std::string::npos) << last;
+    EXPECT_EQ(r.params.alpha1, quiet.params.alpha1);
+    EXPECT_EQ(r.params.ga, quiet.params.ga);
+}
+
 TEST(IdentDahl, RecoversBeta1) {
     const std::vector<double> v = loops(40.0, 0.0, 3, 200);
     const std::vector<double> x = noisy(simulate_dahl_plant(kBeta1, v), 0.005, 2);

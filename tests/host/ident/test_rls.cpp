@@ -186,9 +186,14 @@ TEST(IdentRls, OutputErrorBySteiglitzMcBrideRecoversWhereArxIsBiased) {
 
     LinearIdentSpec spec;
     spec.structure = LinearStructure::kOutputError;
+    // The progress callback (stderr output of `identify rls`) names each pass.
+    std::vector<std::string> passes;
+    spec.progress = [&](const std::string& what) { passes.push_back(what); };
     const LinearIdentResult oe = identify_linear(u, y, 1e-4, spec);
     EXPECT_TRUE(oe.converged);
     EXPECT_EQ(oe.method, "steiglitz-mcbride-oe");
+    ASSERT_EQ(passes.size(), static_cast<std::size_t>(oe.iterations));
+    EXPECT_EQ(passes.front(), "Steiglitz-McBride pass 1 of 50");
     // Standard errors of the OE estimate: sigma^2 (Psi' Psi)^-1 with Psi
     // the gradient regressors [-x_f[k-1], -x_f[k-2], u_f[k-1], u_f[k-2]],
     // x = B/F u the noise-free output, _f = filtered by 1/F (first-order

@@ -1,0 +1,23 @@
+#!/bin/sh
+# Builds a libFuzzer target of the host's readers with clang, ASan and UBSan:
+# the target's source and the host sources it needs, each compiled once into
+# a shared object directory (the three reader targets share most of them).
+# usage: build_host_fuzzer.sh CLANGXX SOURCE_ROOT OBJ_DIR OUT_BINARY TARGET.cpp HOST_SOURCE...
+#        (HOST_SOURCE relative to SOURCE_ROOT/host, e.g. json/json_reader.cpp)
+set -eu
+cxx=$1 root=$2 obj=$3 out=$4 target=$5
+shift 5
+flags="-std=c++20 -g1 -O1 -fsanitize=address,undefined -fno-sanitize-recover=undefined -DNDEBUG
+       -I$root/host -I$root/common -isystem /usr/include/eigen3"
+mkdir -p "$obj"
+objects=""
+for src in "$@"; do
+    o="$obj/$(echo "$src" | tr / _).o"
+    # Recompiled when the source is newer (its headers are the tree's; a CI
+    # build starts from scratch).
+    if [ ! -f "$o" ] || [ "$root/host/$src" -nt "$o" ]; then
+        $cxx $flags -fsanitize=fuzzer-no-link -c "$root/host/$src" -o "$o"
+    fi
+    objects="$objects $o"
+done
+$cxx $flags -fsanitize=fuzzer "$target" $objects -o "$out"
