@@ -7,12 +7,10 @@
 // Sections are designed on the host in double (SosSection) and realised here
 // in one of two ways:
 //
-//  * float: direct form II transposed, float coefficients and float state.
-//    About ten instructions per section on a Cortex-M7 FPU. Single precision
-//    is fine for well-conditioned sections, NOT for poles very close to z = 1
-//    at high sample rates (rounding a1, a2 to 24 bits moves such poles by
-//    ~1e-7, which for the Ahmad2020 controller at 100 kHz changes its gain at
-//    1 Hz by an order of magnitude; see tests/unit/test_biquad.cpp).
+//  * float: the section written in the delta operator d = z - 1 (its
+//    denominator as offsets 2 + a1 and 1 + a1 + a2 from a double pole at
+//    z = 1, computed in double), states updated with compensated summation,
+//    so that float32 holds poles at |z| ~ 0.99997 as well as any other.
 //
 //  * Q31: direct form I, 64-bit accumulation, with the feedback written as an
 //    offset from a double pole at z = 1 plus second-order error feedback, so
@@ -138,11 +136,51 @@ constexpr Status validate_sos(const SosSection* sections, int count, SignalScale
 }  // namespace detail
 
 // ---------------------------------------------------------------------------
-// float: direct form II transposed.
+// float: delta-operator transposed direct form II with compensated states.
 //
-//   y  = b0 x + s1
-//   s1 = b1 x - a1 y + s2
-//   s2 = b2 x - a2 y
+// Why not plain DF2T: a float a1 near -2 is resolved to 2^-23, but for poles
+// near z = 1 the response is set by the tiny differences c1 = 2 + a1 and
+// c0 = 1 + a1 + a2 (Ahmad2020 K(s) at 100 kHz: c0 ~ 1e-9), which DF2T's
+// float a1, a2 lose entirely (its gain at 0.1 Hz would be 29 dB off).
+//
+// The section is written in the delta operator d = z - 1 (Middleton & Goodwin,
+// "Improved finite word length characteristics in digital control using delta
+// operators", IEEE TAC 31(11), 1986; the transposed direct form of
+// Kauraniemi, Laakso, Hartimo & Ovaska, "Delta operator realizations of
+// direct-form IIR filters", IEEE TCAS-II 45(1), 1998). With a0 = 1:
+//
+//   D = z^2 + a1 z + a2          = d^2 + c1 d + c0,   c1 = 2 + a1, c0 = 1 + a1 + a2
+//   N = b0 z^2 + b1 z + b2       = b0 d^2 + n1 d + n0, n1 = 2 b0 + b1, n0 = b0 + b1 + b2
+//   H = N / D = b0 + (g1 d + g0) / D,  g1 = n1 - b0 c1, g0 = n0 - b0 c0
+//
+//   y   = b0 x + s1
+//   s1 += (s2 + g1 x - c1 s1)            (d s1 = -c1 s1 + s2 + g1 x)
+//   s2 += (g0 x - c0 s1)                 (d s2 = -c0 s1 + g0 x)
+//
+// c1, c0, g1, g0 are computed in double from the double design at configure
+// time (the offsets 2 + a1, 1 + a1 + a2 are exact or nearly so in double) and
+// only then rounded to float: each keeps 24 significant bits however small
+// it is, so the poles and zeros move by ~2^-24 of their distance to z = 1.
+//
+// The states are integrators (s += increment) whose increments are small
+// beside them near z = 1; plain float addition would drop the increment's
+// low bits every sample (a deadband, and noise amplified by 1 / c0). Each
+// state therefore carries the rounding residual of its last update and adds
+// it to the next increment: compensated summation (Kahan, "Further remarks on
+// reducing truncation errors", CACM 8(1), 1965; the residual is Dekker's
+// Fast2Sum, 1971), i.e. first-order error feedback on the state (Higgins &
+// Munson, "Noise reduction strategies for digital filters: error spectrum
+// shaping versus the optimal linear state-space formulation", IEEE TASSP
+// 30(6), 1982). What is left is the rounding of the increment itself,
+// ~2^-24 of the terms that make it up, which the section's own gain brings
+// back to ~2^-24 of the state.
+//
+// Every operation is a float add, subtract or multiply in a fixed order (the
+// core is built with -ffp-contract=off: no fused multiply-add), so host and
+// boards agree bit for bit. Cost: 5 multiplies and 12 adds per section
+// against DF2T's 5 and 4 (docs/benchmarks.md has the instruction counts).
+// One form for every float section: it is at least as accurate as DF2T for
+// the sections DF2T holds, and one form is one thing to test and reason about.
 //
 // Signals are physical values; the SignalScales are validated but do not
 // change the coefficients (SignalScale::sample_gain<float> is the identity).
@@ -162,16 +200,30 @@ public:
         for (int i = 0; i < count; ++i) {
             const SosSection& s = sections[i];
             const double g = i == 0 ? gain : 1.0;
+            const double b0 = s.b0 * g, b1 = s.b1 * g, b2 = s.b2 * g;
+            const double c1 = s.a1 + 2.0;
+            const double c0 = c1 + (s.a2 - 1.0);  // 1 + a1 + a2, > 0 for a stable section
+            const double g1 = (2.0 * b0 + b1) - b0 * c1;
+            const double g0 = (b0 + b1 + b2) - b0 * c0;
             Coef& k = c[static_cast<std::size_t>(i)];
-            k = Coef{static_cast<float>(s.b0 * g), static_cast<float>(s.b1 * g),
-                     static_cast<float>(s.b2 * g), static_cast<float>(s.a1), static_cast<float>(s.a2)};
-            // Rounding to float can push a pole that was just inside the unit
-            // circle onto or over it; refuse rather than run an unstable filter.
-            const double a1 = k.a1, a2 = k.a2;
-            const double a1_abs = a1 < 0.0 ? -a1 : a1;
-            if (!(a2 < 1.0 && a2 > -1.0) || !(a1_abs < 1.0 + a2))
+            k = Coef{static_cast<float>(b0), static_cast<float>(g1), static_cast<float>(g0), static_cast<float>(c1),
+                     static_cast<float>(c0)};
+            if (!is_finite(k.b0) || !is_finite(k.g1) || !is_finite(k.g0))
+                return error(detail::sos_field<MaxSections>(i, detail::kB0),
+                             "numerator (first section: times in/out full scale) overflows float");
+            // The realised poles: roots of d^2 + c1 d + c0 with the float
+            // c1, c0. Stable <=> c0 > 0 (1 + a1 + a2 > 0), c1 > c0 (a2 < 1),
+            // c0 - c1 + 2 > 0 (a2 > -1), 4 - 2 c1 + c0 > 0 (1 - a1 + a2 > 0).
+            // A c0 below float's normal range is refused too: denormals are
+            // flushed on some FPUs and not on others.
+            const double q1 = k.c1, q0 = k.c0;
+            constexpr double kFloatMinNormal = 1.17549435082228750797e-38;  // 2^-126
+            if (!(q0 >= kFloatMinNormal) || !(4.0 - 2.0 * q1 + q0 > 0.0))
+                return error(detail::sos_field<MaxSections>(i, detail::kA1),
+                             "poles too close to the unit circle to be represented in float");
+            if (!(q1 - q0 > 0.0) || !(q0 - q1 + 2.0 > 0.0))
                 return error(detail::sos_field<MaxSections>(i, detail::kA2),
-                             "poles leave the unit circle when rounded to float; use the Q31 cascade");
+                             "poles too close to the unit circle to be represented in float");
         }
         coef_ = c;
         if (count != count_) state_ = {};
@@ -211,8 +263,15 @@ private:
                 const Coef& c = coef_[static_cast<std::size_t>(i)];
                 State& s = state_[static_cast<std::size_t>(i)];
                 const float y = c.b0 * x + s.s1;
-                s.s1 = c.b1 * x - c.a1 * y + s.s2;
-                s.s2 = c.b2 * x - c.a2 * y;
+                // Increments, each with the residual its state lost last time.
+                const float i1 = ((s.s2 + c.g1 * x) - c.c1 * s.s1) + s.r1;
+                const float i2 = (c.g0 * x - c.c0 * s.s1) + s.r2;
+                const float t1 = s.s1 + i1;
+                s.r1 = i1 - (t1 - s.s1);  // what the rounding of t1 dropped
+                s.s1 = t1;
+                const float t2 = s.s2 + i2;
+                s.r2 = i2 - (t2 - s.s2);
+                s.s2 = t2;
                 x = y;
             }
             return x;
@@ -231,10 +290,12 @@ private:
     }
 
     struct Coef {
-        float b0 = 0.0f, b1 = 0.0f, b2 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+        float b0 = 0.0f, g1 = 0.0f, g0 = 0.0f;  // feed-through and delta numerator
+        float c1 = 0.0f, c0 = 0.0f;             // 2 + a1, 1 + a1 + a2
     };
     struct State {
-        float s1 = 0.0f, s2 = 0.0f;
+        float s1 = 0.0f, s2 = 0.0f;  // delta-form states
+        float r1 = 0.0f, r2 = 0.0f;  // their rounding residuals (error feedback)
     };
     std::array<Coef, MaxSections> coef_{};
     std::array<State, MaxSections> state_{};

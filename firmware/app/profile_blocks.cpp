@@ -64,10 +64,10 @@ constexpr const char* kVarNames[3] = {"pi_inverse_15_q31_int32_clamp", "", ""};
 variants::PiQ31Clamp g_var_a;
 #else
 constexpr const char* kVarNames[3] = {"pi_inverse_15_minmaxnum", "pi_inverse_15_minmaxnum_unrolled",
-                                      "feedback_sos_3_unrolled"};
+                                      "feedback_sos_3_df2t"};
 variants::PiFloatMinMax g_var_a;
 variants::PiFloatMinMaxUnrolled<14> g_var_b;  // the reference inverse: p0 + 14 play operators
-variants::SosFloatUnrolled<3> g_var_c;
+variants::SosFloatDf2t<3> g_var_c;  // the cost of the former float form
 #endif
 uint32_t g_mismatch[3] = {0, 0, 0};
 WorkStats g_stats[kBlocks];

@@ -145,12 +145,13 @@ private:
     std::array<int32_t, kMaxPlayOperators> p_{}, r_{}, w_{};
 };
 
-// Float biquad cascade with the section count fixed at compile time (the
-// core loops over a runtime count_ of up to kMaxControllerSections): the
-// same DF2T arithmetic, unrolled. The core could dispatch once per tick on
-// its count to such instances.
+// Plain float32 direct form II transposed sections, unrolled for a count
+// fixed at compile time: the form the core's float cascade used before its
+// delta-operator sections (biquad.hpp), kept as the cost comparison point.
+// Not a drop-in: it cannot hold poles near z = 1, so its output differs
+// from the core's (mismatches_vs_core counts the ticks).
 template <int N>
-class SosFloatUnrolled {
+class SosFloatDf2t {
 public:
     bool configure(const SosSection* sections, int count) {
         if (count != N) return false;
