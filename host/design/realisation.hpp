@@ -1,7 +1,8 @@
 // Realisation check: does a biquad cascade, run by the core's own classes
-// (common/piezoloop/biquad.hpp: float32 delta-operator sections with
-// compensated states, or Q31 DF1 relative to z = 1 with error feedback), do
-// what the double-precision design says, at its rate?
+// (common/piezoloop/biquad.hpp: float32 DF2T or delta-operator sections,
+// chosen per section by the cascade, or Q31 DF1 relative to z = 1 with error
+// feedback), do what the double-precision design says, at its rate? The
+// report names each section's form (section_forms).
 //
 //  * configure(): the core's own validation (Status) of the sections and
 //    full scales, reported as "field: message" when it rejects.
@@ -15,7 +16,8 @@
 //    below the realisation's noise floor (Q31: output rounding accumulated
 //    over the record) are listed but not counted.
 //  * Pole displacement: the poles of the coefficients as the core
-//    quantises them (float: 2 + a1 and 1 + a1 + a2 rounded to float; Q31:
+//    quantises them (float DF2T: a1, a2 rounded to float; float delta:
+//    2 + a1 and 1 + a1 + a2 rounded to float; Q31:
 //    the mantissas of a1 + 2 and a2 - 1 on their block exponent, as
 //    BiquadCascade<Q31> computes them) against the double design, as |dz| and relative to the
 //    pole's distance 1 - |z| to the unit circle.
@@ -41,8 +43,9 @@ namespace piezoloop::design {
 enum class SampleFormat { kFloat, kQ31 };
 SampleFormat parse_sample_format(const std::string& name);  // "float" | "q31"
 const char* sample_format_name(SampleFormat f);
-// The section structure the core uses for a sample type, for reports.
-const char* section_form_name(SampleFormat f);
+// The section structure the core uses, for reports (float: per section,
+// BiquadCascade<float>::form; Q31: one form).
+const char* section_form_name(SampleFormat f, SectionForm form);
 
 // Largest cascade the check (and the command line) handles.
 inline constexpr int kMaxCheckedSections = 32;

@@ -67,7 +67,8 @@ TEST(DesignRealisation, AhmadKFloat32IsFit) {
     EXPECT_LT(r.max_error_db, 0.1);
     EXPECT_LT(r.max_phase_error_deg, 1.0);
     ASSERT_EQ(r.section_forms.size(), d.sos.size());
-    EXPECT_NE(r.section_forms[0].find("delta operator"), std::string::npos) << r.section_forms[0];
+    // The slow pair (last section) needs the delta form.
+    EXPECT_NE(r.section_forms.back().find("delta operator"), std::string::npos) << r.section_forms.back();
     std::printf("Ahmad2020 K(s) at 100 kHz, float32: %.3g dB, %.3g deg, pole shift %.2g\n", r.max_error_db,
                 r.max_phase_error_deg, r.max_relative_pole_shift);
 }

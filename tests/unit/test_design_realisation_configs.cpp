@@ -51,9 +51,13 @@ void expect_fit(const RealisationReport& r, const std::string& what) {
     EXPECT_LE(r.max_phase_error_deg, 1.0) << what;
     ASSERT_FALSE(r.response.empty());
     EXPECT_NEAR(r.response.front().f_hz, 0.01, 1e-12) << what;
-    std::printf("%-36s %-5s %.2g dB %.2g deg (worst at %.3g Hz), poles moved %.2g of their distance, %s\n",
+    EXPECT_FALSE(r.section_forms.empty()) << what;
+    std::string forms;
+    for (const std::string& f : r.section_forms)
+        forms += f.find("delta") != std::string::npos ? " delta" : f.find("transposed") != std::string::npos ? " df2t" : " df1";
+    std::printf("%-28s %-5s %.2g dB %.2g deg (worst at %.3g Hz), poles moved %.2g of their distance; forms%s\n",
                 what.c_str(), sample_format_name(r.format), r.max_error_db, r.max_phase_error_deg, r.worst_f_hz,
-                r.max_relative_pole_shift, r.section_forms.empty() ? "" : r.section_forms[0].c_str());
+                r.max_relative_pole_shift, forms.c_str());
 }
 
 }  // namespace
