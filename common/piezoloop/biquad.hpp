@@ -141,11 +141,9 @@ constexpr Status validate_sos(const SosSection* sections, int count, SignalScale
 // delta-operator form with compensated states where it does not.
 //
 // DF2T (y = b0 x + s1, s1 = b1 x - a1 y + s2, s2 = b2 x - a2 y) stores a1,
-// a2 in float, resolved to ~2^-24 of 2. For poles near z = 1 the response is
-// set by the small differences c1 = 2 + a1 and c0 = 1 + a1 + a2 (Ahmad2020
-// K(s) at 100 kHz: c0 ~ 1e-9), and zeros near z = 1 by n1 = 2 b0 + b1 and
-// n0 = b0 + b1 + b2; DF2T's float coefficients lose them (K(s)'s gain at
-// 0.1 Hz would be 29 dB off, a 50 Hz notch at 100 kHz 0.2 dB).
+// a2 in float (~2^-24 of 2), but poles near z = 1 are set by c1 = 2 + a1,
+// c0 = 1 + a1 + a2 (Ahmad2020 K(s) at 100 kHz: c0 ~ 1e-9), zeros by
+// n1 = 2 b0 + b1, n0 = b0 + b1 + b2: lost (K(s) 29 dB off at 0.1 Hz).
 //
 // The delta-operator form writes the section in d = z - 1 (Middleton &
 // Goodwin, "Improved finite word length characteristics in digital control
@@ -174,39 +172,43 @@ constexpr Status validate_sos(const SosSection* sections, int count, SignalScale
 // reduction strategies for digital filters: error spectrum shaping versus
 // the optimal linear state-space formulation", IEEE TASSP 30(6), 1982).
 // Cost: 5 multiplies and 12 adds per section against DF2T's 5 and 4.
-//
-// The choice (configure, from the double coefficients): DF2T when rounding
-// b0, b1, b2, a1, a2 to float changes none of c1, c0, n1, n0, nor the
-// denominator and numerator at z = -1 (1 - a1 + a2, b0 - b1 + b2), by more
-// than kDf2tTolerance (2^-20) of itself, so DF2T's response is within
-// ~1e-5 dB of the design's times the section's resonance Q, and when
-// c0 = |1 - p|^2 >= 1/16: DF2T's state rounding reaches the output through
-// 1 / A(z), whose gain at z = 1 is 1 / c0 (the delta form's compensated
-// states do not see it). The delta form otherwise.
-// Well-conditioned sections (stage resonances, fast poles, the published Q
-// filter) keep DF2T, its cost and its exact arithmetic (unchanged log
-// hashes); near-integrators and low-frequency notches get the delta form.
+// The choice (configure, from the double coefficients), by FormChoice:
+//  * kLowNoise (default: controllers and filters, whose later sections may
+//    be near-integrators with gains of 1e9 that amplify any noise before
+//    them): DF2T when rounding b0, b1, b2, a1, a2 to float changes none of
+//    c1, c0, n1, n0, nor the sums at z = -1 (1 - a1 + a2, b0 - b1 + b2), by
+//    more than 2^-20 of itself (response within ~1e-5 dB times the
+//    section's resonance Q), and c0 = |1 - p|^2 >= 1/16: DF2T's state
+//    rounding reaches the output through 1 / A(z), whose gain at z = 1 is
+//    1 / c0; the delta form's compensated states do not see it.
+//  * kCoefficients (models of physical plants, whose output noise is the
+//    sensor's): DF2T when those changes are at most 2^-12 (response within
+//    ~2e-3 dB times Q); the noise of a lightly used DF2T is far below any
+//    sensor's.
+// The delta form otherwise: well-conditioned sections keep DF2T and its
+// cost, near-integrators and low-frequency notches get the delta form.
 // form(i) reports the choice.
 //
-// Every operation is a float add, subtract or multiply in a fixed order (the
-// core is built with -ffp-contract=off: no fused multiply-add), so host and
-// boards agree bit for bit. Signals are physical values; the SignalScales
-// are validated but do not change the coefficients
-// (SignalScale::sample_gain<float> is the identity).
+// Only float adds, subtracts and multiplies in a fixed order (built with
+// -ffp-contract=off): host and boards agree bit for bit. Signals are
+// physical values (SignalScale::sample_gain<float> is the identity).
 enum class SectionForm : uint8_t { kDf2t, kDelta };
+enum class FormChoice : uint8_t { kLowNoise, kCoefficients };
 
 template <int MaxSections>
 class BiquadCascade<float, MaxSections> {
 public:
     static constexpr int kMaxSections = MaxSections;
-    static constexpr double kDf2tTolerance = 1.0 / 1048576.0;  // 2^-20
-    static constexpr double kDf2tMinC0 = 1.0 / 16.0;  // DF2T's state noise gain 1 / c0 <= 16
+    static constexpr double kDf2tTolerance = 1.0 / 1048576.0;      // 2^-20, kLowNoise
+    static constexpr double kDf2tMinC0 = 1.0 / 16.0;               // kLowNoise: noise gain 1 / c0 <= 16
+    static constexpr double kDf2tPlantTolerance = 1.0 / 4096.0;    // 2^-12, kCoefficients
 
     // Accepts 1..MaxSections stable, finite sections. On error names the field
     // (e.g. "sections[2].a2") and leaves configuration and state untouched.
     // On success the state carries on if the section count is unchanged
     // (retuning a running filter), and is zeroed if it changed.
-    constexpr Status configure(const SosSection* sections, int count, SignalScale in, SignalScale out) {
+    constexpr Status configure(const SosSection* sections, int count, SignalScale in, SignalScale out,
+                               FormChoice choice = FormChoice::kLowNoise) {
         if (const Status s = detail::validate_sos<MaxSections>(sections, count, in, out); !s.ok()) return s;
         const double gain = SignalScale::sample_gain<float>(1.0, in, out);
         std::array<Coef, MaxSections> c{};
@@ -215,7 +217,7 @@ public:
             const double g = i == 0 ? gain : 1.0;
             const double b0 = s.b0 * g, b1 = s.b1 * g, b2 = s.b2 * g;
             Coef& k = c[static_cast<std::size_t>(i)];
-            if (df2t_holds(b0, b1, b2, s.a1, s.a2)) {
+            if (df2t_holds(b0, b1, b2, s.a1, s.a2, choice)) {
                 k = Coef{static_cast<float>(b0), static_cast<float>(b1), static_cast<float>(b2),
                          static_cast<float>(s.a1), static_cast<float>(s.a2), SectionForm::kDf2t};
             } else {
@@ -229,12 +231,9 @@ public:
             if (!is_finite(k.k0) || !is_finite(k.k1) || !is_finite(k.k2))
                 return error(detail::sos_field<MaxSections>(i, detail::kB0),
                              "numerator (first section: times in/out full scale) overflows float");
-            // The realised poles must stay strictly inside the unit circle.
-            // As c1, c0 (delta: stored; DF2T: a1 + 2, a2 - 1 + c1, exact in
-            // double): c0 > 0 (1 + a1 + a2 > 0), c1 > c0 (a2 < 1),
-            // c0 - c1 + 2 > 0 (a2 > -1), 4 - 2 c1 + c0 > 0 (1 - a1 + a2 > 0).
-            // A delta c0 below float's normal range is refused too: denormals
-            // are flushed on some FPUs and not on others.
+            // Realised poles strictly inside the unit circle, in c1, c0: c0 > 0,
+            // c1 > c0 (a2 < 1), c0 - c1 + 2 > 0, 4 - 2 c1 + c0 > 0. A delta c0
+            // below float's normal range is refused (FPUs differ on denormals).
             const bool delta = k.form == SectionForm::kDelta;
             const double q1 = delta ? double{k.k3} : double{k.k3} + 2.0;
             const double q0 = delta ? double{k.k4} : q1 + (double{k.k4} - 1.0);
@@ -271,12 +270,11 @@ public:
 
     constexpr void reset() { state_ = {}; }
     constexpr int count() const { return count_; }
-    // The structure section i runs in (i < count()).
     constexpr SectionForm form(int i) const { return coef_[static_cast<std::size_t>(i)].form; }
 
-    // Whether float32 DF2T holds a section (see above); b0..b2 already
-    // scaled. The rounding errors float(v) - v are exact in double.
-    static constexpr bool df2t_holds(double b0, double b1, double b2, double a1, double a2) {
+    // Whether DF2T holds a section (above); float(v) - v is exact in double.
+    static constexpr bool df2t_holds(double b0, double b1, double b2, double a1, double a2,
+                                     FormChoice choice = FormChoice::kLowNoise) {
         const double e_b0 = static_cast<double>(static_cast<float>(b0)) - b0;
         const double e_b1 = static_cast<double>(static_cast<float>(b1)) - b1;
         const double e_b2 = static_cast<double>(static_cast<float>(b2)) - b2;
@@ -285,16 +283,18 @@ public:
         const double c1 = a1 + 2.0, c0 = c1 + (a2 - 1.0);
         const double n1 = 2.0 * b0 + b1, n0 = (b0 + b1) + b2;
         // ... and the same at z = -1 (1 - a1 + a2, b0 - b1 + b2).
-        return c0 >= kDf2tMinC0 && within(e_a1, c1) && within(e_a1 + e_a2, c0) && within(2.0 * e_b0 + e_b1, n1) &&
-               within((e_b0 + e_b1) + e_b2, n0) && within(e_a2 - e_a1, (1.0 - a1) + a2) &&
-               within((e_b0 - e_b1) + e_b2, (b0 - b1) + b2);
+        const bool low_noise = choice == FormChoice::kLowNoise;
+        const double t = low_noise ? kDf2tTolerance : kDf2tPlantTolerance;
+        return (!low_noise || c0 >= kDf2tMinC0) && within(e_a1, c1, t) && within(e_a1 + e_a2, c0, t) &&
+               within(2.0 * e_b0 + e_b1, n1, t) && within((e_b0 + e_b1) + e_b2, n0, t) &&
+               within(e_a2 - e_a1, (1.0 - a1) + a2, t) && within((e_b0 - e_b1) + e_b2, (b0 - b1) + b2, t);
     }
 
 private:
-    static constexpr bool within(double error, double of) {
+    static constexpr bool within(double error, double of, double tolerance) {
         const double e = error < 0.0 ? -error : error;
         const double v = of < 0.0 ? -of : of;
-        return e <= kDf2tTolerance * v;
+        return e <= tolerance * v;
     }
 
     // N sections, unrolled (N <= MaxSections; a larger N is never called).
