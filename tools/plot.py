@@ -1,9 +1,9 @@
 #!/usr/bin/python3
 """Draws the curves `piezoloop analyze ... --plot FILE.png` computed.
 
-Usage: plot.py SPEC.json OUT.png   (run with Debian's /usr/bin/python3,
+Usage: plot.py FIGURES.json OUT.png   (run with Debian's /usr/bin/python3,
 which has matplotlib). The C++ side decides what to draw; this script only
-lays it out. SPEC.json:
+lays it out. FIGURES.json:
 
   {"title": str,
    "panels": [{"title": str, "xlabel": str, "ylabel": str,
@@ -26,7 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 def main(argv):
     if len(argv) != 3:
-        print("usage: plot.py SPEC.json OUT.png", file=sys.stderr)
+        print("usage: plot.py FIGURES.json OUT.png", file=sys.stderr)
         return 2
     with open(argv[1]) as f:
         spec = json.load(f)

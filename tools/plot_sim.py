@@ -1,9 +1,9 @@
 #!/usr/bin/python3
 """Figures of the simulator (`piezoloop sim --plot`, `piezoloop reproduce`).
 
-Usage: /usr/bin/python3 tools/plot_sim.py SPEC.json
+Usage: /usr/bin/python3 tools/plot_sim.py FIGURES.json
 
-SPEC.json is one figure or a list of figures. A figure is
+FIGURES.json is one figure or a list of figures. A figure is
     {"output": "/abs/path.png", "title": "...", "columns": 2 (optional),
      "panels": [{"title": "...", "xlabel": "...", "ylabel": "...",
                  "xscale": "linear|log", "yscale": "linear|log",

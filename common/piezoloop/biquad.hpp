@@ -1,4 +1,4 @@
-// Cascade of second-order sections (SPEC §5), the realisation of every linear
+// Cascade of second-order sections (docs/models.md, 'Biquad cascades'), the realisation of every linear
 // block of the core: feedback controllers, notch/low-pass filters, the RC Q
 // filter, simulated plants.
 //
@@ -412,7 +412,7 @@ private:
 // The physical gain in.full_scale / out.full_scale is folded into the first
 // section's numerator: intermediate nodes are normalised by out.full_scale,
 // so the host design must keep every partial cascade within +-out.full_scale
-// for the inputs it expects (per-section scaling, SPEC §5).
+// for the inputs it expects (per-section scaling, docs/models.md, 'Biquad cascades').
 //
 // Cost per section: five 32x32->64 multiply-accumulates, two variable 64-bit
 // shifts, the saturation test and the history moves (~75 Thumb-2

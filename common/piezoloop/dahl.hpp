@@ -1,4 +1,5 @@
-// Second-order Dahl hysteresis model (SPEC §4, Ahmad2020 §III-C/§IV-A) and its
+// Second-order Dahl hysteresis model (docs/models.md, 'Dahl model and
+// feedforward'; Ahmad2020 §III-C/§IV-A) and its
 // two uses: the inversion-free feedforward u_f = (x_r + H(x_r)) / ga, and the
 // plant x = ga*v - H(x) for simulation. Float only.
 //
@@ -67,7 +68,7 @@
 // transient, so this too is persistent only if alpha1 == 0 (then z is a
 // function of x alone and the loop has width 2*|beta1*z2(x)|). Taken in µm
 // the published set's transient lasts ~1 nm of path and H = 26.97 µm
-// thereafter; tests/unit/test_dahl.cpp shows the loops.
+// thereafter; tests/common/test_dahl.cpp shows the loops.
 #pragma once
 
 #include <limits>
@@ -89,7 +90,7 @@ struct DahlParams {
 };
 
 // Ahmad2020 published identification, as printed (units not stated there;
-// see the note above and SPEC §4).
+// see the note above and docs/models.md, 'Dahl model and feedforward').
 inline constexpr DahlParams kAhmad2020Dahl{1.76e3f, 3.46e7f, 0.0f, 3.11e7f, 30.0f, 0.925f};
 
 // Re-expresses a parameter set under a unit convention: the Dahl path variable
@@ -407,7 +408,7 @@ inline constexpr float kDahlMinLoadingSlope = 1e-6f;
 //     sgn(residual) = sgn(dv) in steady motion.
 //   - the increment d >= 0 along s solves phi(d) = d + s*(H(z(s*d)) - H0) -
 //     |residual| = 0 by safeguarded Newton (Newton step d -= phi / (1 + dH/dx),
-//     i.e. SPEC's dx = ga*dv / (1 + C_H(A_H z + B_H)), iterated) inside a
+//     i.e. the increment dx = ga*dv / (1 + C_H(A_H z + B_H)), iterated) inside a
 //     bracket [lo, hi]: lo = 0 (phi < 0) and hi = |residual| + 2*K*sqrt(E(z)),
 //     where phi(hi) >= 0 because |H - H_eq| <= K*sqrt(E) and E cannot grow
 //     along the path. Non-positive slope or a Newton step outside the bracket

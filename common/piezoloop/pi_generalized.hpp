@@ -1,4 +1,5 @@
-// Shan2012's PI structures (SPEC §2, §3) expressed as PiModel so they run on
+// Shan2012's PI structures (docs/models.md, 'Prandtl–Ishlinskii model',
+// 'Analytic PI inverse') expressed as PiModel so they run on
 // the same operator bank.
 //
 // Forward (eq. 4–5): f = g0 u + g1, v = f + sum_j d(gamma_j) F_{gamma_j}[f],
@@ -23,7 +24,7 @@ struct GeneralizedPi {
     int count = 0;
 };
 
-// Published sets (SPEC §8.3). The forward set does not state its operator
+// Published sets (docs/models.md, 'Shan2012'). The forward set does not state its operator
 // count; 8 matches the published inverse (j = 1..8).
 inline constexpr GeneralizedPi kShan2012Forward{0.8331, 0.0677, 0.0211, -5.0194, 0.1079, 8};
 inline constexpr GeneralizedPi kShan2012Inverse{1.1354, -0.3109, 0.0211, -1.813, 0.527, 8};

@@ -1,4 +1,4 @@
-// Exact analytic inverse of a PI model, SPEC §3 (Janaideh2016 eq. 44–45).
+// Exact analytic inverse of a PI model, docs/models.md, 'Analytic PI inverse' (Janaideh2016 eq. 44–45).
 //
 // The inverse of a plain PI model (input_gain 1, offset 0) is another PI
 // model whose loading curve is the inverse of phi: thresholds z_j = phi(r_j),
@@ -13,10 +13,10 @@
 namespace piezoloop {
 
 // Builds a plain PiModel from threshold/weight lists as users and papers write
-// them (SPEC §3):
+// them (docs/models.md, 'Prandtl–Ishlinskii model'):
 //  - with an explicit p0, the lists are the play operators;
 //  - without p0 and r_1 == 0, the threshold-0 play is the identity: p0 = p_1;
-//  - without p0 and r_1 > 0 (the 15-operator set of SPEC §8.2), the first
+//  - without p0 and r_1 > 0 (Janaideh2016's 15-operator set), the first
 //    operator is taken as the linear term: p0 = p_1 and every remaining
 //    threshold is shifted down by r_1.
 constexpr Status pi_model_from_lists(const float* thresholds, const float* weights, int n,

@@ -1,4 +1,5 @@
-// Prandtl–Ishlinskii (PI) model, SPEC §2: a weighted sum of play operators.
+// Prandtl–Ishlinskii (PI) model (docs/models.md, 'Prandtl–Ishlinskii model'):
+// a weighted sum of play operators.
 //
 //     f = input_gain * x + input_offset           (Shan2012's affine input)
 //     y = p0 * f + sum_j weights[j] * F_{thresholds[j]}[f]

@@ -1,5 +1,5 @@
 // Parallel PID on the error e with a filtered derivative, output limits and
-// anti-windup (SPEC §5; Shan2012's PI is the Kd = 0 case).
+// anti-windup (docs/models.md, 'Biquad cascades'; Shan2012's PI is the Kd = 0 case).
 //
 //   u = Kp e + Ki Ts sum_{k<=n} e[k] + D(z) e,   clamped to [u_min, u_max]
 //

@@ -1,4 +1,4 @@
-// The control pipeline: one tick of DESIGN.md "Data flow of one tick".
+// The control pipeline: one tick of docs/architecture.md, "Data flow of one tick".
 //
 //   r    <- wave generator, or the held / streamed setpoint
 //   u_ff <- inverse hysteresis of r (analytic PI inverse, a PI compensator
@@ -25,7 +25,7 @@
 // did not change carries its state over (so retuning the feedback does not
 // reset the feedforward's play operators, and changing limits resets
 // nothing); changed blocks start from rest. While armed, a set that changes
-// the repetitive controller waits for the RC's period boundary (SPEC §6).
+// the repetitive controller waits for the RC's period boundary (docs/models.md, 'Repetitive control').
 // The limiter is not banked: it carries the last output across a swap so the
 // piezo never sees a jump beyond the slew limit, and its hard limits cannot
 // be changed by any parameter set.

@@ -1,4 +1,4 @@
-// Simulated piezo stage: a Hammerstein model, SPEC §8 — a static hysteresis
+// Simulated piezo stage: a Hammerstein model, docs/models.md, 'Stages and scenarios' — a static hysteresis
 // (PI model, or Dahl solved per sample) feeding linear dynamics realised as a
 // biquad cascade with unit DC gain. The host simulator, the `piezoloop demo`
 // and the emulated boards all run this one implementation, so they agree bit

@@ -1,4 +1,4 @@
-// Play (backlash) and stop operators, SPEC §1. Exact per sample: no
+// Play (backlash) and stop operators, docs/models.md, 'Play and stop operators'. Exact per sample: no
 // integration, so they are rate independent by construction.
 #pragma once
 

@@ -2,7 +2,7 @@
 // reduced to a 64-bit hash of every sample's bit pattern. The host build and
 // each board run this same code; equal hashes prove the float path is
 // bit-identical on x86-64 and Cortex-M7, and the Q31 path everywhere
-// (DESIGN.md "Determinism").
+// (docs/architecture.md, "Determinism").
 #pragma once
 
 #include <bit>
@@ -44,7 +44,7 @@ struct RunResult {
 // compute delay, y converted to the sample type as an ADC would.
 // The reference feedback crosses over near 150 Hz (the 1 kHz resonance sets
 // that), so the closed loop's phase lag passes 90° far below the RC's Q
-// cutoff: SPEC §6's condition |theta_T + theta_2| < 90° fails and an RC
+// cutoff: the RC condition |theta_T + theta_2| < 90° (docs/models.md, 'Repetitive control') fails and an RC
 // plugged into this loop would diverge. So the RC runs beside the loop on
 // its error, its output hashed but not applied: its arithmetic is still
 // covered by the cross-platform hash.

@@ -2,7 +2,7 @@
 // tests and the firmware self-test share, so every figure they print refers
 // to the same loop.
 //
-// Stage: Janaideh2016's 15-operator PI model (SPEC §8.2, ±10 V in, ±44 µm
+// Stage: Janaideh2016's 15-operator PI model (docs/models.md, 'Janaideh2016', ±10 V in, ±44 µm
 // out) feeding a lightly damped 1 kHz resonance (zeta 0.05), at 100 kHz. The
 // simulated stage is not exactly that model: its linear weight is 5 % higher
 // and its play weights 10 % lower, the kind of mismatch identification leaves,
@@ -88,7 +88,7 @@ constexpr PipelineParams params(bool feedforward = true, bool feedback = true, b
     feedback_sections(p.sos.data());
     p.rc_enabled = with_rc;
     p.rc = RepetitiveConfig{};
-    p.rc.m1 = 3;  // Q's low-frequency group delay (see tests/unit/test_repetitive.cpp)
+    p.rc.m1 = 3;  // Q's low-frequency group delay (see tests/common/test_repetitive.cpp)
     p.limits = LimitsConfig{-10.0f, 10.0f, 2.0e5f, 0.0f};
     return p;
 }

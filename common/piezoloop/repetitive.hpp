@@ -1,4 +1,4 @@
-// Plug-in repetitive controller, SPEC §6 (Shan2012 §2.1):
+// Plug-in repetitive controller, docs/models.md, 'Repetitive control' (Shan2012 §2.1):
 //
 //   RC(z) = k_rc z^{m2} Q(z) z^{m1} z^{-N} / (1 - Q(z) z^{m1} z^{-N})
 //   u = Gc(z) (1 + RC(z)) e       (the pipeline adds RC(e) to e before Gc)

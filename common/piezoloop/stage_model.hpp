@@ -1,4 +1,4 @@
-// The whole simulated signal chain around a piezo stage, SPEC §8: what a
+// The whole simulated signal chain around a piezo stage, docs/models.md, 'Stages and scenarios': what a
 // controller's DAC output goes through before its ADC reads it back.
 //
 //   u (V) -> DAC (bits, range) -> amplifier (input clamp, gain, first-order
@@ -8,7 +8,7 @@
 //
 // Every part is optional (bits 0 = ideal converter, bandwidth 0 = none).
 // Float, libm-free and seeded, so the host simulator and the emulated boards
-// produce the same bits (DESIGN.md "Determinism"). The loop's one tick of
+// produce the same bits (docs/architecture.md, "Determinism"). The loop's one tick of
 // compute delay belongs to whoever runs the loop: the command computed at
 // tick k is applied at tick k + 1.
 #pragma once

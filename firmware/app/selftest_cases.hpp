@@ -12,7 +12,7 @@
 //                         in the loop, limits, recorder. The budget case.
 //                         The reference feedback crosses over near 150 Hz,
 //                         which violates the RC stability condition
-//                         (SPEC §6; reference_run.hpp), so this loop
+//                         (docs/models.md, 'Repetitive control'; reference_run.hpp), so this loop
 //                         diverges into the output limits: its tracking
 //                         figures are printed but say nothing
 //                         ("tracking_valid": false). Its log hash still

@@ -7,7 +7,7 @@
 // expression evaluated by the compiler. GCC folds IEEE float/double exactly
 // (correctly rounded, round-to-nearest-even), so with -ffp-contract=off the
 // two must agree bit for bit on the M7 FPU and on the M3's soft-float
-// libgcc alike (DESIGN.md "Determinism"). Where an analytic value exists,
+// libgcc alike (docs/architecture.md, "Determinism"). Where an analytic value exists,
 // the compile-time value is also pinned to it with static_assert.
 //
 // Output (UART), one line:

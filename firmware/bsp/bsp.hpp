@@ -1,5 +1,5 @@
 // What a board provides to the applications. The applications know nothing
-// of registers; a board knows nothing of control (DESIGN.md).
+// of registers; a board knows nothing of control (docs/architecture.md).
 //
 // Start-up order (bsp/cortex-m/startup.cpp): FPU on, .data copied, .bss
 // zeroed, static constructors run, then bsp::init(), then app_main(); its

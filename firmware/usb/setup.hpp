@@ -5,7 +5,7 @@
 //
 // Hardware-independent: used by the device controller driver of a board
 // (bsp/stm32h743/usb_otg_fs.cpp) and tested on the host
-// (tests/unit/test_usb_control.cpp).
+// (tests/common/usb/test_control.cpp).
 #pragma once
 
 #include <cstdint>

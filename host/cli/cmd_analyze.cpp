@@ -1,5 +1,5 @@
 // `piezoloop analyze`: loop, repetitive-control and PI-composition analysis
-// (SPEC §3, §6, §8.1, §9) on model files (design/model_json.hpp).
+// (docs/models.md) on model files (lti/model_json.hpp).
 //
 //   analyze loop --plant P.json --controller K.json [--we We.json]
 //                [--wy Wy.json] [--hm Hm.json] [--rate-hz F]
@@ -38,16 +38,16 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "design/analysis.hpp"
-#include "design/c2d.hpp"
-#include "design/freqresp.hpp"
-#include "design/hinf.hpp"
-#include "design/lti_convert.hpp"
-#include "design/margins.hpp"
-#include "design/model_json.hpp"
-#include "design/pi_composition.hpp"
-#include "design/rc_analysis.hpp"
-#include "design/robust.hpp"
+#include "analysis/analysis.hpp"
+#include "lti/c2d.hpp"
+#include "lti/freqresp.hpp"
+#include "analysis/hinf.hpp"
+#include "lti/lti_convert.hpp"
+#include "analysis/margins.hpp"
+#include "lti/model_json.hpp"
+#include "analysis/pi_composition.hpp"
+#include "analysis/rc_analysis.hpp"
+#include "analysis/robust.hpp"
 #include "piezoloop/pi_generalized.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "status_text.hpp"
@@ -548,7 +548,7 @@ void run_pi(const PiArgs& a) {
     out["monotone"] = c.monotone;
     if (a.max_input > 0.0) out["max_input"] = a.max_input;
     out["loading_curve"] = {{"v", c.curve_v}, {"eta", c.curve_eta}};
-    out["meaning"] = "P[P^-1_est[v]] = rho v + Xi with |Xi| <= xi_bound (SPEC 3)";
+    out["meaning"] = "P[P^-1_est[v]] = rho v + Xi with |Xi| <= xi_bound (docs/models.md, 'Analytic PI inverse')";
     if (!c.monotone) out["warning"] = "eta is not increasing: the composition theorem does not apply";
     if (!a.plot_file.empty()) {
         std::vector<double> rv;
@@ -587,7 +587,7 @@ void add_analyze(CLI::App& app) {
     loop->callback([la] { guarded([&] { run_loop(*la); }); });
 
     auto ra = std::make_shared<RcArgs>();
-    CLI::App* rc = analyze->add_subcommand("rc", "Plug-in repetitive control: conditions (1)-(3), (15), (21) of SPEC 6");
+    CLI::App* rc = analyze->add_subcommand("rc", "Plug-in repetitive control: conditions (1)-(3), (15), (21) of Shan2012");
     rc->add_option("--closed-loop", ra->closed_loop, "closed loop T without RC (JSON)");
     rc->add_option("--loop-plant", ra->plant, "plant (JSON), with --controller");
     rc->add_option("--controller", ra->controller, "feedback controller Gc (JSON), with --loop-plant");
@@ -601,7 +601,7 @@ void add_analyze(CLI::App& app) {
     rc->add_option("--pi-density", ra->pi_density, "comma-separated PI densities d(gamma_j)");
     rc->add_option("--pi-spacing", ra->pi_spacing, "threshold spacing rho of the density (reports rho sum|d_j| too)")
         ->check(CLI::NonNegativeNumber);
-    rc->add_flag("--pi-shan2012", ra->pi_shan, "use Shan2012's published forward PI set (SPEC 8.3)");
+    rc->add_flag("--pi-shan2012", ra->pi_shan, "use Shan2012's published forward PI set");
     rc->add_option("--plot", ra->plot_file, "write the condition curves to this PNG");
     rc->callback([ra] { guarded([&] { run_rc(*ra); }); });
 

@@ -1,6 +1,6 @@
 // `piezoloop demo`: the reference stage (Janaideh2016's 15-operator PI
 // hysteresis with a 1 kHz resonance) under four controller cases, on the
-// same core that runs on the boards, with the SPEC §9 figures of each.
+// same core that runs on the boards, with the metrics (docs/models.md) of each.
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -53,7 +53,7 @@ int run(const DemoArgs& a) {
     if (!a.json) {
         std::printf("piezoloop demo: reference stage (Janaideh2016 15-operator PI hysteresis with a\n"
                     "deliberate model error, 1 kHz resonance), %.0f kHz loop, %s core\n"
-                    "%g Hz triangle, %g um peak-to-peak; figures over the last period (SPEC §9)\n\n",
+                    "%g Hz triangle, %g um peak-to-peak; figures over the last period\n\n",
                     reference::kRate_Hz / 1e3, a.sample.c_str(), a.frequency_Hz, 2.0 * a.amplitude_um);
         std::printf("%-26s %12s %9s %9s %10s %10s\n", "case", "hysteresis%", "e_max%", "e_rms%", "e_max_um",
                     "e_rms_um");

@@ -1,5 +1,5 @@
 // `piezoloop design`: from a continuous model (or a standard filter) to the
-// biquad sections the core runs, with the realisation check (SPEC §5).
+// biquad sections the core runs, with the realisation check (docs/models.md, 'Biquad cascades').
 //
 //   design c2d --model M.json --rate-hz F [--method tustin|zoh|matched]
 //              [--prewarp-hz F] [--format float|q31] [scaling options]
@@ -25,11 +25,11 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "design/c2d.hpp"
-#include "design/filters.hpp"
-#include "design/model_json.hpp"
-#include "design/realisation.hpp"
-#include "design/sos.hpp"
+#include "lti/c2d.hpp"
+#include "lti/filters.hpp"
+#include "lti/model_json.hpp"
+#include "lti/realisation.hpp"
+#include "lti/sos.hpp"
 
 namespace piezoloop::cli {
 namespace {

@@ -612,7 +612,7 @@ int run_record(const RecordArgs& a) {
         }
         out["log_hash"] = sim::hex64(hash.value());
     }
-    // SPEC §9 figures over the last reference period in the record (the
+    // Metrics (docs/models.md) over the last reference period in the record (the
     // steady-state window `piezoloop sim` uses), else over the whole record.
     std::size_t window_start = 0;
     if (has(0) && has(1) && frames > 1) {
@@ -688,7 +688,7 @@ int run_record(const RecordArgs& a) {
 void add_record(CLI::App& app) {
     auto a = std::make_shared<RecordArgs>();
     CLI::App* cmd = app.add_subcommand(
-        "record", "Record signals from the board to CSV; summary JSON with loss counts, SPEC §9 metrics, log hash "
+        "record", "Record signals from the board to CSV; summary JSON with loss counts, metrics, log hash "
                   "(needs --device)");
     cmd->add_option("--signals", a->signals, "comma-separated: r, y, e, u, u_ff, u_fb, u_rc (default r,y,e,u)");
     cmd->add_option("--duration-s", a->duration_s, "device time to record")->required()->check(CLI::Range(1e-6, 1e5));

@@ -1,6 +1,6 @@
 // `piezoloop identify rls|pi|dahl --data FILE.csv ...` and
 // `piezoloop reduce --model M.json --order N`: identification from CSV data
-// and balanced truncation (host/design/rls, pi_fit, dahl_fit, balred). JSON
+// and balanced truncation (host/ident/rls, pi_fit, dahl_fit, balred). JSON
 // on stdout; a bad file, column, option or unidentifiable data gives
 // "error: <field>: <why>" on stderr and exit code 2.
 #include <cmath>
@@ -13,13 +13,13 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "design/balred.hpp"
-#include "design/csv_data.hpp"
-#include "design/dahl_fit.hpp"
-#include "design/lti_convert.hpp"
-#include "design/model_json.hpp"
-#include "design/pi_fit.hpp"
-#include "design/rls.hpp"
+#include "ident/balred.hpp"
+#include "ident/csv_data.hpp"
+#include "ident/dahl_fit.hpp"
+#include "lti/lti_convert.hpp"
+#include "lti/model_json.hpp"
+#include "ident/pi_fit.hpp"
+#include "ident/rls.hpp"
 
 namespace piezoloop::cli {
 namespace {

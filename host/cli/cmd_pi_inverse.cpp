@@ -1,4 +1,4 @@
-// `piezoloop pi-inverse`: the analytic inverse of a PI model (SPEC §3), as
+// `piezoloop pi-inverse`: the analytic inverse of a PI model (docs/models.md, 'Analytic PI inverse'), as
 // JSON whose first entry is the threshold-0 (linear) term.
 #include <cstdio>
 #include <iostream>

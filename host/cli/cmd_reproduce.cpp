@@ -1,5 +1,5 @@
 // `piezoloop reproduce ahmad2020|janaideh2016|shan2012|all --out DIR`: every
-// experiment of SPEC §8 on the scenario files in configs/, as DIR/report.md
+// experiment of docs/models.md, 'Stages and scenarios', on the scenario files in configs/, as DIR/report.md
 // with tables laid out like the sources' and PNG figures (tools/plot_sim.py).
 #include <chrono>
 #include <cstdio>
@@ -60,11 +60,11 @@ int run(const ReproduceArgs& a) {
     }
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-    std::string md = "# piezoloop reproduce: the experiments of SPEC §8\n\n";
+    std::string md = "# piezoloop reproduce: the experiments of the sources\n\n";
     md += "Made by `piezoloop reproduce " + a.which + "` from the scenario files in configs/ (format: "
           "configs/scenarios.md; simulator: docs/simulator.md). Every figure is a closed-loop simulation of the "
           "control core (the code the boards run) against the simulated stage; tables are laid out like the "
-          "sources' tables. Figures of SPEC §9: hysteresis % at the input midpoint, e_max % = max |r − y| / range, "
+          "sources' tables. Metrics (docs/models.md): hysteresis % at the input midpoint, e_max % = max |r − y| / range, "
           "e_rms % = rms(r − y) / range, all on the last (steady-state) period.\n\n";
     char line[160];
     std::snprintf(line, sizeof line, "Total wall time %.1f s on %d worker thread(s).\n\n", wall, o.threads);
@@ -102,7 +102,7 @@ int run(const ReproduceArgs& a) {
 void add_reproduce(CLI::App& app) {
     auto a = std::make_shared<ReproduceArgs>();
     CLI::App* cmd = app.add_subcommand(
-        "reproduce", "Run every experiment of SPEC §8 for a source and write DIR/report.md with tables and figures");
+        "reproduce", "Run every experiment of a source's scenario and write DIR/report.md with tables and figures");
     cmd->add_option("which", a->which, "ahmad2020 | janaideh2016 | shan2012 | all")
         ->required()
         ->check(CLI::IsMember({"ahmad2020", "janaideh2016", "shan2012", "all"}));

@@ -1,5 +1,5 @@
 // `piezoloop sim`: one closed-loop run of a scenario case (configs/*.json)
-// on the host, with the SPEC §9 figures of its last (steady-state) period as
+// on the host, with the metrics (docs/models.md) of its last (steady-state) period as
 // JSON on stdout. With --board-case FILE it also writes the run as a board
 // case (common/piezoloop/board_case.hpp) for the QEMU boards' self-test,
 // after clipping the case's limits to the boards' hard limits (and
@@ -313,7 +313,7 @@ int run(const SimArgs& a) {
 void add_sim(CLI::App& app) {
     auto a = std::make_shared<SimArgs>();
     CLI::App* cmd = app.add_subcommand(
-        "sim", "Closed-loop simulation of a scenario case: SPEC §9 figures of the last period as JSON");
+        "sim", "Closed-loop simulation of a scenario case: metrics of the last period as JSON");
     cmd->add_option("--scenario", a->scenario, "scenario file (configs/*.json)")->required()->check(CLI::ExistingFile);
     cmd->add_option("--case", a->case_name, "controller case of the scenario (see --list)");
     cmd->add_flag("--list", a->list, "list the scenario's cases and experiments");
@@ -338,7 +338,7 @@ void add_sim(CLI::App& app) {
         ->check(CLI::Range(1, 1 << 30));
     cmd->add_option("--plot", a->plot, "draw r, y, e and the loop to a PNG (tools/plot_sim.py)");
     cmd->add_option("--dump-model", a->dump_model,
-                    "write the run's core parameters as raw bytes (for tests/sim/sim_hash_probe, float fidelity)");
+                    "write the run's core parameters as raw bytes (for tests/host/sim/sim_hash_probe, float fidelity)");
     cmd->add_option("--board-case", a->board_case,
                     "also write this run as a board case for the QEMU boards' self-test (limits clipped to their "
                     "hard limits and simulated so; docs/boards.md, Self-test)");

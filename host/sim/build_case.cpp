@@ -5,8 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "design/realisation.hpp"
-#include "design/sos.hpp"
+#include "lti/realisation.hpp"
+#include "lti/sos.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "sim/design_bridge.hpp"
 #include "status_text.hpp"
@@ -49,7 +49,7 @@ std::string realisation_note(const design::Zpk& discrete, const PipelineParams& 
     ro.out_full_scale = out.full_scale;
     const std::vector<SosSection> sos(p.sos.begin(), p.sos.begin() + p.sos_count);
     const design::RealisationReport r = design::check_realisation(discrete, sos, ro);
-    std::string text = std::string(design::sample_format_name(ro.format)) + " realisation of the controller (design/realisation): ";
+    std::string text = std::string(design::sample_format_name(ro.format)) + " realisation of the controller (lti/realisation): ";
     if (!r.configured) return text + "rejected: " + r.configure_error;
     text += "response within " + num(r.max_error_db, 2) + " dB / " + num(r.max_phase_error_deg, 2) +
             " deg of the design (worst at " + num(r.worst_f_hz, 3) + " Hz), poles moved by up to " +
@@ -278,7 +278,7 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
             discretise_sos(z, s.rate_Hz, fb.method, fb.prewarp_Hz, false, fb.path + ".model", kMaxControllerSections);
         if (c.sample == SampleType::kQ31) {
             // Fixed point: spread the gain so that no internal node can
-            // overflow for a full-scale error (design/sos, L1 scaling).
+            // overflow for a full-scale error (lti/sos, L1 scaling).
             design::SosScaling sc;
             sc.norm = design::SosNorm::kL1;
             sc.in_full_scale = m.setup.position.full_scale;

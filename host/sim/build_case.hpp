@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "design/dahl_fit.hpp"
+#include "ident/dahl_fit.hpp"
 #include "sim/closed_loop.hpp"
 #include "sim/scenario.hpp"
 
@@ -20,10 +20,11 @@ namespace piezoloop::sim {
 struct BuildOptions {
     double reference_frequency_Hz = 0.0;  // for the RC period "auto"
     int substeps = 10;                    // double fidelity: sub-steps per tick
-    bool check_realisation = true;        // run design/realisation on the controller (slow for slow poles)
+    bool check_realisation = true;        // run lti/realisation on the controller (slow for slow poles)
 };
 
-// A Dahl compensator identified from the stage (SPEC §4, §7).
+// A Dahl compensator identified from the stage (docs/models.md, 'Dahl model and
+// feedforward', 'Identification').
 struct DahlIdentification {
     DahlParams params{};           // as the core runs it (command V -> µm)
     design::DahlFitResult fit;
@@ -55,7 +56,7 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
 void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& out, int* sections = nullptr);
 
 // The analytic inverse of a hysteresis as a compensator from r (µm) to the
-// command u (V) at the amplifier input (SPEC §3 on the factored form; any
+// command u (V) at the amplifier input (docs/models.md, 'Analytic PI inverse', on the factored form; any
 // constant offset of the affine input is dropped and reported in `note`).
 PiModel inverse_compensator(const HysteresisSpec& h, double amplifier_gain, std::string& note);
 

@@ -59,7 +59,7 @@ struct RunOptions {
     TrajectoryConfig wave{};       // sample_rate_Hz is overwritten with the loop rate
     std::vector<float> table;      // kSteps / kTable values (wave.table is pointed at them)
     uint64_t ticks = 0;
-    // Steady-state window for the SPEC §9 figures: [window_start, ticks).
+    // Steady-state window for the metrics (docs/models.md): [window_start, ticks).
     uint64_t window_start = 0;
     double window_midpoint_um = 0.0;  // the reference's (max + min) / 2
     // Per-period RMS of e over the whole run (growth of an unstable loop).

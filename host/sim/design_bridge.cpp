@@ -1,17 +1,17 @@
-// The simulator's use of the design toolkit: model files (design/model_json),
-// c2d (design/c2d), the SOS split (design/sos) and state space
-// (design/lti_convert).
+// The simulator's use of the design toolkit: model files (lti/model_json),
+// c2d (lti/c2d), the SOS split (lti/sos) and state space
+// (lti/lti_convert).
 #include "sim/design_bridge.hpp"
 
 #include <cmath>
 #include <optional>
 #include <stdexcept>
 
-#include "design/c2d.hpp"
-#include "design/freqresp.hpp"
-#include "design/lti_convert.hpp"
-#include "design/model_json.hpp"
-#include "design/sos.hpp"
+#include "lti/c2d.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
+#include "lti/model_json.hpp"
+#include "lti/sos.hpp"
 
 namespace piezoloop::sim {
 

@@ -1,4 +1,4 @@
-// What the simulator takes from the design toolkit (host/design/): reading
+// What the simulator takes from the design toolkit (host/lti/, host/analysis/): reading
 // model files, discretising continuous models to biquad sections at the loop
 // rate, and state-space realisations for the double-fidelity stage. Kept in
 // one place so the scenario code does not depend on the toolkit's file
@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "design/lti.hpp"
+#include "lti/lti.hpp"
 #include "piezoloop/biquad.hpp"
 #include "sim/json_field.hpp"
 #include "sim/scenario.hpp"

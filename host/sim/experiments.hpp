@@ -1,4 +1,4 @@
-// The experiments of SPEC §8 on a scenario: hysteresis loops over
+// The experiments of docs/models.md, 'Stages and scenarios', on a scenario: hysteresis loops over
 // amplitudes, tracking over frequencies, closed-loop frequency response,
 // steps, and the growth of an unstable loop. Each cell of a source's table
 // is one closed-loop run; runs are independent and deterministic, so they

@@ -1,4 +1,4 @@
-// Tracking and hysteresis metrics as the sources define them (SPEC §9),
+// Tracking and hysteresis metrics as the sources define them (docs/models.md, 'Metrics'),
 // computed on one steady-state period of logged signals.
 #pragma once
 

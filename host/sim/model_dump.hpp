@@ -1,6 +1,6 @@
 // A run of the float-fidelity simulator as raw bytes: the core's parameter
 // structs exactly as configured, so that a separately compiled program
-// (tests/sim/sim_hash_probe.cpp, built at -O0 and -O2) can replay the very
+// (tests/host/sim/sim_hash_probe.cpp, built at -O0 and -O2) can replay the very
 // same loop and print its log hash. Header-only, core types only. The bytes
 // are only meaningful to programs built by the same compiler for the same
 // target (the cross-build determinism check), not a file format.

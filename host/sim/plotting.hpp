@@ -13,7 +13,7 @@ std::filesystem::path repository_root();
 
 // Runs `python tools/plot_sim.py <spec.json>`; throws std::runtime_error with
 // the command and its exit status if it fails. python defaults to
-// /usr/bin/python3 (the interpreter with matplotlib, see DESIGN.md).
+// /usr/bin/python3 (the interpreter with matplotlib, see docs/architecture.md).
 void run_plot_script(const std::filesystem::path& spec_json, const std::string& python = "/usr/bin/python3");
 
 // Hex string of a 64-bit hash, 16 digits.

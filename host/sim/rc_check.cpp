@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "design/lti_convert.hpp"
+#include "lti/lti_convert.hpp"
 #include "piezoloop/pi_generalized.hpp"
 #include "sim/design_bridge.hpp"
 

@@ -1,6 +1,6 @@
-// The RC stability conditions of SPEC §6 (Shan2012 eq. 1-3, 15, 21) for a
+// The RC stability conditions of docs/models.md, 'Repetitive control' (Shan2012 eq. 1-3, 15, 21) for a
 // scenario case with PI(D) feedback, plug-in RC and a Shan-type PI
-// hysteresis, evaluated by the design toolkit (design/rc_analysis) on the
+// hysteresis, evaluated by the design toolkit (analysis/rc_analysis) on the
 // sampled linear loop the simulator runs:
 //   L(z) = Gc(z) * k * G_zoh(z),
 // Gc the PI in the controller's units, k the gain from the hysteresis
@@ -14,7 +14,7 @@
 #include <optional>
 #include <string>
 
-#include "design/rc_analysis.hpp"
+#include "analysis/rc_analysis.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::sim {

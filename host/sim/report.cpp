@@ -219,7 +219,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
         for (const std::string& n : it->second.notes) md << "- *" << c.label << "*: " << n << "\n";
         if (const auto& d = it->second.dahl) {
             const DahlParams& q = d->params;
-            md << "- *" << c.label << "*: Dahl compensator identified (SPEC §7, design/dahl_fit) from " << d->data
+            md << "- *" << c.label << "*: Dahl compensator identified (ident/dahl_fit, docs/models.md) from " << d->data
                << ": α1 = " << sig(q.alpha1) << ", α2 = " << sig(q.alpha2) << ", β1 = " << sig(q.beta1)
                << ", β2 = " << sig(q.beta2) << ", γa = " << sig(q.gamma_a) << " (held), ga = " << sig(q.ga)
                << " µm/V; fit error " << sig(d->fit.rms_error) << " µm rms (" << sig(d->fit.nrmse_percent)
@@ -238,7 +238,7 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
             const bool volts = !x.amplitudes_V.empty();
             const std::string wave = x.waveform_name;
             md << short_num(x.frequencies_Hz.front()) << " Hz " << wave << "s, " << (x.offset == "unipolar" ? "from 0" : "centred on 0")
-               << "; hysteresis % of the measured output against the reference (SPEC §9) on the last of "
+               << "; hysteresis % of the measured output against the reference (docs/models.md) on the last of "
                << x.periods << " periods";
             if (volts) md << "; references given as peak-to-peak piezo voltage (× " << sig(s.nominal_um_per_V) << " µm/V)";
             md << ".\n\n";
@@ -442,7 +442,8 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                     pr["series"].push_back(series(case_of(s, n).label, idx, v));
                 }
             md << "\n";
-            // The conditions of SPEC §6 on the sampled linear loop (design/rc_analysis).
+            // The conditions of docs/models.md, 'Repetitive control', on the sampled
+            // linear loop (analysis/rc_analysis).
             std::string rows;
             for (const std::string& n : x.cases) {
                 const CaseSpec& cs = case_of(s, n);
@@ -467,8 +468,8 @@ std::string scenario_report(const ScenarioResult& r, std::vector<ReportFigure>& 
                      sig(a->density_l1) + " vs " + sig(a->density_bound) + (a->density_ok ? " (ok)" : " (fails)") + inv});
             }
             if (!rows.empty()) {
-                md << "SPEC §6 conditions on the sampled linear loop L = Gc · G_zoh with the hysteresis as v = g0 u + η "
-                      "(design/rc_analysis): (3) max |θT + θ2| below Q's cutoff, (2) largest k_rc, the largest root of "
+                md << "Repetitive-control conditions (docs/models.md) on the sampled linear loop L = Gc · G_zoh with the hysteresis as v = g0 u + η "
+                      "(analysis/rc_analysis): (3) max |θT + θ2| below Q's cutoff, (2) largest k_rc, the largest root of "
                       "the linear RC loop, (15) g0 against the gain margin M_GL, (21) Σ|d(γj)| against 1 / (|g0| ‖G2‖∞).\n\n";
                 md << table_row({"case", "(3) max |θ|", "(2) k_rc max", "linear RC loop, max |z|", "(15) g0 vs M_GL",
                                  "(21) Σ|d| vs bound"})

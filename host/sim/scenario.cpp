@@ -76,8 +76,9 @@ HysteresisSpec parse_hysteresis(const Field& f) {
         h.plain.p0 = 1.0f;
         h.out_gain = h.gain_um_per_V;
     } else if (h.kind == "pi") {
-        // Thresholds in piezo volts, weights in µm/V; without p0 the SPEC §3
-        // rule applies (a first threshold above 0 is the linear term).
+        // Thresholds in piezo volts, weights in µm/V; without p0 the rule of
+        // docs/models.md, 'Prandtl–Ishlinskii model' applies (a first threshold
+        // above 0 is the linear term).
         f.only({"kind", "thresholds_V", "weights_um_per_V", "p0_um_per_V", "note"});
         const std::vector<double> r = f["thresholds_V"].numbers();
         const std::vector<double> p = f["weights_um_per_V"].numbers();

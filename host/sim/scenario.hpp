@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "design/lti.hpp"
+#include "lti/lti.hpp"
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/stage_model.hpp"
 #include "sim/closed_loop.hpp"

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "design/c2d.hpp"
+#include "lti/c2d.hpp"
 
 #include "status_text.hpp"
 
@@ -108,7 +108,7 @@ void DoubleStage::configure(const DoubleStageConfig& c) {
     const Eigen::Index n = a.rows();
     has_states_ = n > 0;
     if (has_states_) {
-        // Exact for an input held over the sub-step (design/c2d: ZOH).
+        // Exact for an input held over the sub-step (lti/c2d: ZOH).
         design::Ss cont;
         cont.A = a;
         cont.B = b;

@@ -33,7 +33,7 @@
 
 #include <Eigen/Dense>
 
-#include "design/lti.hpp"
+#include "lti/lti.hpp"
 #include "piezoloop/stage_model.hpp"
 
 namespace piezoloop::sim {

@@ -1,4 +1,4 @@
-// SPEC §9 figures accumulated sample by sample over a steady-state window,
+// The metrics of docs/models.md accumulated sample by sample over a steady-state window,
 // so a run of 10^7 ticks per period (0.01 Hz at 100 kHz) needs no log.
 // Same definitions as metrics.hpp (tracking_metrics, hysteresis_pct), which
 // the tests use as the reference on stored data:

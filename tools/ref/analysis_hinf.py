@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """H-infinity norms of the sources' models, by brute force with numpy/scipy
-(reference for host/design/hinf.cpp, whose method is a Hamiltonian level-set
+(reference for host/analysis/hinf.cpp, whose method is a Hamiltonian level-set
 iteration). Each model is split into sections of one or two poles (numpy
 roots of the published polynomials, scipy's bilinear_zpk for the discrete
 ones); the sections' roots are written out so the C++ test realises the very
@@ -121,7 +121,7 @@ def peak(secs, ts, wmin, wmax):
 
 def main():
     cases = []
-    # Ahmad2020 K(s) (eq. 24) and G(s) (eq. 4), SPEC 5 and 8.1.
+    # Ahmad2020 K(s) (eq. 24) and G(s) (eq. 4); docs/models.md, 'Published controllers', 'Ahmad2020'.
     k_num = [5.29e6, 1.78e10, 1.04e15, 7.66e17, 1.51e22, 4.73e22]
     k_den = [1.0, 4.69e5, 3.21e10, 7.86e14, 7.38e18, 4.71e19, 7.79e19]
     g_num = [2.01e11, 4.74e15, 2.76e19, 1.84e23]
@@ -139,7 +139,7 @@ def main():
     c_zeros = [-7.9e6] + list(np.roots([1.0, 971.0, 4.6e5])) + list(np.roots([1.0, 43.0, 1.4e7]))
     c_poles = [-8.8e4, -974.0, -1.0] + list(np.roots([1.0, 1153.0, 1.6e7]))
     models.append(("janaideh2016_C", np.array(c_zeros, dtype=complex), np.array(c_poles, dtype=complex), 0.016, 0.0))
-    # Ahmad2020 weights (SPEC 8.1).
+    # Ahmad2020 weights (docs/models.md, 'Ahmad2020').
     g, z1, z2, z3, z4, w1, w2, w3, M, eps = 0.02, 3.5, 0.05, 0.7, 0.08, 6.3e3, 1.4e4, 1e4, 1.0, 1e-8
     hm_z = list(np.roots([1.0, 2 * z1 * w1, w1 ** 2])) + list(np.roots([1.0, 2 * z3 * w2, w2 ** 2])) + [-w3 / eps]
     hm_p = list(np.roots([1.0, 2 * z2 * w1, w1 ** 2])) + list(np.roots([1.0, 2 * z4 * w2, w2 ** 2])) + [-w3 / M]

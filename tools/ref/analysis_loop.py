@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Loop analysis references (for host/design/analysis.cpp and margins.cpp),
+"""Loop analysis references (for host/analysis/analysis.cpp and margins.cpp),
 computed from the factored frequency responses with numpy/scipy only:
 L = P K evaluated from roots, S = 1/(1+L), T = L/(1+L), KS = K S, GS = P S;
 H-infinity norms as the maximum over a 100k-point grid refined by a bounded
@@ -153,7 +153,7 @@ def main():
     wn = 2 * math.pi * 1e3
     pr = np.roots([1, 2 * 0.02 * wn, wn * wn])
     cases.append(case("resonance_pi", zpk_json([], pr, wn * wn, 0.0), zpk_json([-300.0], [0.0], 0.4, 0.0)))
-    # Ahmad2020 G (eq. 4) and K (eq. 24) with the SPEC's coefficient order.
+    # Ahmad2020 G (eq. 4) and K (eq. 24) with the coefficient order of docs/models.md.
     g_num = [2.01e11, 4.74e15, 2.76e19, 1.84e23]
     g_den = [1.0, 1.08e4, 2.95e8, 1.98e12, 1.65e16, 5.79e19, 2.05e23]
     k_num = [5.29e6, 1.78e10, 1.04e15, 7.66e17, 1.51e22, 4.73e22]

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Ahmad2020 robust-stability family (reference for host/design/robust.cpp):
+"""Ahmad2020 robust-stability family (reference for host/analysis/robust.cpp):
 the 729 plants with each denominator coefficient of G(s) (eq. 4) scaled by
 0.95, 1, 1.05, under K(s) (eq. 24), with the multiplicative weight H_m.
 numpy only, from roots and factored responses: closed-loop stability from

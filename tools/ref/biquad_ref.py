@@ -3,7 +3,7 @@
 
 (a) A few well-conditioned filters at 100 kHz as SOS, with their impulse
     responses (sosfilt of a unit impulse) and frequency responses (sosfreqz).
-(b) The Ahmad2020 controller K(s) of SPEC §5 discretised at 100 kHz with
+(b) The Ahmad2020 controller K(s) (Ahmad2020 eq. 24) discretised at 100 kHz with
     Tustin (tf2zpk -> bilinear_zpk -> zpk2sos, pairing 'nearest'), its
     double-precision frequency response and step response (sosfilt, float64).
 
@@ -54,7 +54,7 @@ def resonance_sos(f0, zeta):
 
 
 def ahmad2020_k():
-    # SPEC §5: numerator n5..n0, monic denominator with d5..d0.
+    # Ahmad2020 eq. 24: numerator n5..n0, monic denominator with d5..d0.
     num = [5.29e6, 1.78e10, 1.04e15, 7.66e17, 1.51e22, 4.73e22]
     den = [1.0, 4.69e5, 3.21e10, 7.86e14, 7.38e18, 4.71e19, 7.79e19]
     z, p, k = signal.tf2zpk(num, den)

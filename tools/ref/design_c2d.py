@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Reference for host/design/c2d (Tustin, ZOH, matched) on the sources' models.
+"""Reference for host/lti/c2d (Tustin, ZOH, matched) on the sources' models.
 
 For each case this writes the exact frequency response of the discretised
 model at 25 frequencies up to Nyquist, computed with mpmath (60 digits) from

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
-"""Reference for host/design/lti_convert and freqresp on the sources' models.
+"""Reference for host/lti/lti_convert and freqresp on the sources' models.
 
 Each model is a product of small factors with the published coefficients
-(SPEC §5, §8). For each one this writes
+(docs/models.md). For each one this writes
   * the exact roots of every factor's polynomials and the multiplied-out
     transfer function, computed with mpmath at 60 digits (independent of any
     double-precision algorithm), rounded to double;
@@ -22,7 +22,7 @@ from scipy import signal
 mp.mp.dps = 60
 
 # name -> (list of (gain, num, den) factors in descending powers, ts)
-# Ahmad2020 H_m parameters (SPEC §8.1)
+# Ahmad2020 H_m parameters (Ahmad2020)
 g_m, z1, z2, z3, z4, w1, w2, w3, M_m, eps_m = 0.02, 3.5, 0.05, 0.7, 0.08, 6.3e3, 1.4e4, 1e4, 1.0, 1e-8
 Me, eps_e, we = 2.0, 0.003, 1.26e3
 My, eps_y, wy = 1.5, 1e-4, 7.5e3

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Reference for host/design/sos: scipy.signal.zpk2sos(pairing='nearest').
+"""Reference for host/lti/sos: scipy.signal.zpk2sos(pairing='nearest').
 
 Inputs are discrete zpk sets given exactly (so both sides pair the same
 numbers): the sources' models discretised by scipy.signal.bilinear_zpk at

@@ -1,10 +1,10 @@
 #!/usr/bin/python3
 """Reference Hankel singular values and balanced truncations (for
-host/design/balred.hpp), computed with scipy independently of the C++ code.
+host/ident/balred.hpp), computed with scipy independently of the C++ code.
 
 Models (state-space matrices are stored, so the C++ test needs no
 conversion code):
-  - janaideh_D: Janaideh2016's normalised D(s) of SPEC §8.2 (8th order,
+  - janaideh_D: Janaideh2016's normalised D(s) (eq. 60; 8th order,
     right-half-plane zeros), realised as a cascade of four sections each
     frequency-scaled by its natural frequency (a companion form of the full
     polynomial would have coefficients up to 1e32).

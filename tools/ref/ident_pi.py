@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Reference data for the PI weight fit (host/design/pi_fit.hpp), computed
+"""Reference data for the PI weight fit (host/ident/pi_fit.hpp), computed
 with numpy/scipy independently of the C++ code.
 
 Data (inputs and noisy outputs rounded to 1e-6, as a data file holds
@@ -7,7 +7,7 @@ them; references computed from the rounded values): play operators evaluated fro
 sample) on an input whose amplitude ramps up to ~10.2 (envelope 11) and then decays, so
 every threshold is reached and the reversals make nested inner loops.
 Cases:
-  - set15: Janaideh2016's 15-operator set (SPEC §8.2, first operator taken
+  - set15: Janaideh2016's 15-operator set (first operator taken
     as the linear term), negative weights included, with seeded Gaussian
     noise (sigma 0.01 µm). Reference: numpy.linalg.lstsq on the play regressors.
   - nonmonotone: p0 and 8 operators on the uniform grid r_j = j * (max|u| / 9),

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Reference data for RLS / ARX identification (host/design/rls.hpp),
+"""Reference data for RLS / ARX identification (host/ident/rls.hpp),
 computed with numpy independently of the C++ code.
 
 System (Ljung's classic second-order example, as an ARX model with delay 1):

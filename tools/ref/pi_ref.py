@@ -13,10 +13,10 @@ import os
 
 import numpy as np
 
-# SPEC §8.2, Janaideh2016: 15 play operators, input V, output µm.
+# Janaideh2016: 15 play operators, input V, output µm.
 R15 = [0.095, 0.38, 0.84, 1.46, 2.21, 3.07, 4.01, 4.98, 5.96, 6.89, 7.76, 8.52, 9.14, 9.61, 9.9]
 P15 = [2.55, 0.57, 1.3, -1.57, 1.25, -0.054, -0.032, 0.66, 0.16, -0.77, 2.02, -1.63, -0.15, 2.99, -1.09]
-# SPEC §8.2 numerical example: threshold 0 carries p0.
+# Janaideh2016 §IV-C numerical example: threshold 0 carries p0.
 RNUM = [4.0 * j for j in range(11)]
 PNUM = [0.1, 0.0461, 0.069, 0.1029, 0.1535, 0.2291, 0.3417, 0.5098, 0.7605, 1.1345, 1.6925]
 

@@ -1,0 +1,160 @@
+#include "ident/csv_data.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <system_error>
+
+namespace piezoloop::design {
+namespace {
+
+std::string_view trim(std::string_view s) {
+    while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+    while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+    return s;
+}
+
+std::vector<std::string_view> split(std::string_view line) {
+    std::vector<std::string_view> out;
+    std::size_t start = 0;
+    for (;;) {
+        const std::size_t comma = line.find(',', start);
+        out.push_back(trim(line.substr(start, comma == std::string_view::npos ? std::string_view::npos
+                                                                              : comma - start)));
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
+    }
+    return out;
+}
+
+[[noreturn]] void fail(const std::string& source, int line, const std::string& what) {
+    throw std::invalid_argument(source + ":" + std::to_string(line) + ": " + what);
+}
+
+std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
+
+}  // namespace
+
+bool CsvData::has(std::string_view name) const {
+    for (const auto& n : names)
+        if (n == name) return true;
+    return false;
+}
+
+const std::vector<double>& CsvData::column(std::string_view name) const {
+    for (std::size_t c = 0; c < names.size(); ++c)
+        if (names[c] == name) return columns[c];
+    std::string have;
+    for (const auto& n : names) have += (have.empty() ? "" : ", ") + n;
+    throw std::invalid_argument(std::string(name) + ": no such column in " + source +
+                                " (columns: " + have + ")");
+}
+
+CsvData parse_csv(std::string_view text, const std::string& source) {
+    CsvData d;
+    d.source = source;
+    int line_no = 0;
+    bool have_header = false;
+    std::size_t pos = 0;
+    while (pos <= text.size()) {
+        const std::size_t nl = text.find('\n', pos);
+        const std::string_view raw =
+            text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+        pos = nl == std::string_view::npos ? text.size() + 1 : nl + 1;
+        ++line_no;
+        const std::string_view line = trim(raw);
+        if (line.empty() || line.front() == '#') continue;
+        const auto fields = split(line);
+        if (!have_header) {
+            for (std::size_t c = 0; c < fields.size(); ++c) {
+                std::string_view name = fields[c];
+                if (name.size() >= 2 && name.front() == '"' && name.back() == '"')
+                    name = trim(name.substr(1, name.size() - 2));
+                if (name.empty())
+                    fail(source, line_no, "header: column " + std::to_string(c + 1) + " has no name");
+                double probe;
+                const auto r = std::from_chars(name.data(), name.data() + name.size(), probe);
+                if (r.ec == std::errc() && r.ptr == name.data() + name.size())
+                    fail(source, line_no,
+                         "header: column " + std::to_string(c + 1) + " is the number " + quoted(name) +
+                             "; the first row must name the columns (e.g. t,u,y)");
+                for (const auto& n : d.names)
+                    if (n == name) fail(source, line_no, "header: column " + quoted(name) + " appears twice");
+                d.names.emplace_back(name);
+            }
+            d.columns.resize(d.names.size());
+            have_header = true;
+            continue;
+        }
+        if (fields.size() != d.names.size())
+            fail(source, line_no,
+                 "expected " + std::to_string(d.names.size()) + " fields (one per header column), got " +
+                     std::to_string(fields.size()));
+        for (std::size_t c = 0; c < fields.size(); ++c) {
+            const std::string_view f = fields[c];
+            const std::string col = "column " + quoted(d.names[c]) + ": ";
+            if (f.empty()) fail(source, line_no, col + "empty field");
+            // from_chars does not accept a leading '+'; allow it as people write it.
+            const char* first = f.data() + (f.front() == '+' ? 1 : 0);
+            double v = 0.0;
+            const auto r = std::from_chars(first, f.data() + f.size(), v);
+            if (r.ec == std::errc::result_out_of_range)
+                fail(source, line_no, col + quoted(f) + " is out of the double range");
+            if (r.ec != std::errc() || r.ptr != f.data() + f.size())
+                fail(source, line_no, col + quoted(f) + " is not a number");
+            if (!std::isfinite(v)) fail(source, line_no, col + quoted(f) + " is not finite (NaN/Inf)");
+            d.columns[c].push_back(v);
+        }
+        d.lines.push_back(line_no);
+    }
+    if (!have_header) throw std::invalid_argument(source + ": empty: no header row naming the columns");
+    if (d.lines.empty()) throw std::invalid_argument(source + ": no data rows after the header");
+    return d;
+}
+
+CsvData read_csv(const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) throw std::invalid_argument(path + ": cannot open file");
+    std::ostringstream s;
+    s << f.rdbuf();
+    return parse_csv(s.str(), path);
+}
+
+double uniform_sample_period(const CsvData& data, std::string_view time_column, double rel_jitter) {
+    const std::vector<double>& t = data.column(time_column);
+    const std::string name(time_column);
+    if (t.size() < 2)
+        throw std::invalid_argument(name + ": needs at least two samples to give a sample period");
+    for (std::size_t k = 1; k < t.size(); ++k)
+        if (!(t[k] > t[k - 1]))
+            fail(data.source, data.lines[k], "column " + quoted(name) + ": time must increase strictly");
+    // Jitter is judged against the median step (one gap or duplicate row
+    // does not shift it), the period returned is the mean over the file.
+    std::vector<double> dts;
+    for (std::size_t k = 1; k < t.size(); ++k) dts.push_back(t[k] - t[k - 1]);
+    std::nth_element(dts.begin(), dts.begin() + static_cast<std::ptrdiff_t>(dts.size() / 2), dts.end());
+    const double median = dts[dts.size() / 2];
+    for (std::size_t k = 1; k < t.size(); ++k) {
+        const double dt = t[k] - t[k - 1];
+        if (std::fabs(dt - median) > rel_jitter * median) {
+            std::ostringstream m;
+            m << "column '" << name << "': sampling is not uniform (step " << dt << " s vs median " << median
+              << " s); identification needs a constant sample period";
+            fail(data.source, data.lines[k], m.str());
+        }
+    }
+    const double ts = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+    return ts;
+}
+
+void require_finite(std::span<const double> values, std::string_view name) {
+    for (std::size_t k = 0; k < values.size(); ++k)
+        if (!std::isfinite(values[k]))
+            throw std::invalid_argument(std::string(name) + ": sample " + std::to_string(k) +
+                                        " is not finite (NaN/Inf)");
+}
+
+}  // namespace piezoloop::design

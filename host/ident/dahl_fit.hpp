@@ -1,0 +1,94 @@
+// Dahl model identification (docs/models.md, 'Identification'): Levenberg–Marquardt fit of
+// (alpha1, alpha2, beta1, beta2, ga) — with gamma_a held — to a measured
+// or simulated loop, voltage v in, displacement x out, using the plant form
+// of common/piezoloop/dahl.hpp: x = ga v - H(x).
+//
+// Why gamma_a is held, not fitted: from the virgin state z = 0 the state is
+// linear in B_H = [0, gamma_a], so z = gamma_a * z(gamma_a = 1) and H depends
+// on gamma_a only through beta1*gamma_a and beta2*gamma_a. The six published
+// parameters are therefore not identifiable from any data: (gamma_a, beta1,
+// beta2) -> (c gamma_a, beta1/c, beta2/c) gives the same loops. The fit holds
+// gamma_a at the value given (e.g. a published one) and identifies the rest.
+//
+// Simulation: a double-precision port of DahlActuator's equations (same
+// model, same per-sample solve of x + H(x) = ga v along the path, same stick
+// rule at a reversal), but with the exact 2x2 matrix exponential of
+// A_H(s)*dx per trial increment instead of the float trapezoidal sub-steps,
+// and Newton iterated to double rounding. The fit's Jacobian is formed by
+// finite differences, which needs a model output that is smooth in the
+// parameters down to ~1e-12; the float plant (rounding ~1e-7, a solver
+// tolerance, sub-step counts that jump with the parameters) is not. Tests
+// check that the port and DahlActuator agree to float accuracy.
+//
+// Convergence: the LM works on scaled unknowns (log alpha1, log alpha2,
+// log ga — positive and scale free — and beta1, beta2 divided by their
+// starting magnitudes), and starts from an equation-error estimate: for
+// each (alpha1, alpha2) on a log grid around the data's path length L
+// (sqrt(alpha2) in {1/4 .. 8}/L, alpha1/sqrt(alpha2) in {0.1 .. 4}), the
+// integrator driven by the measured x (made monotone between input
+// reversals so noise adds no fake reversals) gives z, and x = ga v -
+// beta2 gamma_a z1 - beta1 gamma_a s z2 is linear in (ga, beta1, beta2):
+// one small least-squares problem per grid point. LM then runs from the
+// three best grid points and the lowest output error wins.
+#pragma once
+
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "piezoloop/dahl.hpp"
+
+namespace piezoloop::design {
+
+struct DahlParamsD {
+    double alpha1 = 0.0, alpha2 = 0.0, beta1 = 0.0, beta2 = 0.0, gamma_a = 0.0, ga = 0.0;
+    static DahlParamsD from(const DahlParams& p) {
+        return {p.alpha1, p.alpha2, p.beta1, p.beta2, p.gamma_a, p.ga};
+    }
+    DahlParams to_float() const {
+        return {static_cast<float>(alpha1), static_cast<float>(alpha2), static_cast<float>(beta1),
+                static_cast<float>(beta2),  static_cast<float>(gamma_a), static_cast<float>(ga)};
+    }
+};
+
+// The plant x = ga v - H(x) from the virgin state (z = 0, x = ga v[0],
+// direction +), in double; same semantics as DahlActuator::reset(v[0]) and
+// step(v[k]) for k >= 0.
+std::vector<double> simulate_dahl_plant(const DahlParamsD& p, std::span<const double> v);
+
+struct DahlFitOptions {
+    double gamma_a = 1.0;               // held (see above); must be finite and non-zero
+    std::optional<DahlParamsD> start;   // starting point (its gamma_a is replaced by gamma_a); else grid
+    int max_evaluations = 4000;         // model simulations per LM run
+    std::string input_name = "v";       // column names used in error messages
+    std::string output_name = "x";
+};
+
+struct DahlFitResult {
+    DahlParamsD params;       // identified (gamma_a as held)
+    DahlParams params_float;  // the same, as the core's DahlParams
+    // Products that do not depend on the gamma_a convention.
+    double beta1_gamma_a = 0.0, beta2_gamma_a = 0.0;
+    // Standard errors from the Gauss–Newton covariance rms^2 (J^T J)^-1 at
+    // the optimum, in the parameters' own units (alpha1, alpha2, beta1, beta2, ga).
+    std::vector<double> std_errors;
+    double rms_error = 0.0;      // rms(x - x_model)
+    double max_error = 0.0;
+    double nrmse_percent = 0.0;  // 100 rms_error / rms(x - mean x)
+    double jacobian_condition = 0.0;  // column-normalised, at the optimum
+    int evaluations = 0;         // model simulations, all runs
+    int starts = 0;              // LM runs
+    std::string termination;     // LM status of the winning run
+};
+
+// Throws std::invalid_argument naming the column or field for: sizes that
+// differ, NaN/Inf, fewer than 50 samples, a constant v or x, invalid
+// options, and data that cannot identify the parameters: a Jacobian at the
+// optimum whose column-normalised condition number exceeds 1e8 (the message
+// names the parameters that the data cannot separate), or a standard error
+// above 50 % of the value of alpha1, alpha2, beta2 or ga (named with value
+// and error; e.g. loops much shorter than the transient length 2/alpha1).
+DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, const DahlFitOptions& options);
+
+}  // namespace piezoloop::design

@@ -1,0 +1,203 @@
+// Scenario files (configs/*.json) and the simulator's building blocks:
+// validation errors name the field path; the shipped scenarios load and every
+// case builds; the streamed metrics (docs/models.md, 'Metrics') equal metrics.hpp's on the same
+// samples; the double-fidelity stage against analytic responses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <random>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "lti/lti_convert.hpp"
+#include "piezoloop/reference_stage.hpp"
+#include "sim/build_case.hpp"
+#include "sim/metrics.hpp"
+#include "sim/scenario.hpp"
+#include "sim/stage_double.hpp"
+#include "sim/window_metrics.hpp"
+
+using namespace piezoloop;
+using namespace piezoloop::sim;
+
+namespace {
+
+const std::string kConfigs = std::string(PIEZOLOOP_GOLDEN_DIR) + "/../../configs/";
+
+nlohmann::json read(const std::string& name) {
+    std::ifstream f(kConfigs + name + ".json");
+    return nlohmann::json::parse(f);
+}
+
+// The message of the ScenarioError that parsing j throws ("" if none).
+std::string error_of(const nlohmann::json& j) {
+    try {
+        (void)parse_scenario(j, kConfigs);
+    } catch (const ScenarioError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+}  // namespace
+
+TEST(SimScenario, ShippedScenariosLoadAndEveryCaseBuilds) {
+    for (const char* name : {"ahmad2020", "janaideh2016", "shan2012"}) {
+        const Scenario s = load_scenario(kConfigs + name + ".json");
+        EXPECT_FALSE(s.experiments.empty()) << name;
+        for (const ExperimentSpec& e : s.experiments)
+            for (const std::string& c : e.cases)
+                for (const double f : e.frequencies_Hz.empty() ? std::vector<double>{1.0} : e.frequencies_Hz) {
+                    BuildOptions o;
+                    o.reference_frequency_Hz = f;
+                    o.check_realisation = false;
+                    EXPECT_NO_THROW(build_case(s, s.find_case(c), o)) << name << " " << c << " " << f;
+                }
+    }
+}
+
+TEST(SimScenario, ErrorsNameTheFieldPath) {
+    const nlohmann::json shan = read("shan2012");
+    struct Bad {
+        std::function<void(nlohmann::json&)> edit;
+        std::string expect;
+    };
+    const Bad bad[] = {
+        {[](auto& j) { j["cases"][2]["controller"]["rc"]["k_rc"] = 2.5; }, "cases[2].controller.rc.k_rc: must be in (0, 2)"},
+        {[](auto& j) { j["cases"][2]["controller"]["rc"]["period_samples"] = 100; j["cases"][2]["controller"]["rc"]["m1"] = 200; }, "cases[2].controller.rc.m2: N - m1 - m2 must be >= 1"},
+        {[](auto& j) { j["plant"]["sensr"] = 1; }, "plant.sensr: unknown field"},
+        {[](auto& j) { j["loop"].erase("rate_Hz"); }, "loop.rate_Hz: required field is missing"},
+        {[](auto& j) { j["plant"]["amplifier"]["gain"] = "x"; }, "plant.amplifier.gain: must be a number"},
+        {[](auto& j) { j["plant"]["dac"]["bits"] = 30; }, "plant.dac.bits: must be an integer in [0, 24]"},
+        {[](auto& j) { j["plant"]["dynamics"]["model"] = "models/no_such_model.json"; }, "plant.dynamics.model:"},
+        {[](auto& j) { j["plant"]["dynamics"]["model"]["series"][0]["den"][0] = 0; }, "plant.dynamics.model.series[0].den[0]"},
+        {[](auto& j) { j["cases"][2]["controller"].erase("feedback"); }, "cases[2].controller.rc: repetitive control plugs into a feedback loop"},
+        {[](auto& j) { j["cases"][1]["name"] = "pi"; }, "cases[1].name: duplicate case name"},
+        {[](auto& j) { j["experiments"][0]["cases"][1] = "nope"; }, "experiments[0].cases[1]: no case named \"nope\""},
+        {[](auto& j) { j["cases"][0]["controller"]["feedback"]["kind"] = "lqr"; }, "cases[0].controller.feedback.kind: must be one of none|pid|lti"},
+        {[](auto& j) { j["plant"]["hysteresis"]["count"] = 17; }, "plant.hysteresis.count: must be an integer in [1, 16]"},
+    };
+    for (const Bad& b : bad) {
+        nlohmann::json j = shan;
+        b.edit(j);
+        const std::string e = error_of(j);
+        EXPECT_NE(e.find(b.expect), std::string::npos) << "got: " << e << "\nwanted: " << b.expect;
+    }
+    // Core validation with an index: thresholds not ascending.
+    nlohmann::json j = read("janaideh2016");
+    j["plant"]["hysteresis"]["thresholds_V"][3] = 0.5;
+    EXPECT_NE(error_of(j).find("plant.hysteresis.thresholds[2]: must be strictly ascending"), std::string::npos)
+        << error_of(j);
+    // Dahl feedforward runs in the Q31 core too.
+    j = read("ahmad2020");
+    j["cases"][1]["sample"] = "q31";
+    EXPECT_EQ(error_of(j), "");
+    // The shipped files are valid.
+    EXPECT_EQ(error_of(shan), "");
+}
+
+// WindowMetrics (streamed) against tracking_metrics / hysteresis_pct
+// (stored) on the same samples: same definitions, so equal to rounding of
+// the sums (1e-12 relative).
+TEST(SimScenario, StreamedMetricsEqualStoredOnes) {
+    std::mt19937 rng(4);
+    std::normal_distribution<double> noise(0.0, 0.05);
+    for (int trial = 0; trial < 20; ++trial) {
+        const int n = 500 + trial * 37;
+        const double phase = 0.3 * trial, lag = 0.05 * trial;
+        std::vector<double> r, y;
+        for (int k = 0; k < n; ++k) {
+            const double t = 2.0 * M_PI * (k + 0.5) / n;
+            r.push_back(3.0 + 2.0 * std::sin(t + phase));
+            y.push_back(3.0 + 1.9 * std::sin(t + phase - lag) + noise(rng));
+        }
+        const auto [lo, hi] = std::minmax_element(r.begin(), r.end());
+        WindowMetrics w(0.5 * (*lo + *hi));
+        for (int k = 0; k < n; ++k) w.add(r[static_cast<size_t>(k)], y[static_cast<size_t>(k)]);
+        const TrackingMetrics a = w.tracking(), b = tracking_metrics(r, y);
+        EXPECT_NEAR(a.e_max_um, b.e_max_um, 1e-12);
+        EXPECT_NEAR(a.e_pp_um, b.e_pp_um, 1e-12);
+        EXPECT_NEAR(a.e_rms_um, b.e_rms_um, 1e-12 * b.e_rms_um);
+        EXPECT_NEAR(a.e_max_pct, b.e_max_pct, 1e-10);
+        EXPECT_NEAR(w.hysteresis_pct(), hysteresis_pct(r, y), 1e-10) << trial;
+    }
+}
+
+// Double stage, no hysteresis, unit gains, ideal converters: a step through
+// the amplifier's first-order lag alone must read, at the end of tick k, the
+// exact lag response sampled at the last sub-step's midpoint (the value the
+// hysteresis holds over that sub-step): 1 - e^{-w ((k+1) Ts - h/2)}. Float
+// output: 1e-6.
+TEST(SimScenario, DoubleStageAmplifierLagIsExact) {
+    DoubleStageConfig c;
+    c.rate_Hz = 100000.0;
+    c.substeps = 8;
+    c.amplifier.bandwidth_Hz = 3000.0f;
+    DoubleStage st;
+    st.configure(c);
+    const double w = 2.0 * M_PI * 3000.0, ts = 1e-5, h = ts / 8;
+    for (int k = 0; k < 50; ++k) {
+        const double y = st.step(1.0f);
+        EXPECT_NEAR(y, 1.0 - std::exp(-w * ((k + 1) * ts - h / 2)), 1e-6) << k;
+    }
+}
+
+// A continuous resonance w^2/(s^2 + 2 zeta w s + w^2) after a static gain:
+// with a held step the ZOH sub-steps are exact, so the reading at the end of
+// tick k is the analytic step response at t = (k+1) Ts, whatever the number
+// of sub-steps; float output: 1e-6.
+TEST(SimScenario, DoubleStageDynamicsMatchTheAnalyticStepResponse) {
+    const double f0 = 18e3, zeta = 0.1, w0 = 2.0 * M_PI * f0;
+    design::Zpk z;
+    const double wd = w0 * std::sqrt(1 - zeta * zeta);
+    z.poles = {{-zeta * w0, wd}, {-zeta * w0, -wd}};
+    z.gain = w0 * w0;
+    for (const int sub : {1, 5}) {
+        DoubleStageConfig c;
+        c.substeps = sub;
+        c.linear_gain_um_per_V = 2.0;
+        c.dynamics = design::balance(design::zpk2ss(z));
+        DoubleStage st;
+        st.configure(c);
+        for (int k = 0; k < 40; ++k) {
+            const double t = (k + 1) * 1e-5;
+            const double a = 1.0 - std::exp(-zeta * w0 * t) * (std::cos(wd * t) + zeta * w0 / wd * std::sin(wd * t));
+            EXPECT_NEAR(st.step(0.5f), a, 1e-6) << "substeps " << sub << " tick " << k;
+        }
+    }
+}
+
+// The same chain in both fidelities with no continuous part (static PI
+// hysteresis, 16-bit converters): identical up to float vs double rounding of
+// the 15-operator sum (a few 1e-6 um), far below one ADC step.
+TEST(SimScenario, StaticStageIsTheSameInBothFidelities) {
+    StageConfig f{};
+    f.dac = ConverterConfig{16, -10.0f, 10.0f};
+    f.adc = ConverterConfig{16, -60.0f, 60.0f};
+    f.plant.hysteresis = HysteresisKind::kPi;
+    f.plant.pi = reference::true_stage_model();
+    DoubleStageConfig d;
+    d.dac = f.dac;
+    d.adc = f.adc;
+    d.hysteresis = HysteresisKind::kPi;
+    d.pi = f.plant.pi;
+    StageModel a;
+    ASSERT_TRUE(a.configure(f).ok());
+    DoubleStage b;
+    b.configure(d);
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<float> u(-10.0f, 10.0f);
+    const float lsb = 120.0f / 65535.0f;
+    int differ = 0;
+    for (int k = 0; k < 5000; ++k) {
+        const float v = u(rng);
+        const float ya = a.step(v), yb = b.step(v);
+        EXPECT_LE(std::fabs(ya - yb), lsb * 1.01f) << k;
+        differ += ya != yb;
+    }
+    // Only where the two sums round to different sides of an ADC step.
+    EXPECT_LT(differ, 50);
+}
