@@ -7,12 +7,11 @@
 // Sections are designed on the host in double (SosSection) and realised here
 // in one of two ways:
 //
-//  * float: direct form II transposed, float coefficients and float state.
-//    About ten instructions per section on a Cortex-M7 FPU. Single precision
-//    is fine for well-conditioned sections, NOT for poles very close to z = 1
-//    at high sample rates (rounding a1, a2 to 24 bits moves such poles by
-//    ~1e-7, which for the Ahmad2020 controller at 100 kHz changes its gain at
-//    1 Hz by an order of magnitude; see tests/common/test_biquad.cpp).
+//  * float: direct form II transposed where float32 holds the section,
+//    otherwise the section written in the delta operator d = z - 1 (its
+//    denominator as offsets 2 + a1 and 1 + a1 + a2 from a double pole at
+//    z = 1, computed in double) with compensated state updates, which holds
+//    poles and zeros at |z| ~ 0.99997 as well as any other.
 //
 //  * Q31: direct form I, 64-bit accumulation, with the feedback written as an
 //    offset from a double pole at z = 1 plus second-order error feedback, so
@@ -138,40 +137,113 @@ constexpr Status validate_sos(const SosSection* sections, int count, SignalScale
 }  // namespace detail
 
 // ---------------------------------------------------------------------------
-// float: direct form II transposed.
+// float: per section, direct form II transposed where float32 holds it, the
+// delta-operator form with compensated states where it does not.
 //
-//   y  = b0 x + s1
-//   s1 = b1 x - a1 y + s2
-//   s2 = b2 x - a2 y
+// DF2T (y = b0 x + s1, s1 = b1 x - a1 y + s2, s2 = b2 x - a2 y) stores a1,
+// a2 in float (~2^-24 of 2), but poles near z = 1 are set by c1 = 2 + a1,
+// c0 = 1 + a1 + a2 (Ahmad2020 K(s) at 100 kHz: c0 ~ 1e-9), zeros by
+// n1 = 2 b0 + b1, n0 = b0 + b1 + b2: lost (K(s) 29 dB off at 0.1 Hz).
 //
-// Signals are physical values; the SignalScales are validated but do not
-// change the coefficients (SignalScale::sample_gain<float> is the identity).
+// The delta-operator form writes the section in d = z - 1 (Middleton &
+// Goodwin, "Improved finite word length characteristics in digital control
+// using delta operators", IEEE TAC 31(11), 1986; the transposed direct form
+// of Kauraniemi, Laakso, Hartimo & Ovaska, "Delta operator realizations of
+// direct-form IIR filters", IEEE TCAS-II 45(1), 1998). With a0 = 1:
+//
+//   z^2 + a1 z + a2     = d^2 + c1 d + c0
+//   b0 z^2 + b1 z + b2  = b0 d^2 + n1 d + n0
+//   H = b0 + (g1 d + g0) / (d^2 + c1 d + c0),  g1 = n1 - b0 c1, g0 = n0 - b0 c0
+//
+//   y   = b0 x + s1
+//   s1 += s2 + g1 x - c1 s1              (d s1 = -c1 s1 + s2 + g1 x)
+//   s2 += g0 x - c0 s1                   (d s2 = -c0 s1 + g0 x)
+//
+// c1, c0, g1, g0 are computed in double from the double design at configure
+// time and only then rounded to float: each keeps 24 significant bits however
+// small it is, so poles and zeros move by ~2^-24 of their distance to z = 1.
+// The states are integrators whose increments are small beside them near
+// z = 1; plain float addition would drop the increments' low bits every
+// sample (a deadband, and noise amplified by 1 / c0). Each state therefore
+// carries the rounding residual of its last update into the next increment:
+// compensated summation (Kahan, "Further remarks on reducing truncation
+// errors", CACM 8(1), 1965; the residual is Dekker's Fast2Sum, 1971), i.e.
+// first-order error feedback on the state (Higgins & Munson, "Noise
+// reduction strategies for digital filters: error spectrum shaping versus
+// the optimal linear state-space formulation", IEEE TASSP 30(6), 1982).
+// Cost: 5 multiplies and 12 adds per section against DF2T's 5 and 4.
+// The choice (configure, from the double coefficients), by FormChoice:
+//  * kLowNoise (default: controllers and filters, whose later sections may
+//    be near-integrators with gains of 1e9 that amplify any noise before
+//    them): DF2T when rounding b0, b1, b2, a1, a2 to float changes none of
+//    c1, c0, n1, n0, nor the sums at z = -1 (1 - a1 + a2, b0 - b1 + b2), by
+//    more than 2^-20 of itself (response within ~1e-5 dB times the
+//    section's resonance Q), and c0 = |1 - p|^2 >= 1/16: DF2T's state
+//    rounding reaches the output through 1 / A(z), whose gain at z = 1 is
+//    1 / c0; the delta form's compensated states do not see it.
+//  * kCoefficients (models of physical plants, whose output noise is the
+//    sensor's): DF2T when those changes are at most 2^-12 (response within
+//    ~2e-3 dB times Q); the noise of a lightly used DF2T is far below any
+//    sensor's.
+// The delta form otherwise: well-conditioned sections keep DF2T and its
+// cost, near-integrators and low-frequency notches get the delta form.
+// form(i) reports the choice.
+//
+// Only float adds, subtracts and multiplies in a fixed order (built with
+// -ffp-contract=off): host and boards agree bit for bit. Signals are
+// physical values (SignalScale::sample_gain<float> is the identity).
+enum class SectionForm : uint8_t { kDf2t, kDelta };
+enum class FormChoice : uint8_t { kLowNoise, kCoefficients };
+
 template <int MaxSections>
 class BiquadCascade<float, MaxSections> {
 public:
     static constexpr int kMaxSections = MaxSections;
+    static constexpr double kDf2tTolerance = 1.0 / 1048576.0;      // 2^-20, kLowNoise
+    static constexpr double kDf2tMinC0 = 1.0 / 16.0;               // kLowNoise: noise gain 1 / c0 <= 16
+    static constexpr double kDf2tPlantTolerance = 1.0 / 4096.0;    // 2^-12, kCoefficients
 
     // Accepts 1..MaxSections stable, finite sections. On error names the field
     // (e.g. "sections[2].a2") and leaves configuration and state untouched.
     // On success the state carries on if the section count is unchanged
     // (retuning a running filter), and is zeroed if it changed.
-    constexpr Status configure(const SosSection* sections, int count, SignalScale in, SignalScale out) {
+    constexpr Status configure(const SosSection* sections, int count, SignalScale in, SignalScale out,
+                               FormChoice choice = FormChoice::kLowNoise) {
         if (const Status s = detail::validate_sos<MaxSections>(sections, count, in, out); !s.ok()) return s;
         const double gain = SignalScale::sample_gain<float>(1.0, in, out);
         std::array<Coef, MaxSections> c{};
         for (int i = 0; i < count; ++i) {
             const SosSection& s = sections[i];
             const double g = i == 0 ? gain : 1.0;
+            const double b0 = s.b0 * g, b1 = s.b1 * g, b2 = s.b2 * g;
             Coef& k = c[static_cast<std::size_t>(i)];
-            k = Coef{static_cast<float>(s.b0 * g), static_cast<float>(s.b1 * g),
-                     static_cast<float>(s.b2 * g), static_cast<float>(s.a1), static_cast<float>(s.a2)};
-            // Rounding to float can push a pole that was just inside the unit
-            // circle onto or over it; refuse rather than run an unstable filter.
-            const double a1 = k.a1, a2 = k.a2;
-            const double a1_abs = a1 < 0.0 ? -a1 : a1;
-            if (!(a2 < 1.0 && a2 > -1.0) || !(a1_abs < 1.0 + a2))
+            if (df2t_holds(b0, b1, b2, s.a1, s.a2, choice)) {
+                k = Coef{static_cast<float>(b0), static_cast<float>(b1), static_cast<float>(b2),
+                         static_cast<float>(s.a1), static_cast<float>(s.a2), SectionForm::kDf2t};
+            } else {
+                const double c1 = s.a1 + 2.0;
+                const double c0 = c1 + (s.a2 - 1.0);  // 1 + a1 + a2, > 0 for a stable section
+                const double g1 = (2.0 * b0 + b1) - b0 * c1;
+                const double g0 = (b0 + b1 + b2) - b0 * c0;
+                k = Coef{static_cast<float>(b0), static_cast<float>(g1), static_cast<float>(g0),
+                         static_cast<float>(c1), static_cast<float>(c0), SectionForm::kDelta};
+            }
+            if (!is_finite(k.k0) || !is_finite(k.k1) || !is_finite(k.k2))
+                return error(detail::sos_field<MaxSections>(i, detail::kB0),
+                             "numerator (first section: times in/out full scale) overflows float");
+            // Realised poles strictly inside the unit circle, in c1, c0: c0 > 0,
+            // c1 > c0 (a2 < 1), c0 - c1 + 2 > 0, 4 - 2 c1 + c0 > 0. A delta c0
+            // below float's normal range is refused (FPUs differ on denormals).
+            const bool delta = k.form == SectionForm::kDelta;
+            const double q1 = delta ? double{k.k3} : double{k.k3} + 2.0;
+            const double q0 = delta ? double{k.k4} : q1 + (double{k.k4} - 1.0);
+            constexpr double kFloatMinNormal = 1.17549435082228750797e-38;  // 2^-126
+            if (!(q0 > 0.0) || (delta && !(q0 >= kFloatMinNormal)) || !(4.0 - 2.0 * q1 + q0 > 0.0))
+                return error(detail::sos_field<MaxSections>(i, detail::kA1),
+                             "poles too close to the unit circle to be represented in float");
+            if (!(q1 - q0 > 0.0) || !(q0 - q1 + 2.0 > 0.0))
                 return error(detail::sos_field<MaxSections>(i, detail::kA2),
-                             "poles leave the unit circle when rounded to float; use the Q31 cascade");
+                             "poles too close to the unit circle to be represented in float");
         }
         coef_ = c;
         if (count != count_) state_ = {};
@@ -198,8 +270,33 @@ public:
 
     constexpr void reset() { state_ = {}; }
     constexpr int count() const { return count_; }
+    constexpr SectionForm form(int i) const { return coef_[static_cast<std::size_t>(i)].form; }
+
+    // Whether DF2T holds a section (above); float(v) - v is exact in double.
+    static constexpr bool df2t_holds(double b0, double b1, double b2, double a1, double a2,
+                                     FormChoice choice = FormChoice::kLowNoise) {
+        const double e_b0 = static_cast<double>(static_cast<float>(b0)) - b0;
+        const double e_b1 = static_cast<double>(static_cast<float>(b1)) - b1;
+        const double e_b2 = static_cast<double>(static_cast<float>(b2)) - b2;
+        const double e_a1 = static_cast<double>(static_cast<float>(a1)) - a1;
+        const double e_a2 = static_cast<double>(static_cast<float>(a2)) - a2;
+        const double c1 = a1 + 2.0, c0 = c1 + (a2 - 1.0);
+        const double n1 = 2.0 * b0 + b1, n0 = (b0 + b1) + b2;
+        // ... and the same at z = -1 (1 - a1 + a2, b0 - b1 + b2).
+        const bool low_noise = choice == FormChoice::kLowNoise;
+        const double t = low_noise ? kDf2tTolerance : kDf2tPlantTolerance;
+        return (!low_noise || c0 >= kDf2tMinC0) && within(e_a1, c1, t) && within(e_a1 + e_a2, c0, t) &&
+               within(2.0 * e_b0 + e_b1, n1, t) && within((e_b0 + e_b1) + e_b2, n0, t) &&
+               within(e_a2 - e_a1, (1.0 - a1) + a2, t) && within((e_b0 - e_b1) + e_b2, (b0 - b1) + b2, t);
+    }
 
 private:
+    static constexpr bool within(double error, double of, double tolerance) {
+        const double e = error < 0.0 ? -error : error;
+        const double v = of < 0.0 ? -of : of;
+        return e <= tolerance * v;
+    }
+
     // N sections, unrolled (N <= MaxSections; a larger N is never called).
     template <int N>
     constexpr float apply_n(float x) {
@@ -210,10 +307,26 @@ private:
             for (int i = 0; i < N; ++i) {
                 const Coef& c = coef_[static_cast<std::size_t>(i)];
                 State& s = state_[static_cast<std::size_t>(i)];
-                const float y = c.b0 * x + s.s1;
-                s.s1 = c.b1 * x - c.a1 * y + s.s2;
-                s.s2 = c.b2 * x - c.a2 * y;
-                x = y;
+                if (c.form == SectionForm::kDf2t) {
+                    // k0..k4 = b0, b1, b2, a1, a2
+                    const float y = c.k0 * x + s.s1;
+                    s.s1 = c.k1 * x - c.k3 * y + s.s2;
+                    s.s2 = c.k2 * x - c.k4 * y;
+                    x = y;
+                } else {
+                    // k0..k4 = b0, g1, g0, c1, c0; increments with the
+                    // residual their state lost last time.
+                    const float y = c.k0 * x + s.s1;
+                    const float i1 = ((s.s2 + c.k1 * x) - c.k3 * s.s1) + s.r1;
+                    const float i2 = (c.k2 * x - c.k4 * s.s1) + s.r2;
+                    const float t1 = s.s1 + i1;
+                    s.r1 = i1 - (t1 - s.s1);  // what the rounding of t1 dropped
+                    s.s1 = t1;
+                    const float t2 = s.s2 + i2;
+                    s.r2 = i2 - (t2 - s.s2);
+                    s.s2 = t2;
+                    x = y;
+                }
             }
             return x;
         }
@@ -231,10 +344,12 @@ private:
     }
 
     struct Coef {
-        float b0 = 0.0f, b1 = 0.0f, b2 = 0.0f, a1 = 0.0f, a2 = 0.0f;
+        float k0 = 0.0f, k1 = 0.0f, k2 = 0.0f, k3 = 0.0f, k4 = 0.0f;  // per form, see apply_n
+        SectionForm form = SectionForm::kDf2t;
     };
     struct State {
-        float s1 = 0.0f, s2 = 0.0f;
+        float s1 = 0.0f, s2 = 0.0f;  // DF2T or delta-form states
+        float r1 = 0.0f, r2 = 0.0f;  // delta form: rounding residuals (error feedback)
     };
     std::array<Coef, MaxSections> coef_{};
     std::array<State, MaxSections> state_{};

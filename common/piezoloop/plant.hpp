@@ -49,7 +49,9 @@ public:
             return error("sections", "must be in [0, 6]");
         BiquadCascade<float, kMaxPlantSections> dyn;
         if (c.sections > 0) {
-            if (const Status s = dyn.configure(c.dynamics.data(), c.sections, {}, {}); !s.ok())
+            // A stage model: DF2T wherever its coefficients hold (biquad.hpp).
+            if (const Status s = dyn.configure(c.dynamics.data(), c.sections, {}, {}, FormChoice::kCoefficients);
+                !s.ok())
                 return in_group("dynamics", s);
         }
         config_ = c;

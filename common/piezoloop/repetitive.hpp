@@ -40,11 +40,16 @@ class FirstOrderSection;
 
 // float: the biquad's direct form II transposed with s2 = 0, the same
 // arithmetic in the same order (the biquad adds b2 x - a2 y = +-0 to s1,
-// which changes nothing but possibly the sign of a zero).
+// which changes nothing but possibly the sign of a zero). Only where the
+// float cascade would itself choose DF2T for the section: a Q with its pole
+// near z = 1 (a low cutoff at a high rate) runs as a cascade section in the
+// delta-operator form instead.
 template <>
 class FirstOrderSection<float> {
 public:
-    static constexpr bool accepts(const SosSection& q) { return q.b2 == 0.0 && q.a2 == 0.0; }
+    static constexpr bool accepts(const SosSection& q) {
+        return q.b2 == 0.0 && q.a2 == 0.0 && BiquadCascade<float, 1>::df2t_holds(q.b0, q.b1, q.b2, q.a1, q.a2);
+    }
     void configure(const SosSection& q) {
         b0_ = static_cast<float>(q.b0);
         b1_ = static_cast<float>(q.b1);

@@ -51,25 +51,26 @@ OutputLimiter<T> g_lim{kEmulatedAnalog.hard, kLoopRate_Hz, SignalScale{kEmulated
 // The RC's Q filter alone (one of the two the RC runs per tick).
 BiquadCascade<T, 1> g_q;
 
-enum Block { kWhole, kAdc, kDac, kTraj, kPi, kSos, kRc, kLim, kRec, kPlant, kQ, kVarA, kVarB, kVarC, kBlocks };
+enum Block { kWhole, kAdc, kDac, kTraj, kPi, kSos, kRc, kLim, kRec, kPlant, kQ, kVarA, kVarB, kVarC, kVarD, kBlocks };
 constexpr const char* kNames[kBlocks] = {"pipeline_tick", "adc_to_sample",  "sample_to_dac",
                                          "trajectory",    "pi_inverse_15",  "feedback_sos_3",
                                          "rc_n100",       "limiter",        "recorder_push",
                                          "plant_model",   "rc_q_filter_one", "proposal_a",
-                                         "proposal_b",    "proposal_c"};
+                                         "proposal_b",    "proposal_c",      "proposal_d"};
 // Proposals for the play loop (profile_variants.hpp): names and mismatch
 // counts against the core's operator.
 #if PIEZOLOOP_FW_SAMPLE_Q31
-constexpr const char* kVarNames[3] = {"pi_inverse_15_q31_int32_clamp", "", ""};
+constexpr const char* kVarNames[4] = {"pi_inverse_15_q31_int32_clamp", "", "", ""};
 variants::PiQ31Clamp g_var_a;
 #else
-constexpr const char* kVarNames[3] = {"pi_inverse_15_minmaxnum", "pi_inverse_15_minmaxnum_unrolled",
-                                      "feedback_sos_3_unrolled"};
+constexpr const char* kVarNames[4] = {"pi_inverse_15_minmaxnum", "pi_inverse_15_minmaxnum_unrolled",
+                                      "feedback_sos_3_df2t", "feedback_sos_3_delta"};
 variants::PiFloatMinMax g_var_a;
 variants::PiFloatMinMaxUnrolled<14> g_var_b;  // the reference inverse: p0 + 14 play operators
-variants::SosFloatUnrolled<3> g_var_c;
+variants::SosFloatDf2t<3> g_var_c;   // the cost of each float form alone
+variants::SosFloatDelta<3> g_var_d;
 #endif
-uint32_t g_mismatch[3] = {0, 0, 0};
+uint32_t g_mismatch[4] = {0, 0, 0, 0};
 WorkStats g_stats[kBlocks];
 
 // Times f() (the result is kept alive so the call is not optimised away).
@@ -89,7 +90,7 @@ bool configure(const PipelineParams& p, const SignalScale pos, const SignalScale
     if (!g_var_a.configure(inverse, pos, volt)) return false;
 #else
     if (!g_var_a.configure(inverse) || !g_var_b.configure(inverse)) return false;
-    if (!g_var_c.configure(p.sos.data(), p.sos_count)) return false;
+    if (!g_var_c.configure(p.sos.data(), p.sos_count) || !g_var_d.configure(p.sos.data(), p.sos_count)) return false;
 #endif
     const SignalScale unit{1.0f};
     if (!g_q.configure(&p.rc.q, 1, unit, unit).ok()) return false;
@@ -148,6 +149,8 @@ int app_main() {
 #if !PIEZOLOOP_FW_SAMPLE_Q31
         const T vc = timed(kVarC, [&] { return g_var_c.apply(s.e + s.u_rc); });
         if (std::bit_cast<uint32_t>(vc) != std::bit_cast<uint32_t>(fb)) ++g_mismatch[2];
+        const T vd = timed(kVarD, [&] { return g_var_d.apply(s.e + s.u_rc); });
+        if (std::bit_cast<uint32_t>(vd) != std::bit_cast<uint32_t>(fb)) ++g_mismatch[3];
 #endif
         timed(kLim, [&] { return g_lim.apply(s.u_ff + s.u_fb); });
         timed(kRec, [&] {

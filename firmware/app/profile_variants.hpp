@@ -145,12 +145,13 @@ private:
     std::array<int32_t, kMaxPlayOperators> p_{}, r_{}, w_{};
 };
 
-// Float biquad cascade with the section count fixed at compile time (the
-// core loops over a runtime count_ of up to kMaxControllerSections): the
-// same DF2T arithmetic, unrolled. The core could dispatch once per tick on
-// its count to such instances.
+// Plain float32 direct form II transposed sections, unrolled for a count
+// fixed at compile time: the form the core's float cascade used before its
+// delta-operator sections (biquad.hpp), kept as the cost comparison point.
+// Not a drop-in: it cannot hold poles near z = 1, so its output differs
+// from the core's (mismatches_vs_core counts the ticks).
 template <int N>
-class SosFloatUnrolled {
+class SosFloatDf2t {
 public:
     bool configure(const SosSection* sections, int count) {
         if (count != N) return false;
@@ -182,6 +183,55 @@ private:
     };
     struct State {
         float s1 = 0.0f, s2 = 0.0f;
+    };
+    std::array<Coef, N> c_{};
+    std::array<State, N> s_{};
+};
+
+// The delta-operator form of biquad.hpp for every section, unrolled, no
+// per-section dispatch: the cost of that form alone. Its output differs
+// from the core's where the core runs a section in DF2T.
+template <int N>
+class SosFloatDelta {
+public:
+    bool configure(const SosSection* sections, int count) {
+        if (count != N) return false;
+        for (int i = 0; i < N; ++i) {
+            const SosSection& q = sections[i];
+            const double c1 = q.a1 + 2.0, c0 = c1 + (q.a2 - 1.0);
+            c_[static_cast<unsigned>(i)] = {static_cast<float>(q.b0),
+                                            static_cast<float>((2.0 * q.b0 + q.b1) - q.b0 * c1),
+                                            static_cast<float>((q.b0 + q.b1 + q.b2) - q.b0 * c0),
+                                            static_cast<float>(c1), static_cast<float>(c0)};
+        }
+        s_ = {};
+        return true;
+    }
+    float apply(float x) {
+#pragma GCC unroll 8
+        for (int i = 0; i < N; ++i) {
+            const Coef& c = c_[static_cast<unsigned>(i)];
+            State& st = s_[static_cast<unsigned>(i)];
+            const float y = c.b0 * x + st.s1;
+            const float i1 = ((st.s2 + c.g1 * x) - c.c1 * st.s1) + st.r1;
+            const float i2 = (c.g0 * x - c.c0 * st.s1) + st.r2;
+            const float t1 = st.s1 + i1;
+            st.r1 = i1 - (t1 - st.s1);
+            st.s1 = t1;
+            const float t2 = st.s2 + i2;
+            st.r2 = i2 - (t2 - st.s2);
+            st.s2 = t2;
+            x = y;
+        }
+        return x;
+    }
+
+private:
+    struct Coef {
+        float b0, g1, g0, c1, c0;
+    };
+    struct State {
+        float s1 = 0.0f, s2 = 0.0f, r1 = 0.0f, r2 = 0.0f;
     };
     std::array<Coef, N> c_{};
     std::array<State, N> s_{};

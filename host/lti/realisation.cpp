@@ -24,13 +24,20 @@ std::string imaginary(double v, int digits) {
 constexpr int kMax = kMaxCheckedSections;
 
 // The section poles after the core's coefficient quantisation.
-std::vector<cplx> realised_poles(const SosSection& s, SampleFormat format) {
-    if (format == SampleFormat::kFloat) {
+std::vector<cplx> realised_poles(const SosSection& s, SampleFormat format, SectionForm form) {
+    if (format == SampleFormat::kFloat && form == SectionForm::kDf2t) {
         // a1, a2 rounded to float; a1f + 2 and 1 + a1f + a2f are exact in
         // double (float values of nearby exponents).
         const double a1 = static_cast<float>(s.a1), a2 = static_cast<float>(s.a2);
         const double c1 = a1 + 2.0;
         return section_poles_shifted(c1, c1 + (a2 - 1.0));
+    }
+    if (format == SampleFormat::kFloat) {
+        // Delta form: c1 = 2 + a1 and c0 = 1 + a1 + a2 computed in double,
+        // then rounded to float.
+        const double c1 = s.a1 + 2.0;
+        const double c0 = c1 + (s.a2 - 1.0);
+        return section_poles_shifted(static_cast<float>(c1), static_cast<float>(c0));
     }
     // As BiquadCascade<Q31>::configure: c1 = a1 + 2, c2 = a2 - 1 on one
     // block exponent, c2 chosen so that c1 + c2 = 1 + a1 + a2 is best-rounded.
@@ -97,6 +104,13 @@ SampleFormat parse_sample_format(const std::string& name) {
 
 const char* sample_format_name(SampleFormat f) { return f == SampleFormat::kFloat ? "float" : "q31"; }
 
+const char* section_form_name(SampleFormat f, SectionForm form) {
+    if (f == SampleFormat::kQ31) return "Q31 direct form I relative to z = 1 (c1 = a1 + 2, c2 = a2 - 1), error feedback";
+    return form == SectionForm::kDf2t
+               ? "float32 direct form II transposed"
+               : "float32 delta operator (d = z - 1: c1 = 2 + a1, c0 = 1 + a1 + a2), compensated states";
+}
+
 RealisationReport check_realisation(const Zpk& design, const std::vector<SosSection>& sections,
                                     const RealisationOptions& opt) {
     if (!is_discrete(design.ts)) throw std::invalid_argument("realisation: the design must be discrete (ts > 0)");
@@ -104,10 +118,11 @@ RealisationReport check_realisation(const Zpk& design, const std::vector<SosSect
     if (opt.frequencies < 2) throw std::invalid_argument("realisation: frequencies must be >= 2");
     RealisationReport r;
     r.format = opt.format;
-    const char* fmt_name = opt.format == SampleFormat::kFloat ? "float32 DF2T" : "Q31 DF1";
+    const char* fmt_name = opt.format == SampleFormat::kFloat ? "float32" : "Q31 DF1";
     const double rate = 1.0 / design.ts;
 
-    // 1. The core's own validation.
+    // 1. The core's own validation, and the form of each section.
+    std::vector<SectionForm> forms;  // float only
     if (static_cast<int>(sections.size()) > kMax) {
         r.configure_error = cat("count: ", std::to_string(sections.size()), " sections exceed the checked maximum ",
                                 std::to_string(kMax));
@@ -117,10 +132,13 @@ RealisationReport check_realisation(const Zpk& design, const std::vector<SosSect
         if (opt.format == SampleFormat::kFloat) {
             auto c = std::make_unique<BiquadCascade<float, kMax>>();
             st = c->configure(sections.data(), static_cast<int>(sections.size()), in, out);
+            for (int i = 0; st.ok() && i < c->count(); ++i) forms.push_back(c->form(i));
         } else {
             auto c = std::make_unique<BiquadCascade<Q31, kMax>>();
             st = c->configure(sections.data(), static_cast<int>(sections.size()), in, out);
         }
+        for (size_t i = 0; st.ok() && i < sections.size(); ++i)
+            r.section_forms.push_back(section_form_name(opt.format, i < forms.size() ? forms[i] : SectionForm::kDf2t));
         r.configured = st.ok();
         if (!st.ok()) r.configure_error = describe(st);
     }
@@ -135,7 +153,8 @@ RealisationReport check_realisation(const Zpk& design, const std::vector<SosSect
     double rho = 0.0;
     for (size_t i = 0; i < sections.size(); ++i) {
         std::vector<cplx> d = section_poles(sections[i]);
-        std::vector<cplx> q = realised_poles(sections[i], opt.format);
+        std::vector<cplx> q =
+            realised_poles(sections[i], opt.format, i < forms.size() ? forms[i] : SectionForm::kDf2t);
         for (const cplx& p : q) rho = std::max(rho, std::abs(p));
         for (const cplx& p : d) rho = std::max(rho, std::abs(p));
         // Match each design pole with the nearest realised one.
@@ -227,7 +246,7 @@ RealisationReport check_realisation(const Zpk& design, const std::vector<SosSect
                                  "): the realisation is (nearly) unstable or slower than the design"));
 
     // 4. Response at log-spaced frequencies up to Nyquist.
-    const std::vector<double> f = logspace(opt.f_min_fraction * rate, 0.999 * 0.5 * rate, opt.frequencies);
+    const std::vector<double> f = logspace(opt.f_min_hz, 0.999 * 0.5 * rate, opt.frequencies);
     const std::vector<cplx> hd = freqresp(design, hz_to_rad_s(f));
     // DFT noise of the record, in physical gain units.
     const double noise = std::sqrt(static_cast<double>(n)) * sample_noise;
@@ -267,6 +286,7 @@ nlohmann::json to_json(const RealisationReport& r) {
     if (!r.configured) j["configure_error"] = r.configure_error;
     j["fit"] = r.fit;
     j["warnings"] = r.warnings;
+    j["section_forms"] = r.section_forms;
     if (!r.configured) return j;
     j["measurement"] = "DFT of the impulse response of the core's BiquadCascade, vs the double-precision design";
     j["impulse_samples"] = r.impulse_samples;

@@ -1,6 +1,8 @@
 // Realisation check: does a biquad cascade, run by the core's own classes
-// (common/piezoloop/biquad.hpp: float32 DF2T or Q31 DF1 with error
-// feedback), do what the double-precision design says, at its rate?
+// (common/piezoloop/biquad.hpp: float32 DF2T or delta-operator sections,
+// chosen per section by the cascade, or Q31 DF1 relative to z = 1 with error
+// feedback), do what the double-precision design says, at its rate? The
+// report names each section's form (section_forms).
 //
 //  * configure(): the core's own validation (Status) of the sections and
 //    full scales, reported as "field: message" when it rejects.
@@ -8,22 +10,24 @@
 //    impulse (full scale for float, half full scale for Q31) and its output
 //    is recorded until the slowest pole (design or realised) has decayed to
 //    1e-12; the DFT of that impulse response at 61 log-spaced frequencies
-//    from 1e-6 of the rate up to 0.999 Nyquist is compared with the
+//    from 0.01 Hz up to 0.999 Nyquist is compared with the
 //    design's response: error in dB (20 log10 |H_real / H_design|) and in
 //    phase (degrees). Points where the design's gain in sample units is
 //    below the realisation's noise floor (Q31: output rounding accumulated
 //    over the record) are listed but not counted.
 //  * Pole displacement: the poles of the coefficients as the core
-//    quantises them (float: a1, a2 rounded to float; Q31: the mantissas of
-//    a1 + 2 and a2 - 1 on their block exponent, as BiquadCascade<Q31>
-//    computes them) against the double design, as |dz| and relative to the
+//    quantises them (float DF2T: a1, a2 rounded to float; float delta:
+//    2 + a1 and 1 + a1 + a2 rounded to float; Q31:
+//    the mantissas of a1 + 2 and a2 - 1 on their block exponent, as
+//    BiquadCascade<Q31> computes them) against the double design, as |dz| and relative to the
 //    pole's distance 1 - |z| to the unit circle.
 //  * Verdict: unfit if configure() rejects, if any pole moves by more than
 //    max_pole_shift of its distance to the unit circle, or if the response
 //    error exceeds max_error_db / max_phase_error_deg; each reason is a
-//    warning sentence. The canonical unfit case is the Ahmad2020 K(s) at
-//    100 kHz in float32 (slow pole pair at |z| ~ 0.99997 moves by ~7x its
-//    distance to the circle); its Q31 realisation is fit.
+//    warning sentence. Both forms hold the sources' controllers at 10 to
+//    100 kHz (Ahmad2020 K(s): slow pole pair at |z| ~ 0.99997 at 100 kHz);
+//    poles near the unit circle away from z = 1 (e.g. a2 = 1 - 1e-9) are
+//    refused by both.
 #pragma once
 
 #include <string>
@@ -39,6 +43,9 @@ namespace piezoloop::design {
 enum class SampleFormat { kFloat, kQ31 };
 SampleFormat parse_sample_format(const std::string& name);  // "float" | "q31"
 const char* sample_format_name(SampleFormat f);
+// The section structure the core uses, for reports (float: per section,
+// BiquadCascade<float>::form; Q31: one form).
+const char* section_form_name(SampleFormat f, SectionForm form);
 
 // Largest cascade the check (and the command line) handles.
 inline constexpr int kMaxCheckedSections = 32;
@@ -48,7 +55,7 @@ struct RealisationOptions {
     double in_full_scale = 1.0;   // physical units per Q31 full scale
     double out_full_scale = 1.0;
     int frequencies = 61;
-    double f_min_fraction = 1e-6;  // lowest frequency / rate
+    double f_min_hz = 0.01;  // lowest frequency checked (the highest is 0.999 Nyquist)
     long max_samples = 8'000'000;  // impulse record cap
     double max_error_db = 0.1;
     double max_phase_error_deg = 1.0;
@@ -74,6 +81,7 @@ struct ResponsePoint {
 
 struct RealisationReport {
     SampleFormat format = SampleFormat::kQ31;
+    std::vector<std::string> section_forms;  // the core's structure, per section
     bool configured = false;
     std::string configure_error;  // "sections[2].a1: …" when rejected
     std::vector<PoleShift> poles;

@@ -45,10 +45,10 @@ std::string realisation_note(const design::Zpk& discrete, const PipelineParams& 
     const design::RealisationReport r = design::check_realisation(discrete, sos, ro);
     std::string text = std::string(design::sample_format_name(ro.format)) + " realisation of the controller (lti/realisation): ";
     if (!r.configured) return text + "rejected: " + r.configure_error;
-    text += "response within " + format::significant(r.max_error_db, 2) + " dB / " +
-            format::significant(r.max_phase_error_deg, 2) + " deg of the design (worst at " +
-            format::significant(r.worst_f_hz, 3) + " Hz), poles moved by up to " +
-            format::significant(100.0 * r.max_relative_pole_shift, 2) + " % of their distance to the unit circle";
+    text += "response within " + format::significant(r.max_error_db, 2) + " dB / " + format::significant(r.max_phase_error_deg, 2) +
+            " deg of the design (worst at " + format::significant(r.worst_f_hz, 3) + " Hz), poles moved by up to " +
+            format::significant(100.0 * r.max_relative_pole_shift, 2) + " % of their distance to the unit circle; sections:";
+    for (size_t i = 0; i < r.section_forms.size(); ++i) text += (i ? "; " : " ") + r.section_forms[i];
     text += r.fit ? " (fit)." : " - UNFIT:";
     if (!r.fit)
         for (const std::string& w : r.warnings) text += " " + w;

@@ -20,7 +20,12 @@ round trip, a rejected group prints the device's error naming the field and
 exits non-zero, a streamed wave is consumed completely, wave start/stop, and
 SIGTERM to `emulate` ends QEMU.
 
-Usage: check_device_e2e.py PIEZOLOOP SERVO_ELF CONFIGS_DIR [qemu-m7|qemu-m3]
+qemu-m7-100k: the same Ahmad2020 stage and dahl_ff_K controller on qemu-m7
+at 100 kHz (the scenario with loop.rate_Hz = 100000, written to a scratch
+file), 0.2 s: K(s)'s slow pole pair at |z| = 0.99997 runs in the float
+core's delta-operator sections, and board and simulator agree bit for bit.
+
+Usage: check_device_e2e.py PIEZOLOOP SERVO_ELF CONFIGS_DIR [qemu-m7|qemu-m3|qemu-m7-100k]
 Exit 77 (skipped) without qemu-system-arm or the image."""
 import csv
 import json
@@ -33,8 +38,24 @@ import tempfile
 import time
 
 exe, image, configs = sys.argv[1], sys.argv[2], sys.argv[3]
-board = sys.argv[4] if len(sys.argv) > 4 else "qemu-m7"
-if board == "qemu-m7":
+variant = sys.argv[4] if len(sys.argv) > 4 else "qemu-m7"
+board = "qemu-m7" if variant == "qemu-m7-100k" else variant
+tmp = tempfile.mkdtemp(prefix="check_device_e2e_")
+if variant == "qemu-m7-100k":
+    with open(os.path.join(configs, "ahmad2020.json")) as f:
+        sc = json.load(f)
+    sc["loop"]["rate_Hz"] = 100000
+    sc["plant"]["dynamics"]["model"] = os.path.join(configs, sc["plant"]["dynamics"]["model"])
+    for c in sc["cases"]:
+        fb = c.get("controller", {}).get("feedback", {})
+        if "model" in fb:
+            fb["model"] = os.path.join(configs, fb["model"])
+    scenario = os.path.join(tmp, "ahmad2020_100k.json")
+    with open(scenario, "w") as f:
+        json.dump(sc, f)
+    case, rate, seconds, range_um = "dahl_ff_K", 100000, 0.2, "12"
+    sim_sample, columns, stream_s = "float", ("t_s", "r_um", "y_um", "e_um", "u_V"), "0.05"
+elif board == "qemu-m7":
     scenario, case, rate, seconds, range_um = os.path.join(configs, "ahmad2020.json"), "dahl_ff_K", 10000, 1, "12"
     sim_sample, columns, stream_s = "float", ("t_s", "r_um", "y_um", "e_um", "u_V"), "0.3"
 else:
@@ -44,6 +65,7 @@ frames = int(round(rate * seconds))
 stream_n = int(round(rate * float(stream_s)))
 if not os.path.exists(image) or shutil.which(os.environ.get("QEMU_SYSTEM_ARM", "qemu-system-arm")) is None:
     print(f"skipped: no QEMU or no image {image}")
+    shutil.rmtree(tmp, ignore_errors=True)
     sys.exit(77)
 
 passed = failed = 0
@@ -65,7 +87,6 @@ def run(*args, timeout=300):
     return r
 
 
-tmp = tempfile.mkdtemp(prefix="check_device_e2e_")
 emu = subprocess.Popen([exe, "emulate", "--board", board, "--scenario", scenario, "--image", image],
                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 try:
