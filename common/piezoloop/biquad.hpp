@@ -354,6 +354,12 @@ private:
     std::array<Coef, MaxSections> coef_{};
     std::array<State, MaxSections> state_{};
     int count_ = 0;
+
+public:
+    // The states alone, for the feedback's anti-windup (anti_windup.hpp).
+    using Snapshot = std::array<State, MaxSections>;
+    constexpr Snapshot snapshot() const { return state_; }
+    constexpr void restore(const Snapshot& s) { state_ = s; }
 };
 
 // ---------------------------------------------------------------------------
@@ -595,6 +601,15 @@ private:
     std::array<std::array<int64_t, 2>, MaxSections> wide_{};  // unrounded outputs w1, w2, Q59
     int count_ = 0;
     bool small_shifts_ = true;  // every shift right and below 32 (no high-gain numerator)
+
+public:
+    // The states alone, for the feedback's anti-windup (anti_windup.hpp).
+    struct Snapshot {
+        std::array<std::array<int32_t, 2>, MaxSections + 1> hist;
+        std::array<std::array<int64_t, 2>, MaxSections> wide;
+    };
+    constexpr Snapshot snapshot() const { return {hist_, wide_}; }
+    constexpr void restore(const Snapshot& s) { hist_ = s.hist; wide_ = s.wide; }
 };
 
 }  // namespace piezoloop

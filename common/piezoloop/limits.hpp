@@ -300,10 +300,11 @@ public:
         }
 
         Rep target = safe_;
+        clamp_direction_ = 0;
         if (trip_ == TripReason::kNone) {
             bool clamped = true;
-            if (x > hi_) target = hi_;
-            else if (x < lo_) target = lo_;
+            if (x > hi_) { target = hi_; clamp_direction_ = 1; }
+            else if (x < lo_) { target = lo_; clamp_direction_ = -1; }
             else { target = x; clamped = false; }
             if (clamped) {
                 clamped_samples_ = limits_detail::sat_inc(clamped_samples_);
@@ -358,6 +359,11 @@ public:
             last_ = clamp_rep(u_now.raw(), hard_lo_, hard_hi_);
         }
     }
+
+    // Whether the last apply() clamped the command to the configured limits:
+    // +1 above u_max, -1 below u_min, 0 not (slew limiting does not count).
+    // The feedback's anti-windup reads it (anti_windup.hpp).
+    constexpr int clamp_direction() const { return clamp_direction_; }
 
     constexpr void reset_counters() { clamped_samples_ = slew_limited_samples_ = nonfinite_samples_ = 0; }
 
@@ -435,6 +441,7 @@ private:
     Rep lo_{}, hi_{}, safe_{};
     Step step_{};
     uint32_t sat_limit_ = 0, sat_run_ = 0;
+    int8_t clamp_direction_ = 0;
 
     Rep last_{};
     TripReason trip_ = TripReason::kNone;

@@ -4,7 +4,7 @@
 //   u_ff <- inverse hysteresis of r (analytic PI inverse, a PI compensator
 //           such as Shan2012's fitted inverse, or Dahl feedforward)
 //   e     = r - y;  e' = e + RC(e) when repetitive control is on
-//   u_fb <- feedback of e' (biquad cascade or PID)
+//   u_fb <- feedback of e' (biquad cascade with anti-windup, anti_windup.hpp; or PID)
 //   u     = limits(u_ff + u_fb)  -> DAC
 //   recorder <- (r, y, e, u, u_ff, u_fb, u_rc)
 //
@@ -38,6 +38,7 @@
 
 #include "piezoloop/biquad.hpp"
 #include "piezoloop/dahl.hpp"
+#include "piezoloop/anti_windup.hpp"
 #include "piezoloop/limits.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "piezoloop/pi_model.hpp"
@@ -277,6 +278,7 @@ private:
                 s.u_rc = b.rc.apply(s.e);
                 e_fb = s.e + s.u_rc;
             }
+            if (b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.before(b.sos);
             s.u_fb = b.feedback_apply(e_fb);
             // Series placement: the compensator needs u_fb, so it runs here
             // (begin_phase left u_ff at zero). The other kinds pay one
@@ -289,6 +291,7 @@ private:
                 command = s.u_ff + s.u_fb;
             }
             s.u = limiter_.apply(command);
+            if (b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.after(b.sos, e_fb, limiter_.clamp_direction());
         } else {
             s.u_fb = sample_zero<T>();
             s.u = limiter_.apply(sample_zero<T>());
@@ -302,6 +305,7 @@ private:
         DahlFeedforward dahl{};
         FeedbackKind fb_kind = FeedbackKind::kNone;
         BiquadCascade<T, kMaxControllerSections> sos{};
+        CascadeAntiWindup<T, kMaxControllerSections> sos_anti_windup{};
         Pid<T> pid{};
         bool rc_enabled = false;
         RepetitiveController<T, RcCapacity> rc{};
@@ -385,6 +389,7 @@ private:
                 if (const Status s = b.sos.configure(p.sos.data(), p.sos_count, setup_.position, fb_out);
                     !s.ok())
                     return in_group("sos", s);
+                b.sos_anti_windup.configure(p.sos.data(), p.sos_count);
                 break;
             case FeedbackKind::kPid:
                 if (const Status s = b.pid.configure(p.pid, setup_.rate_Hz, setup_.position, fb_out);

@@ -33,8 +33,11 @@ inline constexpr char kMagic[8] = {'P', 'L', 'S', 'I', 'M', '0', '2', '\n'};
 template <class T>
 void put(std::vector<unsigned char>& out, const T& v) {
     static_assert(std::is_trivially_copyable_v<T>);
-    const auto* p = reinterpret_cast<const unsigned char*>(&v);
-    out.insert(out.end(), p, p + sizeof(T));
+    // resize + memcpy, not insert: GCC 12 reports a false -Warray-bounds on
+    // vector::insert's reallocation path here (GCC bug 107852).
+    const std::size_t at = out.size();
+    out.resize(at + sizeof(T));
+    std::memcpy(out.data() + at, &v, sizeof(T));
 }
 template <class T>
 bool get(const unsigned char*& p, const unsigned char* end, T& v) {
