@@ -86,7 +86,8 @@ struct RlsArgs {
 };
 
 void run_rls(const RlsArgs& a) {
-    const d::CsvData csv = d::read_csv(a.data.file);
+    FitProgress progress("identify rls");
+    const d::CsvData csv = d::read_csv(a.data.file, std::ref(progress));
     const std::vector<double>& u = csv.column(a.data.input);
     const std::vector<double>& y = csv.column(a.data.output);
     double ts = a.ts;
@@ -100,7 +101,6 @@ void run_rls(const RlsArgs& a) {
     spec.structure = a.structure == "oe" ? d::LinearStructure::kOutputError : d::LinearStructure::kArx;
     spec.input_name = a.data.input;
     spec.output_name = a.data.output;
-    FitProgress progress("identify rls");
     spec.progress = std::ref(progress);
     const d::LinearIdentResult r = d::identify_linear(u, y, ts, spec);
     json out;
@@ -160,13 +160,15 @@ struct PiArgs {
 };
 
 void run_pi(const PiArgs& a) {
-    const d::CsvData csv = d::read_csv(a.data.file);
+    FitProgress progress("identify pi");
+    const d::CsvData csv = d::read_csv(a.data.file, std::ref(progress));
     const std::vector<double>& u = csv.column(a.data.input);
     const std::vector<double>& y = csv.column(a.data.output);
     d::PiFitOptions o = a.options;
     o.grid = a.grid == "shan" ? d::ThresholdGrid::kShan : d::ThresholdGrid::kUniform;
     o.input_name = a.data.input;
     o.output_name = a.data.output;
+    o.progress = std::ref(progress);
     const d::PiFitResult r = d::fit_pi(u, y, o);
     json out;
     // Same layout as `piezoloop pi-inverse` takes and prints: the first
@@ -229,7 +231,8 @@ json dahl_json(const d::DahlParamsD& p) {
 }
 
 void run_dahl(const DahlArgs& a) {
-    const d::CsvData csv = d::read_csv(a.data.file);
+    FitProgress progress("identify dahl");
+    const d::CsvData csv = d::read_csv(a.data.file, std::ref(progress));
     const std::vector<double>& v = csv.column(a.data.input);
     const std::vector<double>& x = csv.column(a.data.output);
     d::DahlFitOptions o;
@@ -243,7 +246,6 @@ void run_dahl(const DahlArgs& a) {
                                         std::to_string(a.start.size()) + ")");
         o.start = d::DahlParamsD{a.start[0], a.start[1], a.start[2], a.start[3], a.gamma_a, a.start[4]};
     }
-    FitProgress progress("identify dahl");
     o.progress = std::ref(progress);
     const d::DahlFitResult r = d::fit_dahl(v, x, o);
     json out;

@@ -53,7 +53,7 @@ const std::vector<double>& CsvData::column(std::string_view name) const {
                                 " (columns: " + have + ")");
 }
 
-CsvData parse_csv(std::string_view text, const std::string& source) {
+CsvData parse_csv(std::string_view text, const std::string& source, const CsvProgress& progress) {
     CsvData d;
     d.source = source;
     // A UTF-8 byte-order mark (spreadsheets write one) is not part of the
@@ -68,6 +68,9 @@ CsvData parse_csv(std::string_view text, const std::string& source) {
             text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
         pos = nl == std::string_view::npos ? text.size() + 1 : nl + 1;
         ++line_no;
+        if (progress && (line_no & 0xFFFFF) == 0)
+            progress("reading: " + std::to_string(line_no >> 20) + " Mi lines, " +
+                     std::to_string(100 * std::min(pos, text.size()) / std::max<std::size_t>(text.size(), 1)) + " %");
         const std::string_view line = trim(raw);
         if (line.empty() || line.front() == '#') continue;
         const auto fields = split(line);
@@ -118,12 +121,15 @@ CsvData parse_csv(std::string_view text, const std::string& source) {
     return d;
 }
 
-CsvData read_csv(const std::string& path) {
+CsvData read_csv(const std::string& path, const CsvProgress& progress) {
     std::ifstream f(path, std::ios::binary);
     if (!f) throw std::invalid_argument(path + ": cannot open file");
-    std::ostringstream s;
-    s << f.rdbuf();
-    return parse_csv(s.str(), path);
+    // Read in place (one copy of the file in memory, not two through a
+    // stringstream).
+    std::string text;
+    char buf[1 << 16];
+    while (f.read(buf, sizeof buf) || f.gcount() > 0) text.append(buf, static_cast<std::size_t>(f.gcount()));
+    return parse_csv(text, path, progress);
 }
 
 double uniform_sample_period(const CsvData& data, std::string_view time_column, double rel_jitter) {

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -28,10 +29,13 @@ struct CsvData {
     const std::vector<double>& column(std::string_view name) const;
 };
 
+// Called now and then during a long read ("reading: 3.1 M lines, 31 %").
+using CsvProgress = std::function<void(const std::string&)>;
+
 // Parses CSV text; `source` names it in error messages.
-CsvData parse_csv(std::string_view text, const std::string& source = "<data>");
+CsvData parse_csv(std::string_view text, const std::string& source = "<data>", const CsvProgress& progress = {});
 // Reads and parses a file; an unreadable file throws naming the path.
-CsvData read_csv(const std::string& path);
+CsvData read_csv(const std::string& path, const CsvProgress& progress = {});
 
 // Sample period of a time column: strictly increasing, every step within
 // `rel_jitter` of the median step (default 1 %: time stamps printed with six

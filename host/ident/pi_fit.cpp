@@ -19,13 +19,45 @@ std::string num(double v) {
     return s.str();
 }
 
-// Columns scaled to unit RMS; returns the scales.
-Eigen::VectorXd normalise_columns(Eigen::MatrixXd& m) {
-    Eigen::VectorXd rms = (m.colwise().squaredNorm() / static_cast<double>(m.rows())).cwiseSqrt().transpose();
-    for (int c = 0; c < m.cols(); ++c)
-        if (rms(c) > 0.0) m.col(c) /= rms(c);
-    return rms;
-}
+// Least squares without the regressor matrix: the rows of [Φ | y] are
+// folded in blocks into the triangular factor R of a QR decomposition
+// (sequential row updating: Björck, Numerical Methods for Least Squares
+// Problems, SIAM 1996, §2.4.3; Golub & Van Loan §6.5), so memory is
+// O(columns²) whatever the number of rows, and the result is that of one QR
+// of the whole matrix (Householder QR of [R; block] keeps R's row space).
+// Column scaling commutes with QR (Φ S⁻¹ = Q (R S⁻¹)), so the normalised
+// regressors of the conditioning check need no second pass.
+class RowFolder {
+public:
+    explicit RowFolder(int cols)
+        : r_(Eigen::MatrixXd::Zero(cols, cols)), staging_(kBlockRows, cols) {}
+    // The next row to fill (cols values); folded in when the block is full.
+    double* next_row() {
+        if (filled_ == kBlockRows) fold();
+        return staging_.row(filled_++).data();
+    }
+    const Eigen::MatrixXd& r() {
+        fold();
+        return r_;
+    }
+
+private:
+    static constexpr int kBlockRows = 4096;
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    void fold() {
+        if (filled_ == 0) return;
+        const Eigen::Index c = r_.cols();
+        Eigen::MatrixXd stacked(c + filled_, c);
+        stacked.topRows(c) = r_;
+        stacked.bottomRows(filled_) = staging_.topRows(filled_);
+        const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked);
+        r_ = qr.matrixQR().topRows(c).triangularView<Eigen::Upper>();
+        filled_ = 0;
+    }
+    Eigen::MatrixXd r_;
+    RowMajor staging_;
+    int filled_ = 0;
+};
 
 }  // namespace
 
@@ -143,34 +175,47 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
     if (!(*umax > *umin)) throw std::invalid_argument(o.input_name + ": no excitation: the input is constant");
     const auto [ymin, ymax] = std::minmax_element(y.begin(), y.end());
 
+    // [u, play_1(u) .. play_n(u), y] row by row into R (RowFolder): the
+    // regressors Φ are R's first n + 1 columns, Qᵀy's head its last.
     const int rows = static_cast<int>(u.size());
-    Eigen::MatrixXd phi(rows, n + 1);
-    for (int k = 0; k < rows; ++k) phi(k, 0) = u[static_cast<std::size_t>(k)];
-    for (int j = 0; j < n; ++j) {
-        const std::vector<double> w = play_regressor(u, r[static_cast<std::size_t>(j)]);
-        bool moved = false;
-        for (int k = 0; k < rows; ++k) {
-            phi(k, j + 1) = w[static_cast<std::size_t>(k)];
-            moved = moved || w[static_cast<std::size_t>(k)] != 0.0;
+    RowFolder folder(n + 2);
+    std::vector<double> play(static_cast<std::size_t>(n), 0.0);
+    std::vector<bool> moved(static_cast<std::size_t>(n), false);
+    for (int k = 0; k < rows; ++k) {
+        const double uk = u[static_cast<std::size_t>(k)];
+        double* row = folder.next_row();
+        row[0] = uk;
+        for (std::size_t j = 0; j < play.size(); ++j) {
+            play[j] = std::max(uk - r[j], std::min(uk + r[j], play[j]));  // play_regressor's recursion
+            row[j + 1] = play[j];
+            if (play[j] != 0.0) moved[j] = true;
         }
-        if (!moved) {
-            double reach = 0.0;
-            for (double v : u) reach = std::max(reach, std::fabs(v));
-            throw std::invalid_argument("thresholds[" + std::to_string(j) + "]: " + num(r[static_cast<std::size_t>(j)]) +
-                                        " is never reached by " + o.input_name + " (max |" + o.input_name +
-                                        "| = " + num(reach) + "): its play output is zero, weight undetermined");
-        }
+        row[n + 1] = y[static_cast<std::size_t>(k)];
+        if (o.progress && (k & 0xFFFFF) == 0xFFFFF)
+            o.progress("regressors: " + std::to_string((k + 1) >> 20) + " Mi of " + std::to_string(rows >> 20) +
+                       " Mi rows");
     }
-    const Eigen::VectorXd target = Eigen::Map<const Eigen::VectorXd>(y.data(), rows);
+    for (int j = 0; j < n; ++j) {
+        if (moved[static_cast<std::size_t>(j)]) continue;
+        double reach = 0.0;
+        for (double v : u) reach = std::max(reach, std::fabs(v));
+        throw std::invalid_argument("thresholds[" + std::to_string(j) + "]: " + num(r[static_cast<std::size_t>(j)]) +
+                                    " is never reached by " + o.input_name + " (max |" + o.input_name +
+                                    "| = " + num(reach) + "): its play output is zero, weight undetermined");
+    }
+    const Eigen::MatrixXd& rall = folder.r();
+    const Eigen::MatrixXd rphi = rall.topLeftCorner(n + 1, n + 1);
+    const Eigen::VectorXd qty = rall.col(n + 1).head(n + 1);
+    const double sqrt_rows = std::sqrt(static_cast<double>(rows));
 
     PiFitResult res;
     res.thresholds = r;
 
-    // Conditioning of the normalised regressors (unique weights).
-    Eigen::MatrixXd phin = phi;
-    const Eigen::VectorXd scale = normalise_columns(phin);
-    Eigen::HouseholderQR<Eigen::MatrixXd> qr(phin);
-    const Eigen::MatrixXd rf = qr.matrixQR().topRows(n + 1).triangularView<Eigen::Upper>();
+    // Conditioning of the regressors scaled to unit RMS (unique weights).
+    Eigen::VectorXd scale = rphi.colwise().norm().transpose() / sqrt_rows;
+    for (int j = 0; j <= n; ++j)
+        if (!(scale(j) > 0.0)) scale(j) = 1.0;
+    const Eigen::MatrixXd rf = rphi * scale.cwiseInverse().asDiagonal();
     Eigen::JacobiSVD<Eigen::MatrixXd> svd(rf, Eigen::ComputeFullV);
     const Eigen::VectorXd sv = svd.singularValues();
     res.regressor_condition =
@@ -191,8 +236,7 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
 
     Eigen::VectorXd p(n + 1);
     if (!o.monotone) {
-        const Eigen::VectorXd c = qr.householderQ().transpose() * target;
-        const Eigen::VectorXd pn = rf.triangularView<Eigen::Upper>().solve(c.head(n + 1));
+        const Eigen::VectorXd pn = rf.triangularView<Eigen::Upper>().solve(qty);
         p = pn.cwiseQuotient(scale);
     } else {
         double m = o.min_slope;
@@ -202,22 +246,21 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
             throw std::invalid_argument("min_slope: must be > 0 for an invertible model (or < 0 for automatic), and " +
                                         o.output_name + " must not be constant for the automatic value");
         res.min_slope = m;
-        // psi = phi * D: column j = phi_j - phi_{j+1}, last = phi_n.
-        Eigen::MatrixXd psi(rows, n + 1);
-        for (int j = 0; j < n; ++j) psi.col(j) = phi.col(j) - phi.col(j + 1);
-        psi.col(n) = phi.col(n);
-        const Eigen::VectorXd b = target - m * psi.rowwise().sum();
-        Eigen::MatrixXd psin = psi;
-        const Eigen::VectorXd ps = normalise_columns(psin);
+        // Slopes as unknowns: psi = Φ D, column j = phi_j - phi_{j+1}, last =
+        // phi_n; in R's coordinates psi = Q (R D) and the target y - m psi 1
+        // is Qᵀy - m (R D) 1 (the part of y outside Q's span is a constant of
+        // the problem).
+        Eigen::MatrixXd d = Eigen::MatrixXd::Identity(n + 1, n + 1);
+        for (int j = 0; j < n; ++j) d(j + 1, j) = -1.0;
+        const Eigen::MatrixXd rpsi = rphi * d;
+        const Eigen::VectorXd b = qty - m * rpsi.rowwise().sum();
+        const Eigen::VectorXd ps = rpsi.colwise().norm().transpose() / sqrt_rows;
         for (int j = 0; j <= n; ++j)
             if (!(ps(j) > 0.0))
                 throw std::invalid_argument(o.input_name + ": slope regressor " + std::to_string(j) +
                                             " is zero: operators " + std::to_string(j) + " and " +
                                             std::to_string(j + 1) + " are indistinguishable on this input");
-        Eigen::HouseholderQR<Eigen::MatrixXd> qp(psin);
-        const Eigen::MatrixXd rp = qp.matrixQR().topRows(n + 1).triangularView<Eigen::Upper>();
-        const Eigen::VectorXd cp = (qp.householderQ().transpose() * b).head(n + 1);
-        const std::vector<double> sol = nnls(rp, cp);
+        const std::vector<double> sol = nnls(rpsi * ps.cwiseInverse().asDiagonal(), b);
         Eigen::VectorXd slopes(n + 1);
         for (int j = 0; j <= n; ++j) {
             slopes(j) = m + sol[static_cast<std::size_t>(j)] / ps(j);
@@ -254,6 +297,9 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
     for (double v : y) mean += v;
     mean /= rows;
     for (int k = 0; k < rows; ++k) {
+        if (o.progress && (k & 0xFFFFF) == 0xFFFFF)
+            o.progress("model errors: " + std::to_string((k + 1) >> 20) + " Mi of " + std::to_string(rows >> 20) +
+                       " Mi rows");
         const double e = y[static_cast<std::size_t>(k)] - op.apply(static_cast<float>(u[static_cast<std::size_t>(k)]));
         e2 += e * e;
         emax = std::max(emax, std::fabs(e));

@@ -17,6 +17,7 @@
 // The constrained optimum is unique when the regressors have full rank.
 #pragma once
 
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -43,6 +44,8 @@ struct PiFitOptions {
     double min_slope = -1.0;
     std::string input_name = "u";   // column names used in error messages
     std::string output_name = "y";
+    // Called now and then on long data ("regressors: 3 Mi of 10 Mi rows").
+    std::function<void(const std::string&)> progress;
 };
 
 struct PiFitResult {

@@ -91,6 +91,7 @@ void Client::read_some(milliseconds timeout) {
     std::array<uint8_t, 4096> buf;
     const std::size_t n = transport_->read(buf, timeout);
     if (n == 0) return;
+    counters_.bytes_received += n;
     decoder_.feed(std::span<const uint8_t>(buf.data(), n), [this](std::span<const uint8_t> p) { on_payload(p); });
 }
 
@@ -141,8 +142,16 @@ Client::RawReply Client::transact(uint8_t type, std::span<const uint8_t> body, u
         const auto left = duration_cast<milliseconds>(deadline - steady_clock::now());
         if (left.count() <= 0) {
             awaited_.reset();
-            throw LinkError(address() + ": no reply to " + request_name(type) + " within " +
-                            std::to_string(options_.timeout.count()) + " ms");
+            std::string text = address() + ": no reply to " + request_name(type) + " within " +
+                               std::to_string(options_.timeout.count()) + " ms";
+            // Silence from the first request: a board serves one connection
+            // at a time (the emulated one queues a second TCP client without
+            // answering it), so the usual cause is another client.
+            if (counters_.bytes_received == 0)
+                text += ", and nothing at all was received: the board is busy with another client (it serves "
+                        "one connection at a time: wait for the other piezoloop command or stop it), or the "
+                        "address is not a piezoloop board";
+            throw LinkError(text);
         }
         read_some(left);
     }

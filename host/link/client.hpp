@@ -60,6 +60,7 @@ struct ClientCounters {
     uint64_t bad_replies = 0;      // a frame with a good CRC but an undecodable body (dropped)
     uint64_t busy_retries = 0;     // SetParams retried after Error(busy)
     uint64_t log_blocks = 0;       // LogBlocks received
+    uint64_t bytes_received = 0;   // from the transport, frames or not
 };
 
 struct StreamResult {

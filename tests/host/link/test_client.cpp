@@ -6,6 +6,7 @@
 // swapped on purpose by the server), closed-link and reconnect behaviour.
 // Comparisons are exact: the link moves bit patterns.
 #include <gtest/gtest.h>
+#include <string>
 
 #include <limits>
 
@@ -393,12 +394,25 @@ TEST(HostLinkClient, ClosedLinkThrowsAndAReconnectFindsTheSameDevice) {
     EXPECT_TRUE(again.get<link::LimitsParams>() == link::LimitsParams{reference::params().limits});
 }
 
+// A device that never sends a byte is what a client sees when the board
+// serves another connection: the message says so. One that sent something
+// (here a frame of idle fill) but not the reply gets the plain timeout.
 TEST(HostLinkClient, SilentDeviceTimesOutNamingTheRequest) {
     int sv[2];
     ASSERT_EQ(::socketpair(AF_UNIX, SOCK_STREAM, 0, sv), 0);
     Client::Options o;
     o.timeout = 100ms;
     Client c(adopt_socket(sv[0], "test:silent"), o);
+    try {
+        (void)c.status();
+        FAIL() << "no timeout";
+    } catch (const LinkError& e) {
+        const std::string text = e.what();
+        EXPECT_EQ(text.rfind("test:silent: no reply to GetStatus within 100 ms, and nothing at all was received: "
+                             "the board is busy with another client", 0), 0u) << text;
+    }
+    const uint8_t idle = 0;
+    ASSERT_EQ(::write(sv[1], &idle, 1), 1);
     try {
         (void)c.status();
         FAIL() << "no timeout";
