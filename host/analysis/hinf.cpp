@@ -124,13 +124,17 @@ HinfResult hinf_continuous(const Ss& g, double tol) {
         out.peak_w_rad_s = 0.0;
         return out;
     }
-    if (lb == 0.0) {  // G = 0 up to the points tried: scale on the largest entry
-        lb = std::max({g.B.cwiseAbs().maxCoeff(), g.C.cwiseAbs().maxCoeff(), std::numeric_limits<double>::min()});
-    }
     // Work on G / lb0 so that γ ~ 1 and the Hamiltonian's blocks B B^T / r
     // and C^T C γ² / r stay O(|B|^2) whatever the model's gain (a 1e-12 gain
     // would otherwise put 1e24 next to 1 and hide the imaginary eigenvalues).
-    const double scale = lb;
+    // G = 0 at every point tried (a zero-gain model, C = 0 or B = 0): scale on
+    // the largest entry instead; lb stays 0, the value actually attained, and
+    // the first level tested is a small fraction of that scale, so a model
+    // that is zero everywhere gets the norm 0 with that level as its bound.
+    const double scale = lb > 0.0 ? lb
+                                  : std::max({g.B.cwiseAbs().maxCoeff(), g.C.cwiseAbs().maxCoeff(),
+                                              std::numeric_limits<double>::min()});
+    constexpr double kFirstLevelIfZero = 1e-9;
     Ss gs = g;
     gs.C /= scale;
     gs.D /= scale;
@@ -139,7 +143,7 @@ HinfResult hinf_continuous(const Ss& g, double tol) {
     double upper = kInf;
     for (int it = 0; it < 60; ++it) {
         out.iterations = it + 1;
-        const double gamma = (1.0 + 2.0 * tol) * lb;
+        const double gamma = lb > 0.0 ? (1.0 + 2.0 * tol) * lb : kFirstLevelIfZero;
         const std::vector<double> w = imaginary_axis_frequencies(hamiltonian(gs, gamma));
         if (w.empty()) {
             upper = gamma;

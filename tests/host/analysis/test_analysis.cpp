@@ -196,3 +196,23 @@ TEST(AnalysisLoop, UnstableLoopIsReported) {
     ASSERT_TRUE(r.margins.gain_margin);
     EXPECT_NEAR(r.margins.gain_margin->gain_margin, 0.8, 1e-9);
 }
+
+// A plant of zero gain leaves the loop open: S = 1, T = G K S = 0, GS = 0,
+// KS = K, exactly, whatever the controller (the H∞ routine
+// once scaled a model that is zero at every point it tried onto its largest
+// B/C entry and reported that scale as the norm: 0.72 for this loop).
+TEST(AnalysisLoop, ZeroGainPlantGivesZeroT) {
+    Zpk g;
+    g.poles = {-1.0};
+    g.gain = 0.0;
+    Zpk k;
+    k.poles = {-10.0, -200.0};
+    k.gain = 500.0;
+    const LoopAnalysis r = analyze_loop(g, k);
+    EXPECT_TRUE(r.stable);
+    EXPECT_EQ(r.hinf_T.norm, 0.0);
+    EXPECT_EQ(r.hinf_GS.norm, 0.0);
+    EXPECT_NEAR(r.hinf_S.norm, 1.0, 1e-12);
+    EXPECT_NEAR(r.hinf_KS.norm, 500.0 / (10.0 * 200.0), 1e-6 * 0.25);  // |K| peaks at DC: 0.25
+    EXPECT_FALSE(r.bandwidth_Hz);
+}

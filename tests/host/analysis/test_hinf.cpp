@@ -285,3 +285,17 @@ TEST(AnalysisHinf, PropertyAgainstBruteForce) {
         EXPECT_TRUE(r.certified) << trial;
     }
 }
+
+// A model that is zero everywhere (C = 0, or B = 0) has the norm 0, certified
+// by the first level tested (1e-9 of its largest B or C entry).
+TEST(AnalysisHinf, ZeroModelHasNormZero) {
+    Ss g = canon({1.0, 2.0}, {1.0, 3.0, 5.0});
+    g.C.setZero();
+    HinfResult r = hinf_norm(g);
+    EXPECT_EQ(r.norm, 0.0);
+    EXPECT_LE(r.upper, 1e-8);
+    g = canon({1.0, 2.0}, {1.0, 3.0, 5.0});
+    g.B.setZero();
+    r = hinf_norm(g);
+    EXPECT_EQ(r.norm, 0.0);
+}
