@@ -10,7 +10,10 @@ inf_d sigma_max(D_z M D_w^-1) is found by a log-spaced grid of 40001 values of
 d over [1e-8, 1e8], then a bounded scalar search between the grid neighbours
 of the best point (tolerance 1e-12 in log d). For two free scalings (three
 blocks), a 401 x 401 grid over [1e-4, 1e4]^2, then Nelder-Mead from the best
-point (xatol 1e-11, fatol 1e-15). The minimum is stored with the optimal d.
+point (xatol 1e-11, fatol 1e-15). For three free scalings (four scalar
+blocks), the first seeded matrix whose optimum has a repeated sigma_max (so
+that the bound is nonsmooth there and mu lies below it): a 41^3 grid then
+Nelder-Mead from six starts. The minimum is stored with the optimal d.
 
 Ahmad2020 loop (docs/models.md, 'Ahmad2020'; configs/models/ahmad2020_*.json):
 robust stability |H_m T|, nominal performance sqrt(|H_e S|^2 + |H_y T|^2) and
@@ -79,6 +82,31 @@ def brute_2(m, blocks):
     return float(best), [float(np.exp(bx[0])), float(np.exp(bx[1])), 1.0]
 
 
+def brute_3_nonsmooth(rng):
+    """Four scalar blocks (three free scalings): random 4 x 4 matrices until
+    one whose optimum has a repeated sigma_max (the nonsmooth case where mu
+    is below the bound). A 41^3 grid over [1e-3, 1e3]^3, then Nelder-Mead
+    from the best grid point and from five random starts."""
+    blocks = [(1, 1)] * 4
+    while True:
+        m = random_matrix(rng, 4, 4)
+
+        def f(x):
+            return scaled_sigma(m, blocks, list(np.exp(x)) + [1.0])
+
+        xs = np.linspace(-3 * np.log(10), 3 * np.log(10), 41)
+        grid = min(((f([a, b, c]), (a, b, c)) for a in xs for b in xs for c in xs), key=lambda t: t[0])
+        starts = [np.array(grid[1])] + [rng.normal(size=3) for _ in range(5)]
+        best = min((optimize.minimize(f, x0, method="Nelder-Mead",
+                                      options={"xatol": 1e-12, "fatol": 1e-15, "maxiter": 40000}) for x0 in starts),
+                   key=lambda r: r.fun)
+        d = list(np.exp(best.x)) + [1.0]
+        zs = np.array(d)
+        sv = np.linalg.svd((zs[:, None] * m) / zs[None, :], compute_uv=False)
+        if sv[1] > sv[0] * (1 - 1e-5):
+            return m, blocks, float(best.fun), [float(x) for x in d]
+
+
 def random_matrix(rng, rows, cols):
     return rng.standard_normal((rows, cols)) + 1j * rng.standard_normal((rows, cols))
 
@@ -104,6 +132,9 @@ def matrix_cases():
             mu, d = brute_1(m, blocks) if len(blocks) == 2 else brute_2(m, blocks)
             cases.append({"name": f"{name}_{k}", "blocks": [list(b) for b in blocks],
                           "re": m.real.tolist(), "im": m.imag.tolist(), "mu_upper": mu, "d": d})
+    m, blocks, mu, d = brute_3_nonsmooth(rng)
+    cases.append({"name": "four_scalar_repeated_sigma", "blocks": [list(b) for b in blocks],
+                  "re": m.real.tolist(), "im": m.imag.tolist(), "mu_upper": mu, "d": d})
     return cases
 
 

@@ -104,8 +104,10 @@ TEST(AnalysisMu, RankOneClosedForm) {
 // Brute force (numpy, tools/ref/analysis_mu.py): a 40001-point grid in
 // log d plus a bounded scalar search for one free scaling, a 401² grid plus
 // Nelder-Mead for two. Cases: two scalar blocks, two full 2×2 blocks, a
-// scalar and a full 3×3, a non-square 2×1 block, three scalar blocks and
-// scalar/full/scalar. Tolerance 1e-8 relative for one free scaling (both
+// scalar and a full 3×3, a non-square 2×1 block, three scalar blocks,
+// scalar/full/scalar, and four scalar blocks whose optimum has a repeated
+// σ̄ (φ nonsmooth there: the BFGS + coordinate-pass path; the lower bound
+// stays ~2 % below). Tolerance 1e-8 relative for one free scaling (both
 // searches resolve log d to 1e-10 … 1e-12, and σ̄ has slope <= 1 in log d),
 // 1e-6 for two (Nelder-Mead on a function with a kink stops early; the
 // reference may be slightly above the true minimum, never below it, so
