@@ -77,6 +77,21 @@ if r.returncode == 0:
         near(d[f"{key}_peak"], ref[f"{key}_peak"], 1e-6, f"--ts {key}_peak")
     check(d["rp_peak_hz"] < 5000.0, "--ts: peaks below Nyquist")
 
+# ---- A third performance output (W2 = 0.01 on u): adding a row to N can
+# only raise NP and RP (sigma_max and mu of a matrix with an added row), and
+# leaves RS alone.
+wu = os.path.join(tmp, "wu.json")
+with open(wu, "w") as f:
+    json.dump({"num": [0.01], "den": [1]}, f)
+r = run(*LOOP, "--w3", model("Hy"), "--w2", wu)
+check(r.returncode == 0, f"--w2: exit {r.returncode}: {r.stderr}")
+if r.returncode == 0:
+    d = json.loads(r.stdout)
+    check(d["performance_outputs"] == ["w1 e", "w3 y", "w2 u"], "--w2: three performance outputs")
+    check(d["np_peak"] >= ref["np_peak"] * (1 - 1e-9) and d["rp_peak"] >= ref["rp_peak"] * (1 - 1e-9),
+          f"--w2 raises np/rp: {d['np_peak']}, {d['rp_peak']}")
+    near(d["rs_peak"], ref["rs_peak"], 1e-9, "--w2 leaves rs")
+
 # ---- Table.
 r = run(*LOOP, "--table")
 check(r.returncode == 0 and "robust performance" in r.stdout and "{" not in r.stdout, f"--table: {r.stdout!r}")
