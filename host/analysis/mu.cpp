@@ -176,12 +176,10 @@ double line_min(Objective& obj, Eigen::VectorXd& x, Eigen::Index k, double f0) {
 // BFGS on log σ̄ with the weak Wolfe line search of Lewis & Overton (2013):
 // bisection/doubling on t until sufficient decrease (c1) and the curvature
 // condition (c2) hold.
-double bfgs(Objective& obj, Eigen::VectorXd& x, double sigma0) {
+double bfgs(Objective& obj, Eigen::VectorXd& x) {
     const Eigen::Index n = x.size();
     Eigen::VectorXd g;
-    double s0 = obj.sigma(x, &g);
-    if (s0 > sigma0) s0 = sigma0;  // (same point; keeps the caller's value)
-    double f = std::log(s0);
+    double f = std::log(obj.sigma(x, &g));
     Eigen::MatrixXd h = Eigen::MatrixXd::Identity(n, n);
     constexpr double c1 = 1e-4, c2 = 0.9;
     for (int it = 0; it < 200; ++it) {
@@ -310,7 +308,7 @@ MuBound mu_bounds(const Eigen::MatrixXcd& m, const std::vector<MuBlock>& blocks,
         if (n == 1) {
             s = line_min(obj, x, 0, s);
         } else {
-            s = bfgs(obj, x, s);
+            s = bfgs(obj, x);
             // Coordinate passes: a nonsmooth point BFGS stalled at is left
             // along an axis when the convex φ still descends there.
             for (int pass = 0; pass < 4; ++pass) {
