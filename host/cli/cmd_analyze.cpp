@@ -13,6 +13,7 @@
 //                [--plot FILE.png]
 //   analyze pi   --model P.json (--estimate E.json | --inverse I.json)
 //                [--max-input V] [--plot FILE.png]
+//   analyze mu   (cmd_analyze_mu.cpp, added to this subcommand; docs/mu.md)
 //
 // With --rate-hz, continuous models are discretised (Tustin by default; a
 // Tustin loop has exactly the continuous margins and norms on a warped
@@ -530,7 +531,7 @@ void run_pi(const PiArgs& a) {
 
 void add_analyze(CLI::App& app) {
     CLI::App* analyze = app.add_subcommand(
-        "analyze", "Loop, repetitive-control and PI-composition analysis (margins, H-infinity norms, RC conditions)");
+        "analyze", "Loop, repetitive-control, PI-composition and mu analysis (margins, H-infinity norms, RC conditions, mu)");
     analyze->require_subcommand(1);
 
     auto la = std::make_shared<LoopArgs>();
