@@ -5,6 +5,10 @@
 #include <cstddef>
 #include <limits>
 #include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <cstdio>
+#include <cstdlib>
 #include <vector>
 
 // LAPACK's Fortran interface (liblapack-dev). LOGICAL is a 4-byte integer in
@@ -77,6 +81,71 @@ Eigen::VectorXd balancing_scales(const Eigen::MatrixXd& h) {
     return d;
 }
 
+// One attempt with block scaling c and state scaling d (see the header).
+RiccatiResult solve_scaled(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Rs, const Eigen::MatrixXd& Qs, double c,
+                           const Eigen::VectorXd& d, const RiccatiOptions& options) {
+    const Eigen::Index n = A.rows();
+    // x = D x~: A~ = D^-1 A D, R~ = D^-1 R D^-1, Q~ = D Q D, X~ = D X D.
+    const Eigen::VectorXd di = d.cwiseInverse();
+    Eigen::MatrixXd h(2 * n, 2 * n);
+    h.topLeftCorner(n, n) = di.asDiagonal() * A * d.asDiagonal();
+    h.topRightCorner(n, n) = -c * (di.asDiagonal() * Rs * di.asDiagonal());
+    h.bottomLeftCorner(n, n) = -(d.asDiagonal() * Qs * d.asDiagonal()) / c;
+    h.bottomRightCorner(n, n) = -h.topLeftCorner(n, n).transpose();
+
+    RiccatiResult res;
+    const double hnorm = h.cwiseAbs().colwise().sum().maxCoeff();
+    const Schur s = ordered_schur(h);
+    if (s.info != 0) {
+        res.failure = RiccatiFailure::kSchur;
+        return res;
+    }
+    // Distance from the axis relative to each eigenvalue's own magnitude
+    // (plus a rounding floor relative to |H|): the Hamiltonians of weighted
+    // plants have eigenvalues from 1e-4 to 1e4 after scaling, and a small
+    // one must not be judged against |H|. An unequal split (sdim != n)
+    // means the computed spectrum is not symmetric: eigenvalues too
+    // inaccurate to tell the sides apart.
+    double gap = std::numeric_limits<double>::infinity();
+    for (Eigen::Index i = 0; i < 2 * n; ++i) {
+        const double mag = std::hypot(s.wr[i], s.wi[i]) + 1e-5 * std::numeric_limits<double>::epsilon() * hnorm;
+        gap = std::min(gap, std::fabs(s.wr[i]) / mag);
+    }
+    res.axis_gap = gap;
+    if (res.axis_gap <= options.axis_tol || s.sdim != n) {
+        res.failure = RiccatiFailure::kImaginaryAxis;
+        return res;
+    }
+    const Eigen::MatrixXd u11 = s.U.topLeftCorner(n, n), u21 = s.U.bottomLeftCorner(n, n);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(u11);
+    const double smax = svd.singularValues()(0), smin = svd.singularValues()(n - 1);
+    res.cond_u11 = smin > 0.0 ? smax / smin : std::numeric_limits<double>::infinity();
+    if (!(res.cond_u11 < 1e14)) {
+        res.failure = RiccatiFailure::kSingularU11;
+        return res;
+    }
+    // X~ U11 = U21  <=>  U11' X~ = U21' (X~ symmetric).
+    Eigen::MatrixXd xs = u11.transpose().partialPivLu().solve(u21.transpose());
+    xs = 0.5 * (xs + xs.transpose()).eval();
+    res.X = c * (di.asDiagonal() * xs * di.asDiagonal());
+    res.X = 0.5 * (res.X + res.X.transpose()).eval();
+
+    // Stabilising means A - R X stable; a splitting fooled by rounding
+    // shows here.
+    const Eigen::VectorXcd cl = (A - Rs * res.X).eigenvalues();
+    if (!(cl.real().array() < 0.0).all()) {
+        res.failure = RiccatiFailure::kImaginaryAxis;
+        return res;
+    }
+    const Eigen::MatrixXd ax = A.transpose() * res.X;
+    const Eigen::MatrixXd resid = ax + ax.transpose() - res.X * Rs * res.X + Qs;
+    const double xn = res.X.norm();
+    const double scale = 2.0 * A.norm() * xn + Rs.norm() * xn * xn + Qs.norm();
+    res.residual = scale > 0.0 ? resid.norm() / scale : 0.0;
+    if (!(res.residual <= options.max_residual)) res.failure = RiccatiFailure::kResidual;
+    return res;
+}
+
 }  // namespace
 
 std::string riccati_failure_text(RiccatiFailure f) {
@@ -102,57 +171,39 @@ RiccatiResult riccati_hamiltonian(const Eigen::MatrixXd& A, const Eigen::MatrixX
         throw std::invalid_argument("riccati: non-finite entry in A, R or Q");
     const Eigen::MatrixXd Rs = 0.5 * (R + R.transpose()), Qs = 0.5 * (Q + Q.transpose());
 
+    RiccatiResult res;
+    // Q = 0 with A stable: X = 0 is the stabilising solution, exactly. (The
+    // Schur route would return rounding noise whose relative residual is
+    // O(1): the filter equation of every mixed-sensitivity problem is this
+    // case, see hinfsyn.cpp's cancel().)
+    if (Qs.isZero(0.0)) {
+        const Eigen::VectorXcd ev = A.eigenvalues();
+        if ((ev.real().array() < 0.0).all()) {
+            res.X = Eigen::MatrixXd::Zero(n, n);
+            res.cond_u11 = 1.0;
+            res.axis_gap = (ev.real().cwiseAbs().array() / ev.cwiseAbs().array()).minCoeff();
+            return res;
+        }
+    }
     // Block scaling c (see the header): X~ = X / c.
     const double nr = Rs.norm(), nq = Qs.norm();
     const double c = (nr > 0.0 && nq > 0.0) ? pow2_near(std::sqrt(nq / nr)) : 1.0;
+    // First without the state scaling, then with it (see the header).
+    RiccatiResult first = solve_scaled(A, Rs, Qs, c, Eigen::VectorXd::Ones(n), options);
+    if (first.ok()) return first;
     Eigen::MatrixXd h(2 * n, 2 * n);
     h << A, -c * Rs, -Qs / c, -A.transpose();
-    // Symplectic diagonal scaling from a plain balancing of H.
     const Eigen::VectorXd e = balancing_scales(h);
     Eigen::VectorXd d(n);
     for (Eigen::Index i = 0; i < n; ++i) d[i] = pow2_near(std::sqrt(e[i] / e[n + i]));
-    // x = D x~: A~ = D^-1 A D, R~ = D^-1 R D^-1, Q~ = D Q D, X~ = D X D.
-    const Eigen::VectorXd di = d.cwiseInverse();
-    h.topLeftCorner(n, n) = di.asDiagonal() * A * d.asDiagonal();
-    h.topRightCorner(n, n) = -c * (di.asDiagonal() * Rs * di.asDiagonal());
-    h.bottomLeftCorner(n, n) = -(d.asDiagonal() * Qs * d.asDiagonal()) / c;
-    h.bottomRightCorner(n, n) = -h.topLeftCorner(n, n).transpose();
-
-    RiccatiResult res;
-    const double hnorm = h.cwiseAbs().colwise().sum().maxCoeff();
-    const Schur s = ordered_schur(h);
-    if (s.info != 0) {
-        res.failure = RiccatiFailure::kSchur;
-        return res;
-    }
-    double gap = std::numeric_limits<double>::infinity();
-    for (Eigen::Index i = 0; i < 2 * n; ++i) gap = std::min(gap, std::fabs(s.wr[i]));
-    res.axis_gap = hnorm > 0.0 ? gap / hnorm : 0.0;
-    if (res.axis_gap <= options.axis_tol || s.sdim != n) {
-        res.failure = RiccatiFailure::kImaginaryAxis;
-        return res;
-    }
-    const Eigen::MatrixXd u11 = s.U.topLeftCorner(n, n), u21 = s.U.bottomLeftCorner(n, n);
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(u11);
-    const double smax = svd.singularValues()(0), smin = svd.singularValues()(n - 1);
-    res.cond_u11 = smin > 0.0 ? smax / smin : std::numeric_limits<double>::infinity();
-    if (!(res.cond_u11 < 1e14)) {
-        res.failure = RiccatiFailure::kSingularU11;
-        return res;
-    }
-    // X~ U11 = U21  <=>  U11' X~ = U21' (X~ symmetric).
-    Eigen::MatrixXd xs = u11.transpose().partialPivLu().solve(u21.transpose());
-    xs = 0.5 * (xs + xs.transpose()).eval();
-    res.X = c * (di.asDiagonal() * xs * di.asDiagonal());
-    res.X = 0.5 * (res.X + res.X.transpose()).eval();
-
-    const Eigen::MatrixXd ax = A.transpose() * res.X;
-    const Eigen::MatrixXd resid = ax + ax.transpose() - res.X * Rs * res.X + Qs;
-    const double xn = res.X.norm();
-    const double scale = 2.0 * A.norm() * xn + nr * xn * xn + nq;
-    res.residual = scale > 0.0 ? resid.norm() / scale : 0.0;
-    if (!(res.residual <= options.max_residual)) res.failure = RiccatiFailure::kResidual;
-    return res;
+    if ((d.array() == 1.0).all()) return first;
+    RiccatiResult second = solve_scaled(A, Rs, Qs, c, d, options);
+    if (second.ok()) return second;
+    // Both failed: a residual failure says more than an axis or subspace one.
+    if (second.failure == RiccatiFailure::kResidual &&
+        (first.failure != RiccatiFailure::kResidual || second.residual < first.residual))
+        return second;
+    return first;
 }
 
 RiccatiResult solve_care(const Eigen::MatrixXd& A, const Eigen::MatrixXd& B, const Eigen::MatrixXd& Q,

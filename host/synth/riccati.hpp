@@ -9,13 +9,17 @@
 // leading n eigenvalues are the stable ones, X = U21 U11^-1.
 //
 // Scaling before the Schur form (both undone exactly afterwards):
-//  * states: a diagonal similarity x = D x~ with powers of two. The pair
-//    (top i, bottom i) of H must be scaled by (d_i, 1/d_i) to stay
+//  * the off-diagonal blocks: X~ = X / c with c = sqrt(|Q| / |R|), which
+//    makes |c R| = |Q / c| (the Hamiltonian's eigenvalues are unchanged);
+//  * only if the solve with that alone fails: states by a diagonal
+//    similarity x = D x~ with powers of two. (A fallback: hinfsyn balances
+//    the plant's states already, and on the weighted Ahmad2020 plant the
+//    H balanced once more lost its eigenvalues' ± symmetry where the
+//    unbalanced one kept it.) The pair (top i, bottom i) of H must be
+//    scaled by (d_i, 1/d_i) to stay
 //    Hamiltonian, so d_i = sqrt(e_i / f_i) rounded to a power of two,
 //    from a Parlett–Reinsch balancing diag(e, f) of |H| (the idea of
-//    Benner's symplectic balancing, in its simplest form);
-//  * the off-diagonal blocks: X~ = X / c with c = sqrt(|Q| / |R|), which
-//    makes |c R| = |Q / c| (the Hamiltonian's eigenvalues are unchanged).
+//    Benner's symplectic balancing, in its simplest form).
 // The ordered Schur form is LAPACK's dgees with a selector for Re λ < 0
 // (Fortran interface; Eigen has no reordering).
 //
@@ -23,7 +27,8 @@
 // |R|_F|X|_F^2 + |Q|_F), the condition number of U11 (the figure that
 // governs the accuracy of X = U21 U11^-1: X is lost when it reaches
 // 1/eps), and the smallest distance of H's eigenvalues from the imaginary
-// axis relative to |H| (the separation the splitting relies on).
+// axis relative to their magnitude, min |Re λ| / |λ| (the separation the
+// splitting relies on).
 #pragma once
 
 #include <stdexcept>
@@ -42,10 +47,13 @@ enum class RiccatiFailure {
 };
 
 struct RiccatiOptions {
-    // Eigenvalues with |Re λ| <= axis_tol * |H| count as imaginary. Near-axis
-    // eigenvalues of a Hamiltonian are perturbed by O(sqrt(eps)) |H| at a
-    // crossing, so much tighter than 1e-8 would accept a false splitting.
-    double axis_tol = 1e-8;
+    // Eigenvalues with |Re λ| <= axis_tol * |λ| count as imaginary (|λ|
+    // floored at 1e-5 eps |H|, so a zero eigenvalue counts too). Imaginary
+    // eigenvalues of a Hamiltonian are double (a Jordan pair), and rounding
+    // moves them off the axis by O(sqrt(eps)) ~ 1.5e-8 relative: the
+    // tolerance must be well above that. Near a γ boundary Re λ grows like
+    // sqrt(γ - γ_b), so 1e-6 shifts the boundary by ~1e-12 relative only.
+    double axis_tol = 1e-6;
     // Largest accepted relative residual (see above); a clean solve of a
     // scaled problem gives 1e-15 ... 1e-12.
     double max_residual = 1e-8;
@@ -56,7 +64,7 @@ struct RiccatiResult {
     RiccatiFailure failure = RiccatiFailure::kNone;
     double residual = 0.0;     // relative, see above
     double cond_u11 = 0.0;     // 2-norm condition number of U11
-    double axis_gap = 0.0;     // min |Re λ(H)| / |H|_1 (of the scaled H)
+    double axis_gap = 0.0;     // min |Re λ(H)| / |λ| (of the scaled H)
     bool ok() const { return failure == RiccatiFailure::kNone; }
 };
 
