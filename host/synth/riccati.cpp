@@ -139,8 +139,8 @@ RiccatiResult solve_scaled(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Rs, 
     }
     const Eigen::MatrixXd ax = A.transpose() * res.X;
     const Eigen::MatrixXd resid = ax + ax.transpose() - res.X * Rs * res.X + Qs;
-    const double xn = res.X.norm();
-    const double scale = 2.0 * A.norm() * xn + Rs.norm() * xn * xn + Qs.norm();
+    const Eigen::MatrixXd xrx = res.X * Rs * res.X;
+    const double scale = 2.0 * ax.norm() + xrx.norm() + Qs.norm();  // the terms' own sizes
     res.residual = scale > 0.0 ? resid.norm() / scale : 0.0;
     if (!(res.residual <= options.max_residual)) res.failure = RiccatiFailure::kResidual;
     return res;

@@ -23,8 +23,9 @@
 // The ordered Schur form is LAPACK's dgees with a selector for Re λ < 0
 // (Fortran interface; Eigen has no reordering).
 //
-// Reported: the relative residual |A'X + XA - XRX + Q|_F / (2|A|_F|X|_F +
-// |R|_F|X|_F^2 + |Q|_F), the condition number of U11 (the figure that
+// Reported: the relative residual |A'X + XA - XRX + Q|_F / (2|A'X|_F +
+// |XRX|_F + |Q|_F) (each term's own size, so a large X in a direction R
+// does not see cannot hide an error), the condition number of U11 (the figure that
 // governs the accuracy of X = U21 U11^-1: X is lost when it reaches
 // 1/eps), and the smallest distance of H's eigenvalues from the imaginary
 // axis relative to their magnitude, min |Re λ| / |λ| (the separation the

@@ -70,7 +70,9 @@ TEST(Riccati, IllScaledAgreesWithLyapunov) {
     const Eigen::MatrixXd Q = Eigen::MatrixXd::Identity(n, n);
     const Eigen::MatrixXd Rw = Eigen::MatrixXd::Identity(2, 2);
     const RiccatiResult s = solve_care(A, B, Q, Rw);
-    EXPECT_LT(s.residual, 1e-12);
+    // Residual relative to the terms' own sizes: eps times the spread of
+    // B (1e-3 ... 1e3, squared in R) gives ~1e-11.
+    EXPECT_LT(s.residual, 1e-9);
     const Eigen::MatrixXd R = B * B.transpose();
     const Eigen::MatrixXd ac = A - R * s.X;
     EXPECT_LT(max_real_eig(ac), 0.0);
