@@ -1,0 +1,193 @@
+// `piezoloop design hinf` and `piezoloop design mixsyn`: H∞ synthesis
+// (host/synth/, docs/synthesis.md), added to the `design` command of
+// cmd_design.cpp.
+//
+//   design hinf   --plant P.json [--gamma-tol X] [--gamma-max G] [--backoff B] [--out K.json]
+//   design mixsyn --plant G.json --w1 W1.json [--w2 W2.json] [--w3 W3.json]
+//                 [--gamma-tol X] [--gamma-max G] [--backoff B] [--out K.json]
+//
+// JSON on stdout. Exit codes (README, 'Exit codes'): 2 for bad input (an
+// option out of range, a malformed file, an unstable or improper weight —
+// the message names the option, file or field); 1 when the problem has no
+// solution or cannot be solved reliably (D12 or D21 rank, stabilisability,
+// a zero on the imaginary axis, no γ in the interval, a controller that
+// misses its γ) — the message names the condition; nothing on stdout then.
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "lti/lti_convert.hpp"
+#include "lti/model_json.hpp"
+#include "synth/hinfsyn.hpp"
+#include "synth/mixsyn.hpp"
+#include "synth/plant_json.hpp"
+
+namespace piezoloop::cli {
+namespace {
+
+using namespace piezoloop::design;
+using nlohmann::json;
+
+struct SynthArgs {
+    double gamma_tol = 1e-6;
+    double gamma_max = 0.0;
+    double backoff = 1e-3;
+    std::string out;
+};
+
+struct HinfArgs : SynthArgs {
+    std::string plant;
+};
+
+struct MixsynArgs : SynthArgs {
+    std::string plant, w1, w2, w3;
+};
+
+HinfOptions options_of(const SynthArgs& a) {
+    if (!(a.gamma_tol >= 1e-12 && a.gamma_tol <= 0.1))
+        throw std::invalid_argument("--gamma-tol: must be in [1e-12, 0.1]");
+    if (!(a.gamma_max >= 0.0)) throw std::invalid_argument("--gamma-max: must be > 0");
+    if (!(a.backoff >= 0.0 && a.backoff <= 1.0)) throw std::invalid_argument("--backoff: must be in [0, 1]");
+    HinfOptions o;
+    o.rel_tol = a.gamma_tol;
+    o.gamma_max = a.gamma_max;
+    o.backoff = a.backoff;
+    return o;
+}
+
+json synthesis_json(const HinfSynthesis& r, const SynthArgs& a) {
+    return {{"gamma_opt", r.gamma_opt},
+            {"gamma_lower", r.gamma_lower},
+            {"gamma_controller", r.gamma_controller},
+            {"gamma_tol", a.gamma_tol},
+            {"backoff", a.backoff},
+            {"iterations", r.iterations},
+            {"frequency_scale_rad_s", r.w0_rad_s},
+            {"riccati",
+             {{"residual_x", r.residual_x},
+              {"residual_y", r.residual_y},
+              {"cond_u11_x", r.cond_x},
+              {"cond_u11_y", r.cond_y},
+              {"rho_xy_over_gamma2", r.rho_xy_over_gamma2}}}};
+}
+
+void write_model(const std::string& file, json model) {
+    std::ofstream f(file);
+    if (!f) throw std::runtime_error("--out: cannot write " + file);
+    f << model.dump(1) << "\n";
+    if (!f) throw std::runtime_error("--out: cannot write " + file);
+}
+
+int run_hinf(const HinfArgs& a) {
+    const HinfOptions o = options_of(a);
+    const GeneralisedPlant p = load_plant_file(a.plant);
+    const HinfSynthesis r = hinfsyn(p, o);
+    json out;
+    out["command"] = "hinf";
+    out["plant_file"] = a.plant;
+    out["gamma"] = r.gamma;
+    out["stable"] = r.stable;
+    out["order"] = r.controller.states();
+    out["synthesis"] = synthesis_json(r, a);
+    out["controller"] = state_space_json(r.controller);
+    if (r.controller.inputs() == 1 && r.controller.outputs() == 1) {
+        const Zpk k = ss2zpk(to_siso(r.controller));
+        out["controller_model"] = to_json(k);
+    }
+    if (!a.out.empty()) {
+        json m = state_space_json(r.controller);
+        m["description"] = "H∞ central controller from piezoloop design hinf --plant " + a.plant +
+                           " (y -> u, continuous, s in rad/s)";
+        write_model(a.out, m);
+    }
+    std::cout << out.dump(1) << "\n";
+    return kExitOk;
+}
+
+int run_mixsyn(const MixsynArgs& a) {
+    const HinfOptions o = options_of(a);
+    ModelParseOptions improper_ok;
+    improper_ok.allow_improper = true;  // so mixsyn names the improper weight itself
+    const Zpk g = load_model_file(a.plant);
+    const Zpk w1 = load_model_file(a.w1, improper_ok);
+    std::optional<Zpk> w2, w3;
+    if (!a.w2.empty()) w2 = load_model_file(a.w2, improper_ok);
+    if (!a.w3.empty()) w3 = load_model_file(a.w3, improper_ok);
+    const MixsynResult r = mixsyn(g, w1, w2, w3, o);
+    json out;
+    out["command"] = "mixsyn";
+    out["plant_file"] = a.plant;
+    out["weights"] = {{"w1", a.w1}, {"w2", w2 ? json(a.w2) : json(nullptr)}, {"w3", w3 ? json(a.w3) : json(nullptr)}};
+    out["gamma"] = r.gamma;
+    out["stable"] = r.stable;
+    out["hinf_W1S"] = r.hinf_W1S;
+    out["hinf_W2KS"] = w2 ? json(r.hinf_W2KS) : json(nullptr);
+    out["hinf_W3T"] = w3 ? json(r.hinf_W3T) : json(nullptr);
+    out["order"] = r.order;
+    out["augmented_plant_order"] = r.plant_order;
+    out["synthesis"] = synthesis_json(r.synthesis, a);
+    out["controller"] = to_json(r.controller_zpk);
+    out["controller_ss"] = state_space_json(r.synthesis.controller);
+    if (!a.out.empty()) {
+        json m = to_json(r.controller_zpk);
+        m["description"] = "mixed-sensitivity H∞ controller (e -> u) from piezoloop design mixsyn --plant " + a.plant +
+                           " --w1 " + a.w1 + (w2 ? " --w2 " + a.w2 : "") + (w3 ? " --w3 " + a.w3 : "") +
+                           "; gamma " + std::to_string(r.gamma);
+        write_model(a.out, m);
+    }
+    std::cout << out.dump(1) << "\n";
+    return kExitOk;
+}
+
+void add_synth_options(CLI::App* cmd, SynthArgs& a) {
+    cmd->add_option("--gamma-tol", a.gamma_tol,
+                    "relative tolerance of the γ bisection, [1e-12, 0.1] (default 1e-6)");
+    cmd->add_option("--gamma-max", a.gamma_max, "upper end of the γ search (default: 1, 10, ... up to 1e15)");
+    cmd->add_option("--backoff", a.backoff,
+                    "controller formed at γ_opt (1 + backoff), [0, 1] (default 1e-3: at γ_opt exactly the central "
+                    "controller has poles at infinity)");
+    cmd->add_option("--out", a.out, "also write the controller as a model file (JSON)");
+}
+
+void add_design_synth(CLI::App& app) {
+    CLI::App* design = app.get_subcommand("design");
+
+    auto h = std::make_shared<HinfArgs>();
+    CLI::App* hinf = design->add_subcommand(
+        "hinf",
+        "H∞ output-feedback synthesis (γ iteration, central controller) for a generalised plant. Plant file: "
+        "{\"A\": rows, \"B\": rows, \"C\": rows, \"D\": rows, \"partition\": {\"w\": nw, \"u\": nu, \"z\": nz, "
+        "\"y\": ny}}, inputs [w; u], outputs [z; y], continuous (docs/synthesis.md). Prints gamma (achieved), "
+        "the controller (A, B, C, D; y -> u) and the Riccati diagnostics");
+    hinf->add_option("--plant", h->plant, "generalised plant file (JSON, see above)")->required();
+    add_synth_options(hinf, *h);
+    hinf->callback([h] { guarded([&] { return run_hinf(*h); }); });
+
+    auto m = std::make_shared<MixsynArgs>();
+    CLI::App* mix = design->add_subcommand(
+        "mixsyn",
+        "Mixed-sensitivity H∞ design min ||[W1 S; W2 K S; W3 T]||∞ for a SISO plant (model files: num/den, "
+        "zeros/poles/gain or series; continuous). Weights must be proper and stable. Prints gamma, controller "
+        "(zeros/poles/gain, e -> u), stable, hinf_W1S, hinf_W2KS, hinf_W3T, order");
+    mix->add_option("--plant", m->plant, "plant G (model file)")->required();
+    mix->add_option("--w1", m->w1, "weight on S (model file)")->required();
+    mix->add_option("--w2", m->w2, "weight on K S (model file; needed when G is strictly proper)");
+    mix->add_option("--w3", m->w3, "weight on T (model file)");
+    add_synth_options(mix, *m);
+    mix->callback([m] { guarded([&] { return run_mixsyn(*m); }); });
+}
+
+}  // namespace
+
+namespace {
+// After `design` (20), which it extends.
+const bool registered = register_command(21, add_design_synth);
+}  // namespace
+
+}  // namespace piezoloop::cli
