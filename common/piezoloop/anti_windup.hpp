@@ -26,7 +26,8 @@
 // the states have unwound what they gathered. Nothing changes while the
 // limiter does not clamp, so unsaturated runs are bit-identical to a cascade
 // without it. Slew limiting does not count as saturation (the command is
-// reached a few samples later). Costs one copy of the states per tick.
+// reached a few samples later). Costs one copy of the states per tick, made
+// before the ADC reading, and a copy back on clamped ticks only.
 #pragma once
 
 #include <cstdint>
@@ -56,7 +57,8 @@ public:
     }
     constexpr int dc_sign() const { return dc_sign_; }
 
-    // Before the cascade's sample: keep its states.
+    // Before the cascade's sample (the pipeline calls it before the reading,
+    // outside the ADC-to-DAC span): keep its states.
     constexpr void before(const Cascade& c) {
         if (dc_sign_ != 0) held_ = c.snapshot();
     }

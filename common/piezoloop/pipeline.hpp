@@ -264,6 +264,10 @@ private:
         Bank& b = bank();
         if (armed && !was_armed_) b.reset();
         was_armed_ = armed;
+        // The cascade's states as they are before this tick's sample, for its
+        // anti-windup: taken here, before the reading, so the copy stays out
+        // of the ADC-read-to-DAC-write span.
+        if (armed && b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.before(b.sos);
         s.u_ff = armed ? b.feedforward(s.r) : sample_zero<T>();
     }
 
@@ -278,7 +282,6 @@ private:
                 s.u_rc = b.rc.apply(s.e);
                 e_fb = s.e + s.u_rc;
             }
-            if (b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.before(b.sos);
             s.u_fb = b.feedback_apply(e_fb);
             // Series placement: the compensator needs u_fb, so it runs here
             // (begin_phase left u_ff at zero). The other kinds pay one
