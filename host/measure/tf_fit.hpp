@@ -17,9 +17,10 @@
 // gives variances (lines without one get the median weight). Real and
 // imaginary parts are stacked and solved by a column-pivoting QR with column
 // scaling. Unstable poles (|z| > 1, Re s > 0) are reflected into the stable
-// region (z -> 1 / conj z, s -> -conj s), which keeps |A| on the unit circle
-// (imaginary axis) up to a constant and so the magnitude fit; B is then
-// refitted with A fixed.
+// region (z -> 1 / conj z, s -> -conj s: |A| on the unit circle, or the
+// imaginary axis, changes by a constant only, the phase by an all-pass), and
+// B is then refitted with A fixed: the least-squares fit with those stable
+// poles.
 //
 // Refused (std::invalid_argument, the reason named): more coefficients than
 // measured lines, and a rank-deficient least-squares problem.

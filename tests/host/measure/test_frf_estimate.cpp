@@ -60,8 +60,9 @@ TEST(FrfEstimate, ExactWithoutNoise) {
 }
 
 TEST(FrfEstimate, VarianceMatchesTheNoise) {
-    // White noise of sigma on y: var Ybar = 2 sigma^2 / N per period (peak
-    // scaling 2 / N), / P for the mean, so sigma_G = sigma sqrt(2 / (N P)) / |Ubar|.
+    // White noise of sigma on y: a DFT bin has variance N sigma^2, the peak
+    // scaling 2 / N makes it 4 sigma^2 / N per period, / P for the mean, so
+    // sigma_G = 2 sigma / sqrt(N P) / |Ubar|.
     const int P = 40;
     const double sigma = 0.01;
     const std::vector<double> u = record(P);
@@ -72,7 +73,7 @@ TEST(FrfEstimate, VarianceMatchesTheNoise) {
     const measure::FrfEstimate e = measure::estimate_multisine(u, y, {1000.0, N, k1, k2});
     double ratio_sum = 0.0;
     for (size_t j = 0; j < e.response.size(); ++j) {
-        const double expected = sigma * std::sqrt(2.0 / (N * P)) / std::abs(e.u_line[j]);
+        const double expected = 2.0 * sigma / std::sqrt(double{N} * P) / std::abs(e.u_line[j]);
         ratio_sum += std::sqrt(e.var[j]) / expected;
     }
     // The mean over 199 lines of a chi-like ratio with 39 degrees of freedom.

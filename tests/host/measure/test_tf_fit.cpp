@@ -3,6 +3,7 @@
 // reflected, and orders the data cannot support are refused.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <stdexcept>
@@ -105,14 +106,12 @@ TEST(TfFit, ReflectsAnUnstablePole) {
     o.ts = kTs;
     const measure::TfFit fit = measure::fit_tf(f, response(truth, f), {}, o);
     EXPECT_EQ(fit.reflected, 1);
-    for (const cplx p : fit.poles) EXPECT_LE(std::abs(p), 1.0);
-    // Reflection keeps the magnitude's shape (all-pass factor): the model
-    // matches |G| up to the constant 1 / 1.05 refitted away by B.
-    const std::vector<cplx> h = measure::tf_fit_response(fit, f, kTs);
-    for (size_t i = 0; i < f.size(); ++i) {
-        const double r = std::abs(h[i]) / std::abs(design::evaluate(truth, design::frequency_point(2 * M_PI * f[i], kTs)));
-        EXPECT_NEAR(r, 1.0, 1e-6) << f[i];
-    }
+    // The unstable pole at 1.05 comes back at 1 / 1.05; the other stays.
+    std::vector<double> radii;
+    for (const cplx p : fit.poles) radii.push_back(std::abs(p));
+    std::sort(radii.begin(), radii.end());
+    EXPECT_NEAR(radii[0], 0.5, 1e-6);
+    EXPECT_NEAR(radii[1], 1.0 / 1.05, 1e-6);
 }
 
 TEST(TfFit, RefusesOrdersTheDataCannotSupport) {
