@@ -14,12 +14,12 @@
 //   (M. R. Schroeder, "Synthesis of low-peak-factor signals and binary
 //   sequences with low autocorrelation", IEEE Trans. Inf. Theory 16(1), 1970),
 //   which keeps the crest factor near 1.7 instead of sqrt(2K) for equal phases.
-//   The period is tabulated once at configure (N <= TableCapacity): the phases
-//   k n mod N are exact integers, the cosines come from the core's sine table,
-//   the sum is an exact integer and is normalised to a peak of 1 - 2^-31 by one
-//   IEEE double division per sample. Because the table holds a whole number of
-//   periods of every line, its DFT has energy at the chosen bins only (up to
-//   the sine table's 3e-7), so a per-period DFT has no leakage.
+//   The period is tabulated once at configure (N <= TableCapacity) in integer
+//   arithmetic from exact phases and the core's sine table, then normalised
+//   to a peak of 1 - 2^-31 (see tabulate_multisine()). Because the table holds
+//   a whole number of periods of every line, its DFT has energy at the chosen
+//   bins only (up to the rounding, ~1e-5 of a line), so a per-period DFT has
+//   no leakage.
 // - Logarithmic swept sine from f1 to f2 over `period_samples` samples
 //   (instantaneous frequency f1 (f2/f1)^(n/L)): the per-sample phase increment
 //   (a 2^-64-cycle fixed point held in double) is multiplied by the constant
@@ -258,36 +258,47 @@ private:
         return fb;
     }
 
-    // Sample n of the period as the exact integer sum of the K cosines:
-    // both parts of each phase are exact fractions of a cycle, rounded once
-    // to 2^-32 cycle.
-    constexpr int64_t multisine_sum(uint32_t n) const {
+    // One period, line by line into table_: line k's phase at sample n is
+    // floor(k n 2^32 / N) (exact, carried from sample to sample by a
+    // Bresenham remainder: no division in the inner loop) minus its
+    // Schroeder phase j (j + 1) / (2 K) cycles; each cosine from the sine
+    // table is added shifted down by s bits, rounded, with 2^s > K so the sum
+    // cannot overflow 32 bits (integer arithmetic: the same bits everywhere).
+    // Then the period is normalised to a peak of 2^31 - 1 by one IEEE double
+    // division per sample. The shifted terms keep 31 - s bits each: for
+    // K = 4000 the rounding is ~1e-5 of a line's amplitude, spread over the
+    // period (deterministic, so it is part of d, which is what is recorded).
+    constexpr void tabulate_multisine() {
         const uint32_t N = cfg_.period_samples, k1 = cfg_.first_bin, K = cfg_.last_bin - k1 + 1u;
-        int64_t sum = 0;
+        const int shift = static_cast<int>(std::bit_width(K));
+        const int32_t half = int32_t{1} << (shift - 1);
+        for (uint32_t n = 0; n < N; ++n) table_[n] = 0;
         for (uint32_t j = 0; j < K; ++j) {
             const uint64_t k = k1 + j;
-            const uint64_t a = (k * n) % N;                                 // k n / N cycles
-            const uint64_t b = (uint64_t{j} * (j + 1u)) % (2u * uint64_t{K});  // Schroeder: j (j + 1) / (2 K)
-            const uint64_t pa = (a << 32) / N, pb = (b << 32) / (2u * uint64_t{K});
-            sum += sine_q31(static_cast<uint32_t>(pa - pb) + 0x40000000u);  // + a quarter: cos
+            const uint64_t b = (uint64_t{j} * (j + 1u)) % (2u * uint64_t{K});
+            const uint32_t schroeder = static_cast<uint32_t>((b << 32) / (2u * uint64_t{K}));
+            const uint64_t step = (k << 32);  // k 2^32 / N per sample: quotient and remainder
+            const uint32_t q = static_cast<uint32_t>(step / N), r = static_cast<uint32_t>(step % N);
+            uint32_t phase = 0, rem = 0;
+            for (uint32_t n = 0; n < N; ++n) {
+                const int32_t c = sine_q31(phase - schroeder + 0x40000000u);  // + a quarter: cos
+                table_[n] += static_cast<int32_t>((int64_t{c} + half) >> shift);
+                phase += q;
+                rem += r;
+                if (rem >= N) {
+                    rem -= N;
+                    ++phase;
+                }
+            }
         }
-        return sum;
-    }
-
-    // One period normalised to a peak of 2^31 - 1 by one IEEE double
-    // division per sample (identical on every target). Two passes over the
-    // sums instead of a scratch array of int64: configure time for memory.
-    constexpr void tabulate_multisine() {
-        const uint32_t N = cfg_.period_samples;
-        int64_t peak = 1;
+        int32_t peak = 1;
         for (uint32_t n = 0; n < N; ++n) {
-            const int64_t s = multisine_sum(n);
-            const int64_t m = s < 0 ? -s : s;
+            const int32_t m = table_[n] < 0 ? -table_[n] : table_[n];
             if (m > peak) peak = m;
         }
         const double scale = 2147483647.0 / static_cast<double>(peak);
         for (uint32_t n = 0; n < N; ++n)
-            table_[n] = Q31::from_double(static_cast<double>(multisine_sum(n)) * scale * 0x1p-31).raw();
+            table_[n] = Q31::from_double(static_cast<double>(table_[n]) * scale * 0x1p-31).raw();
     }
 
     SignalScale scale_{};
