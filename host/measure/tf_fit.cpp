@@ -78,7 +78,7 @@ Eigen::VectorXd fit_b(const Basis& d, const Eigen::VectorXd& a, int zeros, bool 
 
 }  // namespace
 
-std::vector<cplx> tf_fit_response(const TfFit& fit, const std::vector<double>& f_Hz, double ts_measurement) {
+std::vector<cplx> tf_fit_response(const TfFit& fit, const std::vector<double>& f_Hz) {
     std::vector<cplx> out;
     for (const double f : f_Hz) {
         const double w = 2.0 * M_PI * f;
@@ -86,7 +86,6 @@ std::vector<cplx> tf_fit_response(const TfFit& fit, const std::vector<double>& f
         if (fit.model.ts == 0.0 && fit.delay_s > 0.0) h *= std::polar(1.0, -w * fit.delay_s);
         out.push_back(h);
     }
-    (void)ts_measurement;
     return out;
 }
 
@@ -200,7 +199,7 @@ TfFit fit_tf(const std::vector<double>& f_Hz, const std::vector<cplx>& g, const 
     fit.poles = poles;
 
     // Fit error per decade, and the weighted residual.
-    const std::vector<cplx> h = tf_fit_response(fit, f_Hz, o.ts);
+    const std::vector<cplx> h = tf_fit_response(fit, f_Hz);
     double wsum = 0.0;
     for (size_t i = 0; i < f_Hz.size(); ++i) {
         const double rel = std::abs(h[i] - g[i]) / std::abs(g[i]);

@@ -65,6 +65,6 @@ TfFit fit_tf(const std::vector<double>& f_Hz, const std::vector<design::cplx>& g
              const TfFitOptions& o);
 
 // The fitted model's response at f_Hz (delay included).
-std::vector<design::cplx> tf_fit_response(const TfFit& fit, const std::vector<double>& f_Hz, double ts_measurement);
+std::vector<design::cplx> tf_fit_response(const TfFit& fit, const std::vector<double>& f_Hz);
 
 }  // namespace piezoloop::measure
