@@ -1,6 +1,7 @@
 // `piezoloop measure frf --scenario S.json [--case C] ...`: the stage's
 // frequency response from command u (V) to measured displacement y (µm) by a
-// periodic multisine (docs/measurement.md), on the simulator. The recording
+// periodic multisine, or a swept sine or PRBS with the H1 estimate
+// (docs/measurement.md), on the simulator. The recording
 // is made by the core's excitation in the loop kernel every simulated run
 // uses (host/measure/frf_sim), the estimate by host/measure/frf_estimate,
 // which a board's recording will share. Every request is checked before
@@ -63,21 +64,34 @@ json frf_json(const FrfArgs& a, const sim::Scenario& s, const measure::FrfRun& r
     out["response"] = resp;
     out["std_db"] = std_db;
     out["snr_db"] = snr;
+    if (!r.coherence.empty()) out["coherence"] = r.coherence;
     out["input"] = "u: command to the amplifier after the limiter (V)";
     out["output"] = "y: measured displacement, the sensor's reading / its gain (um)";
     out["units"] = {{"frequency", "Hz"}, {"response", "um/V"}, {"std_db", "dB (one standard deviation of |G|)"}};
     out["source"] = {{"kind", "simulator"}, {"scenario", s.name}, {"case", a.case_name}};
     out["mode"] = a.mode;
     const measure::MultisineLayout& l = r.plan.layout;
-    out["excitation"] = {{"signal", "multisine"},     {"phases", "schroeder"},
+    out["excitation"] = {{"signal", a.signal},
                          {"point", "command"},        {"amplitude_V", a.amplitude_V},
                          {"bias_V", a.mode == "open" ? a.bias_V : 0.0},
-                         {"rate_Hz", l.rate_Hz},      {"period_samples", l.period_samples},
-                         {"first_bin", l.first_bin},  {"last_bin", l.last_bin},
+                         {"rate_Hz", l.rate_Hz},      {"period_samples", r.plan.period_samples},
                          {"periods", a.periods},      {"transient_periods", a.transient_periods}};
+    if (a.signal == "multisine") {
+        out["excitation"]["phases"] = "schroeder";
+        out["excitation"]["first_bin"] = l.first_bin;
+        out["excitation"]["last_bin"] = l.last_bin;
+    } else {
+        out["excitation"]["segment_samples"] = r.plan.segment_samples;
+        out["excitation"]["segments"] = r.segments;
+        if (a.signal == "sweep") out["excitation"]["law"] = "logarithmic, from_Hz to to_Hz over period_samples";
+        else out["excitation"]["prbs"] = {{"order", r.plan.prbs_order}, {"hold_samples", r.plan.prbs_hold}};
+    }
     if (a.mode == "closed") out["excitation"]["setpoint_um"] = a.bias_V * s.command_um_per_V();
-    out["method"] = "per-period DFT at the excited bins, averaged over the periods; variance from the "
-                    "period-to-period spread (Pintelon & Schoukens 2012, ch. 2)";
+    out["method"] = a.signal == "multisine"
+                        ? "per-period DFT at the excited bins, averaged over the periods; variance from the "
+                          "period-to-period spread (Pintelon & Schoukens 2012, ch. 2)"
+                        : "H1 = S_yu / S_uu, Welch: Hann-windowed half-overlapping segments; std_db from the "
+                          "coherence (Bendat & Piersol 2010, table 9.6)";
     out["clipped_samples"] = r.clipped_samples;
     out["clipped_samples_transient"] = r.clipped_transient;
     out["limiter_trip"] = r.trip;
@@ -89,11 +103,12 @@ json frf_json(const FrfArgs& a, const sim::Scenario& s, const measure::FrfRun& r
 
 void plot_frf(const std::string& png, const sim::Scenario& s, const measure::FrfRun& r) {
     const measure::FrfEstimate& e = r.estimate;
-    json mag = json::array(), ph = json::array(), sd = json::array();
+    json mag = json::array(), ph = json::array(), sd = json::array(), coh = json::array();
     for (std::size_t i = 0; i < e.response.size(); ++i) {
         mag.push_back(design::magnitude_db(e.response[i]));
         ph.push_back(design::phase_deg(e.response[i]));
         sd.push_back(std::isfinite(e.std_db[i]) ? e.std_db[i] : 0.0);
+        if (!r.coherence.empty()) coh.push_back(r.coherence[i]);
     }
     auto panel = [&](const std::string& title, const std::string& ylabel, const json& y, const std::string& yscale) {
         return json{{"title", title},
@@ -104,9 +119,10 @@ void plot_frf(const std::string& png, const sim::Scenario& s, const measure::Frf
                     {"series", json::array({{{"label", "measured"}, {"x", e.frequency_Hz}, {"y", y}, {"style", "-"}}})}};
     };
     json spec;
-    spec["title"] = s.name + ": measured frequency response u (V) -> y (um), multisine";
+    spec["title"] = s.name + ": measured frequency response u (V) -> y (um), " + r.plan.signal;
     spec["panels"] = json::array({panel("magnitude", "dB (um/V)", mag, "linear"), panel("phase", "deg", ph, "linear"),
-                                  panel("standard deviation of |G|", "dB", sd, "log")});
+                                  r.coherence.empty() ? panel("standard deviation of |G|", "dB", sd, "log")
+                                                      : panel("coherence", "", coh, "linear")});
     sim::plot_spec("plot.py", spec, {std::filesystem::absolute(png).string()});
 }
 
@@ -114,6 +130,7 @@ int run_frf(const FrfArgs& a) {
     const sim::Scenario s = sim::load_scenario(a.scenario);
     const sim::CaseSpec* c = a.case_name.empty() ? nullptr : &s.find_case(a.case_name);
     measure::FrfRequest r;
+    r.signal = a.signal;
     r.from_Hz = a.from_Hz;
     r.to_Hz = a.to_Hz;
     r.amplitude_V = a.amplitude_V;
@@ -133,13 +150,14 @@ int run_frf(const FrfArgs& a) {
     f << out.dump(1) << "\n";
     if (!f) throw std::runtime_error("--out: cannot write " + a.out);
     if (!a.plot.empty()) plot_frf(a.plot, s, run);
-    const measure::MultisineLayout& l = run.plan.layout;
     const double simulated_s = static_cast<double>(run.plan.ticks) / s.rate_Hz;
     std::cout << json{{"out", a.out},
                       {"lines", run.estimate.frequency_Hz.size()},
                       {"from_Hz", run.estimate.frequency_Hz.front()},
                       {"to_Hz", run.estimate.frequency_Hz.back()},
-                      {"line_spacing_Hz", l.rate_Hz / l.period_samples},
+                      {"line_spacing_Hz", run.estimate.frequency_Hz.size() > 1
+                                              ? run.estimate.frequency_Hz[1] - run.estimate.frequency_Hz[0]
+                                              : 0.0},
                       {"simulated_s", simulated_s},
                       {"wall_s", total_s},
                       {"clipped_samples", run.clipped_samples},
@@ -156,7 +174,8 @@ void add_measure(CLI::App& app) {
     measure->require_subcommand(1);
     auto a = std::make_shared<FrfArgs>();
     CLI::App* cmd = measure->add_subcommand(
-        "frf", "Frequency response u (V) -> y (um) by a periodic multisine with Schroeder phases (docs/measurement.md)");
+        "frf", "Frequency response u (V) -> y (um): periodic multisine with Schroeder phases, or swept sine / PRBS "
+        "with H1 and coherence (docs/measurement.md)");
     cmd->add_option("--scenario", a->scenario, "scenario file (configs/*.json): the simulated stage")
         ->required()
         ->check(CLI::ExistingFile);
@@ -169,7 +188,7 @@ void add_measure(CLI::App& app) {
                                            "the setpoint, as the displacement this command gives at the mean slope");
     cmd->add_option("--mode", a->mode, "open: no controller; closed: the case's controller runs")
         ->check(CLI::IsMember({"open", "closed"}));
-    cmd->add_option("--signal", a->signal, "excitation: multisine (sweep and PRBS are in the core, not yet analysed here)")->check(CLI::IsMember({"multisine"}));
+    cmd->add_option("--signal", a->signal, "excitation: multisine (periodic estimate), sweep or prbs (H1, Welch, coherence)")->check(CLI::IsMember({"multisine", "sweep", "prbs"}));
     cmd->add_option("--periods", a->periods, "measured periods, averaged (>= 2 for the variance)");
     cmd->add_option("--transient-periods", a->transient_periods, "periods run first and discarded");
     cmd->add_option("--out", a->out, "the response as JSON")->required();

@@ -1,5 +1,6 @@
 #include "measure/frf_estimate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -78,6 +79,60 @@ FrfEstimate estimate_multisine(const std::vector<double>& u, const std::vector<d
         e.u_line.push_back(ub);
         e.y_line.push_back(yb);
     }
+    return e;
+}
+
+WelchEstimate estimate_h1(const std::vector<double>& u, const std::vector<double>& y, double rate_Hz, uint32_t segment,
+                          double from_Hz, double to_Hz) {
+    const std::size_t L = segment, hop = segment / 2;
+    if (L < 8 || u.size() != y.size() || u.size() < L)
+        throw std::invalid_argument("welch: u and y must have the same length, at least one segment of >= 8 samples");
+    std::vector<double> win(L);
+    for (std::size_t n = 0; n < L; ++n) win[n] = 0.5 - 0.5 * std::cos(2.0 * M_PI * static_cast<double>(n) / static_cast<double>(L));
+    const std::size_t bins = L / 2 + 1;
+    std::vector<double> suu(bins, 0.0), syy(bins, 0.0);
+    std::vector<cplx> syu(bins, 0.0), xu, xy;
+    std::vector<double> su(L), sy(L);
+    Eigen::FFT<double> fft;
+    WelchEstimate e;
+    for (std::size_t start = 0; start + L <= u.size(); start += hop) {
+        double mu = 0.0, my = 0.0;
+        for (std::size_t n = 0; n < L; ++n) {
+            mu += u[start + n];
+            my += y[start + n];
+        }
+        mu /= static_cast<double>(L);
+        my /= static_cast<double>(L);
+        for (std::size_t n = 0; n < L; ++n) {
+            su[n] = (u[start + n] - mu) * win[n];
+            sy[n] = (y[start + n] - my) * win[n];
+        }
+        fft.fwd(xu, su);
+        fft.fwd(xy, sy);
+        for (std::size_t k = 0; k < bins; ++k) {
+            suu[k] += std::norm(xu[k]);
+            syy[k] += std::norm(xy[k]);
+            syu[k] += xy[k] * std::conj(xu[k]);
+        }
+        ++e.segments;
+    }
+    e.segment_samples = segment;
+    e.periods = 0;
+    const double db_per_rel = 20.0 / std::log(10.0);
+    for (std::size_t k = 1; k < bins; ++k) {
+        const double f = static_cast<double>(k) * rate_Hz / static_cast<double>(L);
+        if (f < from_Hz * (1.0 - 1e-12) || f > to_Hz * (1.0 + 1e-12)) continue;
+        const cplx h = syu[k] / suu[k];
+        const double coh = std::min(1.0, std::norm(syu[k]) / (suu[k] * syy[k]));
+        const double rel = std::sqrt((1.0 - coh) / (2.0 * e.segments * coh));
+        e.frequency_Hz.push_back(f);
+        e.response.push_back(h);
+        e.coherence.push_back(coh);
+        e.var.push_back(std::norm(h) * rel * rel);
+        e.std_db.push_back(db_per_rel * rel);
+        e.snr_db.push_back(rel > 0.0 ? -20.0 * std::log10(rel) : std::numeric_limits<double>::infinity());
+    }
+    if (e.frequency_Hz.empty()) throw std::invalid_argument("welch: no FFT bin between from_Hz and to_Hz");
     return e;
 }
 

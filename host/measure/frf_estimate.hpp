@@ -49,4 +49,22 @@ struct FrfEstimate {
 // Throws std::invalid_argument when the lengths do not fit the layout.
 FrfEstimate estimate_multisine(const std::vector<double>& u, const std::vector<double>& y, const MultisineLayout& l);
 
+// Swept sine and PRBS: the H1 estimate with Welch averaging (P. D. Welch,
+// IEEE Trans. Audio Electroacoust. 15(2), 1967; J. S. Bendat, A. G. Piersol,
+// Random Data, 4th ed., Wiley 2010, ch. 9): segments of `segment` samples,
+// half overlapping, mean removed, Hann window; auto and cross spectra summed
+// over the segments give
+//     H1 = S_yu / S_uu,   coherence = |S_yu|^2 / (S_uu S_yy),
+// and the random error of |H1| (Bendat & Piersol 2010, table 9.6)
+//     sigma_|H| / |H| = sqrt((1 - coherence) / (2 n_d coherence)),
+// n_d the number of segments (taken as independent: with half overlap and a
+// Hann window they nearly are). Lines: the FFT bins in [from_Hz, to_Hz].
+struct WelchEstimate : FrfEstimate {
+    std::vector<double> coherence;
+    int segments = 0;
+    uint32_t segment_samples = 0;
+};
+WelchEstimate estimate_h1(const std::vector<double>& u, const std::vector<double>& y, double rate_Hz, uint32_t segment,
+                          double from_Hz, double to_Hz);
+
 }  // namespace piezoloop::measure

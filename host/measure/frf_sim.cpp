@@ -34,14 +34,20 @@ FrfRun run_with(const sim::LoopModel& m, const FrfRequest& r, const FrfPlan& pla
     if (const Status st = pipe->stage(m.params); !st.ok()) fail("controller", st);
     if (r.closed) (void)pipe->set_setpoint(m.setup.position.to_sample<T>(static_cast<float>(setpoint_um)));
     ExcitationConfig c;
-    c.signal = ExcitationSignal::kMultisine;
+    c.signal = plan.signal == "sweep"  ? ExcitationSignal::kSweep
+               : plan.signal == "prbs" ? ExcitationSignal::kPrbs
+                                       : ExcitationSignal::kMultisine;
     c.point = ExcitationPoint::kCommand;
     c.amplitude = static_cast<float>(r.amplitude_V);
     c.offset = r.closed ? 0.0f : static_cast<float>(r.bias_V);
     c.sample_rate_Hz = m.setup.rate_Hz;
-    c.period_samples = plan.layout.period_samples;
+    c.period_samples = plan.period_samples;
     c.first_bin = plan.layout.first_bin;
     c.last_bin = plan.layout.last_bin;
+    c.f1_Hz = static_cast<float>(r.from_Hz);
+    c.f2_Hz = static_cast<float>(r.to_Hz);
+    c.prbs_order = plan.prbs_order;
+    c.prbs_hold = plan.prbs_hold;
     c.periods = static_cast<uint32_t>(r.transient_periods + r.periods);
     if (const Status st = pipe->start_excitation(c); !st.ok()) fail("excitation", st);
     pipe->arm();
@@ -79,7 +85,14 @@ FrfRun run_with(const sim::LoopModel& m, const FrfRequest& r, const FrfPlan& pla
     run.clipped_transient = plan.measured_start == 0 ? 0 : clip_at_start;
     run.clipped_samples = clip_end - clip_at_start;
     run.trip = trip_reason_name(pipe->limiter().trip_reason());
-    run.estimate = estimate_multisine(u, y, plan.layout);
+    if (plan.signal == "multisine") {
+        run.estimate = estimate_multisine(u, y, plan.layout);
+    } else {
+        WelchEstimate w = estimate_h1(u, y, plan.layout.rate_Hz, plan.segment_samples, r.from_Hz, r.to_Hz);
+        run.coherence = w.coherence;
+        run.segments = w.segments;
+        run.estimate = static_cast<const FrfEstimate&>(w);
+    }
     return run;
 }
 
@@ -115,8 +128,31 @@ FrfPlan plan_frf(const sim::Scenario& s, const FrfRequest& r) {
                                     num(lim.u_max_V) + "] V");
     }
     FrfPlan p;
-    const uint32_t N = static_cast<uint32_t>(std::floor(rate / r.from_Hz + 1e-9));
+    p.signal = r.signal;
     p.layout.rate_Hz = rate;
+    if (r.signal == "sweep" || r.signal == "prbs") {
+        uint32_t seg = 8;
+        while (seg < rate / r.from_Hz - 1e-9) seg *= 2;
+        if (r.to_Hz < rate / seg)
+            refuse("--to-hz", "no FFT bin between --from-hz and --to-hz at a resolution of " + num(rate / seg) + " Hz");
+        p.segment_samples = seg;
+        if (r.signal == "sweep") {
+            p.period_samples = 4 * seg;
+        } else {
+            p.prbs_hold = std::max<uint32_t>(1, static_cast<uint32_t>(std::floor(0.4 * rate / r.to_Hz)));
+            uint32_t order = 2;
+            while (((uint64_t{1} << order) - 1) * p.prbs_hold < seg) ++order;
+            if (order > 24) refuse("--from-hz", "too low for a PRBS of order <= 24 at this rate and --to-hz");
+            p.prbs_order = order;
+            p.period_samples = static_cast<uint32_t>(((uint64_t{1} << order) - 1) * p.prbs_hold);
+        }
+        p.measured_start = uint64_t{p.period_samples} * static_cast<uint64_t>(r.transient_periods);
+        p.ticks = uint64_t{p.period_samples} * static_cast<uint64_t>(r.transient_periods + r.periods);
+        return p;
+    }
+    if (r.signal != "multisine") refuse("--signal", "must be multisine, sweep or prbs");
+    const uint32_t N = static_cast<uint32_t>(std::floor(rate / r.from_Hz + 1e-9));
+    p.period_samples = N;
     p.layout.period_samples = N;
     p.layout.first_bin = std::max<uint32_t>(1, static_cast<uint32_t>(std::ceil(r.from_Hz * N / rate - 1e-9)));
     p.layout.last_bin = static_cast<uint32_t>(std::floor(r.to_Hz * N / rate + 1e-9));
@@ -152,8 +188,13 @@ FrfRun run_frf_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const
         run.warnings.push_back("the limiter clamped or slew-limited " + std::to_string(run.clipped_samples) +
                                " samples of the measured periods: the response is not that of the linear stage there");
     if (run.trip != "none") run.warnings.push_back("the limiter tripped (" + run.trip + "): the output went to safe");
-    if (r.periods < 2)
+    if (r.periods < 2 && r.signal == "multisine")
         run.warnings.push_back("one measured period: no noise variance (std_db is null); use --periods >= 2");
+    int incoherent = 0;
+    for (const double c : run.coherence) incoherent += c < 0.95 ? 1 : 0;
+    if (incoherent > 0)
+        run.warnings.push_back(std::to_string(incoherent) + " of " + std::to_string(run.coherence.size()) +
+                               " lines have a coherence below 0.95");
     int low = 0;
     double f_low_first = 0.0;
     for (std::size_t i = 0; i < run.estimate.std_db.size(); ++i) {

@@ -2,7 +2,8 @@
 // the core's pipeline with its excitation (common/piezoloop/excitation.hpp),
 // stepped by the loop kernel every simulated run uses (sim/loop_kernel.hpp),
 // so the recording is the one a board running the same excitation makes.
-// The analysis is frf_estimate's, shared with the board path.
+// The analysis is frf_estimate's, shared with the board path: the periodic
+// estimate for a multisine, H1 with Welch averaging for a sweep or a PRBS.
 //
 // Open loop: no controller, u = limits(bias + d). Closed loop: the case's
 // controller holds the setpoint (the bias converted at the stage's mean
@@ -21,6 +22,7 @@
 namespace piezoloop::measure {
 
 struct FrfRequest {
+    std::string signal = "multisine";  // multisine | sweep | prbs
     double from_Hz = 0.0, to_Hz = 0.0;
     double amplitude_V = 0.0;  // peak of d at the command
     double bias_V = 0.0;
@@ -29,14 +31,23 @@ struct FrfRequest {
     int transient_periods = 1; // run first and discarded
 };
 
-// The excitation a request makes on a scenario: N = floor(rate / from_Hz)
-// (the line spacing rate / N is at most from_Hz, so the first line is at or
-// below it: k1 = 1 unless from_Hz is well above the spacing), lines k1..k2
-// covering [from_Hz, to_Hz] on the DFT grid.
+// The excitation a request makes on a scenario.
+//   multisine: N = floor(rate / from_Hz) (the line spacing rate / N is at
+//     most from_Hz), lines k1..k2 covering [from_Hz, to_Hz] on the DFT grid.
+//   sweep, prbs: Welch segments of S = the power of two >= rate / from_Hz
+//     samples (resolution <= from_Hz); lines are the FFT bins in the band.
+//     sweep: from_Hz -> to_Hz over 4 S samples per period; prbs: each bit
+//     held h = max(1, floor(0.4 rate / to_Hz)) samples (its spectrum is
+//     within 1.5 dB of flat up to to_Hz), order n the smallest with
+//     (2^n - 1) h >= S.
 struct FrfPlan {
-    MultisineLayout layout;
-    uint64_t ticks = 0;          // (transient + P) N
-    uint64_t measured_start = 0; // transient N
+    std::string signal = "multisine";
+    MultisineLayout layout;       // multisine
+    uint32_t period_samples = 0;  // one period of the excitation
+    uint32_t segment_samples = 0; // sweep, prbs: Welch segment
+    uint32_t prbs_order = 0, prbs_hold = 1;
+    uint64_t ticks = 0;           // (transient + P) periods
+    uint64_t measured_start = 0;  // transient periods
 };
 
 // Largest period the simulator's pipeline tabulates (the lowest from_Hz is rate / this).
@@ -49,6 +60,8 @@ FrfPlan plan_frf(const sim::Scenario& s, const FrfRequest& r);
 struct FrfRun {
     FrfPlan plan;
     FrfEstimate estimate;
+    std::vector<double> coherence;       // sweep, prbs
+    int segments = 0;                    // sweep, prbs: Welch segments averaged
     uint32_t clipped_samples = 0;        // in the measured periods (clamped or slew-limited)
     uint32_t clipped_transient = 0;      // in the discarded ones
     std::string trip = "none";
