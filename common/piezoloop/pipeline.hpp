@@ -8,6 +8,15 @@
 //   u     = limits(u_ff + u_fb)  -> DAC
 //   recorder <- (r, y, e, u, u_ff, u_fb, u_rc)
 //
+// Excitation (excitation.hpp, issue 16): while one runs, its sample d is
+// added to r after the wave (ExcitationPoint::kReference) or to the command
+// before the limiter (kCommand: u = limits(u_ff + u_fb + d); open loop, with
+// no feedforward and no feedback, u = limits(d) and d carries the bias). The
+// limiter still acts last; the samples it clamped or slew-limited while the
+// excitation ran are counted. Without an excitation the tick pays one
+// well-predicted branch per phase and its arithmetic is unchanged (the log
+// hashes do not move).
+//
 // Series placement (FeedforwardKind::kPiSeries, Shan2012's structure): the
 // compensator follows the controller instead of adding to it,
 //   u_fb <- feedback of e' (a displacement correction, µm)
@@ -38,6 +47,7 @@
 
 #include "piezoloop/biquad.hpp"
 #include "piezoloop/dahl.hpp"
+#include "piezoloop/excitation.hpp"
 #include "piezoloop/anti_windup.hpp"
 #include "piezoloop/limits.hpp"
 #include "piezoloop/pi_inverse.hpp"
@@ -92,7 +102,8 @@ struct TickSignals {
     T r{}, y{}, e{}, u{}, u_ff{}, u_fb{}, u_rc{};
 };
 
-template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024>
+template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024,
+          std::size_t ExcCapacity = 1024>
 class Pipeline {
     static_assert(is_sample_type_v<T>, "Pipeline<T>: T is float or Q31");
     static constexpr bool kFloat = std::is_same_v<T, float>;
@@ -102,6 +113,7 @@ public:
     using RecorderType = Recorder<T, RecChannels, RecCapacity>;
     using RepetitiveType = RepetitiveController<T, RcCapacity>;
     using Trajectory = TrajectoryGenerator<T>;
+    using Excitation = ExcitationGenerator<T, ExcCapacity>;
 
     explicit Pipeline(const PipelineSetup& setup)
         : setup_(setup),
@@ -177,6 +189,33 @@ public:
     void stop_wave() { stop_request_.store(true, std::memory_order_release); }
     bool wave_running() const { return wave_running_.load(std::memory_order_acquire); }
 
+    // An excitation (excitation.hpp) from the next tick on; configured here
+    // only while none runs (a multisine's period is tabulated here, in the
+    // main loop). Its sample rate must be the loop rate.
+    Status start_excitation(const ExcitationConfig& c) {
+        if (excitation_running())
+            return in_group("excitation", error("signal", "an excitation is running: stop it first"));
+        if (c.sample_rate_Hz != setup_.rate_Hz)
+            return in_group("excitation", error("sample_rate_Hz", "must equal the loop rate"));
+        excitation_.set_output_scale(c.point == ExcitationPoint::kReference ? setup_.position : setup_.voltage);
+        if (const Status s = excitation_.configure(c); !s.ok()) return in_group("excitation", s);
+        exc_to_command_ = c.point == ExcitationPoint::kCommand;
+        exc_clipped_ = 0;
+        exc_ticks_ = 0;
+        exc_stop_request_.store(false, std::memory_order_relaxed);
+        excitation_running_.store(true, std::memory_order_release);
+        return ok_status();
+    }
+    // Takes effect at the next tick; d is zero from then on.
+    void stop_excitation() { exc_stop_request_.store(true, std::memory_order_release); }
+    bool excitation_running() const { return excitation_running_.load(std::memory_order_acquire); }
+    // Ticks the excitation ran, and how many of them the limiter clamped to
+    // the configured range or slew-limited (valid once it has finished).
+    uint32_t excitation_ticks() const { return exc_ticks_; }
+    uint32_t excitation_clipped_samples() const { return exc_clipped_; }
+    // d of the last tick that ran the excitation.
+    T excitation_sample() const { return exc_d_; }
+
     // One tick: measured displacement in, command out. Bounded time, no
     // allocation, never fails. A tick is three phases, which a board may run
     // apart within its interrupt (firmware/app/control_loop.cpp):
@@ -241,6 +280,7 @@ private:
         const bool pending = swap_pending_.load(std::memory_order_relaxed);
         const bool wave = wave_running_.load(std::memory_order_relaxed);
         const bool armed = armed_.load(std::memory_order_relaxed);
+        const bool excite = excitation_running_.load(std::memory_order_relaxed);
         std::atomic_thread_fence(std::memory_order_acquire);
         if (pending && (!was_armed_ || !rc_changes_ || bank().rc.at_period_boundary())) swap_banks();
 
@@ -258,6 +298,7 @@ private:
             stop_request_.store(false, std::memory_order_relaxed);
             s.r = setpoint_;
         }
+        if (excite) [[unlikely]] excitation_phase(s);
         // One reference for the whole phase: re-indexing banks_ by active_
         // after every byte-sized store (which may alias active_) costs a
         // reload and a multiply each time.
@@ -293,12 +334,40 @@ private:
             } else {
                 command = s.u_ff + s.u_fb;
             }
-            s.u = limiter_.apply(command);
+            if (exc_active_) [[unlikely]] {
+                s.u = excited_output(command);
+            } else {
+                s.u = limiter_.apply(command);
+            }
             if (b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.after(b.sos, e_fb, limiter_.clamp_direction());
         } else {
             s.u_fb = sample_zero<T>();
             s.u = limiter_.apply(sample_zero<T>());
+            exc_active_ = false;  // disarmed: the excitation is not applied
         }
+    }
+
+    // The excitation's part of begin_phase: d of this tick, added to r here
+    // or to the command in output_phase (which clears exc_active_ again). The
+    // tick that ends it (last period, or a stop request) still applies its d.
+    void excitation_phase(TickSignals<T>& s) {
+        exc_d_ = excitation_.step();
+        exc_active_ = true;
+        if (!exc_to_command_) s.r = s.r + exc_d_;
+        if (excitation_.done() || (exc_stop_request_.load(std::memory_order_relaxed) &&
+                                   exc_stop_request_.exchange(false, std::memory_order_acq_rel)))
+            excitation_running_.store(false, std::memory_order_release);
+    }
+    // The limiter with the excitation on: d added at the command, and the
+    // samples the limiter changed counted.
+    T excited_output(T command) {
+        if (exc_to_command_) command = command + exc_d_;
+        const uint32_t before = limiter_.clamped_samples() + limiter_.slew_limited_samples();
+        const T u = limiter_.apply(command);
+        if (limiter_.clamped_samples() + limiter_.slew_limited_samples() != before) ++exc_clipped_;
+        ++exc_ticks_;
+        exc_active_ = false;  // begin_phase sets it again while the excitation runs
+        return u;
     }
 
     // One complete, configured controller. Two of them make the double buffer.
@@ -460,6 +529,13 @@ private:
     bool was_armed_ = false;
     std::atomic<bool> wave_running_{false};
     std::atomic<bool> stop_request_{false};
+    Excitation excitation_{};
+    std::atomic<bool> excitation_running_{false};
+    std::atomic<bool> exc_stop_request_{false};
+    bool exc_to_command_ = false;  // kCommand (written before excitation_running_)
+    bool exc_active_ = false;      // this tick adds d (set in begin_phase, read in output_phase)
+    T exc_d_{};
+    uint32_t exc_clipped_ = 0, exc_ticks_ = 0;
     uint32_t tick_count_ = 0;
     uint32_t swaps_ = 0;
     uint32_t rejected_setpoints_ = 0;

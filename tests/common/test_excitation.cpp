@@ -1,0 +1,335 @@
+// Excitation generator (excitation.hpp) against independent computations in
+// long double: the multisine's DFT, Schroeder's crest factor, the PRBS's
+// period and balance, the sweep's phase and instantaneous frequency; and its
+// hook in the pipeline (d added at the command or the reference, clipping
+// counted, nothing changed once it has finished).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <memory>
+#include <numbers>
+#include <vector>
+
+#include "piezoloop/excitation.hpp"
+#include "piezoloop/pipeline.hpp"
+
+using namespace piezoloop;
+
+namespace {
+
+constexpr long double kTwoPi = 2.0L * std::numbers::pi_v<long double>;
+
+template <class T, std::size_t Cap>
+std::vector<long double> one_period(ExcitationGenerator<T, Cap>& g, uint32_t n) {
+    std::vector<long double> x(n);
+    for (uint32_t i = 0; i < n; ++i) {
+        const T v = g.step();
+        if constexpr (std::is_same_v<T, float>) x[i] = v;
+        else x[i] = v.to_double();
+    }
+    return x;
+}
+
+std::complex<long double> dft_bin(const std::vector<long double>& x, uint32_t k) {
+    const uint64_t n = x.size();
+    std::complex<long double> acc = 0.0L;
+    for (uint64_t i = 0; i < n; ++i) {
+        const long double a = -kTwoPi * static_cast<long double>((k * i) % n) / static_cast<long double>(n);
+        acc += x[i] * std::complex<long double>(std::cos(a), std::sin(a));
+    }
+    return acc;
+}
+
+ExcitationConfig multisine(uint32_t n, uint32_t k1, uint32_t k2, float amplitude) {
+    ExcitationConfig c;
+    c.signal = ExcitationSignal::kMultisine;
+    c.period_samples = n;
+    c.first_bin = k1;
+    c.last_bin = k2;
+    c.amplitude = amplitude;
+    c.sample_rate_Hz = 10000.0f;
+    return c;
+}
+
+}  // namespace
+
+TEST(Excitation, MultisineHasItsEnergyOnTheChosenBinsOnly) {
+    constexpr uint32_t N = 512, k1 = 5, k2 = 60;
+    auto g = std::make_unique<ExcitationGenerator<float, 1024>>();
+    ASSERT_TRUE(g->configure(multisine(N, k1, k2, 2.0f)).ok());
+    const std::vector<long double> x = one_period(*g, N);
+    long double line = 0.0L;
+    for (uint32_t k = k1; k <= k2; ++k) line += std::abs(dft_bin(x, k));
+    line /= (k2 - k1 + 1);
+    for (uint32_t k = 0; k <= N / 2; ++k) {
+        const long double m = std::abs(dft_bin(x, k));
+        if (k >= k1 && k <= k2) {
+            // Equal amplitudes (sine table, Q31 rounding, float scaling: ~1e-6).
+            EXPECT_NEAR(m / line, 1.0L, 2e-5L) << "bin " << k;
+        } else {
+            EXPECT_LT(m / line, 2e-5L) << "bin " << k;
+        }
+    }
+    // Schroeder's phases, relative to the first line: phi_j = -pi j (j + 1) / K.
+    const long double K = k2 - k1 + 1;
+    const std::complex<long double> x0 = dft_bin(x, k1);
+    for (uint32_t j = 1; j < K; ++j) {
+        const std::complex<long double> r = dft_bin(x, k1 + j) / x0;
+        const long double want = -std::numbers::pi_v<long double> * j * (j + 1) / K;
+        const long double d = std::remainder(std::arg(r) - want, kTwoPi);
+        EXPECT_LT(std::fabs(d), 1e-4L) << "line " << j;
+    }
+    // It repeats exactly.
+    const std::vector<long double> x2 = one_period(*g, N);
+    EXPECT_EQ(x, x2);
+}
+
+TEST(Excitation, SchroederPhasesGiveALowCrestFactor) {
+    // Crest factor peak / rms of K equal lines: sqrt(2K) with equal phases;
+    // Schroeder's phases keep it near 1.7 (Pintelon & Schoukens 2012, ch. 5).
+    for (const uint32_t K : {10u, 50u, 200u}) {
+        const uint32_t N = 1024;
+        auto g = std::make_unique<ExcitationGenerator<float, 1024>>();
+        ASSERT_TRUE(g->configure(multisine(N, 1, K, 1.0f)).ok());
+        const std::vector<long double> x = one_period(*g, N);
+        long double peak = 0.0L, sq = 0.0L;
+        for (const long double v : x) {
+            peak = std::max(peak, std::fabs(v));
+            sq += v * v;
+        }
+        const long double crest = peak / std::sqrt(sq / N);
+        EXPECT_NEAR(static_cast<double>(peak), 1.0, 1e-6) << K;  // normalised to the amplitude
+        EXPECT_LT(crest, 2.0L) << K;
+        EXPECT_GT(crest, 1.35L) << K;
+        // The same sum evaluated in long double gives the same crest factor.
+        long double peak_ref = 0.0L, sq_ref = 0.0L;
+        for (uint32_t n = 0; n < N; ++n) {
+            long double s = 0.0L;
+            for (uint32_t j = 0; j < K; ++j)
+                s += std::cos(kTwoPi * ((j + 1.0L) * n / N) - std::numbers::pi_v<long double> * j * (j + 1) / K);
+            peak_ref = std::max(peak_ref, std::fabs(s));
+            sq_ref += s * s;
+        }
+        EXPECT_NEAR(static_cast<double>(crest), static_cast<double>(peak_ref / std::sqrt(sq_ref / N)), 1e-4) << K;
+    }
+}
+
+TEST(Excitation, FloatAndQ31MultisinesAreTheSameShape) {
+    auto gf = std::make_unique<ExcitationGenerator<float, 256>>();
+    auto gq = std::make_unique<ExcitationGenerator<Q31, 256>>(SignalScale{10.0f});
+    ExcitationConfig c = multisine(200, 2, 30, 3.0f);
+    c.offset = 1.5f;
+    ASSERT_TRUE(gf->configure(c).ok());
+    ASSERT_TRUE(gq->configure(c).ok());
+    for (int i = 0; i < 400; ++i) {
+        const float f = gf->step();
+        const float q = gq->step().to_float() * 10.0f;
+        EXPECT_NEAR(f, q, 1e-6f) << i;
+    }
+}
+
+TEST(Excitation, PrbsIsMaximumLengthAndBalanced) {
+    for (uint32_t order = 2; order <= 24; ++order) {
+        ExcitationConfig c;
+        c.signal = ExcitationSignal::kPrbs;
+        c.prbs_order = order;
+        c.amplitude = 1.0f;
+        ExcitationGenerator<float, 4> g;
+        ASSERT_TRUE(g.configure(c).ok()) << order;
+        const uint32_t period = (1u << order) - 1u;
+        ASSERT_EQ(g.period_length(), period);
+        // Every non-zero n-bit window occurs exactly once per period: the
+        // sequence is maximum length (a shorter cycle would repeat one).
+        std::vector<bool> seen(std::size_t{1} << order, false);
+        uint32_t window = 0, ones = 0;
+        std::vector<bool> bits;
+        bits.reserve(period + order);
+        for (uint32_t i = 0; i < period + order; ++i) bits.push_back(g.step() > 0.0f);
+        for (uint32_t i = 0; i < period; ++i) ones += bits[i] ? 1u : 0u;
+        for (uint32_t i = 0; i < order - 1; ++i) window = (window << 1) | (bits[i] ? 1u : 0u);
+        const uint32_t mask = period;
+        uint32_t distinct = 0;
+        for (uint32_t i = order - 1; i < period + order - 1; ++i) {
+            window = ((window << 1) | (bits[i] ? 1u : 0u)) & mask;
+            ASSERT_NE(window, 0u) << order;
+            if (!seen[window]) ++distinct;
+            seen[window] = true;
+        }
+        EXPECT_EQ(distinct, period) << order;
+        EXPECT_EQ(ones, 1u << (order - 1)) << order;  // balance: one more one than zeros
+        for (uint32_t i = 0; i < order; ++i) EXPECT_EQ(bits[i], bits[period + i]) << order;
+    }
+}
+
+TEST(Excitation, PrbsHoldsEachBit) {
+    ExcitationConfig c;
+    c.signal = ExcitationSignal::kPrbs;
+    c.prbs_order = 5;
+    c.prbs_hold = 3;
+    c.amplitude = 2.0f;
+    c.offset = 1.0f;
+    c.periods = 1;
+    ExcitationGenerator<float, 4> g;
+    ASSERT_TRUE(g.configure(c).ok());
+    ASSERT_EQ(g.period_length(), 93u);
+    for (int b = 0; b < 31; ++b) {
+        const float v = g.step();
+        EXPECT_TRUE(v == 3.0f || v == -1.0f);
+        EXPECT_EQ(g.step(), v);
+        EXPECT_EQ(g.step(), v);
+    }
+    EXPECT_TRUE(g.done());
+    EXPECT_EQ(g.step(), 1.0f);  // the offset after the last period
+}
+
+TEST(Excitation, SweepFollowsTheLogarithmicLaw) {
+    constexpr float fs = 10000.0f, f1 = 10.0f, f2 = 2000.0f;
+    constexpr uint32_t L = 20000;
+    ExcitationConfig c;
+    c.signal = ExcitationSignal::kSweep;
+    c.sample_rate_Hz = fs;
+    c.f1_Hz = f1;
+    c.f2_Hz = f2;
+    c.period_samples = L;
+    c.amplitude = 1.0f;
+    ExcitationGenerator<float, 4> g;
+    ASSERT_TRUE(g.configure(c).ok());
+    // Instantaneous frequency f1 (f2/f1)^(n/L): the phase is the sum of the
+    // increments, f1/fs (r^n - 1)/(r - 1) cycles with r = (f2/f1)^(1/L).
+    const long double r = std::pow(static_cast<long double>(f2) / f1, 1.0L / L);
+    long double max_err = 0.0L;
+    std::vector<long double> x(L);
+    for (uint32_t n = 0; n < L; ++n) {
+        x[n] = g.step();
+        const long double ph = static_cast<long double>(f1) / fs * (std::pow(r, n) - 1.0L) / (r - 1.0L);
+        max_err = std::max(max_err, std::fabs(x[n] - std::sin(kTwoPi * ph)));
+    }
+    EXPECT_LT(max_err, 2e-6L);
+    // Zero crossings: the time between rising crossings is one period of the
+    // instantaneous frequency at their midpoint (to the curvature of the law);
+    // the phase check above covers the rest of the band.
+    int checked = 0;
+    std::vector<long double> crossings;
+    for (uint32_t n = 1; n < L; ++n)
+        if (x[n - 1] < 0.0L && x[n] >= 0.0L) crossings.push_back(n - 1 + (-x[n - 1]) / (x[n] - x[n - 1]));
+    for (std::size_t i = 1; i + 1 < crossings.size(); i += 7) {
+        const long double mid = 0.5L * (crossings[i] + crossings[i - 1]);
+        const long double f_meas = fs / (crossings[i] - crossings[i - 1]);
+        const long double f_law = f1 * std::pow(static_cast<long double>(f2) / f1, mid / L);
+        // Linear interpolation of the crossings needs >= 20 samples per cycle.
+        if (f_law > fs / 20.0f) break;
+        EXPECT_NEAR(static_cast<double>(f_meas / f_law), 1.0, 2e-3) << "at sample " << static_cast<double>(mid);
+        ++checked;
+    }
+    EXPECT_GT(checked, 20);
+}
+
+TEST(Excitation, RefusesWhatItCannotGenerate) {
+    ExcitationGenerator<float, 64> g;
+    EXPECT_EQ(std::string(g.configure(multisine(128, 1, 10, 1.0f)).field), "period_samples");
+    EXPECT_EQ(std::string(g.configure(multisine(64, 0, 10, 1.0f)).field), "last_bin");
+    EXPECT_EQ(std::string(g.configure(multisine(64, 1, 32, 1.0f)).field), "last_bin");
+    EXPECT_EQ(std::string(g.configure(multisine(64, 1, 10, NAN)).field), "amplitude");
+    ExcitationConfig s;
+    s.signal = ExcitationSignal::kSweep;
+    s.sample_rate_Hz = 1000.0f;
+    s.period_samples = 100;
+    s.f1_Hz = 10.0f;
+    s.f2_Hz = 500.0f;
+    EXPECT_EQ(std::string(g.configure(s).field), "f2_Hz");
+    ExcitationConfig p;
+    p.signal = ExcitationSignal::kPrbs;
+    p.prbs_order = 25;
+    EXPECT_EQ(std::string(g.configure(p).field), "prbs_order");
+    EXPECT_FALSE(g.configured());
+}
+
+namespace {
+
+PipelineSetup open_loop_setup() {
+    PipelineSetup s;
+    s.rate_Hz = 10000.0f;
+    s.hard = {-2.0f, 12.0f, 1.0e6f};
+    s.voltage = SignalScale{16.0f};
+    s.position = SignalScale{40.0f};
+    return s;
+}
+
+PipelineParams open_loop_params() {
+    PipelineParams p;
+    p.limits = {-2.0f, 12.0f, 1.0e6f, 0.0f};
+    return p;
+}
+
+}  // namespace
+
+TEST(ExcitationInPipeline, OpenLoopCommandIsBiasPlusExcitation) {
+    auto pipe = std::make_unique<Pipeline<float>>(open_loop_setup());
+    ASSERT_TRUE(pipe->stage(open_loop_params()).ok());
+    pipe->arm();
+    ExcitationConfig c = multisine(100, 1, 20, 0.5f);
+    c.offset = 3.0f;
+    c.periods = 2;
+    ExcitationGenerator<float, 1024> ref;
+    ASSERT_TRUE(ref.configure(c).ok());
+    // Let the output slew up to the bias first (the limiter never jumps).
+    for (int i = 0; i < 10; ++i) (void)pipe->tick(0.0f);
+    ASSERT_TRUE(pipe->start_excitation(c).ok());
+    EXPECT_FALSE(pipe->start_excitation(c).ok());  // one at a time
+    for (int i = 0; i < 200; ++i) {
+        const float u = pipe->tick(0.0f);
+        const float d = ref.step();
+        if (i > 0) {
+            EXPECT_EQ(u, d) << i;  // tick 0 may still be slewing up to the bias
+        }
+        EXPECT_EQ(pipe->excitation_sample(), d);
+    }
+    EXPECT_FALSE(pipe->excitation_running());
+    EXPECT_EQ(pipe->excitation_ticks(), 200u);
+    EXPECT_EQ(pipe->excitation_clipped_samples(), 0u);
+    EXPECT_EQ(pipe->tick(0.0f), 0.0f);  // back to the controller's (zero) output
+}
+
+TEST(ExcitationInPipeline, ClippingIsCountedAndTheLimitsStillHold) {
+    auto pipe = std::make_unique<Pipeline<Q31>>(open_loop_setup());
+    ASSERT_TRUE(pipe->stage(open_loop_params()).ok());
+    pipe->arm();
+    ExcitationConfig c = multisine(100, 1, 20, 4.0f);
+    c.offset = 10.0f;  // peaks at 14 V: beyond the 12 V limit
+    c.periods = 1;
+    c.sample_rate_Hz = 10000.0f;
+    for (int i = 0; i < 10; ++i) (void)pipe->tick(Q31{});
+    ASSERT_TRUE(pipe->start_excitation(c).ok());
+    uint32_t above = 0;
+    for (int i = 0; i < 100; ++i) {
+        const float u = pipe->tick(Q31{}).to_float() * 16.0f;
+        EXPECT_LE(u, 12.0f + 1e-5f);
+        if (u >= 12.0f - 1e-5f) ++above;
+    }
+    EXPECT_GT(pipe->excitation_clipped_samples(), 0u);
+    EXPECT_GE(pipe->excitation_clipped_samples(), above);
+}
+
+TEST(ExcitationInPipeline, ReferencePointAddsToTheSetpointAndStops) {
+    auto pipe = std::make_unique<Pipeline<float>>(open_loop_setup());
+    ASSERT_TRUE(pipe->stage(open_loop_params()).ok());
+    pipe->set_setpoint(5.0f);
+    pipe->arm();
+    ExcitationConfig c = multisine(64, 1, 10, 1.0f);
+    c.point = ExcitationPoint::kReference;
+    ExcitationGenerator<float, 1024> ref;
+    ASSERT_TRUE(ref.configure(c).ok());
+    ASSERT_TRUE(pipe->start_excitation(c).ok());
+    for (int i = 0; i < 100; ++i) {
+        (void)pipe->tick(0.0f);
+        EXPECT_EQ(pipe->last().r, 5.0f + ref.step()) << i;
+    }
+    pipe->stop_excitation();
+    (void)pipe->tick(0.0f);  // the tick that takes the stop still carries d
+    EXPECT_FALSE(pipe->excitation_running());
+    (void)pipe->tick(0.0f);
+    EXPECT_EQ(pipe->last().r, 5.0f);
+    EXPECT_EQ(pipe->last().u, 0.0f);
+}
