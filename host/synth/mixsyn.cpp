@@ -21,7 +21,9 @@ std::string cnum(cplx z) {
     return s.str();
 }
 
-Ss checked(const Zpk& m, const std::string& name, bool must_be_stable) {
+}  // namespace
+
+Ss checked_weight(const Zpk& m, const std::string& name, bool must_be_stable) {
     if (is_discrete(m.ts)) throw std::invalid_argument(name + ": must be continuous (no ts)");
     if (m.zeros.size() > m.poles.size())
         throw std::invalid_argument(name + ": weight is improper (" + std::to_string(m.zeros.size()) + " zeros > " +
@@ -36,13 +38,12 @@ Ss checked(const Zpk& m, const std::string& name, bool must_be_stable) {
     return zpk2ss(m);
 }
 
-}  // namespace
 
 GeneralisedPlant augment(const Zpk& g, const Zpk& w1, const std::optional<Zpk>& w2, const std::optional<Zpk>& w3) {
-    const Ss G = checked(g, "plant", false);
-    const Ss W1 = checked(w1, "w1", true);
-    const Ss W2 = w2 ? checked(*w2, "w2", true) : Ss{};
-    const Ss W3 = w3 ? checked(*w3, "w3", true) : Ss{};
+    const Ss G = checked_weight(g, "plant", false);
+    const Ss W1 = checked_weight(w1, "w1", true);
+    const Ss W2 = w2 ? checked_weight(*w2, "w2", true) : Ss{};
+    const Ss W3 = w3 ? checked_weight(*w3, "w3", true) : Ss{};
     const Index ng = G.A.rows(), n1 = W1.A.rows(), n2 = w2 ? W2.A.rows() : 0, n3 = w3 ? W3.A.rows() : 0;
     const Index n = ng + n1 + n2 + n3;
     const Index nz = 1 + (w2 ? 1 : 0) + (w3 ? 1 : 0);

@@ -47,6 +47,11 @@ struct MixsynResult {
 MixsynResult mixsyn(const Zpk& g, const Zpk& w1, const std::optional<Zpk>& w2, const std::optional<Zpk>& w3,
                     const HinfOptions& options = {});
 
+// A weight (or, must_be_stable = false, a plant) checked as mixsyn does —
+// continuous, proper, finite non-zero gain, stable poles — and realised by
+// zpk2ss; the messages start with `name` (also used by design musyn).
+Ss checked_weight(const Zpk& m, const std::string& name, bool must_be_stable);
+
 // The augmented plant alone (checks as above).
 GeneralisedPlant augment(const Zpk& g, const Zpk& w1, const std::optional<Zpk>& w2, const std::optional<Zpk>& w3);
 
