@@ -170,7 +170,7 @@ int run_frf(const FrfArgs& a) {
 }
 
 void add_measure(CLI::App& app) {
-    CLI::App* measure = app.add_subcommand("measure", "Measure a stage: frequency response (on the simulator)");
+    CLI::App* measure = app.add_subcommand("measure", "Measure a stage on the simulator: frequency response, step response, hysteresis loops");
     measure->require_subcommand(1);
     auto a = std::make_shared<FrfArgs>();
     CLI::App* cmd = measure->add_subcommand(
