@@ -125,16 +125,25 @@ Recorded run(const sim::LoopModel& m, uint64_t ticks, uint64_t record_from, Befo
     return rec;
 }
 
-// Samples at the end of the sensor's ADC range: the reading stops there
-// while the stage moves on, so a loop or a step there is the sensor's, not
-// the stage's (the ADC clamps, stage_model.hpp).
+// Samples at the end of the sensor's ADC range, in runs of 3 or more: the
+// reading stops there while the stage moves on, so a loop or a step there is
+// the sensor's, not the stage's (the ADC clamps, stage_model.hpp). Shorter
+// runs are the stage at rest at the range's end with its noise clamped (and
+// the loop's first reading, y_0 = 0), not a stage beyond it.
 uint32_t sensor_saturated(const sim::Scenario& s, const std::vector<double>& y_um) {
     const double g = s.plant.sensor.gain;
     if (!(g > 0.0)) return 0;
     const double lo = s.plant.adc.min / g, hi = s.plant.adc.max / g;
     const double tol = 1e-6 * (hi - lo);  // the reading is a float
-    uint32_t n = 0;
-    for (const double y : y_um) n += (y <= lo + tol || y >= hi - tol) ? 1 : 0;
+    uint32_t n = 0, run = 0;
+    for (std::size_t k = 0; k <= y_um.size(); ++k) {
+        if (k < y_um.size() && (y_um[k] <= lo + tol || y_um[k] >= hi - tol)) {
+            ++run;
+            continue;
+        }
+        if (run >= 3) n += run;
+        run = 0;
+    }
     return n;
 }
 
