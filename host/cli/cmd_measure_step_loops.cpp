@@ -190,14 +190,16 @@ int run_loops(const LoopsArgs& a) {
     const measure::LoopsRun run = measure::run_loops_sim(s, c, r, [&](double f) { progress_bar(f, t0, shown); });
     // Columns for both identifiers' defaults: identify pi reads u, y;
     // identify dahl reads v, x; t gives the sample period.
-    std::string text = "t,u,y,v,x,amplitude_V\n";
-    text.reserve(run.y_um.size() * 64);
+    // Written as it is formatted: a long record would double its memory as one string.
+    std::ofstream csv(a.out);
+    if (!csv) throw std::runtime_error("--out: cannot write " + a.out);
+    csv << "t,u,y,v,x,amplitude_V\n";
     for (std::size_t i = 0; i < run.y_um.size(); ++i) {
         const std::string u = format::significant(run.u_V[i], 9), y = format::significant(run.y_um[i], 9);
-        text += format::significant(run.time_s[i], 9) + "," + u + "," + y + "," + u + "," + y + "," +
-                format::significant(run.amplitude_V[i], 9) + "\n";
+        csv << format::significant(run.time_s[i], 9) << ',' << u << ',' << y << ',' << u << ',' << y << ','
+            << format::significant(run.amplitude_V[i], 9) << '\n';
     }
-    write_text("--out", a.out, text);
+    if (!csv.flush()) throw std::runtime_error("--out: cannot write " + a.out);
     json loops = json::array();
     for (const measure::LoopFigures& f : run.loops)
         loops.push_back({{"amplitude_V", f.amplitude_V},

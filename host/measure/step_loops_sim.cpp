@@ -26,9 +26,10 @@ std::string num(double x) { return format::significant(x, 6); }
     throw std::invalid_argument(option + ": " + why);
 }
 
-// Longest record either command simulates: bounds memory (four doubles per
-// tick) and wall time (the simulator runs ~100x real time).
-constexpr double kMaxSimulatedS = 120.0;
+// Longest record either command keeps: bounds memory (a few doubles per tick,
+// ~100 MB at this count) and wall time; in ticks, since a 100 kHz scenario
+// fills it ten times faster than a 10 kHz one.
+constexpr uint64_t kMaxRecordTicks = 2'000'000;
 
 // The streamed command needs no table: a small excitation capacity keeps the
 // pipeline's footprint down.
@@ -152,9 +153,12 @@ std::string saturation_warning(uint32_t n) {
            "the sensor reads there; lower the amplitude";
 }
 
-void check_duration(double duration_s, const char* option) {
-    if (!std::isfinite(duration_s) || !(duration_s > 0.0) || duration_s > kMaxSimulatedS)
-        refuse(option, "must be in (0, " + num(kMaxSimulatedS) + "] s");
+// Recorded after the step, and held as long before it.
+void check_duration(const sim::Scenario& s, double duration_s, const char* option) {
+    const double max_s = static_cast<double>(kMaxRecordTicks / 2) / s.rate_Hz;
+    if (!std::isfinite(duration_s) || !(duration_s > 0.0) || duration_s > max_s)
+        refuse(option, "must be in (0, " + num(max_s) + "] s (" + std::to_string(kMaxRecordTicks / 2) +
+                           " ticks at the scenario's rate)");
 }
 
 }  // namespace
@@ -175,7 +179,7 @@ RangeUm closed_loop_range(const sim::Scenario& s) {
 }
 
 StepPlan plan_step(const sim::Scenario& s, const StepRequest& r) {
-    check_duration(r.duration_s, "--duration-s");
+    check_duration(s, r.duration_s, "--duration-s");
     const char* step_opt = r.closed ? "--step-um" : "--step-v";
     const char* from_opt = r.closed ? "--from-um" : "--bias-v";
     if (!std::isfinite(r.step) || r.step == 0.0) refuse(step_opt, "must be finite and non-zero");
@@ -271,8 +275,9 @@ LoopsPlan plan_loops(const sim::Scenario& s, const LoopsRequest& r) {
     LoopsPlan p;
     p.cycle_ticks = static_cast<uint64_t>(std::llround(s.rate_Hz / r.frequency_Hz));
     p.ticks = p.cycle_ticks * static_cast<uint64_t>(r.cycles) * r.amplitudes_V.size();
-    if (static_cast<double>(p.ticks) / s.rate_Hz > kMaxSimulatedS)
-        refuse("--frequency-hz", "amplitudes x cycles / frequency must be at most " + num(kMaxSimulatedS) +
+    const double max_s = static_cast<double>(kMaxRecordTicks) / s.rate_Hz;
+    if (p.ticks > kMaxRecordTicks)
+        refuse("--frequency-hz", "amplitudes x cycles / frequency must be at most " + num(max_s) +
                                      " s simulated (got " + num(static_cast<double>(p.ticks) / s.rate_Hz) + " s)");
     return p;
 }
