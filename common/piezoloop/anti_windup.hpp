@@ -60,7 +60,7 @@ public:
     // Before the cascade's sample (the pipeline calls it before the reading,
     // outside the ADC-to-DAC span): keep its states.
     constexpr void before(const Cascade& c) {
-        if (dc_sign_ != 0) held_ = c.snapshot();
+        if (dc_sign_ != 0) c.save(held_);
     }
     // After the limiter: e is the cascade's input of this tick, clamp_direction
     // the limiter's (+1 above u_max, -1 below u_min, 0 none).

@@ -356,10 +356,15 @@ private:
     int count_ = 0;
 
 public:
-    // The states alone, for the feedback's anti-windup (anti_windup.hpp).
+    // The states alone, for the feedback's anti-windup (anti_windup.hpp):
+    // only the sections in use, copied in place (it runs every tick).
     using Snapshot = std::array<State, MaxSections>;
-    constexpr Snapshot snapshot() const { return state_; }
-    constexpr void restore(const Snapshot& s) { state_ = s; }
+    constexpr void save(Snapshot& s) const {
+        for (int i = 0; i < count_; ++i) s[static_cast<std::size_t>(i)] = state_[static_cast<std::size_t>(i)];
+    }
+    constexpr void restore(const Snapshot& s) {
+        for (int i = 0; i < count_; ++i) state_[static_cast<std::size_t>(i)] = s[static_cast<std::size_t>(i)];
+    }
 };
 
 // ---------------------------------------------------------------------------
@@ -603,13 +608,26 @@ private:
     bool small_shifts_ = true;  // every shift right and below 32 (no high-gain numerator)
 
 public:
-    // The states alone, for the feedback's anti-windup (anti_windup.hpp).
+    // The states alone, for the feedback's anti-windup (anti_windup.hpp):
+    // only the sections in use, copied in place (it runs every tick).
     struct Snapshot {
         std::array<std::array<int32_t, 2>, MaxSections + 1> hist;
         std::array<std::array<int64_t, 2>, MaxSections> wide;
     };
-    constexpr Snapshot snapshot() const { return {hist_, wide_}; }
-    constexpr void restore(const Snapshot& s) { hist_ = s.hist; wide_ = s.wide; }
+    constexpr void save(Snapshot& s) const {
+        for (int i = 0; i < count_; ++i) {
+            s.hist[static_cast<std::size_t>(i)] = hist_[static_cast<std::size_t>(i)];
+            s.wide[static_cast<std::size_t>(i)] = wide_[static_cast<std::size_t>(i)];
+        }
+        s.hist[static_cast<std::size_t>(count_)] = hist_[static_cast<std::size_t>(count_)];
+    }
+    constexpr void restore(const Snapshot& s) {
+        for (int i = 0; i < count_; ++i) {
+            hist_[static_cast<std::size_t>(i)] = s.hist[static_cast<std::size_t>(i)];
+            wide_[static_cast<std::size_t>(i)] = s.wide[static_cast<std::size_t>(i)];
+        }
+        hist_[static_cast<std::size_t>(count_)] = s.hist[static_cast<std::size_t>(count_)];
+    }
 };
 
 }  // namespace piezoloop
