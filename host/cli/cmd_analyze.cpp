@@ -64,7 +64,6 @@ using nlohmann::json;
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 json number(double v) { return report_number(v); }
-json hz(double w) { return report_hz(w); }
 
 // ------------------------------------------------------------- plotting
 
