@@ -40,6 +40,7 @@
 #include "commands.hpp"
 #include "analysis/analysis.hpp"
 #include "analysis/hinf.hpp"
+#include "analysis/loop_report.hpp"
 #include "analysis/margins.hpp"
 #include "analysis/pi_composition.hpp"
 #include "analysis/rc_analysis.hpp"
@@ -62,14 +63,7 @@ using nlohmann::json;
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-json hz(double w) { return number(w / kTwoPi); }
-
-json roots_json(const std::vector<cplx>& r) {
-    json a = json::array();
-    for (const cplx& x : r) a.push_back({x.real(), x.imag()});
-    return a;
-}
+json number(double v) { return report_number(v); }
 
 // ------------------------------------------------------------- plotting
 
@@ -88,12 +82,7 @@ json series_json(const std::string& label, const std::vector<double>& x, const s
 
 // ------------------------------------------------------------- models
 
-struct Discretise {
-    double rate_hz = 0.0;
-    std::string method = "tustin";
-    std::string plant_method;  // empty: as `method`
-    double prewarp_hz = 0.0;
-};
+using Discretise = LoopDiscretise;
 
 void add_discretise(CLI::App* cmd, Discretise& d) {
     cmd->add_option("--rate-hz", d.rate_hz, "discretise continuous models at this rate (Hz)")
@@ -110,18 +99,7 @@ void add_discretise(CLI::App* cmd, Discretise& d) {
 // Loads a model; with a rate, a continuous model is discretised and a
 // discrete one must already have ts = 1/rate.
 Zpk load(const std::string& file, const Discretise& d, const char* what, bool is_plant = false) {
-    Zpk m = load_model_file(file);
-    if (d.rate_hz <= 0.0) return m;
-    const double ts = 1.0 / d.rate_hz;
-    if (is_discrete(m.ts)) {
-        if (std::abs(m.ts - ts) > 1e-12 * ts)
-            throw std::invalid_argument(std::string(what) + ": " + file + " is discrete with ts = " +
-                                        std::to_string(m.ts) + " s, not 1/rate-hz");
-        m.ts = ts;
-        return m;
-    }
-    const std::string& method = is_plant && !d.plant_method.empty() ? d.plant_method : d.method;
-    return c2d(m, ts, parse_c2d_method(method), kTwoPi * d.prewarp_hz);
+    return discretise_model(load_model_file(file), d, what, file, is_plant);
 }
 
 std::vector<double> parse_list(const std::string& text, const char* field) {
@@ -144,14 +122,6 @@ std::vector<double> parse_list(const std::string& text, const char* field) {
     return v;
 }
 
-json hinf_json(const HinfResult& h, bool loop_stable) {
-    return {{"value", loop_stable ? number(h.norm) : json(nullptr)},
-            {"peak", number(h.norm)},
-            {"at_Hz", number(h.peak_Hz)},
-            {"upper_bound", number(h.upper)},
-            {"certified", h.certified}};
-}
-
 // ------------------------------------------------------------- loop
 
 struct LoopArgs {
@@ -164,128 +134,28 @@ struct LoopArgs {
 };
 
 void run_loop(const LoopArgs& a) {
-    const Zpk p = load(a.plant, a.disc, "plant", true);
-    const Zpk k = load(a.controller, a.disc, "controller");
-    if (p.ts != k.ts)
-        throw std::invalid_argument("controller: plant and controller must both be continuous or share ts "
-                                    "(give --rate-hz to discretise continuous ones)");
-    LoopAnalysisOptions opt;
-    if (!a.phase_lag_hz.empty()) opt.phase_lag_at_Hz = parse_list(a.phase_lag_hz, "phase-lag-hz");
-    const LoopAnalysis r = analyze_loop(p, k, opt);
+    LoopModels models;
+    models.plant = load_model_file(a.plant);
+    models.plant_name = a.plant;
+    models.controller = load_model_file(a.controller);
+    models.controller_name = a.controller;
+    if (!a.we.empty()) models.we = load_model_file(a.we), models.we_name = a.we;
+    if (!a.wy.empty()) models.wy = load_model_file(a.wy), models.wy_name = a.wy;
+    if (!a.hm.empty()) models.hm = load_model_file(a.hm), models.hm_name = a.hm;
+    LoopReportOptions o;
+    o.disc = a.disc;
+    if (!a.phase_lag_hz.empty()) o.phase_lag_hz = parse_list(a.phase_lag_hz, "phase-lag-hz");
+    o.family_rel = a.family_rel;
+    o.family = !a.no_family;
+    LoopReport rep = loop_report(models, o);
+    json& out = rep.json;
+    const Zpk& p = rep.plant;
+    const Zpk& k = rep.controller;
+    const std::optional<Zpk>& we = rep.we;
+    const std::optional<Zpk>& wy = rep.wy;
+    const std::optional<Zpk>& hm = rep.hm;
     const FeedbackLoop f = feedback_loop(zpk2ss(p), zpk2ss(k));
-    const bool discrete = is_discrete(p.ts);
-
-    json out;
-    out["ts"] = p.ts;
-    if (a.disc.rate_hz > 0.0)
-        out["discretisation"] = {{"rate_Hz", a.disc.rate_hz}, {"method", a.disc.method},
-                                 {"plant_method", a.disc.plant_method.empty() ? a.disc.method : a.disc.plant_method},
-                                 {"prewarp_Hz", a.disc.prewarp_hz}};
-    out["stable"] = r.stable;
-    // Continuous: max Re(p) in rad/s. Discrete: the same measure of the
-    // equivalent continuous pole, ln|z| / ts, and max |z| itself.
-    out["poles_max_real"] = discrete ? number(std::log(r.stability_measure) / p.ts) : number(r.stability_measure);
-    if (discrete) out["poles_max_abs"] = number(r.stability_measure);
-    out["closed_loop_poles"] = roots_json(r.closed_loop_poles);
-    auto norm = [&](const HinfResult& h) { return r.stable ? number(h.norm) : json(nullptr); };
-    out["hinf_S"] = norm(r.hinf_S);
-    out["hinf_T"] = norm(r.hinf_T);
-    out["hinf_KS"] = norm(r.hinf_KS);
-    out["hinf_GS"] = norm(r.hinf_GS);
-    out["hinf"] = {{"S", hinf_json(r.hinf_S, r.stable)},
-                   {"T", hinf_json(r.hinf_T, r.stable)},
-                   {"KS", hinf_json(r.hinf_KS, r.stable)},
-                   {"GS", hinf_json(r.hinf_GS, r.stable)}};
-    out["hinf_WeS"] = nullptr;
-    out["hinf_WyT"] = nullptr;
-    std::optional<Zpk> we, wy, hm;
-    if (!a.we.empty()) {
-        we = load(a.we, a.disc, "we");
-        const HinfResult h = weighted_hinf(*we, f.S);
-        out["hinf_WeS"] = norm(h);
-        out["hinf"]["WeS"] = hinf_json(h, r.stable);
-    }
-    if (!a.wy.empty()) {
-        wy = load(a.wy, a.disc, "wy");
-        const HinfResult h = weighted_hinf(*wy, f.T);
-        out["hinf_WyT"] = norm(h);
-        out["hinf"]["WyT"] = hinf_json(h, r.stable);
-    }
-    if (we && wy)
-        out["nominal_performance"] = r.stable && out["hinf_WeS"].get<double>() < 1.0 &&
-                                     out["hinf_WyT"].get<double>() < 1.0;
-    if (!a.hm.empty()) {
-        hm = load(a.hm, a.disc, "hm");
-        const HinfResult h = weighted_hinf(*hm, f.T);
-        json rs;
-        rs["hinf_HmT"] = norm(h);
-        rs["at_Hz"] = number(h.peak_Hz);
-        rs["robustly_stable"] = r.stable && h.norm < 1.0;
-        rs["meaning"] = "||H_m T||inf < 1: stable for every plant G (1 + Delta H_m), ||Delta||inf <= 1";
-        out["hinf_HmT"] = norm(h);
-        out["hinf"]["HmT"] = hinf_json(h, r.stable);
-        if (!a.no_family) {
-            // The family perturbs the continuous plant's denominator: reload
-            // the plant as given and discretise each member like the rest.
-            const Zpk pc = load_model_file(a.plant);
-            Tf tf = zpk2tf(pc);
-            const int n = static_cast<int>(tf.den.size()) - 1;
-            if (n < 1 || n > 8) {
-                rs["family"] = {{"skipped", "the plant denominator needs 1 to 8 coefficients after the leading one"}};
-            } else if (a.disc.rate_hz > 0.0 && !a.disc.plant_method.empty() && a.disc.plant_method != "tustin") {
-                rs["family"] = {{"skipped", "the family discretises its members by Tustin; --plant-c2d differs"}};
-            } else if (is_discrete(pc.ts) && a.disc.rate_hz > 0.0) {
-                rs["family"] = {{"skipped", "the family is formed on a continuous plant"}};
-            } else {
-                const double ts = is_discrete(pc.ts) ? 0.0 : (a.disc.rate_hz > 0.0 ? 1.0 / a.disc.rate_hz : 0.0);
-                const Zpk kc = ts > 0.0 ? load_model_file(a.controller) : k;
-                const Zpk hc = ts > 0.0 ? load_model_file(a.hm) : *hm;
-                if (ts > 0.0 && (is_discrete(kc.ts) || is_discrete(hc.ts))) {
-                    rs["family"] = {{"skipped", "with --rate-hz the family needs continuous controller and H_m"}};
-                } else {
-                    const FamilyResult fr = coefficient_family(tf, kc, hc, a.family_rel, ts);
-                    auto member = [](const FamilyMember& m) {
-                        return json{{"den_scale", m.scale},
-                                    {"stable", m.stable},
-                                    {"poles_max", number(m.stability_measure)},
-                                    {"hinf_HmT", number(m.hinf_HmT)},
-                                    {"coverage", number(m.coverage)}};
-                    };
-                    rs["family"] = {
-                        {"relative_perturbation", a.family_rel},
-                        {"method", ts > 0.0 ? "members discretised like the loop (Tustin)" : "continuous"},
-                        {"count", fr.count},
-                        {"unstable", fr.unstable},
-                        {"all_stable", fr.unstable == 0},
-                        {"worst_stability", member(fr.worst_stability)},
-                        {"worst_hinf_HmT", member(fr.worst_hinf_HmT)},
-                        {"worst_coverage", member(fr.worst_coverage)},
-                        {"meaning",
-                         "each of den[1..n] scaled by 1-rel, 1, 1+rel; poles_max: max real part (rad/s) or max |z|; "
-                         "coverage: sup |G_i/G - 1| / |H_m| (<= 1: member inside the H_m set)"}};
-                }
-            }
-        }
-        out["robust_stability"] = rs;
-    }
-    out["bandwidth_hz"] = r.bandwidth_Hz ? json(*r.bandwidth_Hz) : json(nullptr);
-    const Margins& m = r.margins;
-    out["gain_margin_db"] = m.gain_margin ? number(m.gain_margin->gain_margin_db) : json(nullptr);
-    out["gain_margin_at_hz"] = m.gain_margin ? hz(m.gain_margin->w_rad_s) : json(nullptr);
-    out["phase_margin_deg"] = m.phase_margin ? number(m.phase_margin->phase_margin_deg) : json(nullptr);
-    out["phase_margin_at_hz"] = m.phase_margin ? hz(m.phase_margin->w_rad_s) : json(nullptr);
-    json pcs = json::array(), gcs = json::array();
-    for (const auto& c : m.phase_crossovers)
-        pcs.push_back({{"at_Hz", hz(c.w_rad_s)}, {"gain_margin_db", number(c.gain_margin_db)}});
-    for (const auto& c : m.gain_crossovers)
-        gcs.push_back({{"at_Hz", hz(c.w_rad_s)}, {"phase_margin_deg", number(c.phase_margin_deg)}});
-    out["phase_crossovers"] = pcs;
-    out["gain_crossovers"] = gcs;
-    json lags = json::array();
-    for (const auto& l : r.phase_lags)
-        lags.push_back({{"at_Hz", l.f_Hz}, {"phase_lag_deg", l.lag_deg}, {"magnitude_db", l.magnitude_db}});
-    out["phase_lag"] = lags;
-    if (!r.stable) out["note"] = "closed loop unstable: hinf_* are null; hinf.*.peak is the sup on the frequency axis";
+    const Margins& m = rep.margins;
 
     if (!a.plot_file.empty()) {
         std::vector<cplx> crit = critical_points(p, k);

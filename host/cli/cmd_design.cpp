@@ -27,6 +27,7 @@
 #include "commands.hpp"
 #include "format/number.hpp"
 #include "lti/c2d.hpp"
+#include "lti/design_report.hpp"
 #include "lti/filters.hpp"
 #include "lti/model_json.hpp"
 #include "lti/realisation.hpp"
@@ -45,15 +46,9 @@ struct InputError : std::invalid_argument {
     using std::invalid_argument::invalid_argument;
 };
 
-struct Common {
-    double rate_hz = 0.0;
-    std::string format = "q31";
-    std::string scaling = "l1";
-    double in_full_scale = 1.0;
-    double out_full_scale = 1.0;
-    double headroom = 1.0;
+// The realisation options (lti/design_report.hpp) and --strict.
+struct Common : RealiseOptions {
     bool strict = false;
-    bool no_check = false;
 };
 
 struct C2dArgs : Common {
@@ -61,6 +56,13 @@ struct C2dArgs : Common {
     std::string method = "tustin";
     std::optional<double> prewarp_hz;
 };
+
+// Warnings also go to stderr.
+bool realise(const Zpk& discrete, const Common& c, json& out) {
+    const bool fit = design::realise(discrete, c, out);
+    for (const json& w : out["warnings"]) std::cerr << "warning: " << w.get<std::string>() << "\n";
+    return fit;
+}
 
 struct NotchArgs : Common {
     double frequency_hz = 0.0, depth_db = 0.0, width_hz = 0.0;
@@ -79,62 +81,7 @@ void require(bool ok, const std::string& field, const std::string& what) {
     if (!ok) throw InputError(field + ": " + what);
 }
 
-void check_common(const Common& c) {
-    require(std::isfinite(c.rate_hz) && c.rate_hz > 0.0, "rate_hz", "must be finite and > 0");
-    require(std::isfinite(c.in_full_scale) && c.in_full_scale > 0.0, "in_full_scale", "must be finite and > 0");
-    require(std::isfinite(c.out_full_scale) && c.out_full_scale > 0.0, "out_full_scale", "must be finite and > 0");
-    require(c.headroom > 0.0 && c.headroom <= 1.0, "headroom", "must be in (0, 1]");
-}
-
-json sections_json(const std::vector<SosSection>& s) {
-    json a = json::array();
-    for (const SosSection& x : s) a.push_back({{"b0", x.b0}, {"b1", x.b1}, {"b2", x.b2}, {"a1", x.a1}, {"a2", x.a2}});
-    return a;
-}
-
-// Discrete design -> scaled sections -> realisation check, into `out`.
-// Returns false if the realisation is unfit.
-bool realise(const Zpk& discrete, const Common& c, json& out) {
-    const SampleFormat format = parse_sample_format(c.format);
-    SosScaling sc;
-    sc.norm = parse_sos_norm(c.scaling);
-    sc.in_full_scale = c.in_full_scale;
-    sc.out_full_scale = c.out_full_scale;
-    sc.headroom = c.headroom;
-    SosScalingReport rep;
-    const std::vector<SosSection> sos = scale_sos(zpk2sos(discrete), sc, &rep);
-    out["format"] = c.format;
-    out["sections"] = sections_json(sos);
-    out["scaling"] = {{"norm", sos_norm_name(sc.norm)},
-                      {"in_full_scale", sc.in_full_scale},
-                      {"out_full_scale", sc.out_full_scale},
-                      {"headroom", sc.headroom},
-                      {"partial_norms", rep.partial_norms},
-                      {"output_may_saturate", rep.output_may_saturate},
-                      {"order", "scipy zpk2sos 'nearest': poles nearest the unit circle last"}};
-    std::vector<std::string> warnings;
-    if (!std::isfinite(rep.partial_norms.back()))
-        warnings.push_back("a pole on or outside the unit circle makes the cascade's norms infinite; nothing was "
-                           "scaled (an integrator belongs in the core's PID block, not in a biquad)");
-    else if (rep.output_may_saturate && format == SampleFormat::kQ31)  // float samples do not saturate
-        warnings.push_back("the output's " + std::string(sos_norm_name(sc.norm)) + " norm times in/out full scale is " +
-                           format::significant(rep.partial_norms.back()) +
-                           " > 1: a full-scale input can saturate the output (raise out_full_scale)");
-    bool fit = true;
-    if (!c.no_check) {
-        RealisationOptions o;
-        o.format = format;
-        o.in_full_scale = c.in_full_scale;
-        o.out_full_scale = c.out_full_scale;
-        const RealisationReport r = check_realisation(discrete, sos, o);
-        out["realisation"] = to_json(r);
-        fit = r.fit;
-        for (const std::string& w : r.warnings) warnings.push_back(w);
-    }
-    out["warnings"] = warnings;
-    for (const std::string& w : warnings) std::cerr << "warning: " << w << "\n";
-    return fit;
-}
+void check_common(const Common& c) { check_realise_options(c); }
 
 int finish(const json& out, bool fit, const Common& c) {
     std::cout << out.dump(1) << "\n";
@@ -143,36 +90,9 @@ int finish(const json& out, bool fit, const Common& c) {
 
 int run_c2d(const C2dArgs& a) {
     check_common(a);
-    const double ts = 1.0 / a.rate_hz;
-    const Zpk model = load_model_file(a.model);
-    json out;
-    out["command"] = "c2d";
-    out["model_file"] = a.model;
-    out["rate_hz"] = a.rate_hz;
-    Zpk discrete;
-    if (is_discrete(model.ts)) {
-        require(std::fabs(model.ts - ts) <= 1e-12 * ts, "model.ts",
-                "the model is discrete with ts = " + format::significant(model.ts) + " s, not 1 / rate_hz = " + format::significant(ts) + " s");
-        require(!a.prewarp_hz, "prewarp_hz", "the model is already discrete");
-        out["method"] = "none (the model is already discrete at this rate)";
-        discrete = model;
-    } else {
-        const C2dMethod method = parse_c2d_method(a.method);
-        double prewarp = 0.0;
-        if (a.prewarp_hz) {
-            require(method == C2dMethod::kTustin, "prewarp_hz", "applies to --method tustin only");
-            require(std::isfinite(*a.prewarp_hz) && *a.prewarp_hz > 0.0 && *a.prewarp_hz < 0.5 * a.rate_hz,
-                    "prewarp_hz", "must be in (0, rate_hz / 2)");
-            prewarp = kTwoPi * *a.prewarp_hz;
-        }
-        out["method"] = c2d_method_name(method);
-        out["prewarp_hz"] = a.prewarp_hz ? *a.prewarp_hz : 0.0;
-        out["continuous"] = to_json(model);
-        discrete = c2d(model, ts, method, prewarp);
-    }
-    out["discrete"] = to_json(discrete);
-    const bool fit = realise(discrete, a, out);
-    return finish(out, fit, a);
+    C2dReport r = c2d_report(load_model_file(a.model), a.model, a.rate_hz, a.method, a.prewarp_hz);
+    const bool fit = realise(r.discrete, a, r.json);
+    return finish(r.json, fit, a);
 }
 
 int run_filter(const std::string& type, const Zpk& continuous, const Zpk& discrete, const json& params,

@@ -27,6 +27,7 @@
 #include "synth/hinfsyn.hpp"
 #include "synth/mixsyn.hpp"
 #include "synth/plant_json.hpp"
+#include "synth/synth_report.hpp"
 
 namespace piezoloop::cli {
 namespace {
@@ -34,10 +35,8 @@ namespace {
 using namespace piezoloop::design;
 using nlohmann::json;
 
-struct SynthArgs {
-    double gamma_tol = 1e-6;
-    double gamma_max = 0.0;
-    double backoff = 1e-3;
+// The γ-iteration settings (synth/synth_report.hpp) and --out.
+struct SynthArgs : SynthSettings {
     std::string out;
 };
 
@@ -49,34 +48,6 @@ struct MixsynArgs : SynthArgs {
     std::string plant, w1, w2, w3;
 };
 
-HinfOptions options_of(const SynthArgs& a) {
-    if (!(a.gamma_tol >= 1e-12 && a.gamma_tol <= 0.1))
-        throw std::invalid_argument("--gamma-tol: must be in [1e-12, 0.1]");
-    if (!(a.gamma_max >= 0.0)) throw std::invalid_argument("--gamma-max: must be > 0");
-    if (!(a.backoff >= 0.0 && a.backoff <= 1.0)) throw std::invalid_argument("--backoff: must be in [0, 1]");
-    HinfOptions o;
-    o.rel_tol = a.gamma_tol;
-    o.gamma_max = a.gamma_max;
-    o.backoff = a.backoff;
-    return o;
-}
-
-json synthesis_json(const HinfSynthesis& r, const SynthArgs& a) {
-    return {{"gamma_opt", r.gamma_opt},
-            {"gamma_lower", r.gamma_lower},
-            {"gamma_controller", r.gamma_controller},
-            {"gamma_tol", a.gamma_tol},
-            {"backoff", a.backoff},
-            {"iterations", r.iterations},
-            {"frequency_scale_rad_s", r.w0_rad_s},
-            {"riccati",
-             {{"residual_x", r.residual_x},
-              {"residual_y", r.residual_y},
-              {"cond_u11_x", r.cond_x},
-              {"cond_u11_y", r.cond_y},
-              {"rho_xy_over_gamma2", r.rho_xy_over_gamma2}}}};
-}
-
 void write_model(const std::string& file, json model) {
     std::ofstream f(file);
     if (!f) throw std::runtime_error("--out: cannot write " + file);
@@ -85,7 +56,7 @@ void write_model(const std::string& file, json model) {
 }
 
 int run_hinf(const HinfArgs& a) {
-    const HinfOptions o = options_of(a);
+    const HinfOptions o = hinf_options(a);
     const GeneralisedPlant p = load_plant_file(a.plant);
     const HinfSynthesis r = hinfsyn(p, o);
     json out;
@@ -111,29 +82,17 @@ int run_hinf(const HinfArgs& a) {
 }
 
 int run_mixsyn(const MixsynArgs& a) {
-    const HinfOptions o = options_of(a);
+    (void)hinf_options(a);  // options first, as before the files
     ModelParseOptions improper_ok;
     improper_ok.allow_improper = true;  // so mixsyn names the improper weight itself
-    const Zpk g = load_model_file(a.plant);
-    const Zpk w1 = load_model_file(a.w1, improper_ok);
-    std::optional<Zpk> w2, w3;
-    if (!a.w2.empty()) w2 = load_model_file(a.w2, improper_ok);
-    if (!a.w3.empty()) w3 = load_model_file(a.w3, improper_ok);
-    const MixsynResult r = mixsyn(g, w1, w2, w3, o);
-    json out;
-    out["command"] = "mixsyn";
-    out["plant_file"] = a.plant;
-    out["weights"] = {{"w1", a.w1}, {"w2", w2 ? json(a.w2) : json(nullptr)}, {"w3", w3 ? json(a.w3) : json(nullptr)}};
-    out["gamma"] = r.gamma;
-    out["stable"] = r.stable;
-    out["hinf_W1S"] = r.hinf_W1S;
-    out["hinf_W2KS"] = w2 ? json(r.hinf_W2KS) : json(nullptr);
-    out["hinf_W3T"] = w3 ? json(r.hinf_W3T) : json(nullptr);
-    out["order"] = r.order;
-    out["augmented_plant_order"] = r.plant_order;
-    out["synthesis"] = synthesis_json(r.synthesis, a);
-    out["controller"] = to_json(r.controller_zpk);
-    out["controller_ss"] = state_space_json(r.synthesis.controller);
+    const NamedModel g{load_model_file(a.plant), a.plant};
+    const NamedModel w1{load_model_file(a.w1, improper_ok), a.w1};
+    std::optional<NamedModel> w2, w3;
+    if (!a.w2.empty()) w2 = NamedModel{load_model_file(a.w2, improper_ok), a.w2};
+    if (!a.w3.empty()) w3 = NamedModel{load_model_file(a.w3, improper_ok), a.w3};
+    const MixsynReport rep = mixsyn_report(g, w1, w2, w3, a);
+    const MixsynResult& r = rep.result;
+    const json& out = rep.json;
     if (!a.out.empty()) {
         json m = to_json(r.controller_zpk);
         m["description"] = "mixed-sensitivity H∞ controller (e -> u) from piezoloop design mixsyn --plant " + a.plant +

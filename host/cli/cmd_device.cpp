@@ -112,73 +112,8 @@ struct SetArgs {
 };
 
 json set_scenario(Client& c, const SetArgs& a) {
-    const sim::Scenario s = sim::load_scenario(a.scenario);
-    const sim::CaseSpec& cs = s.find_case(a.case_name);
-    const link::HelloReply& h = c.info();
-    if (cs.feedforward.kind == "dahl" && !(h.capabilities & link::cap::kDahl))
-        throw std::invalid_argument("case " + cs.name + ": Dahl feedforward, which this board (" +
-                                    std::string(h.board.data()) + ", Q31 pipeline) does not run");
-    if (std::fabs(h.loop_rate_Hz - s.rate_Hz) > 1e-6 * s.rate_Hz)
-        throw std::invalid_argument("scenario " + s.name + " is discretised at " + std::to_string(s.rate_Hz) +
-                                    " Hz, the board runs at " + std::to_string(h.loop_rate_Hz) +
-                                    " Hz (`piezoloop emulate --scenario` starts a board at the scenario's rate)");
-    // Built for the board's sample type, as `piezoloop sim --sample` does:
-    // a Q31 board gets the fixed-point scaling of the feedback sections.
-    sim::CaseSpec cb = cs;
-    const bool board_q31 = h.sample_format == link::SampleFormat::kQ31;
-    if ((cb.sample == sim::SampleType::kQ31) != board_q31)
-        std::cerr << "note: case " << cs.name << " is simulated with " << sim::to_string(cb.sample)
-                  << " samples; built for this board's " << (board_q31 ? "q31" : "float")
-                  << " (compare with `piezoloop sim --sample " << (board_q31 ? "q31" : "float") << "`)\n";
-    cb.sample = board_q31 ? sim::SampleType::kQ31 : sim::SampleType::kFloat;
-    sim::BuildOptions bo;
-    bo.reference_frequency_Hz = a.frequency_Hz;
-    bo.check_realisation = false;
-    sim::BuiltCase b;
-    try {
-        b = sim::build_case(s, cb, bo);
-    } catch (const std::exception& e) {
-        std::string m = e.what();
-        if (m.find("periodic reference") != std::string::npos) m += " (give --frequency-hz)";
-        throw std::invalid_argument(m);
-    }
-    if (c.status().armed)
-        throw std::invalid_argument("the loop is armed: limits and block kinds change only while disarmed "
-                                    "(`piezoloop --device " + c.address() + " disarm` first)");
-    CaseGroups g = case_groups(b.model.params);
-    std::vector<std::string> clipped;
-    g.limits = clip_to_hard_limits(g.limits, h, clipped);
-    for (const std::string& m : clipped) std::cerr << "clipped: " << m << "\n";
-    json sent = json::array();
-    c.set(g.limits);
-    sent.push_back("limits");
-    // RC needs feedback: switch it off before the feedback changes, on after.
-    if (!g.rc.enabled) {
-        c.set(g.rc);
-        sent.push_back("rc");
-    }
-    // pi_series needs a feedback (its output feeds the inverse): set the
-    // feedback first when going to it, the feedforward first otherwise (so
-    // leaving pi_series never sees it without a feedback).
-    const bool series = g.feedforward.kind == FeedforwardKind::kPiSeries;
-    if (!series) {
-        c.set(g.feedforward);
-        sent.push_back("feedforward");
-    }
-    c.set(g.feedback);
-    sent.push_back("feedback");
-    if (series) {
-        c.set(g.feedforward);
-        sent.push_back("feedforward");
-    }
-    if (g.rc.enabled) {
-        c.set(g.rc);
-        sent.push_back("rc");
-    }
-    json out = {{"device", c.address()}, {"scenario", s.name}, {"case", cs.name}, {"label", cs.label},
-                {"sent", sent},          {"clipped", clipped}};
-    for (const std::string& n : b.notes) out["notes"].push_back(n);
-    return out;
+    return send_scenario_case(c, a.scenario, a.case_name, a.frequency_Hz,
+                              [](const std::string& line) { std::cerr << line << "\n"; });
 }
 
 void add_set(CLI::App& app) {

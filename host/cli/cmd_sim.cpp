@@ -31,6 +31,7 @@
 #include "sim/model_dump.hpp"
 #include "sim/plotting.hpp"
 #include "sim/scenario.hpp"
+#include "sim/sim_case.hpp"
 
 namespace piezoloop::cli {
 namespace {
@@ -169,38 +170,31 @@ int run(const SimArgs& a) {
         std::cout << out.dump(1) << "\n";
         return 0;
     }
-    if (a.case_name.empty()) throw std::invalid_argument("--case: required (see --list)");
-    sim::CaseSpec c = s.find_case(a.case_name);
-    if (a.sample == "q31") c.sample = sim::SampleType::kQ31;
-    if (a.sample == "float") c.sample = sim::SampleType::kFloat;
-    if (!a.board_case.empty() && a.fidelity != "float")
-        throw BoardCaseRefused("fidelity", "the boards run the float stage model (--fidelity float)");
-
-    sim::TrajectoryRequest t;
-    t.waveform = a.trajectory == "sine" ? Waveform::kSine : Waveform::kTriangle;
-    t.frequency_Hz = a.frequency_Hz;
-    if ((a.amplitude_um > 0.0) == (a.amplitude_V > 0.0))
-        throw std::invalid_argument("give exactly one of --amplitude-um and --amplitude-v");
-    t.range_um = a.amplitude_um > 0.0 ? a.amplitude_um : a.amplitude_V * s.nominal_um_per_V;
-    t.unipolar = (a.offset.empty() ? s.offset : a.offset) == "unipolar";
-    const double period_s = 1.0 / a.frequency_Hz;
-    const double duration = a.duration_s > 0.0 ? a.duration_s : 2.0 * period_s;
-    if (duration < period_s * (1.0 - 1e-9))
-        throw std::invalid_argument("--duration-s: must cover at least one period (" + std::to_string(period_s) + " s)");
-    t.periods = std::max(1, static_cast<int>(std::floor(duration / period_s + 1e-9)));
-
-    sim::BuildOptions bo;
-    bo.reference_frequency_Hz = a.frequency_Hz;
-    bo.substeps = a.substeps;
-    sim::BuiltCase b = sim::build_case(s, c, bo);
-
-    const bool want_log = !a.out_csv.empty() || !a.plot.empty();
-    sim::RunOptions o = sim::plan_run(s.rate_Hz, t, 0, false);
-    if (want_log) {
-        o.log_start = 0;
-        o.log_every = a.log_every > 0 ? static_cast<uint64_t>(a.log_every) : std::max<uint64_t>(1, o.ticks / 200000);
+    if (!a.board_case.empty()) {
+        // Checked before the case is built, as the trajectory options are.
+        if (a.case_name.empty()) throw std::invalid_argument("--case: required (see --list)");
+        (void)s.find_case(a.case_name);
+        if (a.fidelity != "float")
+            throw BoardCaseRefused("fidelity", "the boards run the float stage model (--fidelity float)");
     }
-    o.fidelity = a.fidelity == "double" ? sim::Fidelity::kDouble : sim::Fidelity::kFloat;
+    sim::SimCaseRequest req;
+    req.case_name = a.case_name;
+    req.trajectory = a.trajectory;
+    req.frequency_Hz = a.frequency_Hz;
+    req.amplitude_um = a.amplitude_um;
+    req.amplitude_V = a.amplitude_V;
+    req.offset = a.offset;
+    req.duration_s = a.duration_s;
+    req.fidelity = a.fidelity;
+    req.substeps = a.substeps;
+    req.sample = a.sample;
+    req.log = !a.out_csv.empty() || !a.plot.empty();
+    req.log_every = a.log_every;
+    sim::SimCasePlan plan = sim::plan_sim_case(s, req);
+    const sim::CaseSpec& c = plan.case_spec;
+    const sim::TrajectoryRequest& t = plan.trajectory;
+    sim::BuiltCase& b = plan.built;
+    sim::RunOptions& o = plan.options;
     std::vector<std::string> clipped;
     if (!a.board_case.empty()) prepare_board_case(b, o, clipped);
     auto progress = std::make_shared<Progress>();
@@ -231,40 +225,8 @@ int run(const SimArgs& a) {
     if (a.hash_only) {
         std::cout << format::hex64(r.log_hash) << "\n";
     } else {
-        nlohmann::json out;
-        out["scenario"] = s.name;
-        out["case"] = c.name;
-        out["label"] = c.label;
-        out["fidelity"] = sim::to_string(o.fidelity);
-        if (o.fidelity == sim::Fidelity::kDouble) out["substeps"] = a.substeps;
-        out["sample"] = sim::to_string(c.sample);
-        out["loop_rate_Hz"] = s.rate_Hz;
-        out["trajectory"] = {{"waveform", a.trajectory},
-                             {"frequency_Hz", a.frequency_Hz},
-                             {"range_um", t.range_um},
-                             {"offset_um", o.wave.offset_um},
-                             {"periods", static_cast<double>(o.ticks) / static_cast<double>(o.period_ticks)}};
-        if (a.amplitude_V > 0.0) out["trajectory"]["range_piezo_V"] = a.amplitude_V;
-        out["ticks"] = r.ticks;
-        out["window_ticks"] = r.ticks - o.window_start;
-        out["hysteresis_pct"] = r.hysteresis_pct >= 0.0 ? nlohmann::json(r.hysteresis_pct) : nlohmann::json();
-        out["e_max_pct"] = r.tracking.e_max_pct;
-        out["e_rms_pct"] = r.tracking.e_rms_pct;
-        out["e_max_um"] = r.tracking.e_max_um;
-        out["e_rms_um"] = r.tracking.e_rms_um;
-        out["e_pp_um"] = r.tracking.e_pp_um;
-        out["realtime_factor"] = r.realtime_factor;
-        out["wall_s"] = r.wall_s;
-        out["log_hash"] = format::hex64(r.log_hash);
-        out["limiter"] = {{"trip", trip_reason_name(r.trip)}, {"clamped_samples", r.clamped_samples}};
-        for (const std::string& n : b.notes) out["notes"].push_back(n);
+        nlohmann::json out = sim::sim_case_summary(s, req, plan, r);
         if (!a.board_case.empty()) out["board_case"] = {{"file", a.board_case}, {"clipped", clipped}};
-        if (b.dahl) {
-            const DahlParams& d = b.dahl->params;
-            out["dahl_identified"] = {{"alpha1", d.alpha1}, {"alpha2", d.alpha2}, {"beta1", d.beta1},
-                                      {"beta2", d.beta2},   {"gamma_a", d.gamma_a}, {"ga", d.ga},
-                                      {"nrmse_percent", b.dahl->fit.nrmse_percent}};
-        }
         std::cout << out.dump(1) << "\n";
     }
 

@@ -3,8 +3,11 @@
 // into the link's parameter groups.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "link/client.hpp"
 #include "sim/build_case.hpp"
@@ -33,6 +36,14 @@ CaseGroups case_groups(const PipelineParams& p);
 // described in `clipped` ("limits.u_max_V: 12 -> 10 (board hard limit)").
 link::LimitsParams clip_to_hard_limits(const link::LimitsParams& l, const link::HelloReply& h,
                                        std::vector<std::string>& clipped);
+
+// `piezoloop set --scenario S --case C`: the case built for the board's
+// sample type and loop rate, its limits clipped to the board's hard limits,
+// the groups sent in an order the board accepts (disarmed only). Lines for
+// the user ("note: ...", "clipped: ...") go to `note`; returns the summary
+// JSON the command prints. Also used by the Python module's Device.
+nlohmann::json send_scenario_case(hostlink::Client& c, const std::string& scenario, const std::string& case_name,
+                                  double frequency_Hz, const std::function<void(const std::string&)>& note);
 
 // The reference exactly as `piezoloop sim` plans it (sim::plan_run): range
 // peak-to-peak, offset convention unipolar (from 0 up) or bipolar.

@@ -1,0 +1,42 @@
+// The JSON of `piezoloop design hinf|mixsyn`: the γ-iteration settings, the
+// synthesis figures and the mixed-sensitivity report. Shared by the command
+// line (cli/cmd_design_synth.cpp) and the Python module (python/src/design.cpp).
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "lti/lti.hpp"
+#include "synth/hinfsyn.hpp"
+#include "synth/mixsyn.hpp"
+
+namespace piezoloop::design {
+
+struct SynthSettings {
+    double gamma_tol = 1e-6;  // relative tolerance of the γ bisection
+    double gamma_max = 0.0;   // 0: found by the synthesis
+    double backoff = 1e-3;    // relative γ above the optimum the controller is built for
+};
+
+// std::invalid_argument naming the option (--gamma-tol, ...) out of range.
+HinfOptions hinf_options(const SynthSettings& s);
+
+nlohmann::json synthesis_json(const HinfSynthesis& r, const SynthSettings& s);
+
+// A weight or plant and the name it is reported by (its file, or a label).
+struct NamedModel {
+    Zpk model;
+    std::string name;
+};
+
+struct MixsynReport {
+    nlohmann::json json;
+    MixsynResult result;
+};
+
+MixsynReport mixsyn_report(const NamedModel& plant, const NamedModel& w1, const std::optional<NamedModel>& w2,
+                           const std::optional<NamedModel>& w3, const SynthSettings& s);
+
+}  // namespace piezoloop::design

@@ -1,0 +1,18 @@
+"""piezoloop from Python: the simulator, the design tools and the boards.
+
+One implementation: every call goes to the C++ host library (the extension
+module ``_piezoloop``) that the ``piezoloop`` command line uses, so a
+simulation's ``log_hash`` equals ``piezoloop sim --hash`` and a board is
+configured exactly as ``piezoloop --device ... set`` does. Units are in the
+names: ``_um`` micrometres, ``_V`` volts, ``_s`` seconds, ``_hz`` hertz.
+See docs/python.md.
+"""
+from . import _piezoloop
+from . import design
+from ._piezoloop import DeviceError, LinkError
+from .device import Device, Recording, connect
+from .emulate import Emulator, emulate
+from .simulate import SimRun, sim
+
+__all__ = ["sim", "SimRun", "connect", "Device", "Recording", "emulate", "Emulator", "design",
+           "LinkError", "DeviceError"]

@@ -1,0 +1,69 @@
+# Type stubs of the piezoloop package (docs/python.md). Units are in the
+# names: _um micrometres, _V volts, _s seconds, _hz hertz.
+import os
+from dataclasses import dataclass
+from typing import Dict, Optional, Union
+
+import numpy as np
+
+from . import design as design
+
+PathLike = Union[str, os.PathLike]
+
+class LinkError(Exception):
+    """The board cannot be reached, or the link failed."""
+
+class DeviceError(LinkError):
+    """The board refused a request; the message names group.field."""
+
+@dataclass
+class SimRun:
+    signals: Dict[str, np.ndarray]  # tick, t_s, r_um, y_um, e_um, u_V, u_ff_V, u_fb_V, v_piezo_V, x_um
+    metrics: dict                   # the JSON `piezoloop sim` prints
+    log_hash: str                   # as `piezoloop sim --hash`
+
+def sim(scenario: PathLike, case: str, trajectory: str = "triangle", frequency_hz: float = 10.0,
+        amplitude_um: Optional[float] = None, duration_s: Optional[float] = None, sample: Optional[str] = None,
+        fidelity: str = "float", *, amplitude_v: Optional[float] = None, offset: Optional[str] = None,
+        substeps: int = 10, log_every: int = 0) -> SimRun: ...
+
+@dataclass
+class Recording:
+    signals: Dict[str, np.ndarray]  # t_s and r_um, y_um, e_um, u_V, u_ff_V, u_fb_V, u_rc_V as recorded
+    summary: dict                   # the JSON `piezoloop record` prints
+    log_hash: str
+    lost_blocks: int
+    @property
+    def complete(self) -> bool: ...
+
+class Device:
+    def __init__(self, address: str, timeout_s: float = 3.0) -> None: ...
+    def __enter__(self) -> "Device": ...
+    def __exit__(self, *exc: object) -> None: ...
+    def close(self) -> None: ...
+    @property
+    def address(self) -> str: ...
+    def status(self) -> dict: ...
+    def get(self, group: str) -> dict: ...
+    def set(self, group: str, **fields: object) -> dict: ...
+    def set_scenario(self, scenario: PathLike, case: str, frequency_hz: float = 0.0) -> dict: ...
+    def arm(self) -> None: ...
+    def disarm(self) -> None: ...
+    def clear_trip(self) -> None: ...
+    def record(self, duration_s: float, signals: str = "r,y,e,u", *, start_wave: bool = False,
+               restart_stage: bool = False, trajectory: Optional[str] = None, frequency_hz: float = 10.0,
+               amplitude_um: Optional[float] = None, offset: Optional[str] = None,
+               scenario: Optional[PathLike] = None, cycles: int = 0, decimation: int = 1,
+               stall_s: float = 5.0, out_csv: Optional[PathLike] = None) -> Recording: ...
+
+def connect(address: str, timeout_s: float = 3.0) -> Device: ...
+
+class Emulator:
+    address: str
+    info: dict
+    def close(self) -> None: ...
+    def __enter__(self) -> "Emulator": ...
+    def __exit__(self, *exc: object) -> None: ...
+
+def emulate(board: str = "qemu-m7", scenario: Optional[PathLike] = None, *, image: Optional[PathLike] = None,
+            case: Optional[str] = None) -> Emulator: ...

@@ -1,0 +1,98 @@
+"""piezoloop.design: the design tools of `piezoloop design`, returning the
+JSON the command line prints as dicts.
+
+A model is a dict in the model-file format of configs/models (num/den,
+zeros/poles/gain or series; docs/models.md) or the path of such a file.
+"""
+from __future__ import annotations
+
+import json
+import os
+from typing import Optional, Sequence, Union
+
+from . import _piezoloop
+
+Model = Union[dict, str, os.PathLike]
+
+
+def _model_args(model: Model):
+    if isinstance(model, dict):
+        return json.dumps(model), ""
+    if isinstance(model, (str, os.PathLike)):
+        return "", os.fspath(model)
+    raise ValueError("model: a model-file dict or the path of a model file (JSON)")
+
+
+def c2d(model: Model, rate_hz: float, method: str = "tustin", format: str = "float", *,
+        prewarp_hz: Optional[float] = None, scaling: str = "l1", in_full_scale: float = 1.0,
+        out_full_scale: float = 1.0, headroom: float = 1.0, check: bool = True) -> dict:
+    """Discretise `model` at rate_hz (Hz) and split it into biquad sections
+    scaled for the core's sample type, as `piezoloop design c2d`.
+
+    method: "tustin" (optionally pre-warped at prewarp_hz), "zoh" or
+    "matched". format: "float" or "q31" (the CLI's default is q31).
+    scaling: "l1", "linf" or "none"; in/out_full_scale: the physical values
+    at Q31 full scale; headroom in (0, 1]. check=False skips the
+    realisation check (--no-check).
+
+    Returns the CLI's JSON: command, model_file (None for a dict), rate_hz,
+    method, continuous, discrete, format, sections (b0, b1, b2, a1, a2),
+    scaling, realisation, warnings; and "fit" (the realisation is fit: what
+    --strict tests). Bad input raises ValueError naming the field.
+    """
+    for name, value, allowed in (("method", method, ("tustin", "zoh", "matched")),
+                                 ("format", format, ("float", "q31")),
+                                 ("scaling", scaling, ("l1", "linf", "none"))):
+        if value not in allowed:
+            raise ValueError(f"{name}: {value!r} is not one of {', '.join(allowed)}")
+    text, path = _model_args(model)
+    out = _piezoloop.c2d(text, path, float(rate_hz), method, prewarp_hz, format, scaling, float(in_full_scale),
+                         float(out_full_scale), float(headroom), bool(check))
+    if not path:
+        out["model_file"] = None
+    return out
+
+
+def analyze_loop(plant: Model, controller: Model, *, we: Optional[Model] = None, wy: Optional[Model] = None,
+                 hm: Optional[Model] = None, rate_hz: Optional[float] = None, c2d_method: str = "tustin",
+                 plant_c2d_method: Optional[str] = None, prewarp_hz: float = 0.0,
+                 phase_lag_hz: Sequence[float] = (), family_rel: float = 0.05, family: bool = True) -> dict:
+    """The loop of `plant` and `controller` analysed as `piezoloop analyze
+    loop`: stability, closed-loop poles, H-inf norms of S, T, KS, GS (and
+    We S, Wy T with the weights we, wy), robust stability against the
+    multiplicative uncertainty hm (with the coefficient family of
+    +-family_rel on the plant's denominator, unless family=False),
+    bandwidth_hz, gain and phase margins, phase lags at phase_lag_hz.
+
+    rate_hz: discretise continuous models at this rate (c2d_method, for the
+    plant plant_c2d_method if given; Tustin pre-warped at prewarp_hz).
+    Returns the CLI's JSON as a dict; ValueError names a bad field.
+    """
+    for name, value in (("c2d_method", c2d_method), ("plant_c2d_method", plant_c2d_method or "tustin")):
+        if value not in ("tustin", "zoh", "matched"):
+            raise ValueError(f"{name}: {value!r} is not one of tustin, zoh, matched")
+    if rate_hz is not None and not rate_hz > 0:
+        raise ValueError("rate_hz: must be > 0")
+    if prewarp_hz < 0:
+        raise ValueError("prewarp_hz: must be >= 0")
+    opt = lambda m: None if m is None else _model_args(m)
+    return _piezoloop.analyze_loop(_model_args(plant), _model_args(controller), opt(we), opt(wy), opt(hm),
+                                   float(rate_hz or 0.0), c2d_method, plant_c2d_method or "", float(prewarp_hz),
+                                   [float(f) for f in phase_lag_hz], float(family_rel), bool(family))
+
+
+def mixsyn(plant: Model, w1: Model, w2: Optional[Model] = None, w3: Optional[Model] = None, *,
+           gamma_tol: float = 1e-6, gamma_max: float = 0.0, backoff: float = 1e-3) -> dict:
+    """Mixed-sensitivity H-inf synthesis, as `piezoloop design mixsyn`:
+    min ||[W1 S; W2 K S; W3 T]||inf for the plant (continuous models, s in
+    rad/s). Returns its JSON: gamma, stable, hinf_W1S, hinf_W2KS, hinf_W3T,
+    order, synthesis (the gamma iteration), controller (zpk, e -> u; a
+    model dict usable as `controller` of analyze_loop) and controller_ss.
+    ValueError for bad input (naming the weight or option); an unsolvable
+    problem raises RuntimeError naming the condition."""
+    opt = lambda m: None if m is None else _model_args(m)
+    return _piezoloop.mixsyn(_model_args(plant), _model_args(w1), opt(w2), opt(w3), float(gamma_tol),
+                             float(gamma_max), float(backoff))
+
+
+__all__ = ["c2d", "analyze_loop", "mixsyn"]

@@ -1,0 +1,133 @@
+"""piezoloop.connect: a board over the link, as `piezoloop --device ADDR ...`."""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from typing import Dict, Optional
+
+import numpy as np
+
+from . import _piezoloop
+
+GROUPS = ("feedforward", "feedback", "rc", "limits", "trajectory", "recorder", "link")
+
+
+@dataclass
+class Recording:
+    """A record from a board.
+
+    signals: numpy arrays, t_s and one per recorded signal named with its
+        unit (r_um, y_um, e_um, u_V, u_ff_V, u_fb_V, u_rc_V).
+    summary: the JSON `piezoloop record` prints (frames, loss counters,
+        log_hash, tracking figures of the last reference period).
+    log_hash: hash of r, y and u ("" unless all three were recorded); equal
+        to `piezoloop sim --hash` for a record from rest of the same case.
+    lost_blocks: log blocks the host never received.
+    """
+    signals: Dict[str, np.ndarray]
+    summary: dict
+    log_hash: str
+    lost_blocks: int
+
+    @property
+    def complete(self) -> bool:
+        return bool(self.summary.get("complete"))
+
+
+class Device:
+    """A connected board. Use as a context manager (closes the link on exit;
+    the board keeps running as configured). Every request raises LinkError
+    when the board cannot be reached and DeviceError (a LinkError) when it
+    refuses, with the message naming the group and field."""
+
+    def __init__(self, address: str, timeout_s: float = 3.0):
+        if not isinstance(address, str) or not address:
+            raise ValueError("address: e.g. 'tcp:127.0.0.1:4000', 'usb', 'usb:SERIAL' or 'serial:/dev/ttyACM0'")
+        self._dev = _piezoloop.Device(address, int(timeout_s * 1000))
+
+    def __enter__(self) -> "Device":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._dev.close()
+
+    @property
+    def address(self) -> str:
+        return self._dev.address()
+
+    def status(self) -> dict:
+        """{"device", "hello" (identity, hard limits), "status" (armed, faults, ...)}."""
+        return self._dev.status()
+
+    def get(self, group: str) -> dict:
+        """A parameter group by its schema name (`piezoloop schema`), or "all"."""
+        if group == "all":
+            return {g: self._dev.get(g) for g in GROUPS}
+        return self._dev.get(group)
+
+    def set(self, group: str, **fields) -> dict:
+        """Merge `fields` (schema names; nested groups as dicts) onto the
+        board's group and send it; returns the group read back. An unknown
+        field raises ValueError, a value the board refuses DeviceError, both
+        naming the field; the board's group is then unchanged."""
+        return self._dev.set(group, json.dumps(fields))
+
+    def set_scenario(self, scenario: str | os.PathLike, case: str, frequency_hz: float = 0.0) -> dict:
+        """Send a scenario case's controller (limits, feedforward, feedback,
+        rc) as `piezoloop set --scenario --case` does, limits clipped to the
+        board's hard limits (listed in "clipped"). frequency_hz: the
+        reference frequency, for a repetitive controller's period "auto".
+        Only while disarmed."""
+        return self._dev.set_scenario(os.fspath(scenario), case, float(frequency_hz))
+
+    def arm(self) -> None:
+        self._dev.arm()
+
+    def disarm(self) -> None:
+        self._dev.disarm()
+
+    def clear_trip(self) -> None:
+        self._dev.clear_trip()
+
+    def record(self, duration_s: float, signals: str = "r,y,e,u", *, start_wave: bool = False,
+               restart_stage: bool = False, trajectory: Optional[str] = None, frequency_hz: float = 10.0,
+               amplitude_um: Optional[float] = None, offset: Optional[str] = None,
+               scenario: Optional[str | os.PathLike] = None, cycles: int = 0, decimation: int = 1,
+               stall_s: float = 5.0, out_csv: Optional[str | os.PathLike] = None) -> Recording:
+        """Record `signals` for duration_s seconds of device time, as
+        `piezoloop record`. With trajectory ("triangle", "sine", "square",
+        "raster") and amplitude_um (peak-to-peak, um) the reference wave is
+        set first; offset "unipolar"/"bipolar" or the scenario's convention.
+        start_wave starts it with the recorder (arming the loop);
+        restart_stage starts the emulated stage and the loop from rest (a
+        record equal to piezoloop.sim). Ctrl-C stops the recorder cleanly
+        and raises KeyboardInterrupt; the loop stays as it was."""
+        wave = None
+        if trajectory is not None or amplitude_um is not None:
+            if trajectory not in (None, "triangle", "sine", "square", "raster"):
+                raise ValueError(f"trajectory: {trajectory!r} is not one of triangle, sine, square, raster")
+            if not (amplitude_um and amplitude_um > 0):
+                raise ValueError("amplitude_um: required (> 0) with trajectory")
+            wave = _piezoloop.WaveRequest()
+            wave.trajectory = trajectory or "triangle"
+            wave.frequency_Hz = float(frequency_hz)
+            wave.amplitude_um = float(amplitude_um)
+            wave.offset = offset or ""
+            wave.scenario = os.fspath(scenario) if scenario else ""
+            wave.cycles = int(cycles)
+        if not duration_s > 0:
+            raise ValueError("duration_s: must be > 0")
+        r = self._dev.record(signals, float(duration_s), int(decimation), bool(start_wave), bool(restart_stage),
+                             wave, float(stall_s), os.fspath(out_csv) if out_csv else "")
+        s = r["summary"]
+        return Recording(signals=r["signals"], summary=s, log_hash=s.get("log_hash", ""),
+                         lost_blocks=int(s["lost_blocks"]))
+
+
+def connect(address: str, timeout_s: float = 3.0) -> Device:
+    """Open a board: "tcp:HOST:PORT", "usb", "usb:SERIAL" or "serial:PATH"."""
+    return Device(address, timeout_s)

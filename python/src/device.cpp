@@ -1,0 +1,189 @@
+// piezoloop.connect: a board over the link (host/link/client.hpp), with the
+// same calls the command line's device subcommands make (cli/cmd_device.cpp,
+// cli/device_common.hpp), so a Python session and `piezoloop --device` agree.
+// Every blocking request runs without the GIL.
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bindings.hpp"
+#include "device_common.hpp"
+#include "link/client.hpp"
+#include "link/params_json.hpp"
+#include "link/record_session.hpp"
+#include "link/transport.hpp"
+#include "piezoloop/params/groups.hpp"
+
+namespace piezoloop::py {
+namespace {
+
+using hostlink::Client;
+using nlohmann::json;
+
+class Device {
+public:
+    Device(const std::string& address, int timeout_ms) {
+        pyb::gil_scoped_release release;
+        Client::Options o;
+        o.timeout = std::chrono::milliseconds(timeout_ms);
+        client_ = std::make_unique<Client>(hostlink::open_transport(address), o);
+        client_->hello();
+    }
+
+    Client& client() {
+        if (!client_) throw hostlink::LinkError("the device is closed");
+        return *client_;
+    }
+    void close() { client_.reset(); }
+
+    pyb::object status() {
+        json out;
+        {
+            pyb::gil_scoped_release release;
+            Client& c = client();
+            out = {{"device", c.address()}, {"hello", hostlink::to_json(c.info())},
+                   {"status", hostlink::to_json(c.status())}};
+        }
+        return to_python(out);
+    }
+
+    pyb::object get(const std::string& group) {
+        const link::ParamGroup g = hostlink::parse_group(group);
+        json out;
+        {
+            pyb::gil_scoped_release release;
+            out = get_group(g);
+        }
+        return to_python(out);
+    }
+
+    // The fields merged onto the board's group, sent only if something
+    // changed (as `piezoloop set GROUP --json`); the group as read back. A
+    // refused group leaves the board's unchanged (the board checks a group
+    // whole before swapping it in).
+    pyb::object set(const std::string& group, const std::string& fields_json) {
+        const link::ParamGroup g = hostlink::parse_group(group);
+        const json fields = json::parse(fields_json);
+        json out;
+        {
+            pyb::gil_scoped_release release;
+            params::with_group(g, [&](auto tag) {
+                using G = typename decltype(tag)::type;
+                const G current = client().get<G>();
+                G v = current;
+                hostlink::merge_json(fields, v);
+                if (!(v == current)) client().set(v);
+            });
+            out = get_group(g);
+        }
+        return to_python(out);
+    }
+
+    pyb::object set_scenario(const std::string& scenario, const std::string& case_name, double frequency_Hz) {
+        json out;
+        std::vector<std::string> lines;
+        {
+            pyb::gil_scoped_release release;
+            out = cli::send_scenario_case(client(), scenario, case_name, frequency_Hz,
+                                          [&](const std::string& line) { lines.push_back(line); });
+        }
+        // The clipped fields are in "clipped" already; other remarks (the
+        // sample type the case was built for) join the notes.
+        for (const std::string& l : lines)
+            if (l.rfind("clipped: ", 0) != 0) out["notes"].push_back(l);
+        return to_python(out);
+    }
+
+    void simple(void (Client::*f)()) {
+        pyb::gil_scoped_release release;
+        (client().*f)();
+    }
+
+    pyb::dict record(const std::string& signals, double duration_s, uint32_t decimation, bool start_wave,
+                     bool restart_stage, std::optional<cli::WaveRequest> wave, double stall_s,
+                     const std::string& out_csv) {
+        hostlink::RecordOptions o;
+        o.signals = hostlink::parse_signal_list(signals);
+        if (restart_stage && !start_wave) throw std::invalid_argument("restart_stage: only with start_wave");
+        o.duration_s = duration_s;
+        o.decimation = decimation;
+        o.start_wave = start_wave;
+        o.restart_stage = restart_stage;
+        o.stall_s = stall_s;
+        o.out_csv = out_csv;
+        if (wave) o.wave = cli::wave_params(*wave, client().info().loop_rate_Hz);
+        // Ctrl-C: Python's handler only flags the signal; the session polls
+        // it here, stops the recorder and keeps what arrived, and the
+        // KeyboardInterrupt is raised once the board is left clean.
+        bool interrupted = false;
+        o.stop_requested = [&interrupted] {
+            pyb::gil_scoped_acquire acquire;
+            if (PyErr_CheckSignals() != 0) {
+                PyErr_Clear();
+                interrupted = true;
+            }
+            return interrupted;
+        };
+        hostlink::RecordResult r;
+        {
+            pyb::gil_scoped_release release;
+            r = hostlink::record(client(), o);
+        }
+        if (interrupted) {
+            PyErr_SetNone(PyExc_KeyboardInterrupt);
+            throw pyb::error_already_set();
+        }
+        pyb::dict sig;
+        sig["t_s"] = pyb::array_t<double>(static_cast<pyb::ssize_t>(r.t_s.size()), r.t_s.data());
+        for (std::size_t k = 0; k < r.signals.size(); ++k) {
+            const std::string name = std::string(hostlink::signal_name(r.signals[k])) + "_" +
+                                     hostlink::signal_unit(r.signals[k]);
+            sig[pyb::str(name)] =
+                pyb::array_t<double>(static_cast<pyb::ssize_t>(r.values[k].size()), r.values[k].data());
+        }
+        pyb::dict out;
+        out["signals"] = sig;
+        out["summary"] = to_python(hostlink::summary_json(r));
+        return out;
+    }
+
+private:
+    json get_group(link::ParamGroup g) {
+        json out;
+        params::with_group(g, [&](auto tag) { out = hostlink::to_json(client().get<typename decltype(tag)::type>()); });
+        return out;
+    }
+
+    std::unique_ptr<Client> client_;
+};
+
+}  // namespace
+
+void add_device(pyb::module_& m) {
+    pyb::class_<cli::WaveRequest>(m, "WaveRequest")
+        .def(pyb::init<>())
+        .def_readwrite("trajectory", &cli::WaveRequest::trajectory)
+        .def_readwrite("frequency_Hz", &cli::WaveRequest::frequency_Hz)
+        .def_readwrite("amplitude_um", &cli::WaveRequest::amplitude_um)
+        .def_readwrite("offset", &cli::WaveRequest::offset)
+        .def_readwrite("scenario", &cli::WaveRequest::scenario)
+        .def_readwrite("cycles", &cli::WaveRequest::cycles);
+    pyb::class_<Device>(m, "Device")
+        .def(pyb::init<const std::string&, int>(), pyb::arg("address"), pyb::arg("timeout_ms"))
+        .def("close", &Device::close)
+        .def("address", [](Device& d) { return d.client().address(); })
+        .def("status", &Device::status)
+        .def("get", &Device::get)
+        .def("set", &Device::set)
+        .def("set_scenario", &Device::set_scenario)
+        .def("arm", [](Device& d) { d.simple(&Client::arm); })
+        .def("disarm", [](Device& d) { d.simple(&Client::disarm); })
+        .def("clear_trip", [](Device& d) { d.simple(&Client::clear_trip); })
+        .def("record", &Device::record);
+}
+
+}  // namespace piezoloop::py

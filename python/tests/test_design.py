@@ -1,0 +1,67 @@
+"""piezoloop.design.c2d against `piezoloop design c2d`: the same JSON, for a
+model file and for the same model given as a dict."""
+import json
+import os
+
+import pytest
+
+import piezoloop
+from conftest import CONFIGS, cli
+
+MODELS = os.path.join(CONFIGS, "models")
+
+
+@pytest.mark.parametrize("model,rate,method,fmt", [
+    ("ahmad2020_K.json", "10000", "tustin", "float"),
+    ("shan2012_Q.json", "100000", "zoh", "q31"),
+])
+def test_c2d_equals_cli(model, rate, method, fmt):
+    path = os.path.join(MODELS, model)
+    ref = json.loads(cli("design", "c2d", "--model", path, "--rate-hz", rate, "--method", method, "--format", fmt))
+    out = piezoloop.design.c2d(path, float(rate), method=method, format=fmt)
+    assert out.pop("fit") == ref["realisation"]["fit"]
+    assert out == ref
+    with open(path) as f:
+        as_dict = piezoloop.design.c2d(json.load(f), float(rate), method=method, format=fmt)
+    assert as_dict["model_file"] is None
+    assert as_dict["sections"] == ref["sections"] and as_dict["discrete"] == ref["discrete"]
+
+
+def test_c2d_bad_input():
+    with pytest.raises(ValueError, match="rate_hz"):
+        piezoloop.design.c2d(os.path.join(MODELS, "ahmad2020_K.json"), -1.0)
+    with pytest.raises(ValueError, match="method"):
+        piezoloop.design.c2d(os.path.join(MODELS, "ahmad2020_K.json"), 1e4, method="euler")
+    with pytest.raises(ValueError):
+        piezoloop.design.c2d({"num": [1.0]}, 1e4)
+
+
+def test_analyze_loop_equals_cli():
+    m = {k: os.path.join(MODELS, f"ahmad2020_{k}.json") for k in ("G", "K", "He", "Hy", "Hm")}
+    ref = json.loads(cli("analyze", "loop", "--plant", m["G"], "--controller", m["K"], "--we", m["He"], "--wy",
+                         m["Hy"], "--hm", m["Hm"], "--no-family", "--phase-lag-hz", "10,100"))
+    out = piezoloop.design.analyze_loop(m["G"], m["K"], we=m["He"], wy=m["Hy"], hm=m["Hm"], phase_lag_hz=[10, 100],
+                                        family=False)  # the 729-plant family: 20 s, checked by cli_analyze
+    assert out == ref
+    # The same loop discretised, the controller given as a dict.
+    ref = json.loads(cli("analyze", "loop", "--plant", m["G"], "--controller", m["K"], "--rate-hz", "10000",
+                         "--plant-c2d", "zoh"))
+    with open(m["K"]) as f:
+        k = json.load(f)
+    out = piezoloop.design.analyze_loop(m["G"], k, rate_hz=10000, plant_c2d_method="zoh")
+    assert out == ref and out["stable"] is True
+
+
+def test_mixsyn_equals_cli(tmp_path):
+    # Ahmad2020's G with H_e, W2 = 0.01 (a dict) and H_y (eps_y 1e-2), as tests/host/cli/check_design_synth.py.
+    w2 = {"zeros": [], "poles": [], "gain": 0.01}
+    w2_file = tmp_path / "w2.json"
+    w2_file.write_text(json.dumps(w2))
+    g, he, hy = (os.path.join(MODELS, f"ahmad2020_{k}.json") for k in ("G", "He", "Hy_eps1e-2"))
+    ref = json.loads(cli("design", "mixsyn", "--plant", g, "--w1", he, "--w2", str(w2_file), "--w3", hy))
+    out = piezoloop.design.mixsyn(g, he, w2, hy)
+    assert out["weights"]["w2"] == "w2"
+    ref["weights"]["w2"] = "w2"
+    assert out == ref and out["stable"]
+    with pytest.raises(ValueError, match="gamma-tol"):
+        piezoloop.design.mixsyn(g, he, gamma_tol=1.0)
