@@ -228,9 +228,15 @@ try:
     gone = not os.path.exists(f"/proc/{qemu_pid}") or open(f"/proc/{qemu_pid}/stat").read().split()[2] == "Z"
     check(rc == 0 and gone, "SIGTERM ends emulate and QEMU", f"exit {rc}")
 finally:
+    # SIGTERM first: emulate stops its QEMU then. SIGKILL would leave QEMU
+    # running (with sleep=off it spins a core) after a failed check.
     if emu.poll() is None:
-        emu.kill()
-        emu.wait()
+        emu.send_signal(signal.SIGTERM)
+        try:
+            emu.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            emu.kill()
+            emu.wait()
     shutil.rmtree(tmp, ignore_errors=True)
 
 print(f"{passed} passed, {failed} failed")
