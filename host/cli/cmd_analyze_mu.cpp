@@ -24,6 +24,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/loop_report.hpp"
 #include "analysis/mu.hpp"
 #include "commands.hpp"
 #include "lti/c2d.hpp"
@@ -37,7 +38,7 @@ using nlohmann::json;
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+json number(double v) { return report_number(v); }
 
 struct MuArgs {
     std::string plant, controller, hm, w1, w3, w2, csv;

@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/loop_report.hpp"
 #include "analysis/mu.hpp"
 #include "commands.hpp"
 #include "lti/model_json.hpp"
@@ -33,7 +34,7 @@ using nlohmann::json;
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+json number(double v) { return report_number(v); }
 
 struct MusynArgs {
     std::string plant, w1, w2, w3, hm, out;

@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cli/progress_bar.hpp"
 #include "commands.hpp"
 #include "format/number.hpp"
 #include "lti/freqresp.hpp"
@@ -37,19 +38,6 @@ struct FrfArgs {
     double from_Hz = 0.0, to_Hz = 0.0, amplitude_V = 0.0, bias_V = 0.0;
     int periods = 10, transient_periods = 1;
 };
-
-// A bar on stderr, on a terminal, once the run has taken a second.
-void progress_bar(double fraction, std::chrono::steady_clock::time_point t0, bool& shown) {
-    static const bool tty = isatty(STDERR_FILENO) != 0;
-    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!tty || (el < 1.0 && !shown)) return;
-    const int filled = static_cast<int>(fraction * 40 + 0.5);
-    std::string bar(static_cast<size_t>(filled), '#');
-    bar.resize(40, ' ');
-    std::fprintf(stderr, "\r[%s] %3.0f%% ", bar.c_str(), 100.0 * fraction);
-    shown = true;
-    if (fraction >= 1.0) std::fprintf(stderr, "\n");
-}
 
 json frf_json(const FrfArgs& a, const sim::Scenario& s, const measure::FrfRun& r) {
     const measure::FrfEstimate& e = r.estimate;

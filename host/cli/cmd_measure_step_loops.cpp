@@ -21,6 +21,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/loop_report.hpp"
+#include "cli/progress_bar.hpp"
 #include "commands.hpp"
 #include "format/number.hpp"
 #include "measure/step_loops_sim.hpp"
@@ -30,21 +32,6 @@ namespace piezoloop::cli {
 namespace {
 
 using nlohmann::json;
-
-// A bar on stderr, on a terminal, once the run has taken a second (as measure frf).
-void progress_bar(double fraction, std::chrono::steady_clock::time_point t0, bool& shown) {
-    static const bool tty = isatty(STDERR_FILENO) != 0;
-    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    if (!tty || (el < 1.0 && !shown)) return;
-    const int filled = static_cast<int>(fraction * 40 + 0.5);
-    std::string bar(static_cast<size_t>(filled), '#');
-    bar.resize(40, ' ');
-    std::fprintf(stderr, "\r[%s] %3.0f%% ", bar.c_str(), 100.0 * fraction);
-    shown = true;
-    if (fraction >= 1.0) std::fprintf(stderr, "\n");
-}
-
-json number_or_null(double x) { return std::isfinite(x) ? json(x) : json(); }
 
 void write_text(const std::string& option, const std::string& path, const std::string& text) {
     std::ofstream f(path);
@@ -102,8 +89,8 @@ int run_step(const StepArgs& a) {
     out["overshoot_pct"] = f.overshoot_pct;
     out["peak_um"] = f.peak;
     out["peak_time_s"] = f.peak_time_s;
-    out["rise_time_s"] = number_or_null(f.rise_time_s);
-    out["settling_time_s"] = number_or_null(f.settling_time_s);
+    out["rise_time_s"] = design::report_number(f.rise_time_s);
+    out["settling_time_s"] = design::report_number(f.settling_time_s);
     out["settled"] = f.settled;
     out["definitions"] = {
         {"initial_um", "mean of the recorded samples before the step"},
