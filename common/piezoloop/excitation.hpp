@@ -28,6 +28,16 @@
 //   2^(n-1) ones and 2^(n-1) - 1 zeros), taps from Xilinx XAPP052 (Alfke 1996),
 //   each bit held for `prbs_hold` samples; w = +1 for a one, -1 for a zero.
 //
+// Three shapes for steps and hysteresis loops, w in [0, 1] starting at 0, so
+// d = offset + amplitude * w starts at the offset and amplitude is the
+// peak-to-peak above it. Their sample n of a period of N comes from the
+// phase p = floor(n 2^32 / N) (exact integer arithmetic, as the multisine's):
+// - kStep:     w = 0 for the first half of the period, 1 for the second
+//              (a step at n = ceil(N / 2), held as long as the level before it);
+// - kTriangle: w rises linearly from 0 to 1 at mid-period and falls back;
+// - kRaisedCosine: w = (1 - cos 2 pi n / N) / 2, the triangle's smooth twin
+//              (zero slope at the turning points).
+//
 // periods > 0: after that many periods the output returns to `offset` and
 // done() is true. The generator is configured outside the tick; step() is
 // the tick's part.
@@ -47,7 +57,7 @@
 
 namespace piezoloop {
 
-enum class ExcitationSignal : uint8_t { kMultisine = 0, kSweep, kPrbs };
+enum class ExcitationSignal : uint8_t { kMultisine = 0, kSweep, kPrbs, kStep, kTriangle, kRaisedCosine };
 // Where the pipeline adds d: to the command before the limiter (open loop:
 // u = d, with offset the bias; closed loop: u = controller output + d), or to
 // the reference before feedforward and feedback.
@@ -56,10 +66,10 @@ enum class ExcitationPoint : uint8_t { kCommand = 0, kReference };
 struct ExcitationConfig {
     ExcitationSignal signal = ExcitationSignal::kMultisine;
     ExcitationPoint point = ExcitationPoint::kCommand;
-    float amplitude = 0.0f;  // peak of amplitude * w (V at the command, µm at the reference), >= 0
+    float amplitude = 0.0f;  // peak of amplitude * w (V at the command, µm at the reference); < 0 inverts w
     float offset = 0.0f;     // added throughout (the bias of an open-loop measurement)
     float sample_rate_Hz = 100000.0f;
-    uint32_t period_samples = 0;  // multisine: N; sweep: its length L
+    uint32_t period_samples = 0;  // multisine, step, triangle, raised cosine: N; sweep: its length L
     uint32_t first_bin = 1;       // multisine: k1 >= 1
     uint32_t last_bin = 1;        // multisine: k2 in [k1, N/2)
     float f1_Hz = 0.0f;           // sweep: start, > 0
@@ -135,8 +145,8 @@ public:
         using namespace excitation_detail;
         if (!is_finite(c.sample_rate_Hz) || !(c.sample_rate_Hz > 0.0f) || c.sample_rate_Hz > 1.0e9f)
             return error("sample_rate_Hz", "must be in (0, 1e9] Hz");
-        if (!is_finite(c.amplitude) || c.amplitude < 0.0f || c.amplitude > kMaxAbs)
-            return error("amplitude", "must be in [0, 1e6]");
+        if (!is_finite(c.amplitude) || c.amplitude < -kMaxAbs || c.amplitude > kMaxAbs)
+            return error("amplitude", "must be within +-1e6 (negative: the shape inverted)");
         if (!is_finite(c.offset) || c.offset < -kMaxAbs || c.offset > kMaxAbs)
             return error("offset", "must be finite and within +-1e6");
         double sweep_ratio = 1.0, sweep_inc = 0.0;
@@ -163,15 +173,21 @@ public:
                 if (c.prbs_order < 2 || c.prbs_order > 24) return error("prbs_order", "must be in [2, 24]");
                 if (c.prbs_hold < 1 || c.prbs_hold > (1u << 16)) return error("prbs_hold", "must be in [1, 65536]");
                 break;
+            case ExcitationSignal::kStep:
+            case ExcitationSignal::kTriangle:
+            case ExcitationSignal::kRaisedCosine:
+                if (c.period_samples < 2) return error("period_samples", "step, triangle, raised cosine: must be >= 2 samples");
+                break;
             default:
-                return error("signal", "must be multisine, sweep or prbs");
+                return error("signal", "must be multisine, sweep, prbs, step, triangle or raised cosine");
         }
         Q31 amp_q{}, off_q{};
         if constexpr (!kFloat) {
             const double fs = static_cast<double>(scale_.full_scale);
             if (!(fs > 0.0)) return error("full_scale", "output scale must be > 0");
             const double o = static_cast<double>(c.offset);
-            if ((o < 0.0 ? -o : o) + static_cast<double>(c.amplitude) > fs)
+            const double a = static_cast<double>(c.amplitude);
+            if ((o < 0.0 ? -o : o) + (a < 0.0 ? -a : a) > fs)
                 return error("amplitude", "|offset| + amplitude must be <= the Q31 full scale");
             amp_q = Q31::from_double(static_cast<double>(c.amplitude) / fs);
             off_q = Q31::from_double(o / fs);
@@ -186,6 +202,11 @@ public:
         sweep_inc0_ = sweep_inc;
         if (c.signal == ExcitationSignal::kMultisine) tabulate_multisine();
         if (c.signal == ExcitationSignal::kPrbs) lfsr_mask_ = excitation_detail::prbs_mask(c.prbs_order);
+        if (c.period_samples > 0) {
+            const uint64_t turn = uint64_t{1} << 32;
+            ramp_q_ = static_cast<uint32_t>(turn / c.period_samples);
+            ramp_r_ = static_cast<uint32_t>(turn % c.period_samples);
+        }
         configured_ = true;
         restart();
         return ok_status();
@@ -201,6 +222,8 @@ public:
         lfsr_ = (1u << cfg_.prbs_order) - 1u;  // any non-zero state; all ones as in XAPP052's XNOR reset
         hold_n_ = 0;
         bit_ = 1;
+        ramp_phase_ = 0;
+        ramp_rem_ = 0;
     }
 
     // Output, then advance by one sample. After the last period: the offset.
@@ -221,9 +244,16 @@ public:
                 if (++hold_n_ == cfg_.prbs_hold) hold_n_ = 0;
                 w = bit_ != 0 ? Q31::kMaxRaw : -Q31::kMaxRaw;
                 break;
+            case ExcitationSignal::kStep:
+            case ExcitationSignal::kTriangle:
+            case ExcitationSignal::kRaisedCosine:
+                w = ramp_shape();
+                break;
         }
         if (++n_ == period_length()) {
             n_ = 0;
+            ramp_phase_ = 0;
+            ramp_rem_ = 0;
             sweep_phase_ = 0;
             sweep_inc_ = sweep_inc0_;
             if (periods_done_ != 0xffffffffu) ++periods_done_;
@@ -248,6 +278,28 @@ private:
     constexpr T value_of(int32_t w) const {
         if constexpr (kFloat) return off_f_ + amp_f_ * (static_cast<float>(w) * 0x1p-31f);
         else return off_q_ + amp_q_ * Q31::from_raw(w);
+    }
+
+    // Step, triangle, raised cosine at the phase p = floor(n 2^32 / N), then
+    // p advances by 2^32 / N (quotient and Bresenham remainder, set at
+    // configure): the same integers on every machine, no division per tick.
+    constexpr int32_t ramp_shape() {
+        const uint32_t p = ramp_phase_;
+        ramp_phase_ += ramp_q_;
+        ramp_rem_ += ramp_r_;
+        if (ramp_rem_ >= cfg_.period_samples) {
+            ramp_rem_ -= cfg_.period_samples;
+            ++ramp_phase_;
+        }
+        switch (cfg_.signal) {
+            case ExcitationSignal::kStep: return p >= 0x80000000u ? Q31::kMaxRaw : 0;
+            case ExcitationSignal::kTriangle: return static_cast<int32_t>(p < 0x80000000u ? p : ~p);
+            default: {
+                // (1 - cos) / 2 in Q31: (2^31 - 1 - cos) / 2, cos = sin(p + a quarter).
+                const int64_t c = sine_q31(p + 0x40000000u);
+                return static_cast<int32_t>((int64_t{Q31::kMaxRaw} - c) >> 1);
+            }
+        }
     }
 
     // Fibonacci LFSR: the new bit is the XOR of the tapped bits, shifted in
@@ -309,6 +361,7 @@ private:
     std::array<int32_t, TableCapacity> table_{};
     double sweep_ratio_ = 1.0, sweep_inc0_ = 0.0;
     uint32_t lfsr_mask_ = 0;
+    uint32_t ramp_q_ = 0, ramp_r_ = 0;  // 2^32 / N per sample
 
     // State.
     uint32_t n_ = 0;
@@ -317,6 +370,7 @@ private:
     uint64_t sweep_phase_ = 0;  // 2^64 = one cycle
     double sweep_inc_ = 0.0;
     uint32_t lfsr_ = 1, hold_n_ = 0, bit_ = 1;
+    uint32_t ramp_phase_ = 0, ramp_rem_ = 0;
 };
 
 }  // namespace piezoloop

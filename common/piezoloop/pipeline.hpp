@@ -100,6 +100,7 @@ struct PipelineParams {
 template <class T>
 struct TickSignals {
     T r{}, y{}, e{}, u{}, u_ff{}, u_fb{}, u_rc{};
+    T d{};  // the excitation's sample (zero when none runs)
 };
 
 template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024,
@@ -193,19 +194,64 @@ public:
     // only while none runs (a multisine's period is tabulated here, in the
     // main loop). Its sample rate must be the loop rate.
     Status start_excitation(const ExcitationConfig& c) {
+        if (const Status s = prepare_excitation(c); !s.ok()) return s;
+        run_excitation();
+        return ok_status();
+    }
+    // start_excitation in two steps, for a board that starts other things
+    // at the same tick boundary with the tick masked: prepare (validate,
+    // tabulate: long, so unmasked; the tick does not read the generator
+    // while none runs), then run (a flag the next tick takes).
+    Status prepare_excitation(const ExcitationConfig& c) {
         if (excitation_running())
             return in_group("excitation", error("signal", "an excitation is running: stop it first"));
         if (c.sample_rate_Hz != setup_.rate_Hz)
             return in_group("excitation", error("sample_rate_Hz", "must equal the loop rate"));
+        if (c.point == ExcitationPoint::kCommand) {
+            if (const Status s = check_command_span(c); !s.ok()) return in_group("excitation", s);
+        }
         excitation_.set_output_scale(c.point == ExcitationPoint::kReference ? setup_.position : setup_.voltage);
         if (const Status s = excitation_.configure(c); !s.ok()) return in_group("excitation", s);
         exc_to_command_ = c.point == ExcitationPoint::kCommand;
+        exc_prepared_ = true;
+        return ok_status();
+    }
+    // Runs the prepared excitation from the next tick (once per prepare).
+    void run_excitation() {
+        if (!exc_prepared_ || excitation_running()) return;
+        exc_prepared_ = false;
         exc_clipped_ = 0;
         exc_ticks_ = 0;
         exc_stop_request_.store(false, std::memory_order_relaxed);
         excitation_running_.store(true, std::memory_order_release);
+    }
+    bool excitation_prepared() const { return exc_prepared_; }
+    // d at the command must fit the limits group's range before it starts
+    // (the limiter would clamp it anyway, but a measurement that clips is
+    // not what was asked for). Open loop (no feedforward, no feedback: u = d)
+    // the whole span of d, bias included, must lie in [u_min_V, u_max_V];
+    // closed loop d adds to the controller's output, so its span must be at
+    // most the range's width.
+    Status check_command_span(const ExcitationConfig& c) const {
+        // The set in effect at the excitation's first tick: a staged one
+        // swaps in before it.
+        const PipelineParams& p = swap_pending() ? params_[active_ ^ 1u] : params_[active_];
+        const LimitsConfig& lim = p.limits;
+        const bool unipolar = c.signal == ExcitationSignal::kStep || c.signal == ExcitationSignal::kTriangle ||
+                              c.signal == ExcitationSignal::kRaisedCosine;
+        const float a = c.amplitude < 0.0f ? -c.amplitude : c.amplitude;
+        const float lo = unipolar ? (c.amplitude < 0.0f ? c.offset - a : c.offset) : c.offset - a;
+        const float hi = unipolar ? (c.amplitude < 0.0f ? c.offset : c.offset + a) : c.offset + a;
+        if (!(lim.u_max_V > lim.u_min_V)) return error("amplitude", "the limits group is not configured: set it first");
+        if (p.feedforward == FeedforwardKind::kNone && p.feedback == FeedbackKind::kNone) {
+            if (!(lo >= lim.u_min_V && hi <= lim.u_max_V))
+                return error("amplitude", "open loop: offset and offset +- amplitude must lie in the limits' [u_min_V, u_max_V]");
+        } else if (!(hi - lo <= lim.u_max_V - lim.u_min_V)) {
+            return error("amplitude", "closed loop: the span of d must be <= the limits' u_max_V - u_min_V");
+        }
         return ok_status();
     }
+
     // Takes effect at the next tick; d is zero from then on.
     void stop_excitation() { exc_stop_request_.store(true, std::memory_order_release); }
     bool excitation_running() const { return excitation_running_.load(std::memory_order_acquire); }
@@ -248,7 +294,7 @@ public:
     }
     void end_tick() {
         // The recorder reads the signals it records from last_ directly
-        // (TickSignals is in SignalId order) instead of from a 7-sample copy.
+        // (TickSignals is in SignalId order) instead of from a copy of every signal.
         recorder_.push_from(tick_count_, [this](uint8_t i) { return last_.*kSignalMember[i]; });
         ++tick_count_;
     }
@@ -267,7 +313,7 @@ private:
     // TickSignals' members by SignalId (the recorder's signal indices).
     static constexpr T TickSignals<T>::*kSignalMember[kSignalCount] = {
         &TickSignals<T>::r,  &TickSignals<T>::y,    &TickSignals<T>::e,   &TickSignals<T>::u,
-        &TickSignals<T>::u_ff, &TickSignals<T>::u_fb, &TickSignals<T>::u_rc};
+        &TickSignals<T>::u_ff, &TickSignals<T>::u_fb, &TickSignals<T>::u_rc, &TickSignals<T>::d};
 
     // The phases, inlined into tick() and into the board's phase calls: as
     // separate functions tick()'s local signals would live on the stack
@@ -298,6 +344,7 @@ private:
             stop_request_.store(false, std::memory_order_relaxed);
             s.r = setpoint_;
         }
+        s.d = sample_zero<T>();
         if (excite) [[unlikely]] excitation_phase(s);
         // One reference for the whole phase: re-indexing banks_ by active_
         // after every byte-sized store (which may alias active_) costs a
@@ -352,6 +399,7 @@ private:
     // tick that ends it (last period, or a stop request) still applies its d.
     void excitation_phase(TickSignals<T>& s) {
         exc_d_ = excitation_.step();
+        s.d = exc_d_;
         exc_active_ = true;
         if (!exc_to_command_) s.r = s.r + exc_d_;
         if (excitation_.done() || (exc_stop_request_.load(std::memory_order_relaxed) &&
@@ -533,6 +581,7 @@ private:
     std::atomic<bool> excitation_running_{false};
     std::atomic<bool> exc_stop_request_{false};
     bool exc_to_command_ = false;  // kCommand (written before excitation_running_)
+    bool exc_prepared_ = false;    // configured by prepare_excitation, not yet run (main loop only)
     bool exc_active_ = false;      // this tick adds d (set in begin_phase, read in output_phase)
     T exc_d_{};
     uint32_t exc_clipped_ = 0, exc_ticks_ = 0;

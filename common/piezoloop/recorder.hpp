@@ -61,6 +61,7 @@ enum class SignalId : uint8_t {
     kUff,    // feedforward (inverse hysteresis)
     kUfb,    // feedback
     kUrc,    // repetitive-control plug-in contribution
+    kD,      // excitation d (excitation.hpp): V at the command, µm at the reference; 0 when none runs
     kCount
 };
 inline constexpr std::size_t kSignalCount = static_cast<std::size_t>(SignalId::kCount);
@@ -75,6 +76,7 @@ constexpr const char* signal_name(SignalId s) {
         case SignalId::kUff: return "u_ff";
         case SignalId::kUfb: return "u_fb";
         case SignalId::kUrc: return "u_rc";
+        case SignalId::kD: return "d";
         case SignalId::kCount: break;
     }
     return "?";

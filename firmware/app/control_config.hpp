@@ -26,13 +26,17 @@ inline constexpr uint32_t kLoopRateInt_Hz = 100000;
 #ifndef PIEZOLOOP_RECORDER_CAPACITY
 #define PIEZOLOOP_RECORDER_CAPACITY 4096
 #endif
+#ifndef PIEZOLOOP_EXCITATION_CAPACITY
+#define PIEZOLOOP_EXCITATION_CAPACITY 1024
+#endif
 inline constexpr int kRcCapacity = 128;
 inline constexpr std::size_t kRecChannels = 4;
 inline constexpr std::size_t kRecCapacity = PIEZOLOOP_RECORDER_CAPACITY;
 inline constexpr std::size_t kSetpointCapacity = 1024;
+inline constexpr std::size_t kExcCapacity = PIEZOLOOP_EXCITATION_CAPACITY;
 
 template <class T>
-using FwPipeline = Pipeline<T, kRcCapacity, kRecChannels, kRecCapacity>;
+using FwPipeline = Pipeline<T, kRcCapacity, kRecChannels, kRecCapacity, kExcCapacity>;
 
 // The board's side of the pipeline: hard limits and converter full scales
 // are facts of the hardware (bsp/<board>/board_config.hpp), given once.

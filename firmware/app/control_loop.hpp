@@ -29,7 +29,7 @@ namespace piezoloop::fw {
 
 using BoardPipeline = FwPipeline<CoreSample>;
 // The link's dispatcher on the board's pipeline (servo.elf).
-using BoardDevice = link::Device<CoreSample, kRcCapacity, kRecChannels, kRecCapacity, kSetpointCapacity>;
+using BoardDevice = link::Device<CoreSample, kRcCapacity, kRecChannels, kRecCapacity, kSetpointCapacity, kExcCapacity>;
 static_assert(std::is_same_v<BoardDevice::PipelineType, BoardPipeline>);
 
 // The board's analog side (bsp/<board>/board_config.hpp).

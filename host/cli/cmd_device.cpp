@@ -333,25 +333,6 @@ struct RecordArgs {
     double stall_s = 5.0;
 };
 
-// Ctrl-C (SIGINT) or SIGTERM during a record: the session stops collecting,
-// stops the recorder on the board and writes what arrived, marked incomplete.
-volatile std::sig_atomic_t g_record_stop = 0;
-extern "C" void on_record_stop(int) { g_record_stop = 1; }
-
-struct StopSignals {
-    StopSignals() {
-        g_record_stop = 0;
-        int_ = std::signal(SIGINT, on_record_stop);
-        term_ = std::signal(SIGTERM, on_record_stop);
-    }
-    ~StopSignals() {
-        std::signal(SIGINT, int_);
-        std::signal(SIGTERM, term_);
-    }
-    void (*int_)(int);
-    void (*term_)(int);
-};
-
 int run_record(const RecordArgs& a) {
     hostlink::RecordOptions o;
     o.signals = hostlink::parse_signal_list(a.signals);
@@ -369,8 +350,10 @@ int run_record(const RecordArgs& a) {
     if (a.wave_given) o.wave = wave_params(a.w, c.info().loop_rate_Hz);
     ProgressBar bar("record");
     o.progress = [&](double f) { bar.update(f); };
+    // Ctrl-C or SIGTERM: the session stops collecting, stops the recorder
+    // on the board and writes what arrived, marked incomplete.
     const StopSignals stop_signals;
-    o.stop_requested = [] { return g_record_stop != 0; };
+    o.stop_requested = [] { return StopSignals::requested(); };
     const hostlink::RecordResult r = hostlink::record(c, o);
     bar.done();
     print(hostlink::summary_json(r));

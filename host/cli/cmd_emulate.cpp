@@ -114,9 +114,6 @@ int free_port() {
     return ntohs(a.sin_port);
 }
 
-volatile std::sig_atomic_t g_stop = 0;
-extern "C" void on_stop_signal(int) { g_stop = 1; }
-
 int run_emulate(const EmulateArgs& a) {
     const BoardSpec spec = board_spec(a.board);
     const fs::path image = firmware_image(a);
@@ -159,8 +156,7 @@ int run_emulate(const EmulateArgs& a) {
         }
     } cleanup{tmpdir};
 
-    std::signal(SIGINT, on_stop_signal);
-    std::signal(SIGTERM, on_stop_signal);
+    const StopSignals stop_signals;
     // QEMU's own output (the semihosting console: a CPU fault, a bad
     // profile) goes to our stderr; stdout carries only the JSON line.
     posix_spawn_file_actions_t fa;
@@ -193,7 +189,7 @@ int run_emulate(const EmulateArgs& a) {
     int status = 0;
     bool ready = false;
     while (!ready) {
-        if (g_stop) {
+        if (StopSignals::requested()) {
             stop_qemu();  // interrupted while booting: what the user asked for
             return kExitOk;
         }
@@ -224,7 +220,7 @@ int run_emulate(const EmulateArgs& a) {
         if (!line.contains(it.key())) line[it.key()] = it.value();
     std::cout << line.dump() << std::endl;
 
-    while (!g_stop) {
+    while (!StopSignals::requested()) {
         if (exited(status)) {
             std::cerr << "QEMU exited (status " << status << ")\n";
             return WIFEXITED(status) && WEXITSTATUS(status) == 0 ? kExitOk : kExitLinkOrDevice;

@@ -1,10 +1,12 @@
-// `piezoloop measure step` and `piezoloop measure loops` on the simulator
-// (issue 16, docs/measurement.md): a step of chosen size in open loop
+// `piezoloop measure step` and `piezoloop measure loops` on a board (--device)
+// or the simulator (--scenario) (issue 16, docs/measurement.md): a step of
+// chosen size in open loop
 // (command, V) or closed loop (reference, um) with its overshoot, rise and
 // settling time; slow open-loop triangles (or sines) of several amplitudes,
 // written as the CSV `identify pi` (columns u, y) and `identify dahl`
 // (columns v, x) read, with the hysteresis of each loop. The runs are in
-// host/measure/step_loops_sim, the step analysis in host/measure/step_response.
+// host/measure/step_loops_sim and host/link/measure_session, the plans and
+// the analysis they share in host/measure/step_loops_plan.
 // Every request is checked before anything runs or any file is written
 // (exit 2, the option and its allowed range named).
 #include <unistd.h>
@@ -24,7 +26,9 @@
 #include "analysis/loop_report.hpp"
 #include "cli/progress_bar.hpp"
 #include "commands.hpp"
+#include "device_common.hpp"
 #include "format/number.hpp"
+#include "link/measure_session.hpp"
 #include "measure/step_loops_sim.hpp"
 #include "sim/scenario.hpp"
 
@@ -40,16 +44,74 @@ void write_text(const std::string& option, const std::string& path, const std::s
     if (!f) throw std::runtime_error(option + ": cannot write " + path);
 }
 
+// The stage a measurement runs on: a board (--device) or the simulator
+// (--scenario, with an optional case).
+struct Target {
+    std::optional<hostlink::Client> board;
+    std::optional<sim::Scenario> scenario;
+    sim::CaseSpec case_storage;
+    const sim::CaseSpec* case_spec = nullptr;
+    measure::MeasureBounds bounds;
+    json source;
+
+    Target(const std::string& scenario_path, const std::string& case_name, const std::string& sample,
+           bool restart_stage) {
+        if (measure_on_board(scenario_path, case_name, restart_stage)) {
+            if (!sample.empty()) throw std::invalid_argument("--sample: only with --scenario (a board has its own)");
+            board.emplace(open_device(5000));
+            bounds = hostlink::board_bounds(*board);
+            source = {{"kind", "board"}, {"device", board->address()}, {"board", board->info().board.data()},
+                      {"rate_Hz", bounds.rate_Hz}};
+        } else {
+            scenario = sim::load_scenario(scenario_path);
+            case_spec = measured_case(*scenario, case_name, sample, case_storage);
+            bounds = measure::scenario_bounds(*scenario);
+            source = {{"kind", "simulator"}, {"scenario", scenario->name}, {"case", case_name}, {"rate_Hz", bounds.rate_Hz}};
+        }
+    }
+};
+
+// Progress on stderr and Ctrl-C for a board; the simulator's bar otherwise.
+struct Progress {
+    explicit Progress(const char* label) : bar(label) {}
+    hostlink::MeasureOptions board_options(bool restart_stage) {
+        hostlink::MeasureOptions o;
+        o.restart_stage = restart_stage;
+        o.progress = [this](double f) { bar.update(f); };
+        o.stop_requested = [] { return StopSignals::requested(); };
+        return o;
+    }
+    std::function<void(double)> sim_progress() {
+        return [this](double f) { progress_bar(f, t0, shown); };
+    }
+    ProgressBar bar;
+    StopSignals stop_signals;
+    std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+    bool shown = false;
+};
+
+// --scenario (simulator) or the global --device (board), and the emulated
+// board's restart.
+void add_source_options(CLI::App* cmd, std::string& scenario, std::string& sample, bool& restart_stage) {
+    cmd->add_option("--scenario", scenario, "scenario file (configs/*.json): measure the simulated stage instead of a board")
+        ->check(CLI::ExistingFile);
+    cmd->add_option("--sample", sample, "simulator: core sample type (default: the case's, else float)")
+        ->check(CLI::IsMember({"float", "q31"}));
+    cmd->add_flag("--restart-stage", restart_stage,
+                  "emulated board: its stage restarts at rest with the measurement (as the simulator starts)");
+}
+
 // ---------------------------------------------------------------- step
 
 struct StepArgs {
-    std::string scenario, case_name, mode, out, csv;
+    std::string scenario, case_name, sample, mode, out, csv;
     // Optional, not NaN-defaulted: a NaN given on the command line must be refused, not taken as absent.
     std::optional<double> step_um, step_V, from_um, bias_V;
     double duration_s = 0.1;
+    bool restart_stage = false;
 };
 
-measure::StepRequest step_request(const StepArgs& a, const sim::Scenario& s) {
+measure::StepRequest step_request(const StepArgs& a, Target& t) {
     const bool has_um = a.step_um.has_value(), has_v = a.step_V.has_value();
     if (has_um == has_v) throw std::invalid_argument("--step-um: give exactly one of --step-um (closed loop) and --step-v (open loop)");
     const std::string mode = a.mode.empty() ? (has_um ? "closed" : "open") : a.mode;
@@ -61,25 +123,30 @@ measure::StepRequest step_request(const StepArgs& a, const sim::Scenario& s) {
     if (!r.closed && a.from_um) throw std::invalid_argument("--from-um: closed loop only; open loop starts from --bias-v");
     r.step = r.closed ? *a.step_um : *a.step_V;
     r.duration_s = a.duration_s;
-    if (r.closed) {
-        // Default: 10 % into the range the loop can hold, clear of the ADC's end.
-        const measure::RangeUm range = measure::closed_loop_range(s);
-        r.from = a.from_um ? *a.from_um : range.min_um + 0.1 * (range.max_um - range.min_um);
+    if (r.closed && a.from_um) {
+        r.from = *a.from_um;
+    } else if (r.closed && t.board) {
+        r.from = t.board->status().r_um;  // the setpoint the board holds
+    } else if (r.closed) {
+        // 10 % into the range the loop can hold, clear of the ADC's end.
+        const measure::RangeUm& range = t.bounds.closed_range;
+        r.from = range.min_um + 0.1 * (range.max_um - range.min_um);
     } else {
-        r.from = a.bias_V ? *a.bias_V : std::max(0.0, static_cast<double>(s.limits.u_min_V));
+        r.from = a.bias_V ? *a.bias_V : std::max(0.0, static_cast<double>(t.bounds.limits.u_min_V));
     }
     return r;
 }
 
 int run_step(const StepArgs& a) {
-    const sim::Scenario s = sim::load_scenario(a.scenario);
-    const sim::CaseSpec* c = a.case_name.empty() ? nullptr : &s.find_case(a.case_name);
-    const measure::StepRequest r = step_request(a, s);
-    if (r.closed && !c) throw std::invalid_argument("--case: closed loop needs the case whose controller closes it");
-    (void)measure::plan_step(s, r);  // refuses before anything runs (and before --out is touched)
-    const auto t0 = std::chrono::steady_clock::now();
-    bool shown = false;
-    const measure::StepRun run = measure::run_step_sim(s, c, r, [&](double f) { progress_bar(f, t0, shown); });
+    Target t(a.scenario, a.case_name, a.sample, a.restart_stage);
+    const measure::StepRequest r = step_request(a, t);
+    if (r.closed && t.scenario && a.case_name.empty())
+        throw std::invalid_argument("--case: closed loop needs the case whose controller closes it");
+    (void)measure::plan_step(t.bounds, r);  // refuses before anything runs (and before --out is touched)
+    Progress p("measure step");
+    const measure::StepRun run = t.board ? hostlink::run_step_device(*t.board, r, p.board_options(a.restart_stage))
+                                         : measure::run_step_sim(*t.scenario, t.case_spec, r, p.sim_progress());
+    p.bar.done();
     const measure::StepFigures& f = run.figures;
     json out;
     out["mode"] = r.closed ? "closed" : "open";
@@ -106,7 +173,7 @@ int run_step(const StepArgs& a) {
                     {"reference", "um"},
                     {"command", "V at the amplifier input, after the limiter"},
                     {"response", "um, the sensor's reading / its gain, as the controller used it"}};
-    out["source"] = {{"kind", "simulator"}, {"scenario", s.name}, {"case", a.case_name}, {"rate_Hz", s.rate_Hz}};
+    out["source"] = t.source;
     out["clipped_samples"] = run.clipped_samples;
     out["limiter_trip"] = run.trip;
     out["warnings"] = run.warnings;
@@ -135,15 +202,14 @@ void add_step(CLI::App* measure) {
     CLI::App* cmd = measure->add_subcommand(
         "step", "Step response: open loop (command step, V) or closed loop (reference step, um); overshoot, "
                 "10-90 % rise and 2 % settling time (docs/measurement.md)");
-    cmd->add_option("--scenario", a->scenario, "scenario file (configs/*.json): the simulated stage")
-        ->required()
-        ->check(CLI::ExistingFile);
+    add_source_options(cmd, a->scenario, a->sample, a->restart_stage);
     cmd->add_option("--case", a->case_name, "case: its controller (closed loop) and any hysteresis override");
     cmd->add_option("--step-um", a->step_um, "closed loop: reference step (um)");
     cmd->add_option("--step-v", a->step_V, "open loop: command step (V)");
     cmd->add_option("--mode", a->mode, "open or closed (default: from the step option given)")
         ->check(CLI::IsMember({"open", "closed"}));
-    cmd->add_option("--from-um", a->from_um, "closed loop: setpoint before the step (default 10 % into the range)");
+    cmd->add_option("--from-um", a->from_um, "closed loop: setpoint before the step (default: a board's setpoint; "
+                                             "on the simulator 10 % into the range)");
     cmd->add_option("--bias-v", a->bias_V, "open loop: command before the step (default max(0, lower limit))");
     cmd->add_option("--duration-s", a->duration_s, "recorded after the step; the level before it is held as long")
         ->capture_default_str();
@@ -155,26 +221,27 @@ void add_step(CLI::App* measure) {
 // ---------------------------------------------------------------- loops
 
 struct LoopsArgs {
-    std::string scenario, case_name, out, json_out, shape = "triangle";
+    std::string scenario, case_name, sample, out, json_out, shape = "triangle";
     std::vector<double> amplitudes_V;
     double frequency_Hz = 1.0;
     std::optional<double> base_V;
     int cycles = 2;
+    bool restart_stage = false;
 };
 
 int run_loops(const LoopsArgs& a) {
-    const sim::Scenario s = sim::load_scenario(a.scenario);
-    const sim::CaseSpec* c = a.case_name.empty() ? nullptr : &s.find_case(a.case_name);
+    Target t(a.scenario, a.case_name, a.sample, a.restart_stage);
     measure::LoopsRequest r;
     r.amplitudes_V = a.amplitudes_V;
-    r.base_V = a.base_V ? *a.base_V : std::max(0.0, static_cast<double>(s.limits.u_min_V));
+    r.base_V = a.base_V ? *a.base_V : std::max(0.0, static_cast<double>(t.bounds.limits.u_min_V));
     r.frequency_Hz = a.frequency_Hz;
     r.cycles = a.cycles;
     r.shape = a.shape;
-    (void)measure::plan_loops(s, r);  // refuses before anything runs
-    const auto t0 = std::chrono::steady_clock::now();
-    bool shown = false;
-    const measure::LoopsRun run = measure::run_loops_sim(s, c, r, [&](double f) { progress_bar(f, t0, shown); });
+    (void)measure::plan_loops(t.bounds, r);  // refuses before anything runs
+    Progress p("measure loops");
+    const measure::LoopsRun run = t.board ? hostlink::run_loops_device(*t.board, r, p.board_options(a.restart_stage))
+                                          : measure::run_loops_sim(*t.scenario, t.case_spec, r, p.sim_progress());
+    p.bar.done();
     // Columns for both identifiers' defaults: identify pi reads u, y;
     // identify dahl reads v, x; t gives the sample period.
     // Written as it is formatted: a long record would double its memory as one string.
@@ -208,19 +275,20 @@ int run_loops(const LoopsArgs& a) {
         {"max_width_pct", "last cycle: the widest |y_up - y_down| at a common input / (y_max - y_min) x 100"},
         {"columns", "t (s), u = v (command, V, after the limiter), y = x (displacement read at the next tick, um), "
                     "amplitude_V (the loop the sample belongs to)"}};
-    out["source"] = {{"kind", "simulator"}, {"scenario", s.name}, {"case", a.case_name}, {"rate_Hz", s.rate_Hz}};
+    out["source"] = t.source;
     out["clipped_samples"] = run.clipped_samples;
     out["limiter_trip"] = run.trip;
     out["warnings"] = run.warnings;
-    out["log_hash"] = format::hex64(run.log_hash);
+    out["log_hash"] = run.log_hash != 0 ? json(format::hex64(run.log_hash)) : json();
     out["wall_s"] = run.wall_s;
     if (!a.json_out.empty()) write_text("--json", a.json_out, out.dump(1) + "\n");
     json summary = out;
     summary.erase("definitions");
     std::cout << summary.dump(1) << "\n";
     std::cerr << "measure loops: " << run.loops.size() << " amplitudes, " << run.y_um.size() << " samples, "
-              << format::significant(static_cast<double>(run.plan.ticks) / s.rate_Hz, 4) << " s simulated in "
-              << format::significant(run.wall_s, 3) << " s wall\n";
+              << format::significant(static_cast<double>(run.plan.ticks) / t.bounds.rate_Hz, 4)
+              << (t.board ? " s on the board in " : " s simulated in ") << format::significant(run.wall_s, 3)
+              << " s wall\n";
     return 0;
 }
 
@@ -229,9 +297,7 @@ void add_loops(CLI::App* measure) {
     CLI::App* cmd = measure->add_subcommand(
         "loops", "Open-loop hysteresis loops of several amplitudes, as the CSV identify pi / identify dahl read, "
                  "and the hysteresis of each (docs/measurement.md)");
-    cmd->add_option("--scenario", a->scenario, "scenario file (configs/*.json): the simulated stage")
-        ->required()
-        ->check(CLI::ExistingFile);
+    add_source_options(cmd, a->scenario, a->sample, a->restart_stage);
     cmd->add_option("--case", a->case_name, "case: its hysteresis override and sample type");
     cmd->add_option("--amplitudes-v", a->amplitudes_V, "peak-to-peak command of each loop above the base, V (a,b,...)")
         ->required()

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <algorithm>
 #include <stdexcept>
@@ -17,6 +18,24 @@ std::string& device_address() {
     return address;
 }
 
+namespace {
+volatile std::sig_atomic_t g_stop_requested = 0;
+extern "C" void on_stop_signal(int) { g_stop_requested = 1; }
+}  // namespace
+
+StopSignals::StopSignals() {
+    g_stop_requested = 0;
+    int_ = std::signal(SIGINT, on_stop_signal);
+    term_ = std::signal(SIGTERM, on_stop_signal);
+}
+
+StopSignals::~StopSignals() {
+    std::signal(SIGINT, int_);
+    std::signal(SIGTERM, term_);
+}
+
+bool StopSignals::requested() { return g_stop_requested != 0; }
+
 hostlink::Client open_device(int timeout_ms) {
     const std::string& a = device_address();
     if (a.empty())
@@ -29,6 +48,28 @@ hostlink::Client open_device(int timeout_ms) {
     hostlink::Client c(hostlink::open_transport(a), o);
     c.hello();
     return c;
+}
+
+bool measure_on_board(const std::string& scenario, const std::string& case_name, bool restart_stage) {
+    const bool on_board = scenario.empty();
+    if (on_board && device_address().empty())
+        throw std::invalid_argument("--scenario: give a scenario (simulator) or --device ADDR before `measure` (board)");
+    if (!on_board && !device_address().empty())
+        throw std::invalid_argument("--scenario: measures the simulator; drop it to measure the board given by --device");
+    if (on_board && !case_name.empty())
+        throw std::invalid_argument("--case: only with --scenario (a board runs its own controller)");
+    if (!on_board && restart_stage) throw std::invalid_argument("--restart-stage: only on a board (--device)");
+    return on_board;
+}
+
+const sim::CaseSpec* measured_case(const sim::Scenario& s, const std::string& case_name, const std::string& sample,
+                                   sim::CaseSpec& storage) {
+    const sim::CaseSpec* c = case_name.empty() ? nullptr : &s.find_case(case_name);
+    if (sample.empty()) return c;
+    if (sample != "float" && sample != "q31") throw std::invalid_argument("--sample: must be float or q31");
+    storage = c ? *c : sim::CaseSpec{};
+    storage.sample = sample == "q31" ? sim::SampleType::kQ31 : sim::SampleType::kFloat;
+    return &storage;
 }
 
 CaseGroups case_groups(const PipelineParams& p) {

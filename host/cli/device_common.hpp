@@ -23,6 +23,18 @@ std::string& device_address();
 // without --device, hostlink::LinkError when the board cannot be reached).
 hostlink::Client open_device(int timeout_ms = 3000);
 
+// `measure`: true for a board (--device given, no --scenario), false for the
+// simulator (--scenario, no --device); std::invalid_argument naming the
+// option otherwise, and for --case (simulator only) or --restart-stage
+// (board only) given to the other.
+bool measure_on_board(const std::string& scenario, const std::string& case_name, bool restart_stage);
+
+// `measure --scenario S [--case C] [--sample float|q31]`: the case to run
+// (null: the scenario's stage alone, float), with the core's sample type
+// overridden when `sample` is given; `storage` holds the copy that needs.
+const sim::CaseSpec* measured_case(const sim::Scenario& s, const std::string& case_name, const std::string& sample,
+                                   sim::CaseSpec& storage);
+
 // A case's controller as the link groups, in the order they are sent.
 struct CaseGroups {
     link::LimitsParams limits;
@@ -56,6 +68,21 @@ struct WaveRequest {
     uint32_t cycles = 0;
 };
 link::TrajectoryParams wave_params(const WaveRequest& w, double rate_Hz);
+
+// While one exists, SIGINT (Ctrl-C) and SIGTERM only set requested(): a
+// session polls it, stops what runs on the board and keeps what arrived.
+class StopSignals {
+public:
+    StopSignals();
+    ~StopSignals();
+    StopSignals(const StopSignals&) = delete;
+    StopSignals& operator=(const StopSignals&) = delete;
+    static bool requested();
+
+private:
+    void (*int_)(int);
+    void (*term_)(int);
+};
 
 // A progress bar on stderr when it is a terminal.
 class ProgressBar {

@@ -27,6 +27,8 @@ const char* request_name(uint8_t type) {
         case MsgType::kStreamStop: return "StreamStop";
         case MsgType::kRecorderArm: return "RecorderArm";
         case MsgType::kRecorderStop: return "RecorderStop";
+        case MsgType::kStartExcitation: return "StartExcitation";
+        case MsgType::kStopExcitation: return "StopExcitation";
         default: return "request";
     }
 }
@@ -210,6 +212,16 @@ void Client::disarm() { expect_ack(link::Disarm{}); }
 void Client::clear_trip() { expect_ack(link::ClearTrip{}); }
 void Client::stop_wave() { expect_ack(link::StopWave{}); }
 
+void Client::start_excitation(const ExcitationConfig& c, uint8_t flags) {
+    if (flags & wave_flag::kArmRecorder) log_.clear();
+    link::StartExcitation m;
+    m.flags = flags;
+    m.config = c;
+    expect_ack(m);
+}
+
+void Client::stop_excitation() { expect_ack(link::StopExcitation{}); }
+
 void Client::start_wave(uint8_t flags) {
     if (flags & wave_flag::kArmRecorder) log_.clear();
     link::StartWave m;
@@ -331,10 +343,10 @@ StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const s
 }
 
 const char* signal_name(uint8_t id) {
-    static const char* const names[] = {"r", "y", "e", "u", "u_ff", "u_fb", "u_rc"};
-    return id < 7 ? names[id] : "?";
+    return id < kSignalCount ? piezoloop::signal_name(static_cast<SignalId>(id)) : "?";
 }
 
+// d is recorded in volts: the measurements add it at the command.
 const char* signal_unit(uint8_t id) { return id <= 2 ? "um" : "V"; }
 
 double log_sample_physical(uint32_t raw, uint8_t id, link::SampleFormat format, const link::HelloReply& hello) {

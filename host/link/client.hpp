@@ -127,6 +127,10 @@ public:
     void clear_trip();
     void start_wave(uint8_t flags = 0);  // flags: wave_flag::*, sent only if non-zero
     void stop_wave();
+    // An excitation at the next tick (flags: wave_flag::*, the same bits);
+    // the board's loop rate replaces c.sample_rate_Hz.
+    void start_excitation(const ExcitationConfig& c, uint8_t flags = 0);
+    void stop_excitation();
 
     link::SetpointAck stream_start(uint16_t prefill);
     // One Setpoints block (<= 120 values) with the next block_seq.

@@ -268,8 +268,9 @@ Waveform parse_waveform(const std::string& name) {
 
 json to_json(const link::HelloReply& h) {
     json caps = json::array();
-    const char* const cap_names[] = {"float", "q31", "dahl", "repetitive", "setpoint_stream", "recorder", "wave_table"};
-    for (unsigned i = 0; i < 7; ++i)
+    const char* const cap_names[] = {"float",    "q31",        "dahl",      "repetitive", "setpoint_stream",
+                                     "recorder", "wave_table", "excitation"};
+    for (unsigned i = 0; i < std::size(cap_names); ++i)
         if (h.capabilities & (1u << i)) caps.push_back(cap_names[i]);
     return {{"protocol_version", h.protocol_version},
             {"board", h.board.data()},
@@ -289,7 +290,8 @@ json to_json(const link::HelloReply& h) {
             {"max_sos_sections", h.max_sos_sections},
             {"max_play_operators", h.max_play_operators},
             {"max_wave_table", h.max_wave_table},
-            {"rc_capacity", h.rc_capacity}};
+            {"rc_capacity", h.rc_capacity},
+            {"excitation_capacity", h.excitation_capacity}};
 }
 
 json to_json(const link::StatusReply& s) {
@@ -326,7 +328,9 @@ json to_json(const link::StatusReply& s) {
                       {"error_replies", c.error_replies}}},
             {"r_um", s.r_um},
             {"y_um", s.y_um},
-            {"u_V", s.u_V}};
+            {"u_V", s.u_V},
+            {"excitation", {{"running", s.excitation_running}, {"ticks", s.excitation_ticks},
+                            {"clipped", s.excitation_clipped}}}};
 }
 
 }  // namespace piezoloop::hostlink

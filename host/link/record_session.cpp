@@ -27,7 +27,7 @@ link::RecorderParams recorder_params(const RecordOptions& o, const link::HelloRe
     link::RecorderParams rec;
     rec.channel_count = h.recorder_channels;
     std::vector<uint8_t> ch = o.signals;
-    for (uint8_t s = 0; s < 7 && ch.size() < h.recorder_channels; ++s)
+    for (uint8_t s = 0; s < kSignalCount && ch.size() < h.recorder_channels; ++s)
         if (!has(ch, s)) ch.push_back(s);
     for (std::size_t i = 0; i < ch.size(); ++i) rec.channels[i] = ch[i];
     rec.decimation = o.decimation;
@@ -156,7 +156,9 @@ std::string RecordResult::problems() const {
 
 RecordResult record(Client& c, const RecordOptions& o) {
     if (o.signals.empty()) throw std::invalid_argument("--signals: at least one of r, y, e, u, u_ff, u_fb, u_rc");
-    if (o.restart_stage && !o.start_wave) throw std::invalid_argument("--restart-stage: only with --start-wave");
+    if (o.start_wave && o.excitation) throw std::invalid_argument("a record starts a wave or an excitation, not both");
+    if (o.restart_stage && !o.start_wave && !o.excitation)
+        throw std::invalid_argument("--restart-stage: only with --start-wave");
     const link::HelloReply h = c.info();
     RecordResult r;
     r.device = c.address();
@@ -178,7 +180,17 @@ RecordResult record(Client& c, const RecordOptions& o) {
     c.set(recorder_params(o, h));
     r.wave = c.get<link::TrajectoryParams>();
     link::StatusReply st = c.status();
-    if (o.start_wave) {
+    if (o.excitation) {
+        if (o.restart_stage && st.armed) {
+            c.disarm();
+            r.notes.push_back("disarmed to restart the loop from rest with the excitation");
+            st.armed = false;
+        }
+        uint8_t flags = wave_flag::kArmRecorder;
+        if (!st.armed) flags |= wave_flag::kArm;
+        if (o.restart_stage) flags |= wave_flag::kRestartStage;
+        c.start_excitation(*o.excitation, flags);
+    } else if (o.start_wave) {
         if (st.wave_running) c.stop_wave();
         if (o.restart_stage && st.armed) {
             c.disarm();

@@ -31,7 +31,10 @@ struct RecordOptions {
     uint32_t decimation = 1;                     // keep every N-th tick
     std::optional<link::TrajectoryParams> wave;  // set before recording (not started)
     bool start_wave = false;      // start the wave with the recorder (and the loop, if disarmed)
-    bool restart_stage = false;   // with start_wave: emulated stage and loop from rest
+    // Instead of a wave: start this excitation with the recorder (and the
+    // loop, if disarmed) at one tick; the setpoint holds.
+    std::optional<ExcitationConfig> excitation;
+    bool restart_stage = false;   // with start_wave or excitation: emulated stage and loop from rest
     double stall_s = 5.0;         // give up when no frames arrive for this long
     std::string out_csv;          // CSV file to write; empty: none
     std::function<bool()> stop_requested;      // polled while collecting (e.g. set by SIGINT)

@@ -12,7 +12,8 @@ from . import design
 from ._piezoloop import DeviceError, LinkError
 from .device import Device, Recording, connect
 from .emulate import Emulator, emulate
+from .measure import FrequencyResponse, measure_frf
 from .simulate import SimRun, sim
 
-__all__ = ["sim", "SimRun", "connect", "Device", "Recording", "emulate", "Emulator", "design",
-           "LinkError", "DeviceError"]
+__all__ = ["sim", "SimRun", "connect", "Device", "Recording", "emulate", "Emulator", "design", "measure_frf",
+           "FrequencyResponse", "LinkError", "DeviceError"]

@@ -28,6 +28,24 @@ def sim(scenario: PathLike, case: str, trajectory: str = "triangle", frequency_h
         substeps: int = 10, log_every: int = 0) -> SimRun: ...
 
 @dataclass
+class FrequencyResponse:
+    frequency_hz: np.ndarray             # the excited lines, Hz
+    response: np.ndarray                 # complex G, um/V
+    std_db: np.ndarray                   # one standard deviation of |G| in dB (nan with one period)
+    coherence: Optional[np.ndarray]      # sweep, prbs
+    sensitivity: Optional[np.ndarray]    # closed loop: complex S = U / D (T = 1 - S)
+    report: dict                         # the JSON `piezoloop measure frf --out` writes
+    @property
+    def log_hash(self) -> str: ...
+    @property
+    def warnings(self) -> list: ...
+    def save(self, path: PathLike) -> None: ...
+
+def measure_frf(scenario: PathLike, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
+                mode: str = "open", signal: str = "multisine", periods: int = 10, transient_periods: int = 1,
+                case: Optional[str] = None, sample: Optional[str] = None) -> FrequencyResponse: ...
+
+@dataclass
 class Recording:
     signals: Dict[str, np.ndarray]  # t_s and r_um, y_um, e_um, u_V, u_ff_V, u_fb_V, u_rc_V as recorded
     summary: dict                   # the JSON `piezoloop record` prints
@@ -55,6 +73,9 @@ class Device:
                amplitude_um: Optional[float] = None, offset: Optional[str] = None,
                scenario: Optional[PathLike] = None, cycles: int = 0, decimation: int = 1,
                stall_s: float = 5.0, out_csv: Optional[PathLike] = None) -> Recording: ...
+    def measure_frf(self, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
+                    mode: str = "open", signal: str = "multisine", periods: int = 10, transient_periods: int = 1,
+                    restart_stage: bool = False) -> FrequencyResponse: ...
 
 def connect(address: str, timeout_s: float = 3.0) -> Device: ...
 

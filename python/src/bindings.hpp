@@ -6,7 +6,11 @@
 
 #include <pybind11/pybind11.h>
 
+#include <string>
+
 #include <nlohmann/json.hpp>
+
+#include "measure/frf_plan.hpp"
 
 namespace piezoloop::py {
 
@@ -19,5 +23,11 @@ inline pyb::object to_python(const nlohmann::json& j) {
 void add_sim(pyb::module_& m);
 void add_design(pyb::module_& m);
 void add_device(pyb::module_& m);
+void add_measure(pyb::module_& m);
+
+// A `measure frf` request from the Python call's arguments (measure.cpp).
+measure::FrfRequest frf_request(double from_Hz, double to_Hz, double amplitude_V, double bias_V,
+                                const std::string& mode, const std::string& signal, int periods,
+                                int transient_periods);
 
 }  // namespace piezoloop::py

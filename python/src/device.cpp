@@ -13,6 +13,8 @@
 #include "bindings.hpp"
 #include "device_common.hpp"
 #include "link/client.hpp"
+#include "link/measure_session.hpp"
+#include "measure/frf_report.hpp"
 #include "link/params_json.hpp"
 #include "link/record_session.hpp"
 #include "link/transport.hpp"
@@ -151,6 +153,39 @@ public:
         return out;
     }
 
+    // `piezoloop --device measure frf`: the JSON of frf_report. Ctrl-C as in
+    // record(): the board is left clean (excitation stopped, groups put
+    // back), then KeyboardInterrupt.
+    pyb::object measure_frf(const measure::FrfRequest& r, bool restart_stage) {
+        bool interrupted = false;
+        hostlink::MeasureOptions o;
+        o.restart_stage = restart_stage;
+        o.stop_requested = [&interrupted] {
+            pyb::gil_scoped_acquire acquire;
+            if (PyErr_CheckSignals() != 0) {
+                PyErr_Clear();
+                interrupted = true;
+            }
+            return interrupted;
+        };
+        json out;
+        try {
+            pyb::gil_scoped_release release;
+            Client& c = client();
+            const hostlink::DeviceFrfRun d = hostlink::run_frf_device(c, r, o);
+            out = measure::frf_report(r, d.run, {{"kind", "board"}, {"device", c.address()},
+                                                 {"board", c.info().board.data()}});
+            out["recording"] = hostlink::recording_summary(d.record);
+        } catch (const hostlink::LinkError&) {
+            if (!interrupted) throw;
+        }
+        if (interrupted) {
+            PyErr_SetNone(PyExc_KeyboardInterrupt);
+            throw pyb::error_already_set();
+        }
+        return to_python(out);
+    }
+
 private:
     json get_group(link::ParamGroup g) {
         json out;
@@ -183,7 +218,14 @@ void add_device(pyb::module_& m) {
         .def("arm", [](Device& d) { d.simple(&Client::arm); })
         .def("disarm", [](Device& d) { d.simple(&Client::disarm); })
         .def("clear_trip", [](Device& d) { d.simple(&Client::clear_trip); })
-        .def("record", &Device::record);
+        .def("record", &Device::record)
+        .def("measure_frf",
+             [](Device& d, double from_Hz, double to_Hz, double amplitude_V, double bias_V, const std::string& mode,
+                const std::string& signal, int periods, int transient_periods, bool restart_stage) {
+                 return d.measure_frf(frf_request(from_Hz, to_Hz, amplitude_V, bias_V, mode, signal, periods,
+                                                  transient_periods),
+                                      restart_stage);
+             });
 }
 
 }  // namespace piezoloop::py

@@ -5,6 +5,7 @@
 // counted, nothing changed once it has finished).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdint>
@@ -226,6 +227,42 @@ TEST(Excitation, SweepFollowsTheLogarithmicLaw) {
     EXPECT_GT(checked, 20);
 }
 
+// Step, triangle and raised cosine against their definitions in long double:
+// w(n) = 0 / 1 at n < / >= N/2; 1 - |1 - 2n/N|; (1 - cos 2 pi n/N) / 2. The
+// generator's phase is floor(n 2^32 / N), so its error is the phase's
+// truncation (< 2^-32 of a cycle: ~1.5e-9 of the amplitude for the
+// triangle, its slope being 2) plus the sine table's 2.95e-7 and one Q31
+// step, and the step is exact.
+TEST(Excitation, StepTriangleAndRaisedCosineFollowTheirDefinitions) {
+    constexpr uint32_t N = 1000;
+    for (const ExcitationSignal sig : {ExcitationSignal::kStep, ExcitationSignal::kTriangle,
+                                       ExcitationSignal::kRaisedCosine}) {
+        ExcitationConfig c;
+        c.signal = sig;
+        c.period_samples = N;
+        c.amplitude = -2.0f;  // inverted: from the offset down
+        c.offset = 5.0f;
+        c.periods = 2;
+        c.sample_rate_Hz = 10000.0f;
+        auto g = std::make_unique<ExcitationGenerator<Q31, 4>>(SignalScale{16.0f});
+        ASSERT_TRUE(g->configure(c).ok());
+        double worst = 0.0;
+        for (uint32_t p = 0; p < 2; ++p) {
+            for (uint32_t n = 0; n < N; ++n) {
+                const long double x = static_cast<long double>(n) / N;
+                const long double w = sig == ExcitationSignal::kStep       ? (2 * n >= N ? 1.0L : 0.0L)
+                                      : sig == ExcitationSignal::kTriangle ? 1.0L - std::fabs(1.0L - 2.0L * x)
+                                                                           : 0.5L * (1.0L - std::cos(kTwoPi * x));
+                const double want = static_cast<double>(5.0L - 2.0L * w);
+                worst = std::max(worst, std::fabs(g->step().to_double() * 16.0 - want));
+            }
+        }
+        EXPECT_LT(worst, 16.0 * 4e-7) << static_cast<int>(sig);
+        EXPECT_TRUE(g->done());
+        EXPECT_NEAR(g->step().to_double() * 16.0, 5.0, 1e-8);  // back at the offset
+    }
+}
+
 TEST(Excitation, RefusesWhatItCannotGenerate) {
     ExcitationGenerator<float, 64> g;
     EXPECT_EQ(std::string(g.configure(multisine(128, 1, 10, 1.0f)).field), "period_samples");
@@ -292,24 +329,67 @@ TEST(ExcitationInPipeline, OpenLoopCommandIsBiasPlusExcitation) {
     EXPECT_EQ(pipe->tick(0.0f), 0.0f);  // back to the controller's (zero) output
 }
 
+// Within the range but faster than the slew limit: the limiter shapes d and
+// every tick it changed is counted; the output never moves faster than the
+// limit nor leaves the range.
 TEST(ExcitationInPipeline, ClippingIsCountedAndTheLimitsStillHold) {
     auto pipe = std::make_unique<Pipeline<Q31>>(open_loop_setup());
-    ASSERT_TRUE(pipe->stage(open_loop_params()).ok());
+    PipelineParams p = open_loop_params();
+    p.limits.slew_V_per_s = 2000.0f;  // 0.2 V per tick at 10 kHz
+    ASSERT_TRUE(pipe->stage(p).ok());
     pipe->arm();
     ExcitationConfig c = multisine(100, 1, 20, 4.0f);
-    c.offset = 10.0f;  // peaks at 14 V: beyond the 12 V limit
+    c.offset = 6.0f;  // 2 .. 10 V, within [-2, 12] V
     c.periods = 1;
     c.sample_rate_Hz = 10000.0f;
-    for (int i = 0; i < 10; ++i) (void)pipe->tick(Q31{});
+    for (int i = 0; i < 40; ++i) (void)pipe->tick(Q31{});  // slew up to the bias
     ASSERT_TRUE(pipe->start_excitation(c).ok());
-    uint32_t above = 0;
+    float last = pipe->last().u.to_float() * 16.0f;
+    uint32_t limited = 0;
     for (int i = 0; i < 100; ++i) {
         const float u = pipe->tick(Q31{}).to_float() * 16.0f;
         EXPECT_LE(u, 12.0f + 1e-5f);
-        if (u >= 12.0f - 1e-5f) ++above;
+        EXPECT_GE(u, -2.0f - 1e-5f);
+        EXPECT_LE(std::fabs(u - last), 0.2f + 1e-4f) << i;
+        if (std::fabs(u - last) >= 0.2f - 1e-4f) ++limited;
+        last = u;
     }
     EXPECT_GT(pipe->excitation_clipped_samples(), 0u);
-    EXPECT_GE(pipe->excitation_clipped_samples(), above);
+    EXPECT_GE(pipe->excitation_clipped_samples(), limited);
+}
+
+// A command that would leave the limits group's range is refused before it
+// starts: open loop the whole of offset +- amplitude, closed loop (a
+// feedback configured) the span of d. Nothing starts.
+TEST(ExcitationInPipeline, RefusesACommandBeyondTheLimits) {
+    auto pipe = std::make_unique<Pipeline<float>>(open_loop_setup());
+    ASSERT_TRUE(pipe->stage(open_loop_params()).ok());  // [-2, 12] V
+    ExcitationConfig c = multisine(100, 1, 20, 4.0f);
+    c.offset = 9.0f;  // 5 .. 13 V
+    Status s = pipe->start_excitation(c);
+    EXPECT_FALSE(s.ok());
+    EXPECT_STREQ(s.field, "amplitude");
+    EXPECT_FALSE(pipe->excitation_running());
+    c.offset = 8.0f;  // 4 .. 12 V
+    EXPECT_TRUE(pipe->start_excitation(c).ok());
+    pipe->stop_excitation();
+    (void)pipe->tick(0.0f);
+
+    // Closed loop: d alone may be bipolar, but not wider than the range.
+    PipelineParams p = open_loop_params();
+    p.feedback = FeedbackKind::kPid;
+    p.pid.kp = 0.1f;
+    p.pid.derivative_cutoff_Hz = 1000.0f;
+    p.pid.u_min = -2.0f;
+    p.pid.u_max = 12.0f;
+    ASSERT_TRUE(pipe->stage(p).ok());
+    c.offset = 0.0f;
+    c.amplitude = 7.0f;  // span 14 V = the range
+    EXPECT_TRUE(pipe->start_excitation(c).ok());
+    pipe->stop_excitation();
+    (void)pipe->tick(0.0f);
+    c.amplitude = 7.5f;
+    EXPECT_FALSE(pipe->start_excitation(c).ok());
 }
 
 TEST(ExcitationInPipeline, ReferencePointAddsToTheSetpointAndStops) {

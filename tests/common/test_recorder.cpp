@@ -49,7 +49,8 @@ std::vector<typename R::Frame> drain(R& rec) {
 TEST(Recorder, SignalNames) {
     EXPECT_STREQ(piezoloop::signal_name(SignalId::kR), "r");
     EXPECT_STREQ(piezoloop::signal_name(SignalId::kUrc), "u_rc");
-    EXPECT_EQ(kSig, 7u);
+    EXPECT_STREQ(piezoloop::signal_name(SignalId::kD), "d");
+    EXPECT_EQ(kSig, 8u);
 }
 
 TEST(Recorder, ImmediateSingleShotWithSelectionAndDecimation) {
@@ -267,7 +268,7 @@ TEST(Recorder, ValidationKeepsTheOldConfiguration) {
     struct Case { piezoloop::RecorderConfig<2> c; const char* field; };
     std::vector<Case> cases;
     auto with = [&](auto edit, const char* field) { auto c = good; edit(c); cases.push_back({c, field}); };
-    with([](auto& c) { c.channels[1] = 7; }, "channels");
+    with([](auto& c) { c.channels[1] = 8; }, "channels");
     with([](auto& c) { c.decimation = 0; }, "decimation");
     with([](auto& c) { c.trigger_signal = 9; }, "trigger_signal");
     with([](auto& c) { c.pre_trigger = 1; }, "pre_trigger");  // with an immediate trigger

@@ -91,6 +91,16 @@ int main(int argc, char** argv) {
     write("stream_stop", frame(StreamStop{true}));
     write("recorder_arm", frame(RecorderArm{}));
     write("recorder_stop", frame(RecorderStop{}));
+    StartExcitation exc;
+    exc.flags = StartExcitation::kArmLoop | StartExcitation::kArmRecorder;
+    exc.config.period_samples = 64;
+    exc.config.first_bin = 1;
+    exc.config.last_bin = 20;
+    exc.config.amplitude = 0.5f;
+    exc.config.offset = 1.0f;
+    exc.config.periods = 2;
+    write("start_excitation", frame(exc));
+    write("stop_excitation", frame(StopExcitation{}));
     // Device-to-host types sent to the device: unknown there.
     write("ack", frame(Ack{1}));
     write("log_block", frame(LogBlock{}));

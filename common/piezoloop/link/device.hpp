@@ -47,13 +47,13 @@ struct DeviceHooks {
 };
 
 template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024,
-          std::size_t SetpointCapacity = 1024>
+          std::size_t SetpointCapacity = 1024, std::size_t ExcCapacity = 1024>
 class Device {
     static_assert(is_sample_type_v<T>, "Device<T>: T is float or Q31");
     static constexpr bool kFloat = std::is_same_v<T, float>;
 
 public:
-    using PipelineType = Pipeline<T, RcCapacity, RecChannels, RecCapacity>;
+    using PipelineType = Pipeline<T, RcCapacity, RecChannels, RecCapacity, ExcCapacity>;
     using RecorderType = typename PipelineType::RecorderType;
     using LogStreamType = LogStream<T, RecorderType, RecChannels>;
     static constexpr std::size_t kFramesPerBlock = LogStreamType::kFramesPerBlock;
@@ -128,6 +128,13 @@ public:
                 return ack(h, send);
             }
             case MsgType::kStartWave: start_wave(h, body, send); return;
+            case MsgType::kStartExcitation: start_excitation(h, body, send); return;
+            case MsgType::kStopExcitation: {
+                StopExcitation m;
+                if (!decode(h, body, m, send)) return;
+                pipeline_.stop_excitation();
+                return ack(h, send);
+            }
             case MsgType::kStopWave: {
                 StopWave m;
                 if (!decode(h, body, m, send)) return;
@@ -224,7 +231,7 @@ public:
         const PipelineSetup& s = pipeline_.setup();
         r.loop_rate_Hz = s.rate_Hz;
         r.capabilities = (kFloat ? cap::kFloat : cap::kQ31) | cap::kDahl | cap::kRepetitive | cap::kSetpointStream |
-                         cap::kRecorder | cap::kWaveTable;
+                         cap::kRecorder | cap::kWaveTable | cap::kExcitation;
         r.sample_format = kFloat ? SampleFormat::kFloat32 : SampleFormat::kQ31;
         r.hard_u_min_V = s.hard.u_min_V;
         r.hard_u_max_V = s.hard.u_max_V;
@@ -235,6 +242,7 @@ public:
         r.recorder_channels = static_cast<uint8_t>(RecChannels);
         r.recorder_capacity = static_cast<uint32_t>(RecCapacity);
         r.rc_capacity = static_cast<uint32_t>(RcCapacity);
+        r.excitation_capacity = static_cast<uint32_t>(ExcCapacity);
         return r;
     }
 
@@ -262,6 +270,9 @@ public:
         r.r_um = s.position.to_physical(last.r);
         r.y_um = s.position.to_physical(last.y);
         r.u_V = s.voltage.to_physical(last.u);
+        r.excitation_running = pipeline_.excitation_running();
+        r.excitation_ticks = pipeline_.excitation_ticks();
+        r.excitation_clipped = pipeline_.excitation_clipped_samples();
         uint32_t f = 0;
         if (lim.trip_reason() == TripReason::kInvalidHardLimits) f |= fault::kHardLimitsInvalid;
         if (tick_stats_.overruns != 0) f |= fault::kTickOverrun;
@@ -298,7 +309,7 @@ private:
         if (stream_.open()) {
             if (stream_.draining()) return;  // the client said it is done
             since = stream_fed_tick_;
-        } else if (pipeline_.wave_running()) {
+        } else if (pipeline_.wave_running() || pipeline_.excitation_running()) {
             since = last_frame_tick_;
         } else {
             client_bound_ = false;  // ended on its own
@@ -308,6 +319,7 @@ private:
         if (timeout == 0 || now - since < timeout) return;
         stream_.stop(false);
         pipeline_.stop_wave();
+        pipeline_.stop_excitation();
         if (policy_.link().on_client_loss == params::ClientLossAction::kDisarm) pipeline_.disarm();
         client_bound_ = false;
         client_lost_ = true;
@@ -400,6 +412,55 @@ private:
         mask(false);
         if ((f & StartWave::kArmRecorder) != 0) log_.restart();
         bind_client((f & StartWave::kDetached) == 0);
+        ack(h, send);
+    }
+
+    // StartExcitation: as StartWave, with the excitation in place of the
+    // wave (the setpoint holds). The core checks the configuration and, at
+    // the command, that d fits the limits (Pipeline::start_excitation).
+    template <class Send>
+    void start_excitation(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
+        StartExcitation m;
+        if (!decode(h, body, m, send)) return;
+        const uint8_t f = m.flags;
+        if ((f & ~StartExcitation::kKnownFlags) != 0) {
+            LinkCounters::inc(counters().bad_value);
+            return fail(h, ErrorCode::kMalformed,
+                        error("flags", "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage, bit3 detached"),
+                        send);
+        }
+        if ((f & StartExcitation::kRestartStage) != 0 && hooks_.restart_stage == nullptr)
+            return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): this device has no emulated stage"), send);
+        if (pipeline_.excitation_running())
+            return fail(h, ErrorCode::kBusy, in_group("excitation", error("signal", "an excitation is running: stop it first")), send);
+        if ((f & StartExcitation::kArmLoop) != 0) {
+            if (pipeline_.limiter().tripped())
+                return fail(h, ErrorCode::kTripped,
+                            in_group("limits", error("trip", trip_reason_name(pipeline_.limiter().trip_reason()))), send);
+            if (pipeline_.armed())
+                return fail(h, ErrorCode::kArmed, error("flags", "arm loop (bit0): the loop is armed; disarm first"), send);
+        } else if (!pipeline_.armed()) {
+            return fail(h, ErrorCode::kNotConfigured, error("flags", "the loop is disarmed: d is applied only while armed (bit0)"), send);
+        }
+        if ((f & StartExcitation::kArmRecorder) != 0 && !pipeline_.recorder().configured())
+            return fail(h, ErrorCode::kNotConfigured, in_group("recorder", error("channels", "set the recorder group first")), send);
+        ExcitationConfig c = m.config;
+        c.sample_rate_Hz = pipeline_.setup().rate_Hz;
+        // Configured (a multisine tabulated) with the tick running: only
+        // the start itself is in the masked section.
+        if (const Status s = pipeline_.prepare_excitation(c); !s.ok())
+            return fail(h, ErrorCode::kInvalidParam, s, send);
+        mask(true);
+        if ((f & StartExcitation::kRestartStage) != 0 && !hooks_.restart_stage()) {
+            mask(false);
+            return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): the stage could not restart"), send);
+        }
+        pipeline_.run_excitation();
+        if ((f & StartExcitation::kArmLoop) != 0) pipeline_.arm();
+        if ((f & StartExcitation::kArmRecorder) != 0) (void)pipeline_.recorder().arm();  // configured: cannot fail
+        mask(false);
+        if ((f & StartExcitation::kArmRecorder) != 0) log_.restart();
+        bind_client((f & StartExcitation::kDetached) == 0);
         ack(h, send);
     }
 

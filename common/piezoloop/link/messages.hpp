@@ -37,7 +37,9 @@ namespace piezoloop::link {
 // the reply) and refuses every other message whose header version differs.
 // Version 2: HelloReply's serial grew from 24 to 32 bytes (the STM32's
 // 24-hex-digit unique ID plus the terminating zero did not fit).
-inline constexpr uint8_t kProtocolVersion = 2;
+// Version 3: StartExcitation / StopExcitation; HelloReply ends with the
+// excitation capacity, StatusReply with the excitation's state.
+inline constexpr uint8_t kProtocolVersion = 3;
 
 enum class MsgType : uint8_t {
     // Requests, host -> device.
@@ -55,6 +57,8 @@ enum class MsgType : uint8_t {
     kStreamStop = 0x0C,
     kRecorderArm = 0x0D,
     kRecorderStop = 0x0E,
+    kStartExcitation = 0x0F,
+    kStopExcitation = 0x10,
     // Replies, device -> host, with the request's sequence id.
     kAck = 0x80,
     kHelloReply = 0x81,
@@ -112,6 +116,7 @@ inline constexpr uint32_t kRepetitive = 1u << 3;
 inline constexpr uint32_t kSetpointStream = 1u << 4;
 inline constexpr uint32_t kRecorder = 1u << 5;
 inline constexpr uint32_t kWaveTable = 1u << 6;       // kSteps / kTable waveforms
+inline constexpr uint32_t kExcitation = 1u << 7;      // StartExcitation / StopExcitation, signal d
 }  // namespace cap
 
 enum class SampleFormat : uint8_t { kFloat32 = 0, kQ31 = 1 };
@@ -163,6 +168,7 @@ using ClearTrip = EmptyMessage<MsgType::kClearTrip>;
 using StopWave = EmptyMessage<MsgType::kStopWave>;
 using RecorderArm = EmptyMessage<MsgType::kRecorderArm>;
 using RecorderStop = EmptyMessage<MsgType::kRecorderStop>;
+using StopExcitation = EmptyMessage<MsgType::kStopExcitation>;
 
 // Runs the trajectory group's wave. The body is optional (empty = flags 0,
 // as in the first clients): flags make the wave's first sample, the loop's
@@ -190,6 +196,47 @@ struct StartWave {
         Reader probe = r;
         if (probe.u8() == 0) return;
         flags = r.u8();
+    }
+};
+
+// Starts an excitation (excitation.hpp) at the next tick: a signal d added
+// at the command or the reference, for measurements (`piezoloop measure`).
+// The flags work as StartWave's: the excitation's first sample, the loop's
+// arm, the recorder's arm and the emulated stage's restart happen at one
+// tick boundary, so the first recorded frame is the excitation's sample 0.
+// The sample rate is the device's loop rate.
+struct StartExcitation {
+    static constexpr MsgType kType = MsgType::kStartExcitation;
+    static constexpr uint8_t kArmLoop = StartWave::kArmLoop;
+    static constexpr uint8_t kArmRecorder = StartWave::kArmRecorder;
+    static constexpr uint8_t kRestartStage = StartWave::kRestartStage;
+    static constexpr uint8_t kDetached = StartWave::kDetached;
+    static constexpr uint8_t kKnownFlags = StartWave::kKnownFlags;
+    uint8_t flags = 0;
+    ExcitationConfig config{};  // sample_rate_Hz is not sent
+    bool operator==(const StartExcitation& o) const {
+        const ExcitationConfig &a = config, &b = o.config;
+        return flags == o.flags && a.signal == b.signal && a.point == b.point && a.amplitude == b.amplitude &&
+               a.offset == b.offset && a.period_samples == b.period_samples && a.first_bin == b.first_bin &&
+               a.last_bin == b.last_bin && a.f1_Hz == b.f1_Hz && a.f2_Hz == b.f2_Hz &&
+               a.prbs_order == b.prbs_order && a.prbs_hold == b.prbs_hold && a.periods == b.periods;
+    }
+    void write(Writer& w) const {
+        const ExcitationConfig& c = config;
+        w.u8(flags); w.u8(static_cast<uint8_t>(c.signal)); w.u8(static_cast<uint8_t>(c.point));
+        w.f32(c.amplitude); w.f32(c.offset);
+        w.u32(c.period_samples); w.u32(c.first_bin); w.u32(c.last_bin);
+        w.f32(c.f1_Hz); w.f32(c.f2_Hz);
+        w.u8(static_cast<uint8_t>(c.prbs_order)); w.u32(c.prbs_hold); w.u32(c.periods);
+    }
+    void read(Reader& r) {
+        ExcitationConfig& c = config;
+        flags = r.u8(); c.signal = static_cast<ExcitationSignal>(r.u8()); c.point = static_cast<ExcitationPoint>(r.u8());
+        c.amplitude = r.f32(); c.offset = r.f32();
+        c.period_samples = r.u32(); c.first_bin = r.u32(); c.last_bin = r.u32();
+        c.f1_Hz = r.f32(); c.f2_Hz = r.f32();
+        c.prbs_order = r.u8(); c.prbs_hold = r.u32(); c.periods = r.u32();
+        if (c.point != ExcitationPoint::kCommand && c.point != ExcitationPoint::kReference) r.mark_bad();
     }
 };
 
@@ -346,6 +393,7 @@ struct HelloReply {
     uint8_t max_play_operators = kMaxPlayOperators;
     uint16_t max_wave_table = static_cast<uint16_t>(kMaxWaveTable);
     uint32_t rc_capacity = 0;  // largest RC period, samples
+    uint32_t excitation_capacity = 0;  // longest multisine period, samples
     bool operator==(const HelloReply&) const = default;
 
     void write(Writer& w) const {
@@ -356,6 +404,7 @@ struct HelloReply {
         w.f32(position_full_scale_um); w.f32(voltage_full_scale_V);
         w.u16(max_payload); w.u16(setpoint_capacity); w.u8(recorder_channels); w.u32(recorder_capacity);
         w.u8(max_sos_sections); w.u8(max_play_operators); w.u16(max_wave_table); w.u32(rc_capacity);
+        w.u32(excitation_capacity);
     }
     void read(Reader& r) {
         protocol_version = r.u8();
@@ -366,6 +415,7 @@ struct HelloReply {
         position_full_scale_um = r.f32(); voltage_full_scale_V = r.f32();
         max_payload = r.u16(); setpoint_capacity = r.u16(); recorder_channels = r.u8(); recorder_capacity = r.u32();
         max_sos_sections = r.u8(); max_play_operators = r.u8(); max_wave_table = r.u16(); rc_capacity = r.u32();
+        excitation_capacity = r.u32();
     }
 };
 
@@ -411,6 +461,11 @@ struct StatusReply {
     uint32_t log_blocks = 0;  // log blocks sent since recorder arm
     LinkCounters link{};
     float r_um = 0.0f, y_um = 0.0f, u_V = 0.0f;  // last tick's signals
+    // The excitation (StartExcitation): running, ticks it ran, and of those
+    // the ticks the limiter clamped or slew-limited.
+    bool excitation_running = false;
+    uint32_t excitation_ticks = 0;
+    uint32_t excitation_clipped = 0;
     bool operator==(const StatusReply&) const = default;
 
     void write(Writer& w) const {
@@ -425,6 +480,7 @@ struct StatusReply {
         w.u32(link.unknown_type); w.u32(link.bad_version); w.u32(link.bad_length); w.u32(link.bad_value);
         w.u32(link.error_replies);
         w.f32(r_um); w.f32(y_um); w.f32(u_V);
+        w.boolean(excitation_running); w.u32(excitation_ticks); w.u32(excitation_clipped);
     }
     void read(Reader& r) {
         armed = r.boolean(); tripped = r.boolean(); trip_reason = static_cast<TripReason>(r.u8());
@@ -438,6 +494,7 @@ struct StatusReply {
         link.unknown_type = r.u32(); link.bad_version = r.u32(); link.bad_length = r.u32(); link.bad_value = r.u32();
         link.error_replies = r.u32();
         r_um = r.f32(); y_um = r.f32(); u_V = r.f32();
+        excitation_running = r.boolean(); excitation_ticks = r.u32(); excitation_clipped = r.u32();
     }
 };
 

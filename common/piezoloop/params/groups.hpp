@@ -63,7 +63,7 @@ inline constexpr const char* kFeedbackKindNames[] = {"none", "sos", "pid"};
 inline constexpr const char* kWaveformNames[] = {"sine", "triangle", "raster", "square", "steps", "table"};
 inline constexpr const char* kRecordModeNames[] = {"single_shot", "continuous"};
 inline constexpr const char* kTriggerModeNames[] = {"immediate", "rising", "falling"};
-inline constexpr const char* kSignalNames[] = {"r", "y", "e", "u", "u_ff", "u_fb", "u_rc"};
+inline constexpr const char* kSignalNames[] = {"r", "y", "e", "u", "u_ff", "u_fb", "u_rc", "d"};
 inline constexpr const char* kClientLossNames[] = {"hold", "disarm"};
 static_assert(std::size(kSignalNames) == kSignalCount);
 static_assert(std::size(kWaveformNames) == static_cast<std::size_t>(Waveform::kTable) + 1);

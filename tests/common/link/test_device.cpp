@@ -291,7 +291,7 @@ TYPED_TEST(LinkDevice, UnknownVersionAndMalformedRequestsGetErrorsAndAreCounted)
     const auto before = this->snapshot();
     std::vector<uint8_t> f(kMaxFrameSize);
 
-    for (const uint8_t type : {uint8_t{0x00}, uint8_t{0x0F}, uint8_t{0x42}, uint8_t{0x80}, uint8_t{0xC0}, uint8_t{0xFF}}) {
+    for (const uint8_t type : {uint8_t{0x00}, uint8_t{0x3F}, uint8_t{0x42}, uint8_t{0x80}, uint8_t{0xC0}, uint8_t{0xFF}}) {
         const std::size_t n = encode_frame(type, kProtocolVersion, 77, {}, f);
         const auto rs = r_.send_bytes(std::span<const uint8_t>(f.data(), n));
         ASSERT_EQ(rs.size(), 1u);
@@ -519,9 +519,10 @@ TYPED_TEST(LinkDevice, HostileStreamIsCountedAndTheDeviceKeepsRunning) {
             const MsgType mt = static_cast<MsgType>(type);
             if (mt == MsgType::kArm || mt == MsgType::kDisarm || mt == MsgType::kClearTrip || mt == MsgType::kStartWave ||
                 mt == MsgType::kStopWave || mt == MsgType::kRecorderArm || mt == MsgType::kRecorderStop ||
-                mt == MsgType::kStreamStart || mt == MsgType::kStreamStop) {
+                mt == MsgType::kStreamStart || mt == MsgType::kStreamStop || mt == MsgType::kStopExcitation) {
                 if (body.size() < 3) body.resize(3, 0xEE);
             }
+            if (mt == MsgType::kStartExcitation && body.size() == 45) body.push_back(0xEE);
             const std::size_t n = encode_frame(type, rng() % 16 == 0 ? 3 : kProtocolVersion, static_cast<uint16_t>(i), body, f);
             stream.assign(f.begin(), f.begin() + static_cast<long>(n));
             if (kind == 2) {
@@ -757,6 +758,81 @@ TYPED_TEST(LinkStartWaveFlags, RefusalsStartNothing) {
     EXPECT_EQ(r_.request(StartWave{StartWave::kArmRecorder}).type(), MsgType::kAck);
     EXPECT_TRUE(r_.pipeline->wave_running());
     EXPECT_EQ(r_.pipeline->recorder().state(), RecorderState::kArmed);
+}
+
+// A StartExcitation whose point byte (offset 2) is 7: beyond the enumeration.
+struct StartExcitationBadPoint {
+    static constexpr MsgType kType = MsgType::kStartExcitation;
+    StartExcitation m;
+    void write(Writer& w) const {
+        std::array<uint8_t, kMaxBody> body{};
+        Writer inner(body);
+        m.write(inner);
+        body[2] = 7;
+        for (std::size_t i = 0; i < inner.size(); ++i) w.u8(body[i]);
+    }
+};
+
+// StartExcitation: refused requests start nothing (disarmed without the arm
+// flag, a malformed point, a command beyond the limits, a second one), an
+// accepted one arms the loop and the recorder at one tick, d is recorded as
+// signal 7, the status counts its ticks, and StopExcitation ends it.
+TYPED_TEST(LinkStartWaveFlags, StartExcitationChecksThenRunsAndStops) {
+    using T = TypeParam;
+    auto& r_ = this->rig;
+    this->configure_reference();
+    // Open loop: no feedforward, no feedback (the reference limits stay).
+    ASSERT_EQ(r_.set(FeedforwardParams{}).type(), MsgType::kAck);
+    r_.tick();
+    ASSERT_EQ(r_.set(FeedbackParams{}).type(), MsgType::kAck);
+    RecorderParams rp = this->recorder();
+    rp.channels = {signal_index(SignalId::kR), signal_index(SignalId::kY), signal_index(SignalId::kU),
+                   signal_index(SignalId::kD)};
+    ASSERT_EQ(r_.set(rp).type(), MsgType::kAck);
+    r_.tick();
+    const LimitsConfig lim = r_.pipeline->params().limits;
+    StartExcitation m;
+    m.config.signal = ExcitationSignal::kTriangle;
+    m.config.period_samples = 100;
+    m.config.periods = 2;
+    m.config.offset = lim.u_min_V;
+    m.config.amplitude = lim.u_max_V - lim.u_min_V;  // the whole range: allowed
+    this->expect_error(r_.request(m), ErrorCode::kNotConfigured, nullptr, "flags");  // disarmed, no arm flag
+    StartExcitation beyond = m;
+    beyond.flags = StartExcitation::kArmLoop;
+    beyond.config.amplitude *= 1.01f;
+    this->expect_error(r_.request(beyond), ErrorCode::kInvalidParam, "excitation", "amplitude");
+    this->expect_nothing_started();
+    EXPECT_FALSE(r_.pipeline->excitation_running());
+    // A point value beyond the enumeration is malformed, counted.
+    const uint32_t bad_before = r_.device->counters().bad_value;
+    this->expect_error(r_.request(StartExcitationBadPoint{m}), ErrorCode::kMalformed, nullptr, "body");
+    EXPECT_EQ(r_.device->counters().bad_value, bad_before + 1);
+
+    m.flags = StartExcitation::kArmLoop | StartExcitation::kArmRecorder | StartExcitation::kRestartStage;
+    const uint32_t start_tick = r_.pipeline->tick_count();
+    ASSERT_EQ(r_.request(m).type(), MsgType::kAck);
+    EXPECT_TRUE(r_.pipeline->armed());
+    EXPECT_TRUE(r_.pipeline->excitation_running());
+    this->expect_error(r_.request(m), ErrorCode::kBusy, "excitation", "signal");
+    r_.tick(50);
+    StatusReply st = r_.request(GetStatus{}).template as<StatusReply>();
+    EXPECT_TRUE(st.excitation_running);
+    EXPECT_EQ(st.excitation_ticks, 50u);
+    // d is recorded: the first frame is the excitation's sample 0 (the offset).
+    r_.replies.clear();
+    while (r_.device->poll_log(r_.sink())) {}
+    ASSERT_FALSE(r_.replies.empty());
+    const LogBlock b = r_.replies[0].template as<LogBlock>();
+    EXPECT_EQ(b.first_tick, start_tick);
+    EXPECT_EQ(b.channels[3], signal_index(SignalId::kD));
+    const T d0 = std::bit_cast<T>(b.samples[3]);
+    EXPECT_EQ(r_.pipeline->setup().voltage.to_physical(d0), lim.u_min_V);
+    EXPECT_EQ(r_.request(StopExcitation{}).type(), MsgType::kAck);
+    r_.tick();
+    st = r_.request(GetStatus{}).template as<StatusReply>();
+    EXPECT_FALSE(st.excitation_running);
+    EXPECT_EQ(st.excitation_ticks, 51u);
 }
 
 TYPED_TEST(LinkDevice, RestartFlagWithoutAStageIsUnsupported) {

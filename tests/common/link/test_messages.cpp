@@ -124,6 +124,15 @@ TEST(LinkMessages, RoundTripEveryMessage) {
     for (int t = 0; t < 300; ++t) {
         check(Hello{}); check(GetStatus{}); check(Arm{}); check(Disarm{}); check(ClearTrip{});
         check(StartWave{}); check(StopWave{}); check(RecorderArm{}); check(RecorderStop{});
+        check(StopExcitation{});
+        StartExcitation x;
+        x.flags = r8(); x.config.signal = static_cast<ExcitationSignal>(r8());
+        x.config.point = static_cast<ExcitationPoint>(r8() % 2);
+        x.config.amplitude = rf(); x.config.offset = rf();
+        x.config.period_samples = r32(); x.config.first_bin = r32(); x.config.last_bin = r32();
+        x.config.f1_Hz = rf(); x.config.f2_Hz = rf();
+        x.config.prbs_order = r8(); x.config.prbs_hold = r32(); x.config.periods = r32();
+        check(x);
         check(GetParams{static_cast<ParamGroup>(1 + r8() % 6)});
         check(SetParams<FeedforwardParams>{random_ff()});
         check(ParamsReply<FeedforwardParams>{random_ff()});
@@ -156,7 +165,7 @@ TEST(LinkMessages, RoundTripEveryMessage) {
         h.hard_u_min_V = rf(); h.hard_u_max_V = rf(); h.hard_slew_max_V_per_s = rf();
         h.position_full_scale_um = rf(); h.voltage_full_scale_V = rf();
         h.setpoint_capacity = static_cast<uint16_t>(r32()); h.recorder_channels = r8(); h.recorder_capacity = r32();
-        h.rc_capacity = r32();
+        h.rc_capacity = r32(); h.excitation_capacity = r32();
         check(h);
         StatusReply s;
         s.armed = r32() % 2; s.tripped = r32() % 2; s.trip_reason = static_cast<TripReason>(r8() % 6);
@@ -168,6 +177,7 @@ TEST(LinkMessages, RoundTripEveryMessage) {
         s.recorder_overruns = r32(); s.log_blocks = r32();
         s.link = LinkCounters{r32(), r32(), r32(), r32(), r32(), r32(), r32(), r32(), r32(), r32()};
         s.r_um = rf(); s.y_um = rf(); s.u_V = rf();
+        s.excitation_running = r32() % 2; s.excitation_ticks = r32(); s.excitation_clipped = r32();
         check(s);
         LogBlock b;
         b.block_seq = r32(); b.first_tick = r32(); b.tick_stride = r32(); b.recorder_overruns = r32();
@@ -197,6 +207,7 @@ TEST(LinkMessages, LargestMessagesFitTheFrame) {
     EXPECT_GT(encode_message(StatusReply{}, 1, f), 0u);
     EXPECT_GT(encode_message(HelloReply{}, 1, f), 0u);
     EXPECT_GT(encode_message(ErrorReply{}, 1, f), 0u);
+    EXPECT_GT(encode_message(StartExcitation{}, 1, f), 0u);
     for (std::size_t ch = 1; ch <= kMaxLogChannels; ++ch) {
         LogBlock b;
         b.channel_count = static_cast<uint8_t>(ch);

@@ -135,8 +135,10 @@ if res.returncode == 0:
     check("no warnings", not summary["warnings"], str(summary["warnings"]))
     cycle = 5000  # 2 Hz at 10 kHz
     for i, loop in enumerate(summary["loops"]):
-        end = (i + 1) * 2 * cycle
-        lu, ly = u[end - cycle:end], y[end - cycle:end]
+        # The amplitude's rows pair u_k with y_k+1 within its own recording,
+        # so its last cycle is its last cycle - 1 rows.
+        rows = np.nonzero(data["amplitude_V"] == amplitudes[i])[0]
+        lu, ly = u[rows][-(cycle - 1):], y[rows][-(cycle - 1):]
         vm = 0.5 * (lu.min() + lu.max())
         up = next(k for k in range(len(lu) - 1) if lu[k] < vm <= lu[k + 1])
         dn = next(k for k in range(len(lu) - 1) if lu[k] > vm >= lu[k + 1])

@@ -103,7 +103,9 @@ TEST(Mixsyn, Ahmad2020IllScaled) { check_against_octave("ahmad2020_G"); }
 
 // With the published H_y (0.44 at DC, 1e8 at ∞) the Riccati data lose the
 // weight's DC part to rounding: Octave returns no admissible controller,
-// and ours refuses rather than return a controller that misses its γ.
+// and ours refuses rather than return a controller that misses its γ. Which
+// test refuses first (the conditioning check, or X∞ ≥ 0 failing at every γ)
+// depends on that rounding, i.e. on the last bits of libm and LAPACK.
 TEST(Mixsyn, Ahmad2020PublishedHyRefused) {
     const json& p = problem("ahmad2020_G_published_Hy");
     EXPECT_TRUE(p["octave_gamma"].is_null());
@@ -111,7 +113,10 @@ TEST(Mixsyn, Ahmad2020PublishedHyRefused) {
         solve(p);
         FAIL() << "no error";
     } catch (const SynthesisError& e) {
-        EXPECT_NE(std::string(e.what()).find("too ill-conditioned"), std::string::npos) << e.what();
+        const std::string what = e.what();
+        EXPECT_TRUE(what.find("too ill-conditioned") != std::string::npos ||
+                    what.find("no γ in the search interval") != std::string::npos)
+            << what;
     }
 }
 

@@ -1,0 +1,157 @@
+#include "measure/frf_plan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "format/number.hpp"
+
+namespace piezoloop::measure {
+
+namespace {
+
+std::string num(double x) { return format::significant(x, 6); }
+
+[[noreturn]] void refuse(const std::string& option, const std::string& why) {
+    throw std::invalid_argument(option + ": " + why);
+}
+
+// The measured part of a recording, in its own estimate: the periodic one
+// for a multisine, H1 for a sweep or a PRBS.
+WelchEstimate estimate(const FrfRequest& r, const FrfPlan& plan, const std::vector<double>& in,
+                       const std::vector<double>& out) {
+    if (plan.signal == "multisine") {
+        WelchEstimate w;
+        static_cast<FrfEstimate&>(w) = estimate_multisine(in, out, plan.layout);
+        return w;
+    }
+    return estimate_h1(in, out, plan.layout.rate_Hz, plan.segment_samples, r.from_Hz, r.to_Hz);
+}
+
+}  // namespace
+
+FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const FrfRequest& r,
+                 const std::string& whose) {
+    const double nyq = 0.5 * rate;
+    if (!std::isfinite(r.from_Hz) || !(r.from_Hz > 0.0)) refuse("--from-hz", "must be > 0 Hz");
+    if (!std::isfinite(r.to_Hz) || !(r.to_Hz < nyq))
+        refuse("--to-hz", "must be below the Nyquist frequency, rate / 2 = " + num(nyq) + " Hz");
+    if (!(r.from_Hz < r.to_Hz)) refuse("--from-hz", "must be below --to-hz (" + num(r.to_Hz) + " Hz)");
+    const double lowest = rate / capacity;
+    if (r.signal == "multisine" && r.from_Hz < lowest)
+        refuse("--from-hz", "must be >= rate / " + std::to_string(capacity) + " = " + num(lowest) +
+                                " Hz (one period of the multisine is tabulated; a sweep or a PRBS goes lower)");
+    if (r.periods < 1 || r.periods > 10000) refuse("--periods", "must be in [1, 10000]");
+    if (r.transient_periods < 0 || r.transient_periods > 100) refuse("--transient-periods", "must be in [0, 100]");
+    if (!std::isfinite(r.amplitude_V) || !(r.amplitude_V > 0.0))
+        refuse("--amplitude-v", "must be > 0 V");
+    if (!std::isfinite(r.bias_V)) refuse("--bias-v", "must be finite");
+    if (!r.closed) {
+        if (r.bias_V < lim.u_min_V || r.bias_V > lim.u_max_V)
+            refuse("--bias-v", "must be within the " + whose + " limits [" + num(lim.u_min_V) + ", " +
+                                   num(lim.u_max_V) + "] V");
+        const double room = std::min(lim.u_max_V - r.bias_V, r.bias_V - lim.u_min_V);
+        if (r.amplitude_V > room)
+            refuse("--amplitude-v", "bias " + num(r.bias_V) + " V +- amplitude must stay within the " + whose + " limits [" +
+                                        num(lim.u_min_V) + ", " + num(lim.u_max_V) + "] V: at most " + num(room) +
+                                        " V at this bias");
+    } else if (r.amplitude_V > 0.5 * (lim.u_max_V - lim.u_min_V)) {
+        refuse("--amplitude-v", "must be at most half the " + whose + " range [" + num(lim.u_min_V) + ", " +
+                                    num(lim.u_max_V) + "] V");
+    }
+    FrfPlan p;
+    p.signal = r.signal;
+    p.layout.rate_Hz = rate;
+    if (r.signal == "sweep" || r.signal == "prbs") {
+        uint32_t seg = 8;
+        while (seg < rate / r.from_Hz - 1e-9) seg *= 2;
+        if (r.to_Hz < rate / seg)
+            refuse("--to-hz", "no FFT bin between --from-hz and --to-hz at a resolution of " + num(rate / seg) + " Hz");
+        p.segment_samples = seg;
+        if (r.signal == "sweep") {
+            p.period_samples = 4 * seg;
+        } else {
+            p.prbs_hold = std::max<uint32_t>(1, static_cast<uint32_t>(std::floor(0.4 * rate / r.to_Hz)));
+            uint32_t order = 2;
+            while (((uint64_t{1} << order) - 1) * p.prbs_hold < seg) ++order;
+            if (order > 24) refuse("--from-hz", "too low for a PRBS of order <= 24 at this rate and --to-hz");
+            p.prbs_order = order;
+            p.period_samples = static_cast<uint32_t>(((uint64_t{1} << order) - 1) * p.prbs_hold);
+        }
+        p.measured_start = uint64_t{p.period_samples} * static_cast<uint64_t>(r.transient_periods);
+        p.ticks = uint64_t{p.period_samples} * static_cast<uint64_t>(r.transient_periods + r.periods);
+        return p;
+    }
+    if (r.signal != "multisine") refuse("--signal", "must be multisine, sweep or prbs");
+    const uint32_t N = static_cast<uint32_t>(std::floor(rate / r.from_Hz + 1e-9));
+    p.period_samples = N;
+    p.layout.period_samples = N;
+    p.layout.first_bin = std::max<uint32_t>(1, static_cast<uint32_t>(std::ceil(r.from_Hz * N / rate - 1e-9)));
+    p.layout.last_bin = static_cast<uint32_t>(std::floor(r.to_Hz * N / rate + 1e-9));
+    if (2 * p.layout.last_bin >= N) p.layout.last_bin = (N - 1) / 2;
+    if (p.layout.last_bin < p.layout.first_bin)
+        refuse("--to-hz", "no DFT line between --from-hz and --to-hz at a spacing of " + num(rate / N) + " Hz");
+    p.measured_start = uint64_t{N} * static_cast<uint64_t>(r.transient_periods);
+    p.ticks = uint64_t{N} * static_cast<uint64_t>(r.transient_periods + r.periods);
+    return p;
+}
+
+ExcitationConfig excitation_config(const FrfPlan& plan, const FrfRequest& r) {
+    ExcitationConfig c;
+    c.signal = plan.signal == "sweep"  ? ExcitationSignal::kSweep
+               : plan.signal == "prbs" ? ExcitationSignal::kPrbs
+                                       : ExcitationSignal::kMultisine;
+    c.point = ExcitationPoint::kCommand;
+    c.amplitude = static_cast<float>(r.amplitude_V);
+    c.offset = r.closed ? 0.0f : static_cast<float>(r.bias_V);
+    c.sample_rate_Hz = static_cast<float>(plan.layout.rate_Hz);
+    c.period_samples = plan.period_samples;
+    c.first_bin = plan.layout.first_bin;
+    c.last_bin = plan.layout.last_bin;
+    c.f1_Hz = static_cast<float>(r.from_Hz);
+    c.f2_Hz = static_cast<float>(r.to_Hz);
+    c.prbs_order = plan.prbs_order;
+    c.prbs_hold = plan.prbs_hold;
+    c.periods = static_cast<uint32_t>(r.transient_periods + r.periods);
+    return c;
+}
+
+void analyse_frf(const FrfRequest& r, const std::vector<double>& u, const std::vector<double>& y,
+                 const std::vector<double>& d, FrfRun& run) {
+    const WelchEstimate g = estimate(r, run.plan, u, y);
+    run.coherence = g.coherence;
+    run.segments = g.segments;
+    run.estimate = static_cast<const FrfEstimate&>(g);
+    if (r.closed) {
+        // d -> u is the input sensitivity (u = -K G u + d), and the plant
+        // G = (Y / D) / (U / D) is the ratio estimated above.
+        const WelchEstimate s = estimate(r, run.plan, d, u);
+        run.sensitivity = s.response;
+        run.complementary_sensitivity.clear();
+        for (const cplx& x : s.response) run.complementary_sensitivity.push_back(1.0 - x);
+    }
+    if (run.clipped_samples > 0)
+        run.warnings.push_back("the limiter clamped or slew-limited " + std::to_string(run.clipped_samples) +
+                               " samples of the measured periods: the response is not that of the linear stage there");
+    if (run.trip != "none") run.warnings.push_back("the limiter tripped (" + run.trip + "): the output went to safe");
+    if (r.periods < 2 && r.signal == "multisine")
+        run.warnings.push_back("one measured period: no noise variance (std_db is null); use --periods >= 2");
+    int incoherent = 0;
+    for (const double c : run.coherence) incoherent += c < 0.95 ? 1 : 0;
+    if (incoherent > 0)
+        run.warnings.push_back(std::to_string(incoherent) + " of " + std::to_string(run.coherence.size()) +
+                               " lines have a coherence below 0.95");
+    int low = 0;
+    double f_low_first = 0.0;
+    for (std::size_t i = 0; i < run.estimate.std_db.size(); ++i) {
+        if (run.estimate.std_db[i] > 1.0) {
+            if (low++ == 0) f_low_first = run.estimate.frequency_Hz[i];
+        }
+    }
+    if (low > 0)
+        run.warnings.push_back(std::to_string(low) + " of " + std::to_string(run.estimate.std_db.size()) +
+                               " lines have a standard deviation above 1 dB (first at " + num(f_low_first) +
+                               " Hz): raise --amplitude-v or --periods");
+}
+
+}  // namespace piezoloop::measure
