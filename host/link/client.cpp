@@ -27,6 +27,9 @@ const char* request_name(uint8_t type) {
         case MsgType::kStreamStop: return "StreamStop";
         case MsgType::kRecorderArm: return "RecorderArm";
         case MsgType::kRecorderStop: return "RecorderStop";
+        case MsgType::kSave: return "Save";
+        case MsgType::kLoad: return "Load";
+        case MsgType::kForget: return "Forget";
         default: return "request";
     }
 }
@@ -209,6 +212,31 @@ void Client::arm() { expect_ack(link::Arm{}); }
 void Client::disarm() { expect_ack(link::Disarm{}); }
 void Client::clear_trip() { expect_ack(link::ClearTrip{}); }
 void Client::stop_wave() { expect_ack(link::StopWave{}); }
+
+namespace {
+// Lengthens the per-request timeout for one request.
+struct LongerTimeout {
+    Client::Options& o;
+    milliseconds saved;
+    LongerTimeout(Client::Options& options, milliseconds at_least) : o(options), saved(options.timeout) {
+        if (o.timeout < at_least) o.timeout = at_least;
+    }
+    ~LongerTimeout() { o.timeout = saved; }
+};
+}  // namespace
+
+void Client::save() {
+    LongerTimeout t(options_, kStorageTimeout);
+    expect_ack(link::Save{});
+}
+void Client::load() {
+    LongerTimeout t(options_, kStorageTimeout);
+    expect_ack(link::Load{});
+}
+void Client::forget() {
+    LongerTimeout t(options_, kStorageTimeout);
+    expect_ack(link::Forget{});
+}
 
 void Client::start_wave(uint8_t flags) {
     if (flags & wave_flag::kArmRecorder) log_.clear();

@@ -183,6 +183,9 @@ void add_device(pyb::module_& m) {
         .def("arm", [](Device& d) { d.simple(&Client::arm); })
         .def("disarm", [](Device& d) { d.simple(&Client::disarm); })
         .def("clear_trip", [](Device& d) { d.simple(&Client::clear_trip); })
+        .def("save", [](Device& d) { d.simple(&Client::save); })
+        .def("load", [](Device& d) { d.simple(&Client::load); })
+        .def("forget", [](Device& d) { d.simple(&Client::forget); })
         .def("record", &Device::record);
 }
 

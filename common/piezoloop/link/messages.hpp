@@ -37,7 +37,9 @@ namespace piezoloop::link {
 // the reply) and refuses every other message whose header version differs.
 // Version 2: HelloReply's serial grew from 24 to 32 bytes (the STM32's
 // 24-hex-digit unique ID plus the terminating zero did not fit).
-inline constexpr uint8_t kProtocolVersion = 2;
+// Version 3: StatusReply ends with the storage block (what became of the
+// stored parameter set at boot); Save, Load and Forget.
+inline constexpr uint8_t kProtocolVersion = 3;
 
 enum class MsgType : uint8_t {
     // Requests, host -> device.
@@ -55,6 +57,10 @@ enum class MsgType : uint8_t {
     kStreamStop = 0x0C,
     kRecorderArm = 0x0D,
     kRecorderStop = 0x0E,
+    // 0x0F and 0x10 are reserved (excitation).
+    kSave = 0x11,    // store the current parameter set in the board's storage
+    kLoad = 0x12,    // validate and apply the stored set
+    kForget = 0x13,  // erase the board's storage
     // Replies, device -> host, with the request's sequence id.
     kAck = 0x80,
     kHelloReply = 0x81,
@@ -66,7 +72,7 @@ enum class MsgType : uint8_t {
     kLogBlock = 0xC0,
 };
 
-constexpr bool is_request(uint8_t t) { return t >= 0x01 && t <= 0x0E; }
+constexpr bool is_request(uint8_t t) { return (t >= 0x01 && t <= 0x0E) || (t >= 0x11 && t <= 0x13); }
 
 enum class ErrorCode : uint8_t {
     kNone = 0,
@@ -82,6 +88,7 @@ enum class ErrorCode : uint8_t {
     kUnsupported = 10,   // feature absent on this device (see capabilities)
     kTripped = 11,       // arm refused: the limiter is tripped (clear it first)
     kBadGroup = 12,      // unknown parameter group
+    kStorage = 13,       // storage failed, or holds no usable set: field/message say why
 };
 
 constexpr const char* error_code_name(ErrorCode c) {
@@ -99,6 +106,7 @@ constexpr const char* error_code_name(ErrorCode c) {
         case ErrorCode::kUnsupported: return "unsupported";
         case ErrorCode::kTripped: return "tripped";
         case ErrorCode::kBadGroup: return "bad_group";
+        case ErrorCode::kStorage: return "storage";
     }
     return "?";
 }
@@ -112,6 +120,7 @@ inline constexpr uint32_t kRepetitive = 1u << 3;
 inline constexpr uint32_t kSetpointStream = 1u << 4;
 inline constexpr uint32_t kRecorder = 1u << 5;
 inline constexpr uint32_t kWaveTable = 1u << 6;       // kSteps / kTable waveforms
+inline constexpr uint32_t kStorage = 1u << 7;         // Save / Load / Forget: the board keeps a parameter set
 }  // namespace cap
 
 enum class SampleFormat : uint8_t { kFloat32 = 0, kQ31 = 1 };
@@ -156,6 +165,9 @@ struct EmptyMessage {
     void read(Reader&) {}
 };
 using Hello = EmptyMessage<MsgType::kHello>;
+using Save = EmptyMessage<MsgType::kSave>;
+using Load = EmptyMessage<MsgType::kLoad>;
+using Forget = EmptyMessage<MsgType::kForget>;
 using GetStatus = EmptyMessage<MsgType::kGetStatus>;
 using Arm = EmptyMessage<MsgType::kArm>;
 using Disarm = EmptyMessage<MsgType::kDisarm>;
@@ -391,6 +403,31 @@ struct TickStats {
     bool operator==(const TickStats&) const = default;
 };
 
+// What became of the stored parameter set at boot (StatusReply::storage).
+enum class StorageState : uint8_t {
+    kAbsent = 0,         // the board has no storage (emulated: started without --storage)
+    kEmpty = 1,          // nothing stored: the board booted with its safe default
+    kApplied = 2,        // the stored set was validated and applied
+    kCorrupt = 3,        // ignored: magic, length or CRC wrong, or the record is cut short
+    kOtherFirmware = 4,  // ignored: written by another firmware version or record format
+    kRejected = 5,       // ignored: the set failed validation (group/field/message say why)
+    kReadFailed = 6,     // ignored: the storage could not be read
+};
+inline constexpr uint8_t kStorageStateCount = 7;
+
+constexpr const char* storage_state_name(StorageState s) {
+    switch (s) {
+        case StorageState::kAbsent: return "absent";
+        case StorageState::kEmpty: return "empty";
+        case StorageState::kApplied: return "applied";
+        case StorageState::kCorrupt: return "ignored_corrupt";
+        case StorageState::kOtherFirmware: return "ignored_other_firmware";
+        case StorageState::kRejected: return "ignored_rejected";
+        case StorageState::kReadFailed: return "ignored_read_failed";
+    }
+    return "?";
+}
+
 struct StatusReply {
     static constexpr MsgType kType = MsgType::kStatusReply;
     bool armed = false;
@@ -411,6 +448,16 @@ struct StatusReply {
     uint32_t log_blocks = 0;  // log blocks sent since recorder arm
     LinkCounters link{};
     float r_um = 0.0f, y_um = 0.0f, u_V = 0.0f;  // last tick's signals
+    // ---- storage block (protocol 3): the stored parameter set at boot.
+    // One contiguous block at the end of the layout; fields appended by
+    // other features go after it. The texts say why a set was ignored
+    // (the core's Status of the check that failed), empty otherwise.
+    StorageState storage = StorageState::kAbsent;
+    std::array<char, kGroupTextSize> storage_group{};
+    std::array<char, kFieldTextSize> storage_field{};
+    int16_t storage_index = -1;
+    std::array<char, kMessageTextSize> storage_message{};
+    // ---- end of the storage block
     bool operator==(const StatusReply&) const = default;
 
     void write(Writer& w) const {
@@ -425,6 +472,11 @@ struct StatusReply {
         w.u32(link.unknown_type); w.u32(link.bad_version); w.u32(link.bad_length); w.u32(link.bad_value);
         w.u32(link.error_replies);
         w.f32(r_um); w.f32(y_um); w.f32(u_V);
+        // storage block
+        w.u8(static_cast<uint8_t>(storage));
+        w.text(storage_group.data(), kGroupTextSize); w.text(storage_field.data(), kFieldTextSize);
+        w.i16(storage_index);
+        w.text(storage_message.data(), kMessageTextSize);
     }
     void read(Reader& r) {
         armed = r.boolean(); tripped = r.boolean(); trip_reason = static_cast<TripReason>(r.u8());
@@ -438,6 +490,12 @@ struct StatusReply {
         link.unknown_type = r.u32(); link.bad_version = r.u32(); link.bad_length = r.u32(); link.bad_value = r.u32();
         link.error_replies = r.u32();
         r_um = r.f32(); y_um = r.f32(); u_V = r.f32();
+        // storage block
+        storage = static_cast<StorageState>(r.u8());
+        r.text(storage_group.data(), storage_group.size(), kGroupTextSize);
+        r.text(storage_field.data(), storage_field.size(), kFieldTextSize);
+        storage_index = r.i16();
+        r.text(storage_message.data(), storage_message.size(), kMessageTextSize);
     }
 };
 
