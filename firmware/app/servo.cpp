@@ -106,7 +106,7 @@ bool start_servo(ControlLoop& loop) {
             }
         }
     }
-    BoardPipeline& pipe = loop.rebuild(setup);
+    loop.rebuild(setup);
     if constexpr (!bsp::config::kHasConverters) {
         if (!bsp::emulated_stage().configure(stage, setup.position, setup.voltage).ok()) return false;
     }
