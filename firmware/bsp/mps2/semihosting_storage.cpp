@@ -46,6 +46,13 @@ constexpr std::size_t kPathBytes = 256;  // with the terminating zero (the host 
 constexpr char kArgument[] = "--storage=";
 constexpr char kNewSuffix[] = ".new";
 
+// In .bss, outside the storage object: the object has a vtable pointer, so
+// it is initialised data, and buffers inside it would take flash and a copy
+// at start-up.
+std::array<char, kPathBytes> g_path{};
+std::array<char, kPathBytes> g_new_path{};
+std::array<uint8_t, storage::kStoredParamsMaxBytes> g_image{};
+
 uint32_t word(const void* p) { return static_cast<uint32_t>(reinterpret_cast<uintptr_t>(p)); }
 
 std::size_t length(const char* s) {
@@ -143,9 +150,9 @@ private:
         return ok_status();
     }
 
-    std::array<char, kPathBytes> path_{};
-    std::array<char, kPathBytes> new_path_{};
-    std::array<uint8_t, storage::kStoredParamsMaxBytes> image_{};
+    std::array<char, kPathBytes>& path_ = g_path;
+    std::array<char, kPathBytes>& new_path_ = g_new_path;
+    std::array<uint8_t, storage::kStoredParamsMaxBytes>& image_ = g_image;
 };
 
 }  // namespace

@@ -45,6 +45,11 @@ static_assert(kImageBytes <= fl::kSectorBytes);
 // sector erase (a few seconds) at 480 MHz.
 constexpr uint32_t kMaxPolls = 1'000'000'000u;
 
+// Where a record is built before programming. In .bss, outside the storage
+// object: the object has a vtable pointer, so it is initialised data, and a
+// buffer inside it would take flash and a copy at start-up.
+alignas(4) std::array<uint8_t, kImageBytes> g_image{};
+
 class FlashStorage final : public storage::ParamStorage {
 public:
     Status read(std::span<const uint8_t>& out) override {
@@ -130,7 +135,7 @@ private:
         return s;
     }
 
-    alignas(4) std::array<uint8_t, kImageBytes> image_{};
+    std::array<uint8_t, kImageBytes>& image_ = g_image;
 };
 
 }  // namespace
