@@ -512,7 +512,7 @@ private:
     void note_boot(const LoadResult& r) {
         boot_state_ = r.state;
         boot_why_ = StorageWhy{};
-        if (r.why.ok()) return;
+        if (r.why.ok() || r.state == StorageState::kEmpty) return;  // nothing to explain
         const ErrorReply e = make_error(0, r.code, r.why);
         boot_why_.group = e.group;
         boot_why_.field = e.field;

@@ -166,6 +166,9 @@ TYPED_TEST(DeviceStorage, ForgetThenLoadFailsAndChangesNothing) {
     EXPECT_EQ(this->groups(rig), before);
     Rig<TypeParam> rebooted(this->hooks());
     EXPECT_EQ(rebooted.device->boot_from_storage(), StorageState::kEmpty);
+    const StatusReply st = rebooted.request(GetStatus{}).template as<StatusReply>();
+    EXPECT_EQ(st.storage, StorageState::kEmpty);
+    EXPECT_STREQ(st.storage_field.data(), "");  // nothing to explain
 }
 
 TYPED_TEST(DeviceStorage, CorruptSetIsIgnoredAtBootAndSaysWhy) {
