@@ -121,6 +121,29 @@ public:
     // Validates c and swaps it in; the recorder becomes idle and unread frames
     // are discarded. On error nothing changes. Reader context.
     Status configure(const Config& c) {
+        if (const Status s = validate(c); !s.ok()) return s;
+        uint32_t length = 0;
+        if (c.mode == RecordMode::kSingleShot) length = c.length == 0 ? static_cast<uint32_t>(Capacity) : c.length;
+        S level{};
+        if constexpr (std::is_same_v<S, float>) {
+            level = c.trigger_level;
+        } else {
+            level = c.trigger_scale.template to_sample<Q31>(c.trigger_level);
+        }
+
+        cfg_ = c;
+        streaming_ = c.mode == RecordMode::kContinuous && c.decimation == 1;
+        length_ = length;
+        level_ = level;
+        configured_ = true;
+        set_state(RecorderState::kIdle);
+        discard();
+        return ok_status();
+    }
+
+    // The checks of configure(), touching nothing (a whole parameter set is
+    // checked before any of it is applied).
+    static Status validate(const Config& c) {
         for (const uint8_t ch : c.channels) {
             if (ch >= Signals) return error("channels", "signal index must be < the number of signals");
         }
@@ -143,23 +166,11 @@ public:
         } else {
             return error("mode", "unknown record mode");
         }
-        S level{};
-        if constexpr (std::is_same_v<S, float>) {
-            level = c.trigger_level;
-        } else {
+        if constexpr (!std::is_same_v<S, float>) {
             const float fs = c.trigger_scale.full_scale;
             if (!(fs > 0.0f) || (std::bit_cast<uint32_t>(fs) & 0x7f800000u) == 0x7f800000u)
                 return error("trigger_scale", "full scale must be > 0 and finite");
-            level = c.trigger_scale.template to_sample<Q31>(c.trigger_level);
         }
-
-        cfg_ = c;
-        streaming_ = c.mode == RecordMode::kContinuous && c.decimation == 1;
-        length_ = length;
-        level_ = level;
-        configured_ = true;
-        set_state(RecorderState::kIdle);
-        discard();
         return ok_status();
     }
 

@@ -16,6 +16,16 @@
 //               never the UART), and status faults bit 8 (board fault 0) is set.
 // Hard output limits are always the board's compiled-in ones.
 //
+// Then the stored parameter set (bsp::param_storage(): a flash sector on
+// the STM32, a host file on the QEMU boards started with `emulate
+// --storage FILE`) is validated and applied as a Load request would
+// (link/device.hpp); it replaces the reference controller. A set that is
+// corrupt, from another firmware version or rejected by validation is
+// ignored: the board keeps its safe default (the reference controller, or
+// the empty pipeline). Either way the loop boots disarmed, and the status'
+// storage block says what happened and why. The storage is touched in the
+// main loop only, never in the tick.
+//
 // After boot the UART carries nothing but link frames, starting with one
 // 0x00 delimiter so a client's decoder starts in sync. Only a CPU fault
 // prints text there (bsp/cortex-m/fault.cpp), and then the program ends.
@@ -32,6 +42,7 @@
 #include "piezoloop/emulated_stage.hpp"
 #include "piezoloop/emulation_profile.hpp"
 #include "piezoloop/reference_stage.hpp"
+#include "piezoloop/storage/param_storage.hpp"
 
 #ifndef PIEZOLOOP_SELFTEST_AUTORUN
 #define PIEZOLOOP_SELFTEST_AUTORUN 0
@@ -52,6 +63,7 @@ constexpr uint32_t kFaultProfileInvalid = 1u << 0;
 struct Boot {
     uint32_t rate_Hz = kLoopRateInt_Hz;
     uint32_t board_faults = 0;
+    bool reference_controller = true;  // no profile: the reference controller unless a stored set replaces it
 };
 Boot g_boot;
 
@@ -70,7 +82,6 @@ void semihosting_note(const char* a, const char* b = "", const char* c = "", con
 bool start_servo(ControlLoop& loop) {
     PipelineSetup setup = pipeline_setup(board_analog());
     StageConfig stage = ideal_stage(reference::plant(), kLoopRate_Hz);
-    bool reference_controller = true;
     g_boot = Boot{};
     if constexpr (!bsp::config::kHasConverters) {
         // RAM the loader wrote before reset; nothing in the image points there.
@@ -85,7 +96,7 @@ bool start_servo(ControlLoop& loop) {
                                        static_cast<float>(p.loop_rate_Hz));
                 stage = p.stage;
                 g_boot.rate_Hz = p.loop_rate_Hz;
-                reference_controller = false;
+                g_boot.reference_controller = false;
                 semihosting_note("piezoloop: emulation profile loaded");
             } else {
                 g_boot.board_faults |= kFaultProfileInvalid;
@@ -95,12 +106,23 @@ bool start_servo(ControlLoop& loop) {
             }
         }
     }
-    BoardPipeline& pipe = loop.rebuild(setup);
+    loop.rebuild(setup);
     if constexpr (!bsp::config::kHasConverters) {
         if (!bsp::emulated_stage().configure(stage, setup.position, setup.voltage).ok()) return false;
     }
-    if (reference_controller && !pipe.stage(reference::params(true, true, false)).ok()) return false;
     return true;
+}
+
+// The stored set, else the safe default: the reference controller where
+// there is no profile. False if nothing can run.
+bool apply_stored_set(BoardPipeline& pipe, BoardDevice& dev) {
+    const link::StorageState st = dev.boot_from_storage();
+    if (st != link::StorageState::kAbsent) {
+        const link::StatusReply why = dev.make_status();
+        semihosting_note("piezoloop: stored parameter set ", link::storage_state_name(st), " ", why.storage_field.data());
+    }
+    if (st == link::StorageState::kApplied || !g_boot.reference_controller) return true;
+    return pipe.stage(reference::params(true, true, false)).ok();
 }
 
 // ---- link hooks ---------------------------------------------------------------
@@ -205,7 +227,9 @@ int app_main() {
     link::DeviceHooks hooks;
     hooks.mask_tick = &mask_tick;
     if constexpr (!bsp::config::kHasConverters) hooks.restart_stage = &restart_stage;
+    hooks.storage = bsp::param_storage();
     BoardDevice& dev = loop.attach_device(info, hooks);
+    if (!apply_stored_set(loop.pipeline(), dev)) return 1;
     if (!loop.start(g_boot.rate_Hz, 0)) return 1;
     const char sync = 0;  // a delimiter: the client's decoder starts clean
     bsp::console_write(&sync, 1);

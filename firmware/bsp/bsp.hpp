@@ -19,6 +19,9 @@ namespace piezoloop {
 template <class T>
 class EmulatedStage;  // piezoloop/emulated_stage.hpp
 }
+namespace piezoloop::storage {
+class ParamStorage;  // piezoloop/storage/param_storage.hpp
+}
 
 namespace piezoloop::bsp {
 
@@ -106,6 +109,17 @@ void emulated_stage_step();
 // without a stage attached). Boards without converters are always in
 // loopback and refuse false.
 bool set_loopback(bool on);
+
+// ---- parameter storage --------------------------------------------------------
+
+// Where the board keeps its commissioned parameter set, or null where it
+// has none. QEMU boards: a host file through semihosting, named by the
+// `--storage=PATH` argument of the semihosting command line (`piezoloop
+// emulate --storage FILE`; bsp/mps2/semihosting_storage.cpp); null without
+// one. STM32H743: the last flash sector of bank 2
+// (bsp/stm32h743/flash_storage.cpp). Main loop only; the first call sets
+// the backend up.
+storage::ParamStorage* param_storage();
 
 }  // namespace piezoloop::bsp
 

@@ -1,6 +1,6 @@
 // Talking to a board over the link (docs/protocol.md): `piezoloop --device
-// ADDR status | get | set | arm | disarm | clear-trip | wave | stream |
-// record`. JSON on stdout, errors on stderr with the exit codes of
+// ADDR status | get | set | arm | disarm | clear-trip | save | load | forget
+// | wave | stream | record`. JSON on stdout, errors on stderr with the exit codes of
 // exit_codes.hpp (2: bad input, 3: link or device error, 4: a record or
 // stream that lost data).
 #include <algorithm>
@@ -194,6 +194,45 @@ void add_arm(CLI::App& app) {
                 const link::StatusReply st = c.status();
                 print({{"device", c.address()}, {"wave_running", st.wave_running}, {"streaming", st.streaming},
                        {"armed", st.armed}});
+            });
+        });
+}
+
+// ---- storage --------------------------------------------------------------------
+
+// The board's parameter storage (docs/storage.md). Each prints what the
+// board then holds or runs: save and load the set (as `get all`), forget
+// nothing but the fact.
+void add_storage(CLI::App& app) {
+    app.add_subcommand("save", "Store the board's current parameter set on the board; applied at its next boot "
+                               "(needs --device; disarmed)")
+        ->callback([] {
+            guarded([] {
+                Client c = open_device();
+                c.save();
+                json groups;
+                for (const link::ParamGroup g : kGroupOrder) groups[link::group_name(g)] = get_group(c, g);
+                print({{"device", c.address()}, {"saved", groups}});
+            });
+        });
+    app.add_subcommand("load", "Validate the set stored on the board and apply it; a rejected or corrupt set "
+                               "changes nothing (needs --device; disarmed)")
+        ->callback([] {
+            guarded([] {
+                Client c = open_device();
+                c.load();
+                json groups;
+                for (const link::ParamGroup g : kGroupOrder) groups[link::group_name(g)] = get_group(c, g);
+                print({{"device", c.address()}, {"loaded", groups}});
+            });
+        });
+    app.add_subcommand("forget", "Erase the set stored on the board: the next boot uses the safe default "
+                                 "(needs --device; disarmed)")
+        ->callback([] {
+            guarded([] {
+                Client c = open_device();
+                c.forget();
+                print({{"device", c.address()}, {"forgotten", true}});
             });
         });
 }
@@ -405,6 +444,7 @@ void add_device_commands(CLI::App& app) {
     add_get(app);
     add_set(app);
     add_arm(app);
+    add_storage(app);
     add_wave(app);
     add_stream(app);
     add_record(app);

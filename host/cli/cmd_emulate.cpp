@@ -1,6 +1,7 @@
 // `piezoloop emulate`: an emulated board in QEMU (servo.elf on mps2-an500 /
 // mps2-an385) with a scenario's stage loaded as its emulation profile, the
-// link on a local TCP port; `piezoloop devices`: the USB boards attached and
+// link on a local TCP port, and with --storage a host file as the board's
+// parameter storage (docs/storage.md); `piezoloop devices`: the USB boards attached and
 // how to start an emulated one.
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -46,8 +47,43 @@ struct EmulateArgs {
     std::string scenario, case_name;
     int port = 0;
     std::string image;
+    std::string storage;
     double boot_timeout_s = 20.0;
 };
+
+// Longest storage path: the firmware reads it from the semihosting command
+// line into a 256-byte buffer, with ".new" appended for the atomic replace
+// (bsp/mps2/semihosting_storage.cpp).
+constexpr std::size_t kMaxStoragePath = 200;
+
+// The storage file as an absolute path (QEMU's working directory does not
+// matter then), created empty when missing: an empty file is an empty
+// storage, and a path that cannot be written is refused here, not by the
+// board's first Save.
+fs::path storage_file(const std::string& arg) {
+    const fs::path p = fs::absolute(arg).lexically_normal();
+    if (fs::is_directory(p)) throw std::invalid_argument("--storage: " + p.string() + " is a directory, not a file");
+    if (!fs::exists(p)) {
+        std::ofstream create(p, std::ios::binary | std::ios::app);
+        if (!create) throw std::invalid_argument("--storage: cannot create " + p.string());
+    }
+    std::ofstream probe(p, std::ios::binary | std::ios::app);
+    if (!probe) throw std::invalid_argument("--storage: " + p.string() + " is not writable");
+    if (p.string().size() > kMaxStoragePath)
+        throw std::invalid_argument("--storage: the absolute path " + p.string() + " is longer than " +
+                                    std::to_string(kMaxStoragePath) + " characters");
+    return p;
+}
+
+// QEMU's option syntax: a comma inside a value is written twice.
+std::string qemu_option_value(const std::string& s) {
+    std::string out;
+    for (const char c : s) {
+        out += c;
+        if (c == ',') out += ',';
+    }
+    return out;
+}
 
 struct BoardSpec {
     const char* machine;
@@ -127,8 +163,19 @@ int run_emulate(const EmulateArgs& a) {
     // exact; wait=off lets the board boot before the first client, and the
     // server takes a new client after one disconnects.
     for (const char* s : {"-M", spec.machine, "-cpu", spec.cpu, "-nographic", "-monitor", "none", "-icount",
-                          "shift=0,sleep=off", "-semihosting", "-kernel"})
+                          "shift=0,sleep=off"})
         args.emplace_back(s);
+    if (a.storage.empty()) {
+        args.emplace_back("-semihosting");
+    } else {
+        // The firmware finds its storage file as the last semihosting
+        // argument, --storage=PATH (SYS_GET_CMDLINE).
+        const fs::path file = storage_file(a.storage);
+        args.emplace_back("-semihosting-config");
+        args.push_back("enable=on,arg=servo,arg=--storage=" + qemu_option_value(file.string()));
+        info["storage"] = file.string();
+    }
+    args.emplace_back("-kernel");
     args.push_back(image.string());
     args.emplace_back("-serial");
     args.push_back("tcp:127.0.0.1:" + std::to_string(port) + ",server=on,wait=off");
@@ -209,6 +256,17 @@ int run_emulate(const EmulateArgs& a) {
             if (st.tick.board_faults != 0)
                 std::cerr << "warning: the board reports fault bits " << st.tick.board_faults
                           << " (bit 0: the emulation profile was rejected; see QEMU's output above)\n";
+            if (!a.storage.empty()) {
+                info["storage_at_boot"] = link::storage_state_name(st.storage);
+                const bool ignored = st.storage != link::StorageState::kApplied && st.storage != link::StorageState::kEmpty;
+                if (ignored)
+                    std::cerr << "warning: " << storage_state_text(st.storage)
+                              << (st.storage_field[0] != '\0' ? std::string(" (") + st.storage_group.data() + "." +
+                                                                    st.storage_field.data() + ": " +
+                                                                    st.storage_message.data() + ")"
+                                                              : std::string())
+                              << "\n";
+            }
             ready = true;
         } catch (const std::exception& e) {
             last_error = e.what();
@@ -245,6 +303,10 @@ void add_emulate(CLI::App& app) {
     cmd->add_option("--port", a->port, "TCP port of the link (default: a free one)")->check(CLI::Range(1, 65535));
     cmd->add_option("--image", a->image, "servo.elf to run (default: $PIEZOLOOP_FIRMWARE_DIR or the build tree, "
                                          "fw-<board>/firmware/servo.elf)");
+    cmd->add_option("--storage", a->storage,
+                    "host file the board keeps its parameter set in between runs (`save`, `load`, `forget`; "
+                    "applied at boot after validation); created empty if missing. Without it the board has no "
+                    "storage");
     cmd->add_option("--boot-timeout-s", a->boot_timeout_s, "give up if the board does not answer")
         ->check(CLI::Range(0.5, 600.0));
     cmd->callback([a] {

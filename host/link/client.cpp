@@ -29,6 +29,9 @@ const char* request_name(uint8_t type) {
         case MsgType::kRecorderStop: return "RecorderStop";
         case MsgType::kStartExcitation: return "StartExcitation";
         case MsgType::kStopExcitation: return "StopExcitation";
+        case MsgType::kSave: return "Save";
+        case MsgType::kLoad: return "Load";
+        case MsgType::kForget: return "Forget";
         default: return "request";
     }
 }
@@ -212,15 +215,43 @@ void Client::disarm() { expect_ack(link::Disarm{}); }
 void Client::clear_trip() { expect_ack(link::ClearTrip{}); }
 void Client::stop_wave() { expect_ack(link::StopWave{}); }
 
+namespace {
+// Lengthens the per-request timeout for one request.
+struct LongerTimeout {
+    Client::Options& o;
+    milliseconds saved;
+    LongerTimeout(Client::Options& options, milliseconds at_least) : o(options), saved(options.timeout) {
+        if (o.timeout < at_least) o.timeout = at_least;
+    }
+    ~LongerTimeout() { o.timeout = saved; }
+};
+}  // namespace
+
 void Client::start_excitation(const ExcitationConfig& c, uint8_t flags) {
     if (flags & wave_flag::kArmRecorder) log_.clear();
     link::StartExcitation m;
     m.flags = flags;
     m.config = c;
+    // A multisine's period is tabulated before the reply: N K table steps
+    // in the board's main loop (16384 x 6500 ~ 1e8 on the QEMU boards).
+    LongerTimeout t(options_, kExcitationTimeout);
     expect_ack(m);
 }
 
 void Client::stop_excitation() { expect_ack(link::StopExcitation{}); }
+
+void Client::save() {
+    LongerTimeout t(options_, kStorageTimeout);
+    expect_ack(link::Save{});
+}
+void Client::load() {
+    LongerTimeout t(options_, kStorageTimeout);
+    expect_ack(link::Load{});
+}
+void Client::forget() {
+    LongerTimeout t(options_, kStorageTimeout);
+    expect_ack(link::Forget{});
+}
 
 void Client::start_wave(uint8_t flags) {
     if (flags & wave_flag::kArmRecorder) log_.clear();

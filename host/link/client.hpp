@@ -125,6 +125,16 @@ public:
     void arm();
     void disarm();
     void clear_trip();
+    // The board's parameter storage (cap::kStorage): store the current set,
+    // validate and apply the stored one, erase it. Save and Forget wait up
+    // to kStorageTimeout (a flash sector erase takes seconds).
+    void save();
+    void load();
+    void forget();
+    static constexpr std::chrono::milliseconds kStorageTimeout{10000};
+    // start_excitation waits at least this long: the board tabulates a
+    // multisine's period before it replies.
+    static constexpr std::chrono::milliseconds kExcitationTimeout{30000};
     void start_wave(uint8_t flags = 0);  // flags: wave_flag::*, sent only if non-zero
     void stop_wave();
     // An excitation at the next tick (flags: wave_flag::*, the same bits);

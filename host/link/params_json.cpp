@@ -8,6 +8,7 @@
 
 #include "json/json_reader.hpp"
 #include "piezoloop/params/field.hpp"
+#include "status_text.hpp"
 
 namespace piezoloop::hostlink {
 
@@ -268,8 +269,8 @@ Waveform parse_waveform(const std::string& name) {
 
 json to_json(const link::HelloReply& h) {
     json caps = json::array();
-    const char* const cap_names[] = {"float",    "q31",        "dahl",      "repetitive", "setpoint_stream",
-                                     "recorder", "wave_table", "excitation"};
+    const char* const cap_names[] = {"float",    "q31",        "dahl",       "repetitive", "setpoint_stream",
+                                     "recorder", "wave_table", "excitation", "storage"};
     for (unsigned i = 0; i < std::size(cap_names); ++i)
         if (h.capabilities & (1u << i)) caps.push_back(cap_names[i]);
     return {{"protocol_version", h.protocol_version},
@@ -293,6 +294,25 @@ json to_json(const link::HelloReply& h) {
             {"rc_capacity", h.rc_capacity},
             {"excitation_capacity", h.excitation_capacity}};
 }
+
+namespace {
+
+// The stored parameter set at boot: its state in words, and why it was
+// ignored (the check that failed, as "group.field[index]: message").
+json storage_json(const link::StatusReply& s) {
+    json j = {{"at_boot", link::storage_state_name(s.storage)}, {"text", storage_state_text(s.storage)}};
+    if (s.storage_field[0] != '\0') {
+        Status why;
+        why.group = s.storage_group[0] != '\0' ? s.storage_group.data() : nullptr;
+        why.field = s.storage_field.data();
+        why.index = s.storage_index;
+        why.message = s.storage_message.data();
+        j["why"] = describe(why);
+    }
+    return j;
+}
+
+}  // namespace
 
 json to_json(const link::StatusReply& s) {
     const char* const recorder_states[] = {"idle", "armed", "triggered", "done"};
@@ -330,7 +350,8 @@ json to_json(const link::StatusReply& s) {
             {"y_um", s.y_um},
             {"u_V", s.u_V},
             {"excitation", {{"running", s.excitation_running}, {"ticks", s.excitation_ticks},
-                            {"clipped", s.excitation_clipped}}}};
+                            {"clipped", s.excitation_clipped}}},
+            {"storage", storage_json(s)}};
 }
 
 }  // namespace piezoloop::hostlink

@@ -94,6 +94,24 @@ class Device:
     def clear_trip(self) -> None:
         self._dev.clear_trip()
 
+    def save(self) -> None:
+        """Store the board's current parameter set in its storage (the set
+        `get("all")` returns); applied at the next boot. Only while
+        disarmed, and only on a board with storage (hello capability
+        "storage")."""
+        self._dev.save()
+
+    def load(self) -> None:
+        """Validate the stored set and apply it as a whole; a rejected or
+        corrupt set changes nothing (the error names the field). Only while
+        disarmed."""
+        self._dev.load()
+
+    def forget(self) -> None:
+        """Erase the board's storage: the next boot uses the safe default.
+        Only while disarmed."""
+        self._dev.forget()
+
     def record(self, duration_s: float, signals: str = "r,y,e,u", *, start_wave: bool = False,
                restart_stage: bool = False, trajectory: Optional[str] = None, frequency_hz: float = 10.0,
                amplitude_um: Optional[float] = None, offset: Optional[str] = None,

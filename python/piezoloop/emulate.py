@@ -37,7 +37,8 @@ class Emulator:
     (the line `piezoloop emulate` printed: board, pid, firmware, ...)."""
 
     def __init__(self, board: str = "qemu-m7", scenario: Optional[str | os.PathLike] = None,
-                 image: Optional[str | os.PathLike] = None, case: Optional[str] = None):
+                 image: Optional[str | os.PathLike] = None, case: Optional[str] = None,
+                 storage: Optional[str | os.PathLike] = None):
         if board not in ("qemu-m7", "qemu-m3"):
             raise ValueError(f"board: {board!r} is not one of qemu-m7, qemu-m3")
         cmd = [_executable(), "emulate", "--board", board]
@@ -47,6 +48,8 @@ class Emulator:
             cmd += ["--case", case]
         if image is not None:
             cmd += ["--image", os.fspath(image)]
+        if storage is not None:
+            cmd += ["--storage", os.fspath(storage)]
         self._proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         line = self._proc.stdout.readline()
         if not line:
@@ -80,9 +83,12 @@ def _link_error(message: str) -> Exception:
 
 
 def emulate(board: str = "qemu-m7", scenario: Optional[str | os.PathLike] = None, *,
-            image: Optional[str | os.PathLike] = None, case: Optional[str] = None) -> Emulator:
+            image: Optional[str | os.PathLike] = None, case: Optional[str] = None,
+            storage: Optional[str | os.PathLike] = None) -> Emulator:
     """Start an emulated board (as `piezoloop emulate`); use with `with`.
     scenario: its stage, loop rate and full scales (default the board's
     built-in profile); image: servo.elf (default: the build tree's
-    build/fw-<board>/ or $PIEZOLOOP_FIRMWARE_DIR)."""
-    return Emulator(board, scenario, image, case)
+    build/fw-<board>/ or $PIEZOLOOP_FIRMWARE_DIR); storage: a host file the
+    board keeps its parameter set in between runs (Device.save / load /
+    forget; docs/storage.md), created empty if missing."""
+    return Emulator(board, scenario, image, case, storage)

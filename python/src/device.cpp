@@ -226,6 +226,10 @@ void add_device(pyb::module_& m) {
                                                   transient_periods),
                                       restart_stage);
              });
+        .def("save", [](Device& d) { d.simple(&Client::save); })
+        .def("load", [](Device& d) { d.simple(&Client::load); })
+        .def("forget", [](Device& d) { d.simple(&Client::forget); })
+        .def("record", &Device::record);
 }
 
 }  // namespace piezoloop::py

@@ -42,7 +42,7 @@ import time
 import zlib
 
 PROFILE_ADDRESS = 0x003FFC00  # common/piezoloop/emulation_profile.hpp
-VERSION = 2
+VERSION = 3
 
 T_HELLO, T_STATUS, T_GET, T_SET, T_ARM, T_DISARM = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 T_START_WAVE, T_STOP_WAVE, T_REC_ARM, T_REC_STOP = 0x08, 0x09, 0x0D, 0x0E
@@ -163,13 +163,15 @@ def text(b):
 
 
 def parse_hello(b):
-    f = struct.unpack("<B16s16s32sfIBfffffHHBIBBHI", b)
+    f = struct.unpack("<B16s16s32sfIBfffffHHBIBBHII", b)
     return dict(protocol=f[0], board=text(f[1]), version=text(f[2]), serial=text(f[3]), rate=f[4], caps=f[5],
                 fmt=f[6], hard_min=f[7], hard_max=f[8], pos_fs=f[10], volt_fs=f[11], rec_channels=f[14],
-                rec_capacity=f[15])
+                rec_capacity=f[15], exc_capacity=f[20])
 
 
-STATUS_FMT = "<7B3I3IffI" + "IHIII" + "10I" + "3f"
+STATUS_FMT = "<7B3I3IffI" + "IHIII" + "10I" + "3f" + "BII" + "B16s32sh96s"  # ... excitation, storage block
+STORAGE_STATES = ["absent", "empty", "applied", "ignored_corrupt", "ignored_other_firmware", "ignored_rejected",
+                  "ignored_read_failed"]
 
 
 def parse_status(b):
@@ -178,8 +180,13 @@ def parse_status(b):
              "faults", "tick_count", "swaps", "overruns", "time_min", "time_max", "time_mean", "counter_Hz",
              "board_faults", "setpoint_underruns", "setpoint_free", "setpoint_next_seq", "recorder_overruns",
              "log_blocks", "frames_ok", "bad_cobs", "bad_crc", "truncated", "oversize", "unknown_type",
-             "bad_version", "bad_length", "bad_value", "error_replies", "r_um", "y_um", "u_V"]
-    return dict(zip(names, f))
+             "bad_version", "bad_length", "bad_value", "error_replies", "r_um", "y_um", "u_V",
+             "excitation_running", "excitation_ticks", "excitation_clipped", "storage", "storage_group", "storage_field", "storage_index", "storage_message"]
+    d = dict(zip(names, f))
+    d["storage"] = STORAGE_STATES[d["storage"]] if d["storage"] < len(STORAGE_STATES) else d["storage"]
+    for k in ("storage_group", "storage_field", "storage_message"):
+        d[k] = text(d[k])
+    return d
 
 
 def parse_error(b):
@@ -441,6 +448,8 @@ def run_checks(link, check, machine, seconds, replay=None):
     check(s1["tick_count"] > s0["tick_count"], "the loop runs (tick count grows)")
     check(not s1["armed"] and not s1["tripped"], "starts disarmed, not tripped")
     check(s1["overruns"] == 0 and s1["time_max"] > 0, "tick stats: no overruns, timing measured")
+    check(s1["storage"] == "absent" and not h["caps"] & (1 << 7),
+          "no --storage on the semihosting command line: no parameter storage")
 
     # 3: hostile input.
     c0 = s1

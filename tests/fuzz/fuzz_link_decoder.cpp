@@ -1,6 +1,7 @@
 // libFuzzer target: arbitrary bytes into the device's streaming frame decoder
 // and dispatcher on a Pipeline<float> with the reference setup, interleaved
-// with ticks and log polling the way the firmware main loop runs them.
+// with ticks and log polling the way the firmware main loop runs them, with
+// an in-memory parameter storage (Save / Load / Forget reach it).
 //
 // The first input byte picks how the rest is cut into chunks (the transports
 // deliver arbitrary pieces). Besides the sanitizers' findings, the target
@@ -17,6 +18,7 @@
 
 #include "piezoloop/link/device.hpp"
 #include "piezoloop/reference_stage.hpp"
+#include "piezoloop/storage/memory_storage.hpp"
 
 using namespace piezoloop;
 using namespace piezoloop::link;
@@ -43,7 +45,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
     // A configured, running loop so that arm / wave / stream requests do something.
     if (!pipeline->stage(reference::params(true, true, false)).ok()) __builtin_trap();
     pipeline->tick(0.0f);
-    auto device = std::make_unique<Device<float>>(*pipeline, DeviceInfo{"fuzz", "0", "0"});
+    auto storage = std::make_unique<storage::MemoryStorage>();
+    DeviceHooks hooks;
+    hooks.storage = storage.get();
+    auto device = std::make_unique<Device<float>>(*pipeline, DeviceInfo{"fuzz", "0", "0"}, hooks);
     Checker check;
 
     if (size == 0) return 0;

@@ -101,6 +101,9 @@ int main(int argc, char** argv) {
     exc.config.periods = 2;
     write("start_excitation", frame(exc));
     write("stop_excitation", frame(StopExcitation{}));
+    write("save", frame(Save{}));
+    write("load", frame(Load{}));
+    write("forget", frame(Forget{}));
     // Device-to-host types sent to the device: unknown there.
     write("ack", frame(Ack{1}));
     write("log_block", frame(LogBlock{}));
@@ -114,6 +117,10 @@ int main(int argc, char** argv) {
     sp.block_seq = 1;
     auto b1 = frame(sp);
     write("session_stream", cat({frame(Arm{}), frame(StreamStart{60}), b0, b1, frame(GetStatus{}), frame(StreamStop{false})}), 0x40);
+    write("session_storage", cat({frame(SetParams<LimitsParams>{lim}), frame(SetParams<TrajectoryParams>{wave}),
+                                  frame(SetParams<RecorderParams>{rec}), frame(Save{}), frame(Forget{}), frame(Load{}),
+                                  frame(Save{}), frame(SetParams<FeedbackParams>{fb}), frame(Load{}), frame(Arm{}),
+                                  frame(Save{}), frame(GetStatus{})}), 0x30);
     write("session_armed_limits", cat({frame(Arm{}), frame(SetParams<LimitsParams>{LimitsParams{{-5.0f, 5.0f, 1.0e5f, 0.0f}}}),
                                        frame(SetParams<FeedbackParams>{FeedbackParams{FeedbackKind::kPid, 0, {}, {}}})}), 0x01);
 

@@ -37,8 +37,9 @@ struct Rig {
     std::vector<Reply> replies;
     uint16_t seq = 0;
 
-    Rig() : pipeline(std::make_unique<typename DeviceT::PipelineType>(reference::setup())),
-            device(std::make_unique<DeviceT>(*pipeline, DeviceInfo{"test-board", "1.2.3", "SN0001"})) {}
+    explicit Rig(const DeviceHooks& hooks = {}, const char* firmware_version = "1.2.3")
+        : pipeline(std::make_unique<typename DeviceT::PipelineType>(reference::setup())),
+          device(std::make_unique<DeviceT>(*pipeline, DeviceInfo{"test-board", firmware_version, "SN0001"}, hooks)) {}
 
     auto sink() {
         return [this](std::span<const uint8_t> frame) {

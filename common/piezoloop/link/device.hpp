@@ -10,6 +10,15 @@
 // The recorder and the limiter trip are touched from the main loop only
 // inside the mask_tick hook (the firmware masks the tick interrupt there).
 // Clear-trip is refused while armed (as are limit-critical parameters).
+//
+// Storage (storage/param_storage.hpp, given in DeviceHooks): Save stores the
+// set GetParams reports, Load validates and applies the stored set as a
+// whole (ParamPolicy::set_all), Forget erases it; boot_from_storage() is
+// Load at boot, and its outcome is the status' storage block. All three
+// requests are refused while armed: Load replaces limit-critical groups,
+// and Save / Forget block the main loop (and with it the link and the
+// client watchdog) for as long as the medium takes -- a flash sector erase
+// takes seconds.
 #pragma once
 
 #include <array>
@@ -24,6 +33,8 @@
 #include "piezoloop/link/param_policy.hpp"
 #include "piezoloop/link/setpoint_stream.hpp"
 #include "piezoloop/pipeline.hpp"
+#include "piezoloop/storage/param_storage.hpp"
+#include "piezoloop/storage/stored_params.hpp"
 
 namespace piezoloop::link {
 
@@ -44,6 +55,10 @@ struct DeviceHooks {
     // Null where there is no emulated stage: the flag is then refused
     // (ErrorCode::kUnsupported).
     bool (*restart_stage)() = nullptr;
+    // Where the parameter set is stored (Save / Load / Forget, the load at
+    // boot). Null: the board has no storage; the requests are refused
+    // (ErrorCode::kUnsupported) and the hello reply lacks cap::kStorage.
+    storage::ParamStorage* storage = nullptr;
 };
 
 template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024,
@@ -172,6 +187,9 @@ public:
                 log_.restart();
                 return ack(h, send);
             }
+            case MsgType::kSave:
+            case MsgType::kLoad:
+            case MsgType::kForget: storage_request(h, body, send); return;
             case MsgType::kRecorderStop: {
                 RecorderStop m;
                 if (!decode(h, body, m, send)) return;
@@ -195,6 +213,20 @@ public:
         watch_client();
         return log_.poll(pipeline_.recorder(), std::span<uint8_t>(tx_), send);
     }
+
+    // The stored set at boot: validated and applied as Load does (the loop
+    // stays disarmed), or ignored; the outcome and why are reported in the
+    // status. Main loop, before the first client; the tick may be stopped
+    // (the set is then swapped in at its first tick).
+    StorageState boot_from_storage() {
+        if (hooks_.storage == nullptr) {
+            note_boot({StorageState::kAbsent, ok_status(), ErrorCode::kNone});
+        } else {
+            note_boot(load_stored());
+        }
+        return boot_state_;
+    }
+    StorageState boot_storage_state() const { return boot_state_; }
 
     // Tick timing and board faults, measured by the firmware.
     void set_tick_stats(const TickStats& s) { tick_stats_ = s; }
@@ -231,7 +263,8 @@ public:
         const PipelineSetup& s = pipeline_.setup();
         r.loop_rate_Hz = s.rate_Hz;
         r.capabilities = (kFloat ? cap::kFloat : cap::kQ31) | cap::kDahl | cap::kRepetitive | cap::kSetpointStream |
-                         cap::kRecorder | cap::kWaveTable | cap::kExcitation;
+                         cap::kRecorder | cap::kWaveTable | cap::kExcitation |
+                         (hooks_.storage != nullptr ? cap::kStorage : 0u);
         r.sample_format = kFloat ? SampleFormat::kFloat32 : SampleFormat::kQ31;
         r.hard_u_min_V = s.hard.u_min_V;
         r.hard_u_max_V = s.hard.u_max_V;
@@ -282,6 +315,11 @@ public:
         if (client_lost_) f |= fault::kClientLost;
         f |= tick_stats_.board_faults << 8;
         r.faults = f;
+        r.storage = boot_state_;
+        r.storage_group = boot_why_.group;
+        r.storage_field = boot_why_.field;
+        r.storage_index = boot_why_.index;
+        r.storage_message = boot_why_.message;
         return r;
     }
 
@@ -497,6 +535,87 @@ private:
         fail(h, policy_.code(), s, send);
     }
 
+    // ---- storage ----------------------------------------------------------------
+
+    struct LoadResult {
+        StorageState state;
+        Status why;
+        ErrorCode code;  // of an error reply to Load
+    };
+
+    // Reads, checks and applies the stored set (ParamPolicy::set_all).
+    LoadResult load_stored() {
+        std::span<const uint8_t> bytes;
+        if (const Status s = hooks_.storage->read(bytes); !s.ok())
+            return {StorageState::kReadFailed, in_group("storage", s), ErrorCode::kStorage};
+        const storage::RecordCheck c = storage::decode_stored_params(bytes, info_.firmware_version, stored_);
+        switch (c.state) {
+            case StorageState::kApplied: break;
+            case StorageState::kEmpty: return {c.state, in_group("storage", c.why), ErrorCode::kNotConfigured};
+            default: return {c.state, in_group("storage", c.why), ErrorCode::kStorage};
+        }
+        if (!(stored_.loop_rate_Hz == pipeline_.setup().rate_Hz))
+            return {StorageState::kRejected,
+                    in_group("storage", error("loop_rate_Hz", "the set was saved at another loop rate than this board runs (hello)")),
+                    ErrorCode::kInvalidParam};
+        if (const Status s = policy_.set_all(stored_); !s.ok()) return {StorageState::kRejected, s, policy_.code()};
+        if (stored_.has_recorder) log_.drop_pending();
+        return {StorageState::kApplied, ok_status(), ErrorCode::kNone};
+    }
+
+    // The texts are copied at once: a Status may point into a buffer that
+    // the next request reuses.
+    struct StorageWhy {
+        std::array<char, kGroupTextSize> group{};
+        std::array<char, kFieldTextSize> field{};
+        int16_t index = -1;
+        std::array<char, kMessageTextSize> message{};
+    };
+    void note_boot(const LoadResult& r) {
+        boot_state_ = r.state;
+        boot_why_ = StorageWhy{};
+        if (r.why.ok() || r.state == StorageState::kEmpty) return;  // nothing to explain
+        const ErrorReply e = make_error(0, r.code, r.why);
+        boot_why_.group = e.group;
+        boot_why_.field = e.field;
+        boot_why_.index = e.index;
+        boot_why_.message = e.message;
+    }
+
+    template <class Send>
+    void storage_request(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
+        Save m;  // Save, Load and Forget all have an empty body
+        if (!decode(h, body, m, send)) return;
+        if (hooks_.storage == nullptr)
+            return fail(h, ErrorCode::kUnsupported,
+                        error("storage", "this board has no parameter storage (emulated boards: emulate --storage FILE)"),
+                        send);
+        if (pipeline_.armed())
+            return fail(h, ErrorCode::kArmed, error("storage", "save, load and forget only while disarmed"), send);
+        switch (static_cast<MsgType>(h.type)) {
+            case MsgType::kSave: {
+                policy_.all(stored_);
+                set_text(stored_.firmware_version, info_.firmware_version);
+                const std::size_t n = storage::encode_stored_params(stored_, hooks_.storage->scratch());
+                if (n == 0)
+                    return fail(h, ErrorCode::kStorage, error("storage", "the record does not fit the storage"), send);
+                if (const Status s = hooks_.storage->write(n); !s.ok())
+                    return fail(h, ErrorCode::kStorage, in_group("storage", s), send);
+                return ack(h, send);
+            }
+            case MsgType::kLoad: {
+                const LoadResult r = load_stored();
+                if (r.state != StorageState::kApplied) return fail(h, r.code, r.why, send);
+                return ack(h, send);
+            }
+            default: {
+                if (const Status s = hooks_.storage->erase(); !s.ok())
+                    return fail(h, ErrorCode::kStorage, in_group("storage", s), send);
+                return ack(h, send);
+            }
+        }
+    }
+
     // ---- setpoint stream ------------------------------------------------------
 
     template <class Send>
@@ -533,6 +652,9 @@ private:
     bool client_lost_ = false;
     SetpointStream<T, SetpointCapacity> stream_{};
     LogStreamType log_{};
+    StorageState boot_state_ = StorageState::kAbsent;
+    StorageWhy boot_why_{};
+    storage::StoredParams stored_{};  // scratch of Save and Load (kept off the main loop's stack)
 };
 
 }  // namespace piezoloop::link

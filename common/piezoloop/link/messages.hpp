@@ -37,8 +37,9 @@ namespace piezoloop::link {
 // the reply) and refuses every other message whose header version differs.
 // Version 2: HelloReply's serial grew from 24 to 32 bytes (the STM32's
 // 24-hex-digit unique ID plus the terminating zero did not fit).
-// Version 3: StartExcitation / StopExcitation; HelloReply ends with the
-// excitation capacity, StatusReply with the excitation's state.
+// Version 3: StartExcitation / StopExcitation, Save / Load / Forget;
+// HelloReply ends with the excitation capacity, StatusReply with the
+// excitation's state and the storage block.
 inline constexpr uint8_t kProtocolVersion = 3;
 
 enum class MsgType : uint8_t {
@@ -59,6 +60,9 @@ enum class MsgType : uint8_t {
     kRecorderStop = 0x0E,
     kStartExcitation = 0x0F,
     kStopExcitation = 0x10,
+    kSave = 0x11,    // store the current parameter set in the board's storage
+    kLoad = 0x12,    // validate and apply the stored set
+    kForget = 0x13,  // erase the board's storage
     // Replies, device -> host, with the request's sequence id.
     kAck = 0x80,
     kHelloReply = 0x81,
@@ -70,7 +74,7 @@ enum class MsgType : uint8_t {
     kLogBlock = 0xC0,
 };
 
-constexpr bool is_request(uint8_t t) { return t >= 0x01 && t <= 0x0E; }
+constexpr bool is_request(uint8_t t) { return (t >= 0x01 && t <= 0x0E) || (t >= 0x11 && t <= 0x13); }
 
 enum class ErrorCode : uint8_t {
     kNone = 0,
@@ -86,6 +90,7 @@ enum class ErrorCode : uint8_t {
     kUnsupported = 10,   // feature absent on this device (see capabilities)
     kTripped = 11,       // arm refused: the limiter is tripped (clear it first)
     kBadGroup = 12,      // unknown parameter group
+    kStorage = 13,       // storage failed, or holds no usable set: field/message say why
 };
 
 constexpr const char* error_code_name(ErrorCode c) {
@@ -103,6 +108,7 @@ constexpr const char* error_code_name(ErrorCode c) {
         case ErrorCode::kUnsupported: return "unsupported";
         case ErrorCode::kTripped: return "tripped";
         case ErrorCode::kBadGroup: return "bad_group";
+        case ErrorCode::kStorage: return "storage";
     }
     return "?";
 }
@@ -117,6 +123,7 @@ inline constexpr uint32_t kSetpointStream = 1u << 4;
 inline constexpr uint32_t kRecorder = 1u << 5;
 inline constexpr uint32_t kWaveTable = 1u << 6;       // kSteps / kTable waveforms
 inline constexpr uint32_t kExcitation = 1u << 7;      // StartExcitation / StopExcitation, signal d
+inline constexpr uint32_t kStorage = 1u << 8;         // Save / Load / Forget: the board keeps a parameter set
 }  // namespace cap
 
 enum class SampleFormat : uint8_t { kFloat32 = 0, kQ31 = 1 };
@@ -161,6 +168,9 @@ struct EmptyMessage {
     void read(Reader&) {}
 };
 using Hello = EmptyMessage<MsgType::kHello>;
+using Save = EmptyMessage<MsgType::kSave>;
+using Load = EmptyMessage<MsgType::kLoad>;
+using Forget = EmptyMessage<MsgType::kForget>;
 using GetStatus = EmptyMessage<MsgType::kGetStatus>;
 using Arm = EmptyMessage<MsgType::kArm>;
 using Disarm = EmptyMessage<MsgType::kDisarm>;
@@ -441,6 +451,31 @@ struct TickStats {
     bool operator==(const TickStats&) const = default;
 };
 
+// What became of the stored parameter set at boot (StatusReply::storage).
+enum class StorageState : uint8_t {
+    kAbsent = 0,         // the board has no storage (emulated: started without --storage)
+    kEmpty = 1,          // nothing stored: the board booted with its safe default
+    kApplied = 2,        // the stored set was validated and applied
+    kCorrupt = 3,        // ignored: magic, length or CRC wrong, or the record is cut short
+    kOtherFirmware = 4,  // ignored: written by another firmware version or record format
+    kRejected = 5,       // ignored: the set failed validation (group/field/message say why)
+    kReadFailed = 6,     // ignored: the storage could not be read
+};
+inline constexpr uint8_t kStorageStateCount = 7;
+
+constexpr const char* storage_state_name(StorageState s) {
+    switch (s) {
+        case StorageState::kAbsent: return "absent";
+        case StorageState::kEmpty: return "empty";
+        case StorageState::kApplied: return "applied";
+        case StorageState::kCorrupt: return "ignored_corrupt";
+        case StorageState::kOtherFirmware: return "ignored_other_firmware";
+        case StorageState::kRejected: return "ignored_rejected";
+        case StorageState::kReadFailed: return "ignored_read_failed";
+    }
+    return "?";
+}
+
 struct StatusReply {
     static constexpr MsgType kType = MsgType::kStatusReply;
     bool armed = false;
@@ -466,6 +501,15 @@ struct StatusReply {
     bool excitation_running = false;
     uint32_t excitation_ticks = 0;
     uint32_t excitation_clipped = 0;
+    // ---- storage block (protocol 3): the stored parameter set at boot.
+    // One contiguous block, the last of the layout. The texts say why a set was ignored
+    // (the core's Status of the check that failed), empty otherwise.
+    StorageState storage = StorageState::kAbsent;
+    std::array<char, kGroupTextSize> storage_group{};
+    std::array<char, kFieldTextSize> storage_field{};
+    int16_t storage_index = -1;
+    std::array<char, kMessageTextSize> storage_message{};
+    // ---- end of the storage block
     bool operator==(const StatusReply&) const = default;
 
     void write(Writer& w) const {
@@ -481,6 +525,11 @@ struct StatusReply {
         w.u32(link.error_replies);
         w.f32(r_um); w.f32(y_um); w.f32(u_V);
         w.boolean(excitation_running); w.u32(excitation_ticks); w.u32(excitation_clipped);
+        // storage block
+        w.u8(static_cast<uint8_t>(storage));
+        w.text(storage_group.data(), kGroupTextSize); w.text(storage_field.data(), kFieldTextSize);
+        w.i16(storage_index);
+        w.text(storage_message.data(), kMessageTextSize);
     }
     void read(Reader& r) {
         armed = r.boolean(); tripped = r.boolean(); trip_reason = static_cast<TripReason>(r.u8());
@@ -495,6 +544,12 @@ struct StatusReply {
         link.error_replies = r.u32();
         r_um = r.f32(); y_um = r.f32(); u_V = r.f32();
         excitation_running = r.boolean(); excitation_ticks = r.u32(); excitation_clipped = r.u32();
+        // storage block
+        storage = static_cast<StorageState>(r.u8());
+        r.text(storage_group.data(), storage_group.size(), kGroupTextSize);
+        r.text(storage_field.data(), storage_field.size(), kFieldTextSize);
+        storage_index = r.i16();
+        r.text(storage_message.data(), storage_message.size(), kMessageTextSize);
     }
 };
 

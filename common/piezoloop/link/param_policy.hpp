@@ -18,6 +18,11 @@
 // banked) slewing the output across the change.
 // The trajectory is validated by a scratch generator and stored (StartWave
 // runs it); the recorder is configured at once, inside the tick mask.
+//
+// A whole stored set (Load, and the load at boot: set_all) goes through
+// steps 2, 4 and 5 for every group it holds, all of them before anything
+// is applied: a set with one bad group changes nothing. The caller refuses
+// it while armed (it replaces limit-critical groups).
 #pragma once
 
 #include <array>
@@ -28,6 +33,7 @@
 #include "piezoloop/link/messages.hpp"
 #include "piezoloop/params/field_check.hpp"
 #include "piezoloop/pipeline.hpp"
+#include "piezoloop/storage/stored_params.hpp"
 
 namespace piezoloop::link {
 
@@ -48,6 +54,52 @@ public:
         return s;
     }
     ErrorCode code() const { return code_; }
+
+    // Applies a whole stored set, or nothing; on error code() as for set().
+    Status set_all(const storage::StoredParams& v) {
+        if (pipeline_.swap_pending())
+            return fail(ErrorCode::kBusy, error("params", "previous parameter set not yet swapped in; retry after one tick"));
+        if (const Status s = check_group(v.limits); !s.ok()) return s;
+        if (const Status s = check_group(v.feedforward); !s.ok()) return s;
+        if (const Status s = check_group(v.feedback); !s.ok()) return s;
+        if (const Status s = check_group(v.rc); !s.ok()) return s;
+        if (v.has_trajectory) {
+            if (const Status s = check_group(v.trajectory); !s.ok()) return s;
+        }
+        if (v.has_recorder) {
+            if (const Status s = check_group(v.recorder); !s.ok()) return s;
+        }
+        if (const Status s = check_group(v.link); !s.ok()) return s;
+        PipelineParams p = pipeline_.params();
+        params::set_group(p, v.limits);
+        params::set_group(p, v.feedforward);
+        params::set_group(p, v.feedback);
+        params::set_group(p, v.rc);
+        if (const Status s = pipeline_.stage(p); !s.ok())
+            return fail(ErrorCode::kInvalidParam, s.group == nullptr ? in_group("params", s) : s);
+        staged_ = p;
+        // Checked above: none of these can fail now.
+        if (v.has_trajectory) (void)apply(v.trajectory);
+        if (v.has_recorder) (void)apply(v.recorder);
+        (void)apply(v.link);
+        return ok_status();
+    }
+
+    // Everything set_all() applies, as GetParams reports it (the firmware
+    // version is the device's to fill in).
+    void all(storage::StoredParams& s) const {
+        s = storage::StoredParams{};
+        s.loop_rate_Hz = pipeline_.setup().rate_Hz;
+        s.limits = get<LimitsParams>();
+        s.feedforward = get<FeedforwardParams>();
+        s.feedback = get<FeedbackParams>();
+        s.rc = get<RepetitiveParams>();
+        s.has_trajectory = wave_set_;
+        s.trajectory = wave_;
+        s.has_recorder = pipeline_.recorder().configured();
+        s.recorder = recorder();
+        s.link = link_;
+    }
 
     // The newest accepted set (GetParams): the staged one until it is swapped in.
     const PipelineParams& params() const { return pipeline_.swap_pending() ? staged_ : pipeline_.params(); }
@@ -105,6 +157,38 @@ private:
             if (const char* field = params::first_critical_change(from, to, critical_field_))
                 return fail(ErrorCode::kArmed, error(field, "limit-critical: changes only while disarmed"));
         }
+        return ok_status();
+    }
+
+    // Steps 4 and 5 of one group of a whole set, nothing applied; errors
+    // named with the group as set() names them.
+    template <class G>
+    Status check_group(const G& v) {
+        Status s = check_only(v);
+        if (!s.ok() && s.group == nullptr) s = in_group(group_name(G::kGroup), s);
+        return s;
+    }
+    template <class G>
+    Status check_only(const G& v) {
+        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        if (const Status s = block_checks(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        return ok_status();
+    }
+    Status check_only(const TrajectoryParams& v) {
+        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        TrajectoryGenerator<T, kMaxWaveTable> scratch(pipeline_.setup().position);
+        if (const Status s = scratch.configure(trajectory_config(v)); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        return ok_status();
+    }
+    Status check_only(const RecorderParams& v) {
+        if (v.channel_count != kRecChannels)
+            return fail(ErrorCode::kUnsupported, error("channel_count", "must equal the device's recorder channel count (hello)"));
+        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        if (const Status s = RecorderType::validate(recorder_config(v)); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        return ok_status();
+    }
+    Status check_only(const LinkParams& v) {
+        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
         return ok_status();
     }
 
@@ -185,6 +269,15 @@ private:
         if (v.channel_count != kRecChannels)
             return fail(ErrorCode::kUnsupported, error("channel_count", "must equal the device's recorder channel count (hello)"));
         if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        const typename RecorderType::Config c = recorder_config(v);
+        mask(true);
+        const Status s = pipeline_.recorder().configure(c);
+        mask(false);
+        if (!s.ok()) return fail(ErrorCode::kInvalidParam, s);
+        return ok_status();
+    }
+
+    typename RecorderType::Config recorder_config(const RecorderParams& v) const {
         typename RecorderType::Config c{};
         for (std::size_t i = 0; i < kRecChannels; ++i) c.channels[i] = v.channels[i];
         c.decimation = v.decimation;
@@ -197,11 +290,7 @@ private:
                                                                           : pipeline_.setup().voltage;
         c.pre_trigger = v.pre_trigger;
         c.length = v.length;
-        mask(true);
-        const Status s = pipeline_.recorder().configure(c);
-        mask(false);
-        if (!s.ok()) return fail(ErrorCode::kInvalidParam, s);
-        return ok_status();
+        return c;
     }
 
     Status apply(const LinkParams& v) {

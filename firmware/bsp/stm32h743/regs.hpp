@@ -85,6 +85,26 @@ inline constexpr uint32_t kApb4SyscfgEn = 1u << 1;
 namespace flash {
 inline constexpr uintptr_t kAcr = 0x52002000;  // LATENCY[3:0], WRHIGHFREQ[5:4]
 inline constexpr uint32_t kLatencyMask = 0xFu, kWrHighFreqMask = 3u << 4;
+// Bank 2's registers (§4.9: each bank's set, bank 2 at +0x100 from bank 1's).
+inline constexpr uintptr_t kKeyr2 = 0x52002000 + 0x104;
+inline constexpr uintptr_t kCr2 = 0x52002000 + 0x10C;
+inline constexpr uintptr_t kSr2 = 0x52002000 + 0x110;
+inline constexpr uintptr_t kCcr2 = 0x52002000 + 0x114;  // write 1 to clear the SR2 flag of the same bit
+// Unlock sequence of FLASH_KEYRx (§4.5.1).
+inline constexpr uint32_t kKey1 = 0x45670123u, kKey2 = 0xCDEF89ABu;
+// FLASH_CR2: LOCK 0, PG 1, SER 2, PSIZE[5:4], START 7, SNB[10:8].
+inline constexpr uint32_t kCrLock = 1u << 0, kCrPg = 1u << 1, kCrSer = 1u << 2, kCrStart = 1u << 7;
+inline constexpr uint32_t kCrPsizeX64 = 3u << 4;  // 64-bit parallelism (VOS0/1 at 2.7-3.6 V, §4.3.8)
+inline constexpr uint32_t kCrSnbShift = 8, kCrSnbMask = 7u << 8;
+// FLASH_SR2: BSY 0, WBNE 1, QW 2; EOP 16; errors WRPERR 17, PGSERR 18,
+// STRBERR 19, INCERR 21, OPERR 22.
+inline constexpr uint32_t kSrBsy = 1u << 0, kSrWbne = 1u << 1, kSrQw = 1u << 2, kSrEop = 1u << 16;
+inline constexpr uint32_t kSrErrors = (1u << 17) | (1u << 18) | (1u << 19) | (1u << 21) | (1u << 22);
+// Bank 2 at 0x08100000, eight 128 KiB sectors; flash words are 256 bits
+// (§4.3.7: programmed 32 bytes at a time, one ECC per word).
+inline constexpr uintptr_t kBank2 = 0x08100000;
+inline constexpr uint32_t kSectorBytes = 128u * 1024u;
+inline constexpr uint32_t kWordBytes = 32;
 }  // namespace flash
 
 // ---- GPIO -------------------------------------------------------------------

@@ -523,7 +523,7 @@ TYPED_TEST(LinkDevice, HostileStreamIsCountedAndTheDeviceKeepsRunning) {
                 if (body.size() < 3) body.resize(3, 0xEE);
             }
             if (mt == MsgType::kStartExcitation && body.size() == 45) body.push_back(0xEE);
-            const std::size_t n = encode_frame(type, rng() % 16 == 0 ? 3 : kProtocolVersion, static_cast<uint16_t>(i), body, f);
+            const std::size_t n = encode_frame(type, static_cast<uint8_t>(rng() % 16 == 0 ? kProtocolVersion + 1 : kProtocolVersion), static_cast<uint16_t>(i), body, f);
             stream.assign(f.begin(), f.begin() + static_cast<long>(n));
             if (kind == 2) {
                 // Damage: flip, drop or insert a byte (not the delimiter).

@@ -156,7 +156,7 @@ TEST(LinkMessages, RoundTripEveryMessage) {
         check(SetpointAck{r32(), static_cast<uint16_t>(r32()), static_cast<uint16_t>(r32()), r32(), r32()});
         check(Ack{r8()});
         ErrorReply e;
-        e.request_type = r8(); e.code = static_cast<ErrorCode>(r8() % 13); e.index = static_cast<int16_t>(r32());
+        e.request_type = r8(); e.code = static_cast<ErrorCode>(r8() % 14); e.index = static_cast<int16_t>(r32());
         rtext(e.group); rtext(e.field); rtext(e.message);
         check(e);
         HelloReply h;
@@ -178,6 +178,9 @@ TEST(LinkMessages, RoundTripEveryMessage) {
         s.link = LinkCounters{r32(), r32(), r32(), r32(), r32(), r32(), r32(), r32(), r32(), r32()};
         s.r_um = rf(); s.y_um = rf(); s.u_V = rf();
         s.excitation_running = r32() % 2; s.excitation_ticks = r32(); s.excitation_clipped = r32();
+        s.storage = static_cast<StorageState>(r8() % kStorageStateCount);
+        rtext(s.storage_group); rtext(s.storage_field); rtext(s.storage_message);
+        s.storage_index = static_cast<int16_t>(r32());
         check(s);
         LogBlock b;
         b.block_seq = r32(); b.first_tick = r32(); b.tick_stride = r32(); b.recorder_overruns = r32();
@@ -189,6 +192,28 @@ TEST(LinkMessages, RoundTripEveryMessage) {
         for (std::size_t i = 0; i < std::size_t{b.channel_count} * b.frame_count; ++i) b.samples[i] = r32();
         check(b);
     }
+}
+
+TEST(LinkMessages, StatusReplyLayoutEndsWithTheStorageBlock) {
+    // docs/protocol.md: 260 bytes, the storage block from offset 113.
+    StatusReply s;
+    s.storage = StorageState::kRejected;
+    link::set_text(s.storage_group, "feedforward");
+    std::array<uint8_t, kMaxBody> body{};
+    Writer w(body);
+    s.write(w);
+    ASSERT_TRUE(w.ok());
+    EXPECT_EQ(w.size(), 260u);
+    EXPECT_EQ(body[113], static_cast<uint8_t>(StorageState::kRejected));
+    EXPECT_EQ(body[114], 'f');
+}
+
+TEST(LinkMessages, StorageRequestsAreRequests) {
+    for (const MsgType t : {MsgType::kSave, MsgType::kLoad, MsgType::kForget})
+        EXPECT_TRUE(is_request(static_cast<uint8_t>(t)));
+    EXPECT_EQ(static_cast<uint8_t>(MsgType::kSave), 0x11);
+    EXPECT_EQ(static_cast<uint8_t>(MsgType::kLoad), 0x12);
+    EXPECT_EQ(static_cast<uint8_t>(MsgType::kForget), 0x13);
 }
 
 TEST(LinkMessages, LargestMessagesFitTheFrame) {
