@@ -181,21 +181,30 @@ public:
             default:
                 return error("signal", "must be multisine, sweep, prbs, step, triangle or raised cosine");
         }
+        // The step, triangle and raised cosine run as a bipolar w' = 2 w - 1
+        // about their mid-level: d = (offset + amplitude/2) + (amplitude/2) w',
+        // so a Q31 d may span the whole full scale (from -fs to +fs) while
+        // the factors stay within it.
+        const bool unipolar = c.signal == ExcitationSignal::kStep || c.signal == ExcitationSignal::kTriangle ||
+                              c.signal == ExcitationSignal::kRaisedCosine;
+        const float amp_f = unipolar ? 0.5f * c.amplitude : c.amplitude;
+        const float off_f = unipolar ? c.offset + 0.5f * c.amplitude : c.offset;
         Q31 amp_q{}, off_q{};
         if constexpr (!kFloat) {
             const double fs = static_cast<double>(scale_.full_scale);
             if (!(fs > 0.0)) return error("full_scale", "output scale must be > 0");
-            const double o = static_cast<double>(c.offset);
-            const double a = static_cast<double>(c.amplitude);
+            const double o = static_cast<double>(off_f);
+            const double a = static_cast<double>(amp_f);
             if ((o < 0.0 ? -o : o) + (a < 0.0 ? -a : a) > fs)
-                return error("amplitude", "|offset| + amplitude must be <= the Q31 full scale");
-            amp_q = Q31::from_double(static_cast<double>(c.amplitude) / fs);
+                return error("amplitude", "the excitation's range must lie within the Q31 full scale");
+            amp_q = Q31::from_double(a / fs);
             off_q = Q31::from_double(o / fs);
         }
         // Commit.
         cfg_ = c;
-        amp_f_ = c.amplitude;
-        off_f_ = c.offset;
+        amp_f_ = amp_f;
+        off_f_ = off_f;
+        rest_w_ = unipolar ? -Q31::kMaxRaw : 0;  // w' of the offset itself
         amp_q_ = amp_q;
         off_q_ = off_q;
         sweep_ratio_ = sweep_ratio;
@@ -228,7 +237,7 @@ public:
 
     // Output, then advance by one sample. After the last period: the offset.
     constexpr T step() {
-        if (done_) return value_of(0);
+        if (done_) return value_of(rest_w_);
         int32_t w = 0;
         switch (cfg_.signal) {
             case ExcitationSignal::kMultisine:
@@ -280,7 +289,8 @@ private:
         else return off_q_ + amp_q_ * Q31::from_raw(w);
     }
 
-    // Step, triangle, raised cosine at the phase p = floor(n 2^32 / N), then
+    // Step, triangle, raised cosine (as w' = 2 w - 1) at the phase
+    // p = floor(n 2^32 / N), then
     // p advances by 2^32 / N (quotient and Bresenham remainder, set at
     // configure): the same integers on every machine, no division per tick.
     constexpr int32_t ramp_shape() {
@@ -291,13 +301,17 @@ private:
             ramp_rem_ -= cfg_.period_samples;
             ++ramp_phase_;
         }
+        // As w' = 2 w - 1 (see configure()).
         switch (cfg_.signal) {
-            case ExcitationSignal::kStep: return p >= 0x80000000u ? Q31::kMaxRaw : 0;
-            case ExcitationSignal::kTriangle: return static_cast<int32_t>(p < 0x80000000u ? p : ~p);
+            case ExcitationSignal::kStep: return p >= 0x80000000u ? Q31::kMaxRaw : -Q31::kMaxRaw;
+            case ExcitationSignal::kTriangle: {
+                const int64_t t = p < 0x80000000u ? p : ~p;  // w in [0, 2^31 - 1]
+                return static_cast<int32_t>(2 * t - Q31::kMaxRaw);
+            }
             default: {
-                // (1 - cos) / 2 in Q31: (2^31 - 1 - cos) / 2, cos = sin(p + a quarter).
-                const int64_t c = sine_q31(p + 0x40000000u);
-                return static_cast<int32_t>((int64_t{Q31::kMaxRaw} - c) >> 1);
+                // 1 - cos -> w' = -cos, cos = sin(p + a quarter).
+                const int32_t c = sine_q31(p + 0x40000000u);
+                return c <= -Q31::kMaxRaw ? Q31::kMaxRaw : -c;
             }
         }
     }
@@ -357,6 +371,7 @@ private:
     ExcitationConfig cfg_{};
     bool configured_ = false;
     float amp_f_ = 0.0f, off_f_ = 0.0f;
+    int32_t rest_w_ = 0;  // the shape's value at the offset, where d rests when done
     Q31 amp_q_{}, off_q_{};
     std::array<int32_t, TableCapacity> table_{};
     double sweep_ratio_ = 1.0, sweep_inc0_ = 0.0;

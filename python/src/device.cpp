@@ -219,6 +219,9 @@ void add_device(pyb::module_& m) {
         .def("disarm", [](Device& d) { d.simple(&Client::disarm); })
         .def("clear_trip", [](Device& d) { d.simple(&Client::clear_trip); })
         .def("record", &Device::record)
+        .def("save", [](Device& d) { d.simple(&Client::save); })
+        .def("load", [](Device& d) { d.simple(&Client::load); })
+        .def("forget", [](Device& d) { d.simple(&Client::forget); })
         .def("measure_frf",
              [](Device& d, double from_Hz, double to_Hz, double amplitude_V, double bias_V, const std::string& mode,
                 const std::string& signal, int periods, int transient_periods, bool restart_stage) {
@@ -226,10 +229,6 @@ void add_device(pyb::module_& m) {
                                                   transient_periods),
                                       restart_stage);
              });
-        .def("save", [](Device& d) { d.simple(&Client::save); })
-        .def("load", [](Device& d) { d.simple(&Client::load); })
-        .def("forget", [](Device& d) { d.simple(&Client::forget); })
-        .def("record", &Device::record);
 }
 
 }  // namespace piezoloop::py

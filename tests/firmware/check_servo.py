@@ -448,7 +448,7 @@ def run_checks(link, check, machine, seconds, replay=None):
     check(s1["tick_count"] > s0["tick_count"], "the loop runs (tick count grows)")
     check(not s1["armed"] and not s1["tripped"], "starts disarmed, not tripped")
     check(s1["overruns"] == 0 and s1["time_max"] > 0, "tick stats: no overruns, timing measured")
-    check(s1["storage"] == "absent" and not h["caps"] & (1 << 7),
+    check(s1["storage"] == "absent" and not h["caps"] & (1 << 8),
           "no --storage on the semihosting command line: no parameter storage")
 
     # 3: hostile input.

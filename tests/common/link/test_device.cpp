@@ -826,8 +826,10 @@ TYPED_TEST(LinkStartWaveFlags, StartExcitationChecksThenRunsAndStops) {
     const LogBlock b = r_.replies[0].template as<LogBlock>();
     EXPECT_EQ(b.first_tick, start_tick);
     EXPECT_EQ(b.channels[3], signal_index(SignalId::kD));
-    const T d0 = std::bit_cast<T>(b.samples[3]);
-    EXPECT_EQ(r_.pipeline->setup().voltage.to_physical(d0), lim.u_min_V);
+    T d0;
+    if constexpr (std::is_same_v<T, float>) d0 = std::bit_cast<float>(b.samples[3]);
+    else d0 = Q31::from_raw(static_cast<int32_t>(b.samples[3]));
+    EXPECT_NEAR(r_.pipeline->setup().voltage.to_physical(d0), lim.u_min_V, 1e-6);
     EXPECT_EQ(r_.request(StopExcitation{}).type(), MsgType::kAck);
     r_.tick();
     st = r_.request(GetStatus{}).template as<StatusReply>();

@@ -195,17 +195,20 @@ TEST(LinkMessages, RoundTripEveryMessage) {
 }
 
 TEST(LinkMessages, StatusReplyLayoutEndsWithTheStorageBlock) {
-    // docs/protocol.md: 260 bytes, the storage block from offset 113.
+    // docs/protocol.md: 269 bytes, the excitation at 113, the storage block
+    // from offset 122.
     StatusReply s;
+    s.excitation_running = true;
     s.storage = StorageState::kRejected;
     link::set_text(s.storage_group, "feedforward");
     std::array<uint8_t, kMaxBody> body{};
     Writer w(body);
     s.write(w);
     ASSERT_TRUE(w.ok());
-    EXPECT_EQ(w.size(), 260u);
-    EXPECT_EQ(body[113], static_cast<uint8_t>(StorageState::kRejected));
-    EXPECT_EQ(body[114], 'f');
+    EXPECT_EQ(w.size(), 269u);
+    EXPECT_EQ(body[113], 1);
+    EXPECT_EQ(body[122], static_cast<uint8_t>(StorageState::kRejected));
+    EXPECT_EQ(body[123], 'f');
 }
 
 TEST(LinkMessages, StorageRequestsAreRequests) {

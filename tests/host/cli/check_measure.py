@@ -3,7 +3,8 @@
 identify tf` (issue 16; docs/measurement.md).
 
 1. Open-loop multisine on the Ahmad2020 stage with its sensor noise on (and
-   its 16-bit converters): the measured response u (V) -> y (um) is within
+   its 16-bit converters), with the float core and with the Q31 core: the
+   measured response u (V) -> y (um) is within
    0.5 dB and 3 deg of the stage's exact sampled response on every line from
    10 Hz to 0.4 x the loop rate whose standard deviation is <= 0.1 dB (SNR
    >= 39 dB; at least half of the 400 lines). The exact response is computed
@@ -53,22 +54,17 @@ def run(*args):
     return subprocess.run([exe, *args], capture_output=True, text=True)
 
 
-# 1. The response against the exact one.
-frf = os.path.join(tmp, "frf.json")
-res = run("measure", "frf", "--scenario", scenario, "--from-hz", "10", "--to-hz", "4000", "--amplitude-v", "0.09",
-          "--bias-v", "3", "--periods", "40", "--out", frf)
-check("measure frf runs", res.returncode == 0, res.stderr)
-if res.returncode == 0:
-    summary = json.loads(res.stdout)
-    print("     " + res.stderr.strip())
-    j = json.load(open(frf))
+def accuracy(path, core):
+    """The measured response in `path` against the exact sampled one."""
+    j = json.load(open(path))
     for key in ("frequency_Hz", "response", "std_db", "input", "output", "units", "clipped_samples", "warnings"):
-        check(f"frf.json has {key}", key in j)
+        check(f"{core}: frf.json has {key}", key in j)
     f = np.array(j["frequency_Hz"])
     g = np.array([complex(a, b) for a, b in j["response"]])
     sd = np.array([math.nan if x is None else x for x in j["std_db"]])
-    check("lines 10 Hz .. 4 kHz", len(f) == 400 and f[0] == 10.0 and f[-1] == 4000.0, f"{len(f)} {f[0]} {f[-1]}")
-    check("nothing clipped", j["clipped_samples"] == 0, str(j["clipped_samples"]))
+    check(f"{core}: lines 10 Hz .. 4 kHz", len(f) == 400 and f[0] == 10.0 and f[-1] == 4000.0,
+          f"{len(f)} {f[0]} {f[-1]}")
+    check(f"{core}: nothing clipped", j["clipped_samples"] == 0, str(j["clipped_samples"]))
     model = json.load(open(os.path.join(configs, "models", "ahmad2020_G.json")))
     num = np.array(model["num"]) / model["num"][-1] * model["den"][-1]  # unit DC gain
     den = np.array(model["den"])
@@ -80,16 +76,32 @@ if res.returncode == 0:
     high = sd <= 0.1
     err_db = np.abs(20 * np.log10(np.abs(ratio[high])))
     err_deg = np.abs(np.angle(ratio[high], deg=True))
-    print(f"     {high.sum()} of {len(f)} lines with std <= 0.1 dB (up to {f[high].max():.0f} Hz): "
+    print(f"     {core}: {high.sum()} of {len(f)} lines with std <= 0.1 dB (up to {f[high].max():.0f} Hz): "
           f"max error {err_db.max():.3f} dB, {err_deg.max():.3f} deg")
-    check("most lines have a high SNR", high.sum() >= 200, str(high.sum()))
-    check("within 0.5 dB of the exact response", err_db.max() <= 0.5, f"{err_db.max():.3f} dB")
-    check("within 3 deg of the exact response", err_deg.max() <= 3.0, f"{err_deg.max():.3f} deg")
+    check(f"{core}: most lines have a high SNR", high.sum() >= 200, str(high.sum()))
+    check(f"{core}: within 0.5 dB of the exact response", err_db.max() <= 0.5, f"{err_db.max():.3f} dB")
+    check(f"{core}: within 3 deg of the exact response", err_deg.max() <= 3.0, f"{err_deg.max():.3f} deg")
     # The noise estimate is honest: the errors over the high-SNR lines are
     # about one standard deviation (|G| in dB), not many.
     z_scores = 20 * np.log10(np.abs(ratio[high])) / sd[high]
-    check("errors consistent with std_db", 0.5 < np.std(z_scores) < 1.6, f"{np.std(z_scores):.2f}")
+    check(f"{core}: errors consistent with std_db", 0.5 < np.std(z_scores) < 1.6, f"{np.std(z_scores):.2f}")
 
+
+# 1. The response against the exact one, with the float core and with the
+# Q31 core (the emulated boards' recordings equal these: check_measure_e2e.py).
+frf = os.path.join(tmp, "frf.json")
+frf_q31 = os.path.join(tmp, "frf_q31.json")
+res_q31 = run("measure", "frf", "--scenario", scenario, "--sample", "q31", "--from-hz", "10", "--to-hz", "4000",
+              "--amplitude-v", "0.09", "--bias-v", "3", "--periods", "40", "--out", frf_q31)
+check("measure frf --sample q31 runs", res_q31.returncode == 0, res_q31.stderr)
+res = run("measure", "frf", "--scenario", scenario, "--from-hz", "10", "--to-hz", "4000", "--amplitude-v", "0.09",
+          "--bias-v", "3", "--periods", "40", "--out", frf)
+check("measure frf runs", res.returncode == 0, res.stderr)
+for path, core in ((frf, "float"), (frf_q31, "q31")):
+    if os.path.exists(path):
+        accuracy(path, core)
+if res.returncode == 0:
+    print("     " + res.stderr.strip())
     # 2. identify tf.
     model_out = os.path.join(tmp, "fit.json")
     res = run("identify", "tf", "--frf", frf, "--order", "6/5", "--delay-samples", "1", "--out", model_out)
