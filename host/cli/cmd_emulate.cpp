@@ -29,7 +29,6 @@
 #include "commands.hpp"
 #include "device_common.hpp"
 #include "link/tcp_transport.hpp"
-#include "link/usb_transport.hpp"
 #include "piezoloop/emulation_profile.hpp"
 #include "sim/build_case.hpp"
 #include "status_text.hpp"
@@ -324,15 +323,7 @@ void add_devices(CLI::App& app) {
             json out;
             out["usb"] = json::array();
             try {
-                for (const hostlink::UsbBoard& b : hostlink::list_usb_boards()) {
-                    char id[16];
-                    std::snprintf(id, sizeof id, "%04x:%04x", b.vid, b.pid);
-                    out["usb"].push_back({{"device", b.serial.empty() ? std::string("usb") : "usb:" + b.serial},
-                                          {"serial", b.serial},
-                                          {"product", b.product},
-                                          {"bus_port", b.bus_port},
-                                          {"vid_pid", id}});
-                }
+                out["usb"] = usb_boards_json();
             } catch (const std::exception& e) {
                 out["usb_error"] = e.what();
             }

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "link/params_json.hpp"
+#include "link/usb_transport.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::cli {
@@ -70,6 +71,20 @@ const sim::CaseSpec* measured_case(const sim::Scenario& s, const std::string& ca
     storage = c ? *c : sim::CaseSpec{};
     storage.sample = sample == "q31" ? sim::SampleType::kQ31 : sim::SampleType::kFloat;
     return &storage;
+}
+
+nlohmann::json usb_boards_json() {
+    nlohmann::json out = nlohmann::json::array();
+    for (const hostlink::UsbBoard& b : hostlink::list_usb_boards()) {
+        char id[16];
+        std::snprintf(id, sizeof id, "%04x:%04x", b.vid, b.pid);
+        out.push_back({{"device", b.serial.empty() ? std::string("usb") : "usb:" + b.serial},
+                       {"serial", b.serial},
+                       {"product", b.product},
+                       {"bus_port", b.bus_port},
+                       {"vid_pid", id}});
+    }
+    return out;
 }
 
 CaseGroups case_groups(const PipelineParams& p) {

@@ -35,6 +35,11 @@ bool measure_on_board(const std::string& scenario, const std::string& case_name,
 const sim::CaseSpec* measured_case(const sim::Scenario& s, const std::string& case_name, const std::string& sample,
                                    sim::CaseSpec& storage);
 
+// `piezoloop devices`: the attached USB boards, each with the --device
+// address that opens it (throws hostlink::LinkError when USB cannot be
+// enumerated).
+nlohmann::json usb_boards_json();
+
 // A case's controller as the link groups, in the order they are sent.
 struct CaseGroups {
     link::LimitsParams limits;

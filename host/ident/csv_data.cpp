@@ -34,7 +34,7 @@ std::vector<std::string_view> split(std::string_view line) {
     throw std::invalid_argument(source + ":" + std::to_string(line) + ": " + what);
 }
 
-std::string quoted(std::string_view s) { return "'" + std::string(s) + "'"; }
+std::string in_quotes(std::string_view s) { return "'" + std::string(s) + "'"; }
 
 }  // namespace
 
@@ -85,10 +85,10 @@ CsvData parse_csv(std::string_view text, const std::string& source, const CsvPro
                 const auto r = std::from_chars(name.data(), name.data() + name.size(), probe);
                 if (r.ec == std::errc() && r.ptr == name.data() + name.size())
                     fail(source, line_no,
-                         "header: column " + std::to_string(c + 1) + " is the number " + quoted(name) +
+                         "header: column " + std::to_string(c + 1) + " is the number " + in_quotes(name) +
                              "; the first row must name the columns (e.g. t,u,y)");
                 for (const auto& n : d.names)
-                    if (n == name) fail(source, line_no, "header: column " + quoted(name) + " appears twice");
+                    if (n == name) fail(source, line_no, "header: column " + in_quotes(name) + " appears twice");
                 d.names.emplace_back(name);
             }
             d.columns.resize(d.names.size());
@@ -101,17 +101,17 @@ CsvData parse_csv(std::string_view text, const std::string& source, const CsvPro
                      std::to_string(fields.size()));
         for (std::size_t c = 0; c < fields.size(); ++c) {
             const std::string_view f = fields[c];
-            const std::string col = "column " + quoted(d.names[c]) + ": ";
+            const std::string col = "column " + in_quotes(d.names[c]) + ": ";
             if (f.empty()) fail(source, line_no, col + "empty field");
             // from_chars does not accept a leading '+'; allow it as people write it.
             const char* first = f.data() + (f.front() == '+' ? 1 : 0);
             double v = 0.0;
             const auto r = std::from_chars(first, f.data() + f.size(), v);
             if (r.ec == std::errc::result_out_of_range)
-                fail(source, line_no, col + quoted(f) + " is out of the double range");
+                fail(source, line_no, col + in_quotes(f) + " is out of the double range");
             if (r.ec != std::errc() || r.ptr != f.data() + f.size())
-                fail(source, line_no, col + quoted(f) + " is not a number");
-            if (!std::isfinite(v)) fail(source, line_no, col + quoted(f) + " is not finite (NaN/Inf)");
+                fail(source, line_no, col + in_quotes(f) + " is not a number");
+            if (!std::isfinite(v)) fail(source, line_no, col + in_quotes(f) + " is not finite (NaN/Inf)");
             d.columns[c].push_back(v);
         }
         d.lines.push_back(line_no);
@@ -139,7 +139,7 @@ double uniform_sample_period(const CsvData& data, std::string_view time_column, 
         throw std::invalid_argument(name + ": needs at least two samples to give a sample period");
     for (std::size_t k = 1; k < t.size(); ++k)
         if (!(t[k] > t[k - 1]))
-            fail(data.source, data.lines[k], "column " + quoted(name) + ": time must increase strictly");
+            fail(data.source, data.lines[k], "column " + in_quotes(name) + ": time must increase strictly");
     // Jitter is judged against the median step (one gap or duplicate row
     // does not shift it), the period returned is the mean over the file.
     std::vector<double> dts;

@@ -4,7 +4,6 @@
 #include <optional>
 #include <stdexcept>
 
-
 namespace piezoloop::hostlink {
 
 namespace {
@@ -55,21 +54,6 @@ const std::vector<double>& column(const RecordResult& rec, uint8_t id) {
         if (rec.signals[k] == id) return rec.values[k];
     throw LinkError("the recording has no signal " + std::string(signal_name(id)));
 }
-
-}  // namespace
-
-measure::FrfPlan plan_frf_device(Client& c, const measure::FrfRequest& r) {
-    const link::HelloReply& h = c.info();
-    if ((h.capabilities & link::cap::kExcitation) == 0 || h.excitation_capacity == 0)
-        throw std::invalid_argument("this board's firmware has no excitation: update it");
-    if (h.recorder_channels < 4)
-        throw std::invalid_argument("this board records " + std::to_string(h.recorder_channels) +
-                                    " channels; a measurement records r, y, u and d");
-    const LimitsConfig limits = c.get<link::LimitsParams>().limits;
-    return measure::plan_frf(h.loop_rate_Hz, limits, h.excitation_capacity, r, "board's");
-}
-
-namespace {
 
 // Runs `measure` with the board prepared. Open loop the controller groups
 // are set to none (the loop disarmed first) and put back afterwards, the
@@ -124,6 +108,17 @@ RecordResult record_excitation(Client& c, const ExcitationConfig& e, uint64_t ti
 }
 
 }  // namespace
+
+measure::FrfPlan plan_frf_device(Client& c, const measure::FrfRequest& r) {
+    const link::HelloReply& h = c.info();
+    if ((h.capabilities & link::cap::kExcitation) == 0 || h.excitation_capacity == 0)
+        throw std::invalid_argument("this board's firmware has no excitation: update it");
+    if (h.recorder_channels < 4)
+        throw std::invalid_argument("this board records " + std::to_string(h.recorder_channels) +
+                                    " channels; a measurement records r, y, u and d");
+    const LimitsConfig limits = c.get<link::LimitsParams>().limits;
+    return measure::plan_frf(h.loop_rate_Hz, limits, h.excitation_capacity, r, "board's");
+}
 
 DeviceFrfRun run_frf_device(Client& c, const measure::FrfRequest& r, const MeasureOptions& o) {
     const measure::FrfPlan plan = plan_frf_device(c, r);

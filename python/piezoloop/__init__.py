@@ -10,10 +10,10 @@ See docs/python.md.
 from . import _piezoloop
 from . import design
 from ._piezoloop import DeviceError, LinkError
-from .device import Device, Recording, connect
+from .device import Device, Recording, connect, devices
 from .emulate import Emulator, emulate
 from .measure import FrequencyResponse, measure_frf
 from .simulate import SimRun, sim
 
-__all__ = ["sim", "SimRun", "connect", "Device", "Recording", "emulate", "Emulator", "design", "measure_frf",
+__all__ = ["sim", "SimRun", "connect", "devices", "Device", "Recording", "emulate", "Emulator", "design", "measure_frf",
            "FrequencyResponse", "LinkError", "DeviceError"]

@@ -124,27 +124,75 @@ class Device:
         start_wave starts it with the recorder (arming the loop);
         restart_stage starts the emulated stage and the loop from rest (a
         record equal to piezoloop.sim). Ctrl-C stops the recorder cleanly
-        and raises KeyboardInterrupt; the loop stays as it was."""
+        and raises KeyboardInterrupt; the loop stays as it was. A record cut
+        short (the board gone or stalled, frames lost) raises LinkError
+        saying why, with what arrived as its .recording."""
         wave = None
         if trajectory is not None or amplitude_um is not None:
-            if trajectory not in (None, "triangle", "sine", "square", "raster"):
-                raise ValueError(f"trajectory: {trajectory!r} is not one of triangle, sine, square, raster")
-            if not (amplitude_um and amplitude_um > 0):
-                raise ValueError("amplitude_um: required (> 0) with trajectory")
-            wave = _piezoloop.WaveRequest()
-            wave.trajectory = trajectory or "triangle"
-            wave.frequency_Hz = float(frequency_hz)
-            wave.amplitude_um = float(amplitude_um)
-            wave.offset = offset or ""
-            wave.scenario = os.fspath(scenario) if scenario else ""
-            wave.cycles = int(cycles)
+            self._check_wave(trajectory or "triangle", amplitude_um)
+            wave = self._wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles)
         if not duration_s > 0:
             raise ValueError("duration_s: must be > 0")
         r = self._dev.record(signals, float(duration_s), int(decimation), bool(start_wave), bool(restart_stage),
                              wave, float(stall_s), os.fspath(out_csv) if out_csv else "")
         s = r["summary"]
-        return Recording(signals=r["signals"], summary=s, log_hash=s.get("log_hash", ""),
-                         lost_blocks=int(s["lost_blocks"]))
+        rec = Recording(signals=r["signals"], summary=s, log_hash=s.get("log_hash", ""),
+                        lost_blocks=int(s["lost_blocks"]))
+        if not rec.complete:
+            # The board went away, stalled or lost frames: an exception, as
+            # the command line exits non-zero; what arrived is on it.
+            err = _piezoloop.LinkError(f"{self.address}: record incomplete: {s.get('incomplete', '')}")
+            err.recording = rec
+            raise err
+        return rec
+
+    def wave(self, trajectory: str = "triangle", frequency_hz: float = 10.0, amplitude_um: float = 0.0, *,
+             offset: Optional[str] = None, scenario: Optional[str | os.PathLike] = None, cycles: int = 0,
+             arm: bool = False) -> dict:
+        """Set the board's reference wave and start it, as `piezoloop wave`:
+        trajectory "triangle", "sine", "square" or "raster", amplitude_um the
+        peak-to-peak range, offset "unipolar"/"bipolar" or the scenario's
+        convention, cycles 0 = forever. It runs on when this session ends
+        (stop() stops it). arm: arm the loop at the wave's first tick (it must
+        be disarmed). Returns {"trajectory", "wave_running", "armed"}."""
+        self._check_wave(trajectory, amplitude_um)
+        return self._dev.wave(self._wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles),
+                              bool(arm))
+
+    def stop(self) -> dict:
+        """Stop the running wave and setpoint stream, whoever started them; the
+        setpoint holds its last value and the loop stays armed."""
+        return self._dev.stop()
+
+    def stream(self, setpoints_um, prefill: Optional[int] = None) -> dict:
+        """Stream setpoints (um, one per loop tick) through the board's FIFO, as
+        `piezoloop stream`, until the tick has consumed them all. prefill:
+        setpoints buffered before the tick starts (default: the FIFO, or all).
+        Every value is checked (finite, within +-1e6 um) before the stream
+        starts. Ctrl-C closes the stream on the board (the setpoint holds, the
+        loop stays as it was) and raises KeyboardInterrupt."""
+        sp = np.asarray(setpoints_um, dtype=np.float32).ravel()
+        if sp.size == 0:
+            raise ValueError("setpoints_um: at least one setpoint")
+        return self._dev.stream(sp.tolist(), -1 if prefill is None else int(prefill))
+
+    @staticmethod
+    def _check_wave(trajectory, amplitude_um) -> None:
+        if trajectory not in ("triangle", "sine", "square", "raster"):
+            raise ValueError(f"trajectory: {trajectory!r} is not one of triangle, sine, square, raster")
+        if not (amplitude_um and amplitude_um > 0):
+            raise ValueError("amplitude_um: required (> 0)")
+
+    @staticmethod
+    def _wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles):
+        wave = _piezoloop.WaveRequest()
+        wave.trajectory = trajectory or "triangle"
+        wave.frequency_Hz = float(frequency_hz)
+        wave.amplitude_um = float(amplitude_um)
+        wave.offset = offset or ""
+        wave.scenario = os.fspath(scenario) if scenario else ""
+        wave.cycles = int(cycles)
+        return wave
 
 
     def measure_frf(self, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
@@ -163,6 +211,12 @@ class Device:
         report = self._dev.measure_frf(float(from_hz), float(to_hz), float(amplitude_v), float(bias_v), mode, signal,
                                        int(periods), int(transient_periods), bool(restart_stage))
         return response_from_report(report)
+
+
+def devices() -> list:
+    """The attached USB boards, as `piezoloop devices`: each a dict with its
+    --device address ("usb:SERIAL"), serial, product, bus_port, vid_pid."""
+    return _piezoloop.devices()
 
 
 def connect(address: str, timeout_s: float = 3.0) -> Device:

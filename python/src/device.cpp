@@ -5,6 +5,8 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -25,6 +27,33 @@ namespace {
 
 using hostlink::Client;
 using nlohmann::json;
+
+// Ctrl-C during a blocking session: Python's handler only flags the
+// signal; the session polls poll() (from its thread without the GIL), stops
+// what runs on the board and keeps what arrived, and raise_if_interrupted()
+// raises the KeyboardInterrupt once the board is left clean.
+class Interrupt {
+public:
+    std::function<bool()> poll() {
+        return [this] {
+            pyb::gil_scoped_acquire acquire;
+            if (PyErr_CheckSignals() != 0) {
+                PyErr_Clear();
+                interrupted_ = true;
+            }
+            return interrupted_;
+        };
+    }
+    bool interrupted() const { return interrupted_; }
+    void raise_if_interrupted() const {
+        if (!interrupted_) return;
+        PyErr_SetNone(PyExc_KeyboardInterrupt);
+        throw pyb::error_already_set();
+    }
+
+private:
+    bool interrupted_ = false;
+};
 
 class Device {
 public:
@@ -118,27 +147,14 @@ public:
         o.stall_s = stall_s;
         o.out_csv = out_csv;
         if (wave) o.wave = cli::wave_params(*wave, client().info().loop_rate_Hz);
-        // Ctrl-C: Python's handler only flags the signal; the session polls
-        // it here, stops the recorder and keeps what arrived, and the
-        // KeyboardInterrupt is raised once the board is left clean.
-        bool interrupted = false;
-        o.stop_requested = [&interrupted] {
-            pyb::gil_scoped_acquire acquire;
-            if (PyErr_CheckSignals() != 0) {
-                PyErr_Clear();
-                interrupted = true;
-            }
-            return interrupted;
-        };
+        Interrupt ctrl_c;
+        o.stop_requested = ctrl_c.poll();
         hostlink::RecordResult r;
         {
             pyb::gil_scoped_release release;
             r = hostlink::record(client(), o);
         }
-        if (interrupted) {
-            PyErr_SetNone(PyExc_KeyboardInterrupt);
-            throw pyb::error_already_set();
-        }
+        ctrl_c.raise_if_interrupted();
         pyb::dict sig;
         sig["t_s"] = pyb::array_t<double>(static_cast<pyb::ssize_t>(r.t_s.size()), r.t_s.data());
         for (std::size_t k = 0; k < r.signals.size(); ++k) {
@@ -157,17 +173,10 @@ public:
     // record(): the board is left clean (excitation stopped, groups put
     // back), then KeyboardInterrupt.
     pyb::object measure_frf(const measure::FrfRequest& r, bool restart_stage) {
-        bool interrupted = false;
+        Interrupt ctrl_c;
         hostlink::MeasureOptions o;
         o.restart_stage = restart_stage;
-        o.stop_requested = [&interrupted] {
-            pyb::gil_scoped_acquire acquire;
-            if (PyErr_CheckSignals() != 0) {
-                PyErr_Clear();
-                interrupted = true;
-            }
-            return interrupted;
-        };
+        o.stop_requested = ctrl_c.poll();
         json out;
         try {
             pyb::gil_scoped_release release;
@@ -177,12 +186,69 @@ public:
                                                  {"board", c.info().board.data()}});
             out["recording"] = hostlink::recording_summary(d.record);
         } catch (const hostlink::LinkError&) {
-            if (!interrupted) throw;
+            if (!ctrl_c.interrupted()) throw;
         }
-        if (interrupted) {
-            PyErr_SetNone(PyExc_KeyboardInterrupt);
-            throw pyb::error_already_set();
+        ctrl_c.raise_if_interrupted();
+        return to_python(out);
+    }
+
+    // `piezoloop wave`: the trajectory group set and started, detached (it
+    // runs on when this client goes quiet); arm: the loop armed at its
+    // first tick (it must be disarmed).
+    pyb::object wave(const cli::WaveRequest& w, bool arm) {
+        json out;
+        {
+            pyb::gil_scoped_release release;
+            Client& c = client();
+            c.set(cli::wave_params(w, c.info().loop_rate_Hz));
+            if (c.status().wave_running) c.stop_wave();
+            c.start_wave(hostlink::wave_flag::kDetached | (arm ? hostlink::wave_flag::kArm : 0));
+            const link::StatusReply st = c.status();
+            out = {{"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>())},
+                   {"wave_running", st.wave_running},
+                   {"armed", st.armed}};
         }
+        return to_python(out);
+    }
+
+    // `piezoloop stop`: the wave and the stream stopped, the setpoint holds.
+    pyb::object stop() {
+        json out;
+        {
+            pyb::gil_scoped_release release;
+            Client& c = client();
+            c.stop_wave();
+            c.stream_stop(false);
+            const link::StatusReply st = c.status();
+            out = {{"wave_running", st.wave_running}, {"streaming", st.streaming}, {"armed", st.armed}};
+        }
+        return to_python(out);
+    }
+
+    // `piezoloop stream`: every setpoint consumed by the tick, the stream
+    // drained. Ctrl-C closes the stream on the board (the setpoint holds its
+    // last value, the loop stays as it was), then KeyboardInterrupt.
+    pyb::object stream(const std::vector<float>& setpoints_um, int prefill) {
+        struct Interrupted {};
+        Interrupt ctrl_c;
+        const std::function<bool()> poll = ctrl_c.poll();
+        json out;
+        try {
+            pyb::gil_scoped_release release;
+            Client& c = client();
+            const std::size_t cap = c.info().setpoint_capacity;
+            const uint16_t pre = static_cast<uint16_t>(
+                prefill >= 0 ? std::min<std::size_t>(static_cast<std::size_t>(prefill), cap)
+                             : std::min(cap, setpoints_um.size()));
+            const hostlink::StreamResult r = c.stream(setpoints_um, pre, [&](double) {
+                if (poll()) throw Interrupted{};
+            });
+            out = {{"setpoints", setpoints_um.size()}, {"sent", r.sent},         {"consumed", r.consumed},
+                   {"underruns", r.underruns},          {"blocks", r.blocks},     {"prefill", pre},
+                   {"capacity", r.capacity},            {"drained", r.drained},   {"wall_s", r.wall_s}};
+        } catch (const Interrupted&) {
+        }
+        ctrl_c.raise_if_interrupted();
         return to_python(out);
     }
 
@@ -199,6 +265,15 @@ private:
 }  // namespace
 
 void add_device(pyb::module_& m) {
+    // `piezoloop devices`: the attached USB boards.
+    m.def("devices", [] {
+        json out;
+        {
+            pyb::gil_scoped_release release;
+            out = cli::usb_boards_json();
+        }
+        return to_python(out);
+    });
     pyb::class_<cli::WaveRequest>(m, "WaveRequest")
         .def(pyb::init<>())
         .def_readwrite("trajectory", &cli::WaveRequest::trajectory)
@@ -222,6 +297,9 @@ void add_device(pyb::module_& m) {
         .def("save", [](Device& d) { d.simple(&Client::save); })
         .def("load", [](Device& d) { d.simple(&Client::load); })
         .def("forget", [](Device& d) { d.simple(&Client::forget); })
+        .def("wave", &Device::wave)
+        .def("stop", &Device::stop)
+        .def("stream", &Device::stream)
         .def("measure_frf",
              [](Device& d, double from_Hz, double to_Hz, double amplitude_V, double bias_V, const std::string& mode,
                 const std::string& signal, int periods, int transient_periods, bool restart_stage) {

@@ -64,3 +64,63 @@ def test_bad_address():
         piezoloop.connect("carrier-pigeon:7")
     with pytest.raises(ValueError):
         piezoloop.connect("")
+
+
+def test_wave_and_stop(board):
+    board.disarm()
+    w = board.wave("sine", 5.0, 4.0)
+    assert w["wave_running"] is True and w["trajectory"]["waveform"] == "sine"
+    assert board.status()["status"]["wave_running"] is True
+    s = board.stop()
+    assert s["wave_running"] is False and s["streaming"] is False
+    with pytest.raises(ValueError, match="trajectory"):
+        board.wave("zigzag", 5.0, 4.0)
+
+
+def test_stream_is_consumed(board):
+    board.stop()
+    n = 500  # 0.05 s at the scenario's 10 kHz
+    sp = 6.0 + 6.0 * np.sin(np.linspace(0.0, 2.0 * np.pi, n))
+    r = board.stream(sp)
+    assert r["consumed"] == n and r["sent"] == n and r["drained"] is True
+    assert board.status()["status"]["streaming"] is False
+    with pytest.raises(ValueError, match="setpoint"):
+        board.stream([0.0, float("nan")])
+
+
+def test_devices_lists_usb_boards():
+    boards = piezoloop.devices()
+    assert isinstance(boards, list)
+    assert all({"device", "serial", "vid_pid"} <= set(b) for b in boards)
+
+
+def test_board_gone_mid_record():
+    """The board dies 0.5 s into a 5 s record: LinkError saying the record is
+    incomplete, with what arrived."""
+    import threading
+    need_qemu("qemu-m7")
+    emu = piezoloop.emulate("qemu-m7", scenario=scenario("ahmad2020"))
+    try:
+        with piezoloop.connect(emu.address) as dev:
+            threading.Timer(0.5, emu.close).start()
+            with pytest.raises(piezoloop.LinkError, match="incomplete") as e:
+                dev.record(5.0, "r,y,u", stall_s=1.0)
+            assert e.value.recording.summary["frames"] < 50000
+    finally:
+        emu.close()
+
+
+def test_qemu_m3_record_equals_sim():
+    """The Q31 board at 100 kHz: janaideh2016 / ff_fb (one 20 Hz period), as
+    the command line's e2e check does, against piezoloop.sim with
+    sample="q31"."""
+    need_qemu("qemu-m3")
+    sc = scenario("janaideh2016")
+    with piezoloop.emulate("qemu-m3", scenario=sc) as emu, piezoloop.connect(emu.address) as dev:
+        dev.set_scenario(sc, "ff_fb", frequency_hz=20.0)
+        rec = dev.record(0.05, "r,y,u", trajectory="triangle", frequency_hz=20.0, amplitude_um=20.0, scenario=sc,
+                         start_wave=True, restart_stage=True)
+        dev.disarm()
+    run = piezoloop.sim(sc, "ff_fb", frequency_hz=20.0, amplitude_um=20.0, duration_s=0.05, sample="q31")
+    assert rec.lost_blocks == 0 and rec.summary["frames"] == 5000
+    assert rec.log_hash == run.log_hash

@@ -24,15 +24,14 @@ Exit 77 (skipped) without qemu-system-arm or the image."""
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
 
+from board_checks import Checks, Emulators, skip_without_qemu
+
 exe, image, configs, board = sys.argv[1:5]
-if not os.path.exists(image) or shutil.which(os.environ.get("QEMU_SYSTEM_ARM", "qemu-system-arm")) is None:
-    print(f"skipped: no QEMU or no image {image}")
-    sys.exit(77)
+skip_without_qemu(image)
 # Both boards run the Ahmad2020 stage at its 10 kHz loop: the float core on
 # qemu-m7, the Q31 core on qemu-m3 (check_measure.py proves the simulator's
 # response of this stage accurate for both sample types).
@@ -42,18 +41,8 @@ frf = ["--from-hz", "20", "--to-hz", "4000", "--amplitude-v", "1", "--bias-v", "
 step = ["--step-v", "2", "--bias-v", "3", "--duration-s", "0.02"]
 loops = ["--amplitudes-v", "4,8", "--frequency-hz", "20", "--cycles", "2"]
 tmp = tempfile.mkdtemp(prefix="check_measure_e2e_")
-passed = failed = 0
-
-
-def check(ok, what, detail=""):
-    global passed, failed
-    if ok:
-        passed += 1
-        print("ok   " + what)
-    else:
-        failed += 1
-        print("FAIL " + what + (f": {detail}" if detail else ""))
-    return ok
+check = Checks()
+emulators = Emulators(exe)
 
 
 def run(*args):
@@ -65,11 +54,8 @@ def load(path):
         return json.load(f)
 
 
-emu = subprocess.Popen([exe, "emulate", "--board", board, "--scenario", scenario, "--image", image],
-                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 try:
-    dev = json.loads(emu.stdout.readline())["device"]
-    d = ["--device", dev]
+    _, d, _ = emulators.start("--board", board, "--scenario", scenario, "--image", image)
     r = run(*d, "set", "--scenario", scenario, "--case", case, "--frequency-hz", "10")
     check(r.returncode == 0, "set --scenario: the case's limits and controller on the board", r.stderr)
     r = run(*d, "set", "recorder", "--json", '{"channels": ["r", "y", "e", "u"], "mode": "continuous"}')
@@ -151,15 +137,7 @@ try:
         diff = abs(bl[1]["hysteresis_pct"] - sl[1]["hysteresis_pct"])
         check(diff < 0.5, f"loops: the second amplitude's hysteresis as the simulator's ({diff:.2e} % apart)")
 finally:
-    # SIGTERM: emulate stops its QEMU (SIGKILL would leave it spinning).
-    if emu.poll() is None:
-        emu.send_signal(signal.SIGTERM)
-        try:
-            emu.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            emu.kill()
-            emu.wait()
+    emulators.stop_all()
     shutil.rmtree(tmp, ignore_errors=True)
 
-print(f"{passed} passed, {failed} failed")
-sys.exit(1 if failed else 0)
+check.exit()

@@ -18,32 +18,21 @@ Exit 77 (skipped) without qemu-system-arm or the image."""
 import json
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
 
+from board_checks import Checks, Emulators, skip_without_qemu
+
 exe, image, configs = sys.argv[1], sys.argv[2], sys.argv[3]
-if not os.path.exists(image) or shutil.which(os.environ.get("QEMU_SYSTEM_ARM", "qemu-system-arm")) is None:
-    print(f"skipped: no QEMU or no image {image}")
-    sys.exit(77)
+skip_without_qemu(image)
 
 scenario = os.path.join(configs, "ahmad2020.json")
 tmp = tempfile.mkdtemp(prefix="check_storage_e2e_")
 store = os.path.join(tmp, "board params.bin")  # a space in the path: the firmware takes the rest of its command line
-passed = failed = 0
-running = []
-
-
-def check(ok, what, detail=""):
-    global passed, failed
-    if ok:
-        passed += 1
-        print("ok   " + what)
-    else:
-        failed += 1
-        print("FAIL " + what + (f": {detail}" if detail else ""))
-    return ok
+check = Checks()
+emulators = Emulators(exe)
+stop = Emulators.stop
 
 
 def run(*args):
@@ -52,25 +41,8 @@ def run(*args):
 
 def start(storage=True):
     """An emulated board; returns (process, --device arguments, emulate's JSON line)."""
-    cmd = [exe, "emulate", "--board", "qemu-m7", "--scenario", scenario, "--image", image]
-    if storage:
-        cmd += ["--storage", store]
-    emu = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    running.append(emu)
-    line = emu.stdout.readline()
-    info = json.loads(line)
-    return emu, ["--device", info["device"]], info
-
-
-def stop(emu):
-    if emu.poll() is None:
-        emu.send_signal(signal.SIGTERM)
-        try:
-            emu.wait(timeout=20)
-        except subprocess.TimeoutExpired:
-            emu.kill()
-            emu.wait()
-    return emu.returncode
+    args = ["--board", "qemu-m7", "--scenario", scenario, "--image", image]
+    return emulators.start(*args, *(["--storage", store] if storage else []))
 
 
 def status(d):
@@ -159,9 +131,7 @@ try:
           "without --storage: save refused, saying how to get storage", r.stderr)
     check(stop(emu) == 0, "SIGTERM ends the board")
 finally:
-    for e in running:
-        stop(e)
+    emulators.stop_all()
     shutil.rmtree(tmp, ignore_errors=True)
 
-print(f"{passed} passed, {failed} failed")
-sys.exit(1 if failed else 0)
+check.exit()
