@@ -405,43 +405,102 @@ private:
         return false;
     }
 
-    // StartWave: every check first, then the wave, the arms and the stage
-    // restart in one masked section, so the tick after it is the wave's
-    // tick 0 for all of them.
+    // StartWave and StartExcitation: every check first, then the start, the
+    // arms and the stage restart in one masked section, so the tick after
+    // it is tick 0 of all of them. The flag checks and that section are
+    // shared (check_flags, check_arm_flags, start_at_tick).
     template <class Send>
     void start_wave(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
         StartWave m;
         if (!decode(h, body, m, send)) return;
         const uint8_t f = m.flags;
-        if ((f & ~StartWave::kKnownFlags) != 0) {
-            LinkCounters::inc(counters().bad_value);
-            return fail(h, ErrorCode::kMalformed,
-                        error("flags", "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage"), send);
-        }
-        if ((f & StartWave::kRestartStage) != 0 && hooks_.restart_stage == nullptr)
-            return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): this device has no emulated stage"), send);
+        if (!check_flags(h, f, "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage", send)) return;
         if (!policy_.wave_set())
             return fail(h, ErrorCode::kNotConfigured, in_group("trajectory", error("waveform", "set the trajectory group first")), send);
         if (stream_.open())
             return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a setpoint stream is running: stop it first")), send);
         if (pipeline_.wave_running())
             return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a wave is running: stop it first")), send);
-        if ((f & StartWave::kArmLoop) != 0) {
-            if (pipeline_.limiter().tripped())
-                return fail(h, ErrorCode::kTripped,
-                            in_group("limits", error("trip", trip_reason_name(pipeline_.limiter().trip_reason()))), send);
-            // Armed already, the controller's states would not restart from rest.
-            if (pipeline_.armed())
-                return fail(h, ErrorCode::kArmed, error("flags", "arm loop (bit0): the loop is armed; disarm first"), send);
+        if (!check_arm_flags(h, f, send)) return;
+        start_at_tick(h, f, [&] { return pipeline_.start_wave(policy_.wave_config()); }, send);
+    }
+
+    // StartExcitation: as StartWave, with the excitation in place of the
+    // wave (the setpoint holds). The core checks the configuration and, at
+    // the command, that d fits the limits (Pipeline::prepare_excitation).
+    template <class Send>
+    void start_excitation(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
+        StartExcitation m;
+        if (!decode(h, body, m, send)) return;
+        const uint8_t f = m.flags;
+        if (!check_flags(h, f, "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage, bit3 detached",
+                         send))
+            return;
+        if (pipeline_.excitation_running())
+            return fail(h, ErrorCode::kBusy, in_group("excitation", error("signal", "an excitation is running: stop it first")), send);
+        if ((f & StartExcitation::kArmLoop) == 0 && !pipeline_.armed())
+            return fail(h, ErrorCode::kNotConfigured, error("flags", "the loop is disarmed: d is applied only while armed (bit0)"), send);
+        if (!check_arm_flags(h, f, send)) return;
+        ExcitationConfig c = m.config;
+        c.sample_rate_Hz = pipeline_.setup().rate_Hz;
+        // Configured (a multisine tabulated) with the tick running: only
+        // the start itself is in the masked section.
+        if (const Status s = pipeline_.prepare_excitation(c); !s.ok())
+            return fail(h, ErrorCode::kInvalidParam, s, send);
+        start_at_tick(h, f, [&] {
+            pipeline_.run_excitation();
+            return ok_status();
+        }, send);
+    }
+
+    // Unknown bits, and the restart flag on a device without an emulated
+    // stage; false once it has replied.
+    template <class Send>
+    bool check_flags(const FrameHeader& h, uint8_t f, const char* unknown_bits, Send& send) {
+        if ((f & ~StartWave::kKnownFlags) != 0) {
+            LinkCounters::inc(counters().bad_value);
+            fail(h, ErrorCode::kMalformed, error("flags", unknown_bits), send);
+            return false;
         }
-        if ((f & StartWave::kArmRecorder) != 0 && !pipeline_.recorder().configured())
-            return fail(h, ErrorCode::kNotConfigured, in_group("recorder", error("channels", "set the recorder group first")), send);
+        if ((f & StartWave::kRestartStage) != 0 && hooks_.restart_stage == nullptr) {
+            fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): this device has no emulated stage"), send);
+            return false;
+        }
+        return true;
+    }
+
+    // Arm loop: not tripped, not armed already (the controller's states
+    // would not restart from rest); arm recorder: configured.
+    template <class Send>
+    bool check_arm_flags(const FrameHeader& h, uint8_t f, Send& send) {
+        if ((f & StartWave::kArmLoop) != 0) {
+            if (pipeline_.limiter().tripped()) {
+                fail(h, ErrorCode::kTripped,
+                     in_group("limits", error("trip", trip_reason_name(pipeline_.limiter().trip_reason()))), send);
+                return false;
+            }
+            if (pipeline_.armed()) {
+                fail(h, ErrorCode::kArmed, error("flags", "arm loop (bit0): the loop is armed; disarm first"), send);
+                return false;
+            }
+        }
+        if ((f & StartWave::kArmRecorder) != 0 && !pipeline_.recorder().configured()) {
+            fail(h, ErrorCode::kNotConfigured, in_group("recorder", error("channels", "set the recorder group first")), send);
+            return false;
+        }
+        return true;
+    }
+
+    // The masked section: the stage's restart, start() (a Status), the
+    // arms; then the client binding and the reply.
+    template <class Start, class Send>
+    void start_at_tick(const FrameHeader& h, uint8_t f, Start&& start, Send& send) {
         mask(true);
         if ((f & StartWave::kRestartStage) != 0 && !hooks_.restart_stage()) {
             mask(false);
             return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): the stage could not restart"), send);
         }
-        if (const Status s = pipeline_.start_wave(policy_.wave_config()); !s.ok()) {
+        if (const Status s = start(); !s.ok()) {
             mask(false);
             return fail(h, ErrorCode::kInvalidParam, s, send);
         }
@@ -450,55 +509,6 @@ private:
         mask(false);
         if ((f & StartWave::kArmRecorder) != 0) log_.restart();
         bind_client((f & StartWave::kDetached) == 0);
-        ack(h, send);
-    }
-
-    // StartExcitation: as StartWave, with the excitation in place of the
-    // wave (the setpoint holds). The core checks the configuration and, at
-    // the command, that d fits the limits (Pipeline::start_excitation).
-    template <class Send>
-    void start_excitation(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
-        StartExcitation m;
-        if (!decode(h, body, m, send)) return;
-        const uint8_t f = m.flags;
-        if ((f & ~StartExcitation::kKnownFlags) != 0) {
-            LinkCounters::inc(counters().bad_value);
-            return fail(h, ErrorCode::kMalformed,
-                        error("flags", "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage, bit3 detached"),
-                        send);
-        }
-        if ((f & StartExcitation::kRestartStage) != 0 && hooks_.restart_stage == nullptr)
-            return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): this device has no emulated stage"), send);
-        if (pipeline_.excitation_running())
-            return fail(h, ErrorCode::kBusy, in_group("excitation", error("signal", "an excitation is running: stop it first")), send);
-        if ((f & StartExcitation::kArmLoop) != 0) {
-            if (pipeline_.limiter().tripped())
-                return fail(h, ErrorCode::kTripped,
-                            in_group("limits", error("trip", trip_reason_name(pipeline_.limiter().trip_reason()))), send);
-            if (pipeline_.armed())
-                return fail(h, ErrorCode::kArmed, error("flags", "arm loop (bit0): the loop is armed; disarm first"), send);
-        } else if (!pipeline_.armed()) {
-            return fail(h, ErrorCode::kNotConfigured, error("flags", "the loop is disarmed: d is applied only while armed (bit0)"), send);
-        }
-        if ((f & StartExcitation::kArmRecorder) != 0 && !pipeline_.recorder().configured())
-            return fail(h, ErrorCode::kNotConfigured, in_group("recorder", error("channels", "set the recorder group first")), send);
-        ExcitationConfig c = m.config;
-        c.sample_rate_Hz = pipeline_.setup().rate_Hz;
-        // Configured (a multisine tabulated) with the tick running: only
-        // the start itself is in the masked section.
-        if (const Status s = pipeline_.prepare_excitation(c); !s.ok())
-            return fail(h, ErrorCode::kInvalidParam, s, send);
-        mask(true);
-        if ((f & StartExcitation::kRestartStage) != 0 && !hooks_.restart_stage()) {
-            mask(false);
-            return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): the stage could not restart"), send);
-        }
-        pipeline_.run_excitation();
-        if ((f & StartExcitation::kArmLoop) != 0) pipeline_.arm();
-        if ((f & StartExcitation::kArmRecorder) != 0) (void)pipeline_.recorder().arm();  // configured: cannot fail
-        mask(false);
-        if ((f & StartExcitation::kArmRecorder) != 0) log_.restart();
-        bind_client((f & StartExcitation::kDetached) == 0);
         ack(h, send);
     }
 
