@@ -25,7 +25,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/loop_report.hpp"
-#include "analysis/mu.hpp"
+#include "analysis/mu_report.hpp"
 #include "commands.hpp"
 #include "lti/c2d.hpp"
 #include "lti/model_json.hpp"
@@ -37,8 +37,6 @@ using namespace piezoloop::design;
 using nlohmann::json;
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-
-json number(double v) { return report_number(v); }
 
 struct MuArgs {
     std::string plant, controller, hm, w1, w3, w2, csv;
@@ -71,45 +69,10 @@ void run_mu(const MuArgs& a) {
     m.w1 = load(a.w1, a.ts, "w1");
     if (!a.w3.empty()) { m.w3 = load(a.w3, a.ts, "w3"); m.has_w3 = true; }
     if (!a.w2.empty()) { m.w2 = load(a.w2, a.ts, "w2"); m.has_w2 = true; }
-    for (const auto& [z, name] : {std::pair{&m.controller, "controller"}, std::pair{&m.hm, "hm"},
-                                  std::pair{&m.w1, "w1"}, std::pair{&m.w3, "w3"}, std::pair{&m.w2, "w2"}}) {
-        if ((z == &m.w3 && !m.has_w3) || (z == &m.w2 && !m.has_w2)) continue;
-        if (z->ts != m.plant.ts)
-            throw std::invalid_argument(std::string(name) +
-                                        ": models must all be continuous or share the plant's ts (or give --ts)");
-    }
-
-    const auto t0 = std::chrono::steady_clock::now();
-    const MuLoopResult r = mu_loop(m);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-
-    json perf = json::array({"w1 e"});
-    if (m.has_w3) perf.push_back("w3 y");
-    if (m.has_w2) perf.push_back("w2 u");
-    json out;
-    out["ts"] = m.plant.ts;
-    out["nominally_stable"] = r.nominally_stable;
-    out["poles_max"] = number(r.stability_measure);
-    out["performance_outputs"] = perf;
-    out["rs_peak"] = number(r.rs.value);
-    out["rs_peak_hz"] = number(r.rs.w_rad_s / kTwoPi);
-    out["np_peak"] = number(r.np.value);
-    out["np_peak_hz"] = number(r.np.w_rad_s / kTwoPi);
-    out["rp_peak"] = number(r.rp.value);
-    out["rp_peak_hz"] = number(r.rp.w_rad_s / kTwoPi);
-    out["rp_peak_lower"] = number(r.rp.lower);
-    out["rp_max_relative_gap"] = number(r.max_gap);
-    out["robustly_stable"] = r.nominally_stable && r.rs.value < 1.0;
-    out["nominal_performance"] = r.nominally_stable && r.np.value < 1.0;
-    out["robust_performance"] = r.nominally_stable && r.rp.value < 1.0;
-    out["grid_points"] = r.points.size();
-    out["seconds"] = seconds;
-    out["meaning"] =
-        "rs: |H_m T|; np: sqrt(|W1 S|^2 + |W3 T|^2 + |W2 KS|^2); rp: mu upper bound of N for "
-        "diag(Delta 1x1, Delta_P 1xp); each < 1 (with a nominally stable loop) passes";
-    if (!r.nominally_stable)
-        out["note"] = "the nominal loop is unstable: the mu figures do not certify anything";
-
+    MuReport rep = mu_report(m);
+    const MuLoopResult& r = rep.result;
+    json& out = rep.json;
+    const double seconds = out["seconds"].get<double>();
     if (!a.csv.empty()) {
         std::ofstream f(a.csv);
         f << "f_hz,rs,np,rp_upper,rp_lower,d_delta\n" << std::setprecision(10);

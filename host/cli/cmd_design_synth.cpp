@@ -56,28 +56,16 @@ void write_model(const std::string& file, json model) {
 }
 
 int run_hinf(const HinfArgs& a) {
-    const HinfOptions o = hinf_options(a);
-    const GeneralisedPlant p = load_plant_file(a.plant);
-    const HinfSynthesis r = hinfsyn(p, o);
-    json out;
-    out["command"] = "hinf";
-    out["plant_file"] = a.plant;
-    out["gamma"] = r.gamma;
-    out["stable"] = r.stable;
-    out["order"] = r.controller.states();
-    out["synthesis"] = synthesis_json(r, a);
-    out["controller"] = state_space_json(r.controller);
-    if (r.controller.inputs() == 1 && r.controller.outputs() == 1) {
-        const Zpk k = ss2zpk(to_siso(r.controller));
-        out["controller_model"] = to_json(k);
-    }
+    (void)hinf_options(a);  // options first, then the file
+    const HinfReport rep = hinf_report(load_plant_file(a.plant), a.plant, a);
+    const HinfSynthesis& r = rep.result;
     if (!a.out.empty()) {
         json m = state_space_json(r.controller);
         m["description"] = "H∞ central controller from piezoloop design hinf --plant " + a.plant +
                            " (y -> u, continuous, s in rad/s)";
         write_model(a.out, m);
     }
-    std::cout << out.dump(1) << "\n";
+    std::cout << rep.json.dump(1) << "\n";
     return kExitOk;
 }
 

@@ -23,6 +23,7 @@
 #include "lti/lti_convert.hpp"
 #include "lti/model_json.hpp"
 #include "ident/pi_fit.hpp"
+#include "ident/reduce_report.hpp"
 #include "ident/rls.hpp"
 
 namespace piezoloop::cli {
@@ -298,15 +299,7 @@ struct ReduceArgs {
 };
 
 void run_reduce(const ReduceArgs& a) {
-    const d::Zpk full = d::load_model_file(a.model);
-    const d::BalancedTruncation bt = d::balanced_truncation(d::zpk2ss(full), a.order);
-    json out;
-    out["model"] = d::to_json(d::ss2zpk(bt.reduced));
-    out["order"] = bt.order;
-    out["original_order"] = bt.hsv.size();
-    out["hsv"] = bt.hsv;
-    out["error_bound"] = bt.error_bound;
-    std::cout << out.dump(1) << "\n";
+    std::cout << d::reduce_report(d::load_model_file(a.model), a.order).dump(1) << "\n";
 }
 
 void add_reduce(CLI::App& app) {

@@ -23,12 +23,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analysis/loop_report.hpp"
 #include "cli/progress_bar.hpp"
 #include "commands.hpp"
 #include "device_common.hpp"
 #include "format/number.hpp"
 #include "link/measure_session.hpp"
+#include "measure/step_loops_report.hpp"
 #include "measure/step_loops_sim.hpp"
 #include "sim/scenario.hpp"
 
@@ -112,29 +112,16 @@ struct StepArgs {
 };
 
 measure::StepRequest step_request(const StepArgs& a, Target& t) {
-    const bool has_um = a.step_um.has_value(), has_v = a.step_V.has_value();
-    if (has_um == has_v) throw std::invalid_argument("--step-um: give exactly one of --step-um (closed loop) and --step-v (open loop)");
-    const std::string mode = a.mode.empty() ? (has_um ? "closed" : "open") : a.mode;
-    measure::StepRequest r;
-    r.closed = mode == "closed";
-    if (r.closed && !has_um) throw std::invalid_argument("--step-v: closed loop steps the reference: give --step-um");
-    if (!r.closed && !has_v) throw std::invalid_argument("--step-um: open loop steps the command: give --step-v");
-    if (r.closed && a.bias_V) throw std::invalid_argument("--bias-v: open loop only; closed loop starts from --from-um");
-    if (!r.closed && a.from_um) throw std::invalid_argument("--from-um: closed loop only; open loop starts from --bias-v");
-    r.step = r.closed ? *a.step_um : *a.step_V;
-    r.duration_s = a.duration_s;
-    if (r.closed && a.from_um) {
-        r.from = *a.from_um;
-    } else if (r.closed && t.board) {
-        r.from = t.board->status().r_um;  // the setpoint the board holds
-    } else if (r.closed) {
-        // 10 % into the range the loop can hold, clear of the ADC's end.
-        const measure::RangeUm& range = t.bounds.closed_range;
-        r.from = range.min_um + 0.1 * (range.max_um - range.min_um);
-    } else {
-        r.from = a.bias_V ? *a.bias_V : std::max(0.0, static_cast<double>(t.bounds.limits.u_min_V));
-    }
-    return r;
+    measure::StepAsked o;
+    o.step_um = a.step_um;
+    o.step_V = a.step_V;
+    o.from_um = a.from_um;
+    o.bias_V = a.bias_V;
+    o.mode = a.mode;
+    o.duration_s = a.duration_s;
+    std::optional<double> board_setpoint_um;
+    if (t.board) board_setpoint_um = t.board->status().r_um;  // a board's closed step starts where it holds
+    return measure::step_request(o, t.bounds, board_setpoint_um);
 }
 
 int run_step(const StepArgs& a) {
@@ -148,37 +135,7 @@ int run_step(const StepArgs& a) {
                                          : measure::run_step_sim(*t.scenario, t.case_spec, r, p.sim_progress());
     p.bar.done();
     const measure::StepFigures& f = run.figures;
-    json out;
-    out["mode"] = r.closed ? "closed" : "open";
-    out["step"] = {{"size", r.step}, {"from", r.from}, {"unit", r.closed ? "um (reference)" : "V (command)"}};
-    out["initial_um"] = f.initial;
-    out["final_value_um"] = f.final_value;
-    out["overshoot_pct"] = f.overshoot_pct;
-    out["peak_um"] = f.peak;
-    out["peak_time_s"] = f.peak_time_s;
-    out["rise_time_s"] = design::report_number(f.rise_time_s);
-    out["settling_time_s"] = design::report_number(f.settling_time_s);
-    out["settled"] = f.settled;
-    out["definitions"] = {
-        {"initial_um", "mean of the recorded samples before the step"},
-        {"final_value_um", "mean of the last 10 % of the samples after the step"},
-        {"overshoot_pct", "(peak - final) / (final - initial) x 100, 0 if no overshoot"},
-        {"rise_time_s", "10 % to 90 % of final - initial, first crossings, interpolated"},
-        {"settling_time_s", "after the step, the time from which y stays within 2 % of final - initial of final"}};
-    out["time_s"] = run.time_s;
-    out["reference_um"] = run.r_um;
-    out["command_V"] = run.u_V;
-    out["response_um"] = run.y_um;
-    out["units"] = {{"time", "s, 0 at the tick the step is applied"},
-                    {"reference", "um"},
-                    {"command", "V at the amplifier input, after the limiter"},
-                    {"response", "um, the sensor's reading / its gain, as the controller used it"}};
-    out["source"] = t.source;
-    out["clipped_samples"] = run.clipped_samples;
-    out["limiter_trip"] = run.trip;
-    out["warnings"] = run.warnings;
-    out["log_hash"] = format::hex64(run.log_hash);
-    out["wall_s"] = run.wall_s;
+    const json out = measure::step_report(r, run, t.source);
     write_text("--out", a.out, out.dump(1) + "\n");
     if (!a.csv.empty()) {
         std::string text = "t,r,u,y\n";
@@ -231,12 +188,8 @@ struct LoopsArgs {
 
 int run_loops(const LoopsArgs& a) {
     Target t(a.scenario, a.case_name, a.sample, a.restart_stage);
-    measure::LoopsRequest r;
-    r.amplitudes_V = a.amplitudes_V;
-    r.base_V = a.base_V ? *a.base_V : std::max(0.0, static_cast<double>(t.bounds.limits.u_min_V));
-    r.frequency_Hz = a.frequency_Hz;
-    r.cycles = a.cycles;
-    r.shape = a.shape;
+    const measure::LoopsRequest r =
+        measure::loops_request(a.amplitudes_V, a.base_V, a.frequency_Hz, a.cycles, a.shape, t.bounds);
     (void)measure::plan_loops(t.bounds, r);  // refuses before anything runs
     Progress p("measure loops");
     const measure::LoopsRun run = t.board ? hostlink::run_loops_device(*t.board, r, p.board_options(a.restart_stage))
@@ -254,33 +207,8 @@ int run_loops(const LoopsArgs& a) {
             << format::significant(run.amplitude_V[i], 9) << '\n';
     }
     if (!csv.flush()) throw std::runtime_error("--out: cannot write " + a.out);
-    json loops = json::array();
-    for (const measure::LoopFigures& f : run.loops)
-        loops.push_back({{"amplitude_V", f.amplitude_V},
-                         {"hysteresis_pct", f.hysteresis_pct >= 0 ? json(f.hysteresis_pct) : json()},
-                         {"max_width_pct", f.max_width_pct >= 0 ? json(f.max_width_pct) : json()},
-                         {"y_min_um", f.y_min_um},
-                         {"y_max_um", f.y_max_um}});
-    json out;
+    json out = measure::loops_report(r, run, t.source);
     out["out"] = a.out;
-    out["loops"] = loops;
-    out["shape"] = r.shape;
-    out["base_V"] = r.base_V;
-    out["frequency_Hz"] = r.frequency_Hz;
-    out["cycles"] = r.cycles;
-    out["samples"] = run.y_um.size();
-    out["definitions"] = {
-        {"hysteresis_pct", "last cycle of the amplitude: |y_up - y_down| at the input's midpoint / (y_max - y_min) "
-                           "x 100 (Ahmad2020 eq. 25-26, as piezoloop sim reports it)"},
-        {"max_width_pct", "last cycle: the widest |y_up - y_down| at a common input / (y_max - y_min) x 100"},
-        {"columns", "t (s), u = v (command, V, after the limiter), y = x (displacement read at the next tick, um), "
-                    "amplitude_V (the loop the sample belongs to)"}};
-    out["source"] = t.source;
-    out["clipped_samples"] = run.clipped_samples;
-    out["limiter_trip"] = run.trip;
-    out["warnings"] = run.warnings;
-    out["log_hash"] = run.log_hash != 0 ? json(format::hex64(run.log_hash)) : json();
-    out["wall_s"] = run.wall_s;
     if (!a.json_out.empty()) write_text("--json", a.json_out, out.dump(1) + "\n");
     json summary = out;
     summary.erase("definitions");

@@ -4,6 +4,7 @@
 
 #include <stdexcept>
 
+#include "lti/lti_convert.hpp"
 #include "lti/model_json.hpp"
 #include "synth/plant_json.hpp"
 
@@ -21,6 +22,22 @@ HinfOptions hinf_options(const SynthSettings& a) {
     o.gamma_max = a.gamma_max;
     o.backoff = a.backoff;
     return o;
+}
+
+HinfReport hinf_report(const GeneralisedPlant& p, const std::string& plant_name, const SynthSettings& s) {
+    HinfReport rep;
+    rep.result = hinfsyn(p, hinf_options(s));
+    const HinfSynthesis& r = rep.result;
+    json& out = rep.json;
+    out["command"] = "hinf";
+    out["plant_file"] = plant_name;
+    out["gamma"] = r.gamma;
+    out["stable"] = r.stable;
+    out["order"] = r.controller.states();
+    out["synthesis"] = synthesis_json(r, s);
+    out["controller"] = state_space_json(r.controller);
+    if (r.controller.inputs() == 1 && r.controller.outputs() == 1) out["controller_model"] = to_json(ss2zpk(to_siso(r.controller)));
+    return rep;
 }
 
 json synthesis_json(const HinfSynthesis& r, const SynthSettings& a) {

@@ -25,6 +25,15 @@ HinfOptions hinf_options(const SynthSettings& s);
 
 nlohmann::json synthesis_json(const HinfSynthesis& r, const SynthSettings& s);
 
+struct HinfReport {
+    nlohmann::json json;
+    HinfSynthesis result;
+};
+
+// `design hinf`: gamma, stable, order, synthesis, controller (state space)
+// and, for a SISO controller, controller_model (zeros/poles/gain).
+HinfReport hinf_report(const GeneralisedPlant& p, const std::string& plant_name, const SynthSettings& s);
+
 // A weight or plant and the name it is reported by (its file, or a label).
 struct NamedModel {
     Zpk model;

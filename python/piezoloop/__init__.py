@@ -12,8 +12,8 @@ from . import design
 from ._piezoloop import DeviceError, LinkError
 from .device import Device, Recording, connect, devices
 from .emulate import Emulator, emulate
-from .measure import FrequencyResponse, measure_frf
+from .measure import FrequencyResponse, Loops, StepResponse, measure_frf, measure_loops, measure_step
 from .simulate import SimRun, sim
 
 __all__ = ["sim", "SimRun", "connect", "devices", "Device", "Recording", "emulate", "Emulator", "design", "measure_frf",
-           "FrequencyResponse", "LinkError", "DeviceError"]
+           "measure_step", "measure_loops", "FrequencyResponse", "StepResponse", "Loops", "LinkError", "DeviceError"]

@@ -46,6 +46,37 @@ def measure_frf(scenario: PathLike, from_hz: float, to_hz: float, amplitude_v: f
                 case: Optional[str] = None, sample: Optional[str] = None) -> FrequencyResponse: ...
 
 @dataclass
+class StepResponse:
+    time_s: np.ndarray        # s, 0 at the step's tick
+    reference_um: np.ndarray
+    command_v: np.ndarray     # V, after the limiter
+    response_um: np.ndarray
+    figures: dict             # overshoot_pct, rise_time_s, settling_time_s, initial_um, final_value_um, ...
+    report: dict              # the JSON `piezoloop measure step --out` writes
+    @property
+    def log_hash(self) -> str: ...
+    def save(self, path: PathLike) -> None: ...
+
+def measure_step(scenario: PathLike, *, step_um: Optional[float] = None, step_v: Optional[float] = None,
+                 from_um: Optional[float] = None, bias_v: Optional[float] = None, duration_s: float = 0.1,
+                 mode: Optional[str] = None, case: Optional[str] = None,
+                 sample: Optional[str] = None) -> StepResponse: ...
+
+@dataclass
+class Loops:
+    time_s: np.ndarray
+    command_v: np.ndarray     # V, after the limiter
+    response_um: np.ndarray   # um, read at the next tick
+    amplitude_v: np.ndarray   # the loop each sample belongs to
+    loops: list               # per amplitude: hysteresis_pct, max_width_pct, y_min_um, y_max_um
+    report: dict              # the summary `piezoloop measure loops --json` writes
+    def save_csv(self, path: PathLike) -> None: ...
+
+def measure_loops(scenario: PathLike, amplitudes_v: Sequence[float], *, bias_v: Optional[float] = None,
+                  frequency_hz: float = 1.0, cycles: int = 2, shape: str = "triangle", case: Optional[str] = None,
+                  sample: Optional[str] = None) -> Loops: ...
+
+@dataclass
 class Recording:
     signals: Dict[str, np.ndarray]  # t_s and r_um, y_um, e_um, u_V, u_ff_V, u_fb_V, u_rc_V as recorded
     summary: dict                   # the JSON `piezoloop record` prints
@@ -79,6 +110,12 @@ class Device:
     def measure_frf(self, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
                     mode: str = "open", signal: str = "multisine", periods: int = 10, transient_periods: int = 1,
                     restart_stage: bool = False) -> FrequencyResponse: ...
+    def measure_step(self, *, step_um: Optional[float] = None, step_v: Optional[float] = None,
+                     from_um: Optional[float] = None, bias_v: Optional[float] = None, duration_s: float = 0.1,
+                     mode: Optional[str] = None, restart_stage: bool = False) -> StepResponse: ...
+    def measure_loops(self, amplitudes_v: Sequence[float], *, bias_v: Optional[float] = None,
+                      frequency_hz: float = 1.0, cycles: int = 2, shape: str = "triangle",
+                      restart_stage: bool = False) -> Loops: ...
     def wave(self, trajectory: str = "triangle", frequency_hz: float = 10.0, amplitude_um: float = 0.0, *,
              offset: Optional[str] = None, scenario: Optional[PathLike] = None, cycles: int = 0,
              arm: bool = False) -> dict: ...

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Optional, Sequence, Union
+from typing import Callable, Optional, Sequence, Union
 
 from . import _piezoloop
 
@@ -95,4 +95,58 @@ def mixsyn(plant: Model, w1: Model, w2: Optional[Model] = None, w3: Optional[Mod
                              float(gamma_max), float(backoff))
 
 
-__all__ = ["c2d", "analyze_loop", "mixsyn"]
+def hinf(plant: Model, *, gamma_tol: float = 1e-6, gamma_max: float = 0.0, backoff: float = 1e-3) -> dict:
+    """H-inf output-feedback synthesis for a generalised plant, as `piezoloop
+    design hinf --plant P.json`: plant is a dict or file in the plant format
+    of docs/synthesis.md (A, B, C, D and the partition sizes). Returns its
+    JSON: gamma, stable, order, synthesis (the gamma iteration, Riccati
+    residuals), controller (state space, y -> u) and, for a SISO
+    controller, controller_model (zeros/poles/gain). ValueError names a bad
+    field or option; no solution raises RuntimeError naming the condition
+    (D12 rank, stabilisability, no gamma in the interval, ...)."""
+    if isinstance(plant, dict):
+        text, path = json.dumps(plant), ""
+    elif isinstance(plant, (str, os.PathLike)):
+        text, path = "", os.fspath(plant)
+    else:
+        raise ValueError("plant: a plant dict or the path of a plant file (JSON)")
+    return _piezoloop.hinf(text, path, float(gamma_tol), float(gamma_max), float(backoff))
+
+
+def musyn(plant: Model, w1: Model, hm: Model, *, w2: Optional[Model] = None, w3: Optional[Model] = None,
+          iterations: int = 4, d_order: int = 4, gamma_tol: float = 1e-4, backoff: float = 1e-3,
+          on_iteration: Optional[Callable[[int, float, float], None]] = None) -> dict:
+    """mu-synthesis by D-K iteration, as `piezoloop design musyn`: plant G
+    with input multiplicative uncertainty hm (G (1 + Delta hm), |Delta| <= 1)
+    and performance [w1 e; w3 y; w2 u] driven by r. on_iteration(iteration,
+    gamma, mu_peak) is called after each K step. Returns its JSON: gamma,
+    stable, order, iterations, rs_peak/np_peak/rp_peak of the returned
+    controller, controller (zpk, e -> u) and controller_ss. ValueError for
+    bad input (naming the model or option), RuntimeError for no solution."""
+    opt = lambda m: None if m is None else _model_args(m)
+    return _piezoloop.musyn(_model_args(plant), _model_args(w1), _model_args(hm), opt(w2), opt(w3), int(iterations),
+                            int(d_order), float(gamma_tol), float(backoff), on_iteration)
+
+
+def analyze_mu(plant: Model, controller: Model, hm: Model, w1: Model, *, w3: Optional[Model] = None,
+               w2: Optional[Model] = None) -> dict:
+    """Robust stability, nominal and robust performance over frequency, as
+    `piezoloop analyze mu`: peaks of |hm T| (rs), of the performance channels
+    [w1 S; w3 T; w2 K S] (np) and of the mu upper bound for the uncertainty
+    and performance blocks (rp), with their frequencies in Hz; each < 1 with
+    a nominally stable loop passes (robustly_stable, nominal_performance,
+    robust_performance). Models all continuous, or all discrete with one ts."""
+    opt = lambda m: None if m is None else _model_args(m)
+    return _piezoloop.analyze_mu(_model_args(plant), _model_args(controller), _model_args(hm), _model_args(w1),
+                                 opt(w3), opt(w2))
+
+
+def reduce(model: Model, order: int) -> dict:
+    """Balanced truncation of a stable model to `order` states, as `piezoloop
+    reduce`: model (zeros/poles/gain), order, original_order, hsv (the Hankel
+    singular values, descending) and error_bound (2 x the discarded ones, a
+    bound on the H-inf error)."""
+    return _piezoloop.reduce(_model_args(model), int(order))
+
+
+__all__ = ["c2d", "analyze_loop", "mixsyn", "hinf", "musyn", "analyze_mu", "reduce"]

@@ -1,5 +1,5 @@
 import os
-from typing import Optional, Sequence, Union
+from typing import Callable, Optional, Sequence, Union
 
 Model = Union[dict, str, os.PathLike]
 
@@ -14,3 +14,14 @@ def analyze_loop(plant: Model, controller: Model, *, we: Optional[Model] = None,
 
 def mixsyn(plant: Model, w1: Model, w2: Optional[Model] = None, w3: Optional[Model] = None, *,
            gamma_tol: float = 1e-6, gamma_max: float = 0.0, backoff: float = 1e-3) -> dict: ...
+
+def hinf(plant: Model, *, gamma_tol: float = 1e-6, gamma_max: float = 0.0, backoff: float = 1e-3) -> dict: ...
+
+def musyn(plant: Model, w1: Model, hm: Model, *, w2: Optional[Model] = None, w3: Optional[Model] = None,
+          iterations: int = 4, d_order: int = 4, gamma_tol: float = 1e-4, backoff: float = 1e-3,
+          on_iteration: Optional[Callable[[int, float, float], None]] = None) -> dict: ...
+
+def analyze_mu(plant: Model, controller: Model, hm: Model, w1: Model, *, w3: Optional[Model] = None,
+               w2: Optional[Model] = None) -> dict: ...
+
+def reduce(model: Model, order: int) -> dict: ...

@@ -4,12 +4,13 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass
-from typing import Dict, Optional
+from typing import Dict, Optional, Sequence
 
 import numpy as np
 
 from . import _piezoloop
-from .measure import FrequencyResponse, check_request, response_from_report
+from .measure import (FrequencyResponse, Loops, StepResponse, check_request, check_shape, check_step,
+                      loops_from_result, response_from_report, step_from_report)
 
 GROUPS = ("feedforward", "feedback", "rc", "limits", "trajectory", "recorder", "link")
 
@@ -211,6 +212,30 @@ class Device:
         report = self._dev.measure_frf(float(from_hz), float(to_hz), float(amplitude_v), float(bias_v), mode, signal,
                                        int(periods), int(transient_periods), bool(restart_stage))
         return response_from_report(report)
+
+    def measure_step(self, *, step_um: Optional[float] = None, step_v: Optional[float] = None,
+                     from_um: Optional[float] = None, bias_v: Optional[float] = None, duration_s: float = 0.1,
+                     mode: Optional[str] = None, restart_stage: bool = False) -> StepResponse:
+        """The board's step response, as `piezoloop --device measure step`:
+        open loop (step_v, the controller groups set to none and put back)
+        or closed loop (step_um, the board's controller; from the setpoint
+        it holds unless from_um). Checked against the board's limits before
+        anything moves; Ctrl-C as measure_frf."""
+        check_step(step_um, step_v, mode)
+        opt = lambda v: None if v is None else float(v)
+        report = self._dev.measure_step(opt(step_um), opt(step_v), opt(from_um), opt(bias_v), mode or "",
+                                        float(duration_s), bool(restart_stage))
+        return step_from_report(report)
+
+    def measure_loops(self, amplitudes_v: Sequence[float], *, bias_v: Optional[float] = None,
+                      frequency_hz: float = 1.0, cycles: int = 2, shape: str = "triangle",
+                      restart_stage: bool = False) -> Loops:
+        """Open-loop hysteresis loops on the board, as `piezoloop --device
+        measure loops` (the controller groups set to none and put back)."""
+        check_shape(shape)
+        r = self._dev.measure_loops([float(a) for a in amplitudes_v], None if bias_v is None else float(bias_v),
+                                    float(frequency_hz), int(cycles), shape, bool(restart_stage))
+        return loops_from_result(r)
 
 
 def devices() -> list:

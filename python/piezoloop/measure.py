@@ -1,15 +1,17 @@
-"""piezoloop.measure_frf: a stage's frequency response, as `piezoloop measure frf`.
+"""piezoloop.measure_frf, measure_step, measure_loops: a stage measured as
+`piezoloop measure frf|step|loops` does.
 
-The simulator here (a scenario's stage), a board through Device.measure_frf:
-one implementation with the command line (host/measure, host/link), so the
-response, its log_hash and the JSON are those of `piezoloop measure frf`.
+The simulator here (a scenario's stage), a board through the Device's
+methods of the same names: one implementation with the command line
+(host/measure, host/link), so the results, their log_hash and the JSON are
+those of `piezoloop measure`.
 """
 from __future__ import annotations
 
 import json
 import os
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -91,3 +93,120 @@ def measure_frf(scenario: str | os.PathLike, from_hz: float, to_hz: float, ampli
                                     float(amplitude_v), float(bias_v), mode, signal, int(periods),
                                     int(transient_periods))
     return response_from_report(report)
+
+
+@dataclass
+class StepResponse:
+    """A step response, as `piezoloop measure step --out` writes it.
+
+    time_s: 0 at the tick the step is applied (the level before it is
+        recorded too).
+    reference_um, command_v, response_um: r, u (after the limiter) and y.
+    figures: overshoot_pct, rise_time_s (10-90 %), settling_time_s (2 %),
+        initial_um, final_value_um, peak_um, peak_time_s, settled.
+    report: the whole JSON (definitions, source, limiter, warnings).
+    """
+    time_s: np.ndarray
+    reference_um: np.ndarray
+    command_v: np.ndarray
+    response_um: np.ndarray
+    figures: dict
+    report: dict
+
+    @property
+    def log_hash(self) -> str:
+        return self.report["log_hash"]
+
+    def save(self, path: str | os.PathLike) -> None:
+        with open(path, "w") as f:
+            json.dump(self.report, f, indent=1)
+
+
+_STEP_FIGURES = ("initial_um", "final_value_um", "overshoot_pct", "peak_um", "peak_time_s", "rise_time_s",
+                 "settling_time_s", "settled")
+
+
+def step_from_report(report: dict) -> StepResponse:
+    return StepResponse(time_s=np.asarray(report["time_s"], dtype=float),
+                        reference_um=np.asarray(report["reference_um"], dtype=float),
+                        command_v=np.asarray(report["command_V"], dtype=float),
+                        response_um=np.asarray(report["response_um"], dtype=float),
+                        figures={k: report[k] for k in _STEP_FIGURES}, report=report)
+
+
+@dataclass
+class Loops:
+    """Hysteresis loops, as `piezoloop measure loops` writes them.
+
+    time_s, command_v (u, after the limiter), response_um (y, read at the
+    next tick), amplitude_v (the loop each sample belongs to): the CSV's
+    columns. loops: per amplitude its hysteresis_pct, max_width_pct,
+    y_min_um, y_max_um. report: the --json summary.
+    """
+    time_s: np.ndarray
+    command_v: np.ndarray
+    response_um: np.ndarray
+    amplitude_v: np.ndarray
+    loops: list
+    report: dict
+
+    def save_csv(self, path: str | os.PathLike) -> None:
+        """The CSV `identify pi` (columns u, y) and `identify dahl` (v, x) read."""
+        with open(path, "w") as f:
+            f.write("t,u,y,v,x,amplitude_V\n")
+            for t, u, y, a in zip(self.time_s, self.command_v, self.response_um, self.amplitude_v):
+                f.write(f"{t:.9g},{u:.9g},{y:.9g},{u:.9g},{y:.9g},{a:.9g}\n")
+
+
+def loops_from_result(r: dict) -> Loops:
+    return Loops(time_s=r["time_s"], command_v=r["u_V"], response_um=r["y_um"], amplitude_v=r["amplitude_V"],
+                 loops=r["report"]["loops"], report=r["report"])
+
+
+def check_step(step_um, step_v, mode) -> None:
+    if (step_um is None) == (step_v is None):
+        raise ValueError("step_um: give exactly one of step_um (closed loop) and step_v (open loop)")
+    if mode not in (None, "open", "closed"):
+        raise ValueError(f"mode: {mode!r} is not one of open, closed")
+
+
+def check_shape(shape: str) -> None:
+    if shape not in ("triangle", "sine"):
+        raise ValueError(f"shape: {shape!r} is not one of triangle, sine")
+
+
+def _opt(v):
+    return None if v is None else float(v)
+
+
+def measure_step(scenario: str | os.PathLike, *, step_um: Optional[float] = None, step_v: Optional[float] = None,
+                 from_um: Optional[float] = None, bias_v: Optional[float] = None, duration_s: float = 0.1,
+                 mode: Optional[str] = None, case: Optional[str] = None,
+                 sample: Optional[str] = None) -> StepResponse:
+    """The step response of the scenario's simulated stage, as `piezoloop
+    measure step --scenario`: open loop a command step of step_v volts from
+    bias_v (default max(0, the lower limit)); closed loop (step_um, with the
+    case's controller) a reference step from from_um (default 10 % into the
+    range). duration_s is recorded after the step, as long before it. A
+    request beyond the limits raises ValueError naming the option."""
+    check_step(step_um, step_v, mode)
+    if sample not in (None, "float", "q31"):
+        raise ValueError(f"sample: {sample!r} is not one of float, q31")
+    report = _piezoloop.measure_step(os.fspath(scenario), case or "", sample or "", _opt(step_um), _opt(step_v),
+                                     _opt(from_um), _opt(bias_v), mode or "", float(duration_s))
+    return step_from_report(report)
+
+
+def measure_loops(scenario: str | os.PathLike, amplitudes_v: Sequence[float], *, bias_v: Optional[float] = None,
+                  frequency_hz: float = 1.0, cycles: int = 2, shape: str = "triangle", case: Optional[str] = None,
+                  sample: Optional[str] = None) -> Loops:
+    """Open-loop hysteresis loops of the scenario's simulated stage, as
+    `piezoloop measure loops --scenario`: per amplitude (peak-to-peak volts
+    above bias_v) `cycles` triangles (or 1 - cos sines) at frequency_hz, the
+    last one measured."""
+    check_shape(shape)
+    if sample not in (None, "float", "q31"):
+        raise ValueError(f"sample: {sample!r} is not one of float, q31")
+    r = _piezoloop.measure_loops(os.fspath(scenario), case or "", sample or "", [float(a) for a in amplitudes_v],
+                                 _opt(bias_v), float(frequency_hz), int(cycles), shape)
+    return loops_from_result(r)

@@ -10,7 +10,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <optional>
+
 #include "measure/frf_plan.hpp"
+#include "measure/step_loops_plan.hpp"
+#include "measure/step_loops_report.hpp"
 
 namespace piezoloop::py {
 
@@ -29,5 +33,14 @@ void add_measure(pyb::module_& m);
 measure::FrfRequest frf_request(double from_Hz, double to_Hz, double amplitude_V, double bias_V,
                                 const std::string& mode, const std::string& signal, int periods,
                                 int transient_periods);
+
+// A `measure step` request's options from the Python call's arguments.
+measure::StepAsked step_options(std::optional<double> step_um, std::optional<double> step_V,
+                                  std::optional<double> from_um, std::optional<double> bias_V, const std::string& mode,
+                                  double duration_s);
+
+// `measure loops`: its report (the --json summary) and the samples of the
+// CSV as numpy arrays: {"report", "time_s", "u_V", "y_um", "amplitude_V"}.
+pyb::dict loops_result(const measure::LoopsRun& run, const nlohmann::json& report);
 
 }  // namespace piezoloop::py

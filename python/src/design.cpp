@@ -1,5 +1,6 @@
-// piezoloop.design: `piezoloop design c2d`'s report (lti/design_report.hpp)
-// for a model given as model-file JSON text or as a file.
+// piezoloop.design: the reports of `piezoloop design c2d|hinf|mixsyn|musyn`,
+// `analyze loop|mu` and `reduce` (the host's *_report files) for models
+// given as model-file JSON text or as files.
 #include <optional>
 #include <string>
 
@@ -8,11 +9,15 @@
 #include <vector>
 
 #include "analysis/loop_report.hpp"
+#include "analysis/mu_report.hpp"
+#include "ident/reduce_report.hpp"
 #include "bindings.hpp"
 #include "json/json_reader.hpp"
 #include "lti/design_report.hpp"
 #include "lti/model_json.hpp"
 #include "lti/sos.hpp"
+#include "synth/musyn_report.hpp"
+#include "synth/plant_json.hpp"
 #include "synth/synth_report.hpp"
 
 namespace piezoloop::py {
@@ -37,6 +42,15 @@ using ModelArg = std::pair<std::string, std::string>;
 
 std::string model_name(const ModelArg& m, const std::string& fallback) {
     return m.second.empty() ? fallback : m.second;
+}
+
+// A model argument whose errors name the argument (as the CLI's --plant).
+design::Zpk load_named(const ModelArg& a, const std::string& label, const design::ModelParseOptions& o = {}) {
+    try {
+        return load_model(a.first, a.second, o);
+    } catch (const std::exception& e) {
+        throw std::invalid_argument(label + ": " + e.what());
+    }
 }
 
 }  // namespace
@@ -130,6 +144,96 @@ void add_design(pyb::module_& m) {
         },
         pyb::arg("plant"), pyb::arg("w1"), pyb::arg("w2"), pyb::arg("w3"), pyb::arg("gamma_tol"),
         pyb::arg("gamma_max"), pyb::arg("backoff"), "`piezoloop design mixsyn`'s JSON.");
+
+    m.def(
+        "hinf",
+        [](const std::string& plant_json, const std::string& plant_file, double gamma_tol, double gamma_max,
+           double backoff) {
+            design::SynthSettings st;
+            st.gamma_tol = gamma_tol;
+            st.gamma_max = gamma_max;
+            st.backoff = backoff;
+            (void)design::hinf_options(st);
+            design::GeneralisedPlant p;
+            if (!plant_file.empty()) {
+                p = design::load_plant_file(plant_file);
+            } else {
+                try {
+                    p = design::parse_plant(hostjson::parse_text(plant_json, "plant"));
+                } catch (const hostjson::JsonError& e) {
+                    throw std::invalid_argument(e.what());
+                }
+            }
+            nlohmann::json out;
+            {
+                pyb::gil_scoped_release release;
+                out = design::hinf_report(p, plant_file.empty() ? "plant" : plant_file, st).json;
+            }
+            return to_python(out);
+        },
+        pyb::arg("plant_json"), pyb::arg("plant_file"), pyb::arg("gamma_tol"), pyb::arg("gamma_max"),
+        pyb::arg("backoff"), "`piezoloop design hinf`'s JSON.");
+
+    m.def(
+        "musyn",
+        [](const ModelArg& plant, const ModelArg& w1, const ModelArg& hm, const std::optional<ModelArg>& w2,
+           const std::optional<ModelArg>& w3, int iterations, int d_order, double gamma_tol, double backoff,
+           const std::optional<pyb::function>& on_iteration) {
+            design::ModelParseOptions improper_ok;
+            improper_ok.allow_improper = true;  // so the synthesis names the improper weight itself
+            design::MusynProblem pb;
+            pb.plant = load_named(plant, "plant");
+            pb.w1 = load_named(w1, "w1", improper_ok);
+            pb.hm = load_named(hm, "hm", improper_ok);
+            if (w2) pb.w2 = load_named(*w2, "w2", improper_ok);
+            if (w3) pb.w3 = load_named(*w3, "w3", improper_ok);
+            design::MusynSettings st;
+            st.iterations = iterations;
+            st.d_order = d_order;
+            st.gamma_tol = gamma_tol;
+            st.backoff = backoff;
+            const design::MusynNames names{model_name(plant, "plant"), model_name(w1, "w1"), model_name(hm, "hm"),
+                                           w2 ? model_name(*w2, "w2") : "", w3 ? model_name(*w3, "w3") : ""};
+            nlohmann::json out;
+            {
+                pyb::gil_scoped_release release;
+                out = design::musyn_report(pb, names, st, [&](const design::DkRecord& r) {
+                          if (!on_iteration) return;
+                          pyb::gil_scoped_acquire acquire;
+                          (*on_iteration)(r.iteration, r.gamma, r.mu_peak);
+                      }).json;
+            }
+            return to_python(out);
+        },
+        pyb::arg("plant"), pyb::arg("w1"), pyb::arg("hm"), pyb::arg("w2"), pyb::arg("w3"), pyb::arg("iterations"),
+        pyb::arg("d_order"), pyb::arg("gamma_tol"), pyb::arg("backoff"), pyb::arg("on_iteration"),
+        "`piezoloop design musyn`'s JSON.");
+
+    m.def(
+        "analyze_mu",
+        [](const ModelArg& plant, const ModelArg& controller, const ModelArg& hm, const ModelArg& w1,
+           const std::optional<ModelArg>& w3, const std::optional<ModelArg>& w2) {
+            design::MuLoopModels models;
+            models.plant = load_named(plant, "plant");
+            models.controller = load_named(controller, "controller");
+            models.hm = load_named(hm, "hm");
+            models.w1 = load_named(w1, "w1");
+            if (w3) models.w3 = load_named(*w3, "w3"), models.has_w3 = true;
+            if (w2) models.w2 = load_named(*w2, "w2"), models.has_w2 = true;
+            nlohmann::json out;
+            {
+                pyb::gil_scoped_release release;
+                out = design::mu_report(models).json;
+            }
+            return to_python(out);
+        },
+        pyb::arg("plant"), pyb::arg("controller"), pyb::arg("hm"), pyb::arg("w1"), pyb::arg("w3"), pyb::arg("w2"),
+        "`piezoloop analyze mu`'s JSON.");
+
+    m.def(
+        "reduce",
+        [](const ModelArg& model, int order) { return to_python(design::reduce_report(load_named(model, "model"), order)); },
+        pyb::arg("model"), pyb::arg("order"), "`piezoloop reduce`'s JSON.");
 }
 
 }  // namespace piezoloop::py

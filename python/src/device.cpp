@@ -55,6 +55,17 @@ private:
     bool interrupted_ = false;
 };
 
+hostlink::MeasureOptions measure_options(Interrupt& ctrl_c, bool restart_stage) {
+    hostlink::MeasureOptions o;
+    o.restart_stage = restart_stage;
+    o.stop_requested = ctrl_c.poll();
+    return o;
+}
+
+json board_source(Client& c, const measure::MeasureBounds& b) {
+    return {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}, {"rate_Hz", b.rate_Hz}};
+}
+
 class Device {
 public:
     Device(const std::string& address, int timeout_ms) {
@@ -174,9 +185,7 @@ public:
     // back), then KeyboardInterrupt.
     pyb::object measure_frf(const measure::FrfRequest& r, bool restart_stage) {
         Interrupt ctrl_c;
-        hostlink::MeasureOptions o;
-        o.restart_stage = restart_stage;
-        o.stop_requested = ctrl_c.poll();
+        const hostlink::MeasureOptions o = measure_options(ctrl_c, restart_stage);
         json out;
         try {
             pyb::gil_scoped_release release;
@@ -190,6 +199,50 @@ public:
         }
         ctrl_c.raise_if_interrupted();
         return to_python(out);
+    }
+
+    // `piezoloop --device measure step`: the JSON `measure step --out`
+    // writes; a closed-loop step starts from the setpoint the board holds
+    // unless from_um is given. Ctrl-C as measure_frf.
+    pyb::object measure_step(const measure::StepAsked& so, bool restart_stage) {
+        Interrupt ctrl_c;
+        const hostlink::MeasureOptions o = measure_options(ctrl_c, restart_stage);
+        json out;
+        try {
+            pyb::gil_scoped_release release;
+            Client& c = client();
+            const measure::MeasureBounds b = hostlink::board_bounds(c);
+            std::optional<double> setpoint_um;
+            if (!so.from_um) setpoint_um = c.status().r_um;
+            const measure::StepRequest r = measure::step_request(so, b, setpoint_um);
+            out = measure::step_report(r, hostlink::run_step_device(c, r, o), board_source(c, b));
+        } catch (const hostlink::LinkError&) {
+            if (!ctrl_c.interrupted()) throw;
+        }
+        ctrl_c.raise_if_interrupted();
+        return to_python(out);
+    }
+
+    // `piezoloop --device measure loops`: as piezoloop.measure_loops.
+    pyb::object measure_loops(const std::vector<double>& amplitudes_V, std::optional<double> base_V,
+                              double frequency_Hz, int cycles, const std::string& shape, bool restart_stage) {
+        Interrupt ctrl_c;
+        const hostlink::MeasureOptions o = measure_options(ctrl_c, restart_stage);
+        measure::LoopsRequest r;
+        measure::LoopsRun run;
+        json source;
+        try {
+            pyb::gil_scoped_release release;
+            Client& c = client();
+            const measure::MeasureBounds b = hostlink::board_bounds(c);
+            r = measure::loops_request(amplitudes_V, base_V, frequency_Hz, cycles, shape, b);
+            run = hostlink::run_loops_device(c, r, o);
+            source = board_source(c, b);
+        } catch (const hostlink::LinkError&) {
+            if (!ctrl_c.interrupted()) throw;
+        }
+        ctrl_c.raise_if_interrupted();
+        return loops_result(run, measure::loops_report(r, run, source));
     }
 
     // `piezoloop wave`: the trajectory group set and started, detached (it
@@ -306,7 +359,13 @@ void add_device(pyb::module_& m) {
                  return d.measure_frf(frf_request(from_Hz, to_Hz, amplitude_V, bias_V, mode, signal, periods,
                                                   transient_periods),
                                       restart_stage);
-             });
+             })
+        .def("measure_step",
+             [](Device& d, std::optional<double> step_um, std::optional<double> step_V, std::optional<double> from_um,
+                std::optional<double> bias_V, const std::string& mode, double duration_s, bool restart_stage) {
+                 return d.measure_step(step_options(step_um, step_V, from_um, bias_V, mode, duration_s), restart_stage);
+             })
+        .def("measure_loops", &Device::measure_loops);
 }
 
 }  // namespace piezoloop::py

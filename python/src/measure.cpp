@@ -1,7 +1,9 @@
-// piezoloop.measure_frf (simulator) and Device.measure_frf (board): `piezoloop
-// measure frf` through the same host code (measure/frf_sim,
-// link/measure_session), returning the JSON `measure frf --out` writes
-// (measure/frf_report), which `identify tf --frf` reads.
+// piezoloop.measure_frf, measure_step, measure_loops (simulator) and the
+// Device's (board, device.cpp): `piezoloop measure frf|step|loops` through the
+// same host code (measure/frf_sim, measure/step_loops_sim,
+// link/measure_session), returning the JSON the command line writes
+// (measure/frf_report, measure/step_loops_report).
+#include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
 #include <optional>
@@ -11,6 +13,7 @@
 #include "device_common.hpp"
 #include "measure/frf_report.hpp"
 #include "measure/frf_sim.hpp"
+#include "measure/step_loops_sim.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::py {
@@ -31,7 +34,47 @@ measure::FrfRequest frf_request(double from_Hz, double to_Hz, double amplitude_V
     return r;
 }
 
+measure::StepAsked step_options(std::optional<double> step_um, std::optional<double> step_V,
+                                  std::optional<double> from_um, std::optional<double> bias_V, const std::string& mode,
+                                  double duration_s) {
+    measure::StepAsked o;
+    o.step_um = step_um;
+    o.step_V = step_V;
+    o.from_um = from_um;
+    o.bias_V = bias_V;
+    o.mode = mode;
+    o.duration_s = duration_s;
+    return o;
+}
+
+pyb::dict loops_result(const measure::LoopsRun& run, const nlohmann::json& report) {
+    auto array = [](const std::vector<double>& v) {
+        return pyb::array_t<double>(static_cast<pyb::ssize_t>(v.size()), v.data());
+    };
+    pyb::dict out;
+    out["report"] = to_python(report);
+    out["time_s"] = array(run.time_s);
+    out["u_V"] = array(run.u_V);
+    out["y_um"] = array(run.y_um);
+    out["amplitude_V"] = array(run.amplitude_V);
+    return out;
+}
+
 namespace {
+
+// The simulated stage a measurement runs on, as `--scenario S [--case C]`.
+struct SimStage {
+    SimStage(const std::string& path, const std::string& case_name, const std::string& sample)
+        : scenario(sim::load_scenario(path)),
+          case_spec(cli::measured_case(scenario, case_name, sample, storage)),
+          bounds(measure::scenario_bounds(scenario)),
+          source({{"kind", "simulator"}, {"scenario", scenario.name}, {"case", case_name}, {"rate_Hz", bounds.rate_Hz}}) {}
+    sim::Scenario scenario;
+    sim::CaseSpec storage;
+    const sim::CaseSpec* case_spec;
+    measure::MeasureBounds bounds;
+    nlohmann::json source;
+};
 
 pyb::object measure_frf_sim(const std::string& scenario, const std::string& case_name, const std::string& sample,
                             const measure::FrfRequest& r) {
@@ -66,6 +109,45 @@ void add_measure(pyb::module_& m) {
         pyb::arg("scenario"), pyb::arg("case_name"), pyb::arg("sample"), pyb::arg("from_Hz"), pyb::arg("to_Hz"),
         pyb::arg("amplitude_V"), pyb::arg("bias_V"), pyb::arg("mode"), pyb::arg("signal"), pyb::arg("periods"),
         pyb::arg("transient_periods"));
+
+    m.def(
+        "measure_step",
+        [](const std::string& scenario, const std::string& case_name, const std::string& sample,
+           std::optional<double> step_um, std::optional<double> step_V, std::optional<double> from_um,
+           std::optional<double> bias_V, const std::string& mode, double duration_s) {
+            nlohmann::json out;
+            {
+                pyb::gil_scoped_release release;
+                const SimStage t(scenario, case_name, sample);
+                const measure::StepRequest r = measure::step_request(
+                    step_options(step_um, step_V, from_um, bias_V, mode, duration_s), t.bounds, std::nullopt);
+                if (r.closed && case_name.empty())
+                    throw std::invalid_argument("case: closed loop needs the case whose controller closes it");
+                out = measure::step_report(r, measure::run_step_sim(t.scenario, t.case_spec, r), t.source);
+            }
+            return to_python(out);
+        },
+        pyb::arg("scenario"), pyb::arg("case_name"), pyb::arg("sample"), pyb::arg("step_um"), pyb::arg("step_V"),
+        pyb::arg("from_um"), pyb::arg("bias_V"), pyb::arg("mode"), pyb::arg("duration_s"));
+
+    m.def(
+        "measure_loops",
+        [](const std::string& scenario, const std::string& case_name, const std::string& sample,
+           const std::vector<double>& amplitudes_V, std::optional<double> base_V, double frequency_Hz, int cycles,
+           const std::string& shape) {
+            std::optional<SimStage> t;
+            measure::LoopsRequest r;
+            measure::LoopsRun run;
+            {
+                pyb::gil_scoped_release release;
+                t.emplace(scenario, case_name, sample);
+                r = measure::loops_request(amplitudes_V, base_V, frequency_Hz, cycles, shape, t->bounds);
+                run = measure::run_loops_sim(t->scenario, t->case_spec, r);
+            }
+            return loops_result(run, measure::loops_report(r, run, t->source));
+        },
+        pyb::arg("scenario"), pyb::arg("case_name"), pyb::arg("sample"), pyb::arg("amplitudes_V"), pyb::arg("base_V"),
+        pyb::arg("frequency_Hz"), pyb::arg("cycles"), pyb::arg("shape"));
 }
 
 }  // namespace piezoloop::py

@@ -65,3 +65,65 @@ def test_mixsyn_equals_cli(tmp_path):
     assert out == ref and out["stable"]
     with pytest.raises(ValueError, match="gamma-tol"):
         piezoloop.design.mixsyn(g, he, gamma_tol=1.0)
+
+
+# The first-order problem of check_design_synth.py (known optimal gamma).
+P1 = {"A": [[0]], "B": [[1, 0, 1]], "C": [[1], [0], [1]], "D": [[0, 0, 0], [0, 0, 1], [0, 1, 0]],
+      "partition": {"w": 2, "u": 1, "z": 2, "y": 1}}
+
+
+def test_hinf_equals_cli(tmp_path):
+    path = tmp_path / "p1.json"
+    path.write_text(json.dumps(P1))
+    ref = json.loads(cli("design", "hinf", "--plant", str(path)))
+    out = piezoloop.design.hinf(str(path))
+    assert out == ref
+    # gamma_opt = sqrt(2); the controller is formed at gamma_opt (1 + backoff 1e-3).
+    assert 2 ** 0.5 * (1 - 1e-6) <= out["gamma"] <= 2 ** 0.5 * (1 + 2e-3)
+    as_dict = piezoloop.design.hinf(P1)
+    assert as_dict["gamma"] == ref["gamma"] and as_dict["plant_file"] == "plant"
+    d12 = dict(P1, D=[[0, 0, 0], [0, 0, 0], [0, 1, 0]])
+    with pytest.raises(RuntimeError, match="D12"):
+        piezoloop.design.hinf(d12)
+    with pytest.raises(ValueError, match="plant.B"):
+        piezoloop.design.hinf(dict(P1, B=[[1, 0]]))
+
+
+def test_musyn_analyze_mu_reduce_equal_cli(tmp_path):
+    # The small problem of tests/host/cli/check_design_musyn.py.
+    models = {"g": ([], [-1, -50], 500), "w1": ([-20], [-0.02], 0.5), "hm": ([-10], [-200], 0.5),
+              "w3": ([-10], [-1000], 5)}
+    path = {}
+    for name, (z, p, k) in models.items():
+        path[name] = tmp_path / f"{name}.json"
+        path[name].write_text(json.dumps({"zeros": z, "poles": p, "gain": k}))
+    p = {k: str(v) for k, v in path.items()}
+    ref = json.loads(cli("design", "musyn", "--plant", p["g"], "--w1", p["w1"], "--w3", p["w3"], "--hm", p["hm"],
+                         "--iterations", "2", "--d-order", "1"))
+    seen = []
+    out = piezoloop.design.musyn(p["g"], p["w1"], p["hm"], w3=p["w3"], iterations=2, d_order=1,
+                                 on_iteration=lambda i, gamma, mu: seen.append((i, gamma, mu)))
+    for r in (ref, out):
+        r.pop("seconds")
+        for it in r["iterations"]:
+            it.pop("seconds")
+    assert out == ref
+    assert [s[0] for s in seen] == [it["iteration"] for it in ref["iterations"]]
+    with pytest.raises(ValueError, match="--iterations"):
+        piezoloop.design.musyn(p["g"], p["w1"], p["hm"], w3=p["w3"], iterations=0)
+
+    k = tmp_path / "k.json"
+    k.write_text(json.dumps(out["controller"]))
+    ref = json.loads(cli("analyze", "mu", "--plant", p["g"], "--controller", str(k), "--hm", p["hm"],
+                         "--w1", p["w1"], "--w3", p["w3"]))
+    mu = piezoloop.design.analyze_mu(p["g"], out["controller"], p["hm"], p["w1"], w3=p["w3"])
+    ref.pop("seconds")
+    mu.pop("seconds")
+    assert mu == ref
+    assert mu["rp_peak"] == pytest.approx(out["rp_peak"]["value"], rel=1e-9)
+
+    ref = json.loads(cli("reduce", "--model", str(k), "--order", "2"))
+    red = piezoloop.design.reduce(str(k), 2)
+    assert red == ref and red["order"] == 2 and len(red["hsv"]) == out["order"]
+    with pytest.raises(ValueError, match="order"):
+        piezoloop.design.reduce(out["controller"], 99)

@@ -72,3 +72,67 @@ def test_board_equals_sim():
     assert b.log_hash == s.log_hash
     np.testing.assert_array_equal(b.response, s.response)
     assert b.report["recording"]["lost_blocks"] == 0
+
+
+STEP = dict(step_v=1.0, bias_v=2.0, duration_s=0.02)
+LOOPS = dict(amplitudes_v=[2.0, 4.0], bias_v=1.0, frequency_hz=20.0, cycles=2)
+
+
+def test_step_equals_command_line(tmp_path):
+    r = piezoloop.measure_step(scenario("ahmad2020"), **STEP)
+    out = tmp_path / "step.json"
+    cli("measure", "step", "--scenario", scenario("ahmad2020"), "--step-v", "1", "--bias-v", "2",
+        "--duration-s", "0.02", "--out", str(out))
+    ref = json.loads(out.read_text())
+    assert r.log_hash == ref["log_hash"]
+    np.testing.assert_array_equal(r.response_um, ref["response_um"])
+    np.testing.assert_array_equal(r.command_v, ref["command_V"])
+    assert r.figures["overshoot_pct"] == ref["overshoot_pct"]
+    assert r.time_s[0] < 0 and r.response_um.size == r.time_s.size
+
+
+def test_closed_step_needs_a_case_and_checks_the_range():
+    with pytest.raises(ValueError, match="case"):
+        piezoloop.measure_step(scenario("ahmad2020"), step_um=2.0)
+    with pytest.raises(ValueError, match="step_um"):
+        piezoloop.measure_step(scenario("ahmad2020"), step_um=2.0, step_v=1.0)
+    with pytest.raises(ValueError, match="--step-um"):
+        piezoloop.measure_step(scenario("ahmad2020"), step_um=1e4, case="dahl_ff_K")
+    r = piezoloop.measure_step(scenario("ahmad2020"), step_um=2.0, case="dahl_ff_K", duration_s=0.02)
+    assert abs(r.figures["final_value_um"] - r.figures["initial_um"] - 2.0) < 0.05
+
+
+def test_loops_equal_command_line(tmp_path):
+    r = piezoloop.measure_loops(scenario("ahmad2020"), **LOOPS)
+    csv, js = tmp_path / "loops.csv", tmp_path / "loops.json"
+    cli("measure", "loops", "--scenario", scenario("ahmad2020"), "--amplitudes-v", "2,4", "--bias-v", "1",
+        "--frequency-hz", "20", "--cycles", "2", "--out", str(csv), "--json", str(js))
+    ref = json.loads(js.read_text())
+    assert r.report["log_hash"] == ref["log_hash"]
+    assert r.loops == ref["loops"]
+    r.save_csv(tmp_path / "saved.csv")
+    assert (tmp_path / "saved.csv").read_text() == csv.read_text()
+    with pytest.raises(ValueError, match="shape"):
+        piezoloop.measure_loops(scenario("ahmad2020"), [1.0], shape="square")
+    with pytest.raises(ValueError, match="--amplitudes-v"):
+        piezoloop.measure_loops(scenario("ahmad2020"), [500.0])
+
+
+def test_board_step_and_loops():
+    need_qemu("qemu-m7")
+    with piezoloop.emulate("qemu-m7", scenario=scenario("ahmad2020")) as emu:
+        with piezoloop.connect(emu.address) as dev:
+            dev.set_scenario(scenario("ahmad2020"), "dahl_ff_K")
+            dev.set("recorder", channels=["r", "y", "e", "u"], mode="continuous")
+            before = dev.get("all")
+            with pytest.raises(ValueError, match="--step-v"):
+                dev.measure_step(step_v=500.0)
+            b = dev.measure_step(**STEP, restart_stage=True)
+            loops = dev.measure_loops([2.0], bias_v=1.0, frequency_hz=20.0, cycles=2)
+            assert dev.get("all") == before
+            assert dev.status()["status"]["armed"] is False
+    s = piezoloop.measure_step(scenario("ahmad2020"), **STEP)
+    assert b.log_hash == s.log_hash
+    np.testing.assert_array_equal(b.response_um, s.response_um)
+    assert b.report["source"]["kind"] == "board"
+    assert len(loops.loops) == 1 and loops.loops[0]["hysteresis_pct"] > 1.0
