@@ -19,6 +19,7 @@
 
 #include "commands.hpp"
 #include "lti/model_json.hpp"
+#include "measure/frf_file.hpp"
 #include "measure/tf_fit.hpp"
 
 namespace piezoloop::cli {
@@ -31,10 +32,6 @@ struct TfArgs {
     int delay_samples = 0;
     bool continuous = false;
 };
-
-[[noreturn]] void bad(const std::string& file, const std::string& field, const std::string& why) {
-    throw std::invalid_argument(file + ": " + field + ": " + why);
-}
 
 void parse_order(const std::string& text, int& poles, int& zeros) {
     const auto slash = text.find('/');
@@ -58,46 +55,15 @@ int run_tf(const TfArgs& a) {
     parse_order(a.order, o.poles, o.zeros);
     o.delay_samples = a.delay_samples;
     o.continuous = a.continuous;
-    std::ifstream in(a.frf);
-    if (!in) throw std::invalid_argument("--frf: cannot read " + a.frf);
-    json j;
-    try {
-        j = json::parse(in);
-    } catch (const json::exception& e) {
-        throw std::invalid_argument(a.frf + ": not JSON: " + e.what());
-    }
-    if (!j.is_object()) bad(a.frf, "(top)", "must be an object (measure frf's output)");
-    auto array_of = [&](const char* key) {
-        if (!j.contains(key) || !j[key].is_array()) bad(a.frf, key, "missing or not an array");
-        return j[key];
-    };
-    const json f = array_of("frequency_Hz"), r = array_of("response");
-    if (f.size() != r.size()) bad(a.frf, "response", "must have one [re, im] pair per frequency");
-    std::vector<double> f_Hz, var;
-    std::vector<design::cplx> g;
-    for (std::size_t i = 0; i < f.size(); ++i) {
-        if (!f[i].is_number()) bad(a.frf, "frequency_Hz[" + std::to_string(i) + "]", "must be a number");
-        if (!r[i].is_array() || r[i].size() != 2 || !r[i][0].is_number() || !r[i][1].is_number())
-            bad(a.frf, "response[" + std::to_string(i) + "]", "must be [re, im]");
-        f_Hz.push_back(f[i].get<double>());
-        g.emplace_back(r[i][0].get<double>(), r[i][1].get<double>());
-    }
-    if (j.contains("std_db")) {
-        const json s = array_of("std_db");
-        if (s.size() != f.size()) bad(a.frf, "std_db", "must have one entry per frequency");
-        const double rel_per_db = std::log(10.0) / 20.0;
-        for (std::size_t i = 0; i < s.size(); ++i) {
-            const double sd = s[i].is_number() ? s[i].get<double>() : std::nan("");
-            var.push_back(std::pow(sd * rel_per_db * std::abs(g[i]), 2));
-        }
-    }
-    if (!j.contains("excitation") || !j["excitation"].contains("rate_Hz") || !j["excitation"]["rate_Hz"].is_number())
-        bad(a.frf, "excitation.rate_Hz", "missing: the loop rate the response was measured at");
-    const double rate = j["excitation"]["rate_Hz"].get<double>();
-    if (!(rate > 0.0) || !std::isfinite(rate)) bad(a.frf, "excitation.rate_Hz", "must be > 0");
-    o.ts = 1.0 / rate;
+    const measure::FrfData d = measure::load_frf_file(a.frf);
+    // 1 / variance weights from the per-line standard deviation in dB.
+    std::vector<double> var;
+    const double rel_per_db = std::log(10.0) / 20.0;
+    for (std::size_t i = 0; i < d.std_db.size(); ++i)
+        var.push_back(std::pow(d.std_db[i] * rel_per_db * std::abs(d.response[i]), 2));
+    o.ts = 1.0 / d.rate_Hz;
 
-    const measure::TfFit fit = measure::fit_tf(f_Hz, g, var, o);
+    const measure::TfFit fit = measure::fit_tf(d.f_Hz, d.response, var, o);
     json model = design::to_json(fit.model);
     model["name"] = "fitted to " + a.frf + " (identify tf, order " + std::to_string(o.poles) + "/" +
                     std::to_string(o.zeros) + ", delay " + std::to_string(o.delay_samples) + " samples)";
