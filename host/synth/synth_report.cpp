@@ -2,6 +2,7 @@
 // the command so the Python module gives the same JSON.
 #include "synth/synth_report.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 #include "lti/lti_convert.hpp"
@@ -76,6 +77,22 @@ MixsynReport mixsyn_report(const NamedModel& g, const NamedModel& w1, const std:
     out["controller"] = to_json(r.controller_zpk);
     out["controller_ss"] = state_space_json(r.synthesis.controller);
     return {out, r};
+}
+
+json pi_notch_json(const PiNotchDesign& d) {
+    json notches = json::array();
+    for (const Notch& n : d.notches)
+        notches.push_back({{"f_Hz", n.f_Hz}, {"plant_damping", n.plant_damping}, {"notch_damping", n.notch_damping}});
+    return {{"controller", to_json(d.controller)},
+            {"kp", d.kp},
+            {"integral_Hz", d.integral_Hz},
+            {"target_Hz", d.target_Hz},
+            {"crossover_Hz", d.crossover_Hz},
+            {"notches", notches},
+            {"phase_margin_deg", d.phase_margin_deg},
+            {"gain_margin_db", std::isinf(d.gain_margin_db) ? json(nullptr) : json(d.gain_margin_db)},
+            {"hinf_S", d.hinf_S},
+            {"warnings", d.warnings}};
 }
 
 }  // namespace piezoloop::design

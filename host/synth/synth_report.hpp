@@ -1,5 +1,6 @@
-// The JSON of `piezoloop design hinf|mixsyn`: the γ-iteration settings, the
-// synthesis figures and the mixed-sensitivity report. Shared by the command
+// The JSON of `piezoloop design hinf|mixsyn|pi-notch`: the γ-iteration
+// settings, the synthesis figures, the mixed-sensitivity report and the
+// PI + notches design. Shared by the command
 // line (cli/cmd_design_synth.cpp) and the Python module (python/src/design.cpp).
 #pragma once
 
@@ -11,6 +12,7 @@
 #include "lti/lti.hpp"
 #include "synth/hinfsyn.hpp"
 #include "synth/mixsyn.hpp"
+#include "synth/pi_notch.hpp"
 
 namespace piezoloop::design {
 
@@ -47,5 +49,9 @@ struct MixsynReport {
 
 MixsynReport mixsyn_report(const NamedModel& plant, const NamedModel& w1, const std::optional<NamedModel>& w2,
                            const std::optional<NamedModel>& w3, const SynthSettings& s);
+
+// controller (zeros/poles/gain), kp, integral_Hz, target_Hz, crossover_Hz,
+// notches, phase_margin_deg, gain_margin_db (null: infinite), hinf_S, warnings.
+nlohmann::json pi_notch_json(const PiNotchDesign& d);
 
 }  // namespace piezoloop::design

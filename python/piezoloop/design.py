@@ -141,6 +141,16 @@ def analyze_mu(plant: Model, controller: Model, hm: Model, w1: Model, *, w3: Opt
                                  opt(w3), opt(w2))
 
 
+def pi_notch(plant: Model, crossover_hz: float, *, pm_min_deg: float = 45.0, gm_min_db: float = 6.0) -> dict:
+    """The classic candidate, as `piezoloop design pi-notch`: PI plus notches
+    at the plant's lightly damped resonances above crossover, tuned to
+    crossover_hz and lowered until PM >= pm_min_deg and GM >= gm_min_db.
+    Returns controller (zpk, e -> u), kp, integral_Hz, target_Hz,
+    crossover_Hz, notches, phase_margin_deg, gain_margin_db (None:
+    infinite), hinf_S, warnings. ValueError when no crossover meets them."""
+    return _piezoloop.pi_notch(_model_args(plant), float(crossover_hz), float(pm_min_deg), float(gm_min_db))
+
+
 def reduce(model: Model, order: int) -> dict:
     """Balanced truncation of a stable model to `order` states, as `piezoloop
     reduce`: model (zeros/poles/gain), order, original_order, hsv (the Hankel
@@ -149,4 +159,4 @@ def reduce(model: Model, order: int) -> dict:
     return _piezoloop.reduce(_model_args(model), int(order))
 
 
-__all__ = ["c2d", "analyze_loop", "mixsyn", "hinf", "musyn", "analyze_mu", "reduce"]
+__all__ = ["c2d", "analyze_loop", "mixsyn", "hinf", "musyn", "analyze_mu", "pi_notch", "reduce"]

@@ -231,6 +231,19 @@ void add_design(pyb::module_& m) {
         "`piezoloop analyze mu`'s JSON.");
 
     m.def(
+        "pi_notch",
+        [](const ModelArg& plant, double crossover_Hz, double pm_min_deg, double gm_min_db) {
+            design::PiNotchOptions o;
+            o.pm_min_deg = pm_min_deg;
+            o.gm_min_db = gm_min_db;
+            const nlohmann::json out =
+                design::pi_notch_json(design::design_pi_notch(load_named(plant, "plant"), crossover_Hz, o));
+            return to_python(out);
+        },
+        pyb::arg("plant"), pyb::arg("crossover_Hz"), pyb::arg("pm_min_deg"), pyb::arg("gm_min_db"),
+        "`piezoloop design pi-notch`'s JSON (without command and plant_file).");
+
+    m.def(
         "reduce",
         [](const ModelArg& model, int order) { return to_python(design::reduce_report(load_named(model, "model"), order)); },
         pyb::arg("model"), pyb::arg("order"), "`piezoloop reduce`'s JSON.");

@@ -127,3 +127,14 @@ def test_musyn_analyze_mu_reduce_equal_cli(tmp_path):
     assert red == ref and red["order"] == 2 and len(red["hsv"]) == out["order"]
     with pytest.raises(ValueError, match="order"):
         piezoloop.design.reduce(out["controller"], 99)
+
+
+def test_pi_notch_equals_cli():
+    d = os.path.join(MODELS, "janaideh2016_D.json")
+    ref = json.loads(cli("design", "pi-notch", "--plant", d, "--crossover-hz", "300"))
+    out = piezoloop.design.pi_notch(d, 300)
+    ref.pop("command")
+    ref.pop("plant_file")
+    assert out == ref and out["crossover_Hz"] < 300
+    with pytest.raises(ValueError, match="crossover_hz"):
+        piezoloop.design.pi_notch(d, 300, pm_min_deg=179)

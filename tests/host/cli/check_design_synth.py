@@ -169,5 +169,23 @@ loop = json.loads(r.stdout) if r.returncode == 0 else {}
 check(loop.get("stable") is True and loop["phase_margin_deg"] >= 45 and loop["gain_margin_db"] >= 6,
       "C_hinf on the full D: %r" % {k: loop.get(k) for k in ("stable", "phase_margin_deg", "gain_margin_db")})
 
+# --- design pi-notch on Janaideh2016's D(s) at a 300 Hz target: lowered
+# until PM >= 45 deg and GM >= 6 dB, the 595 Hz mode notched; `analyze loop`
+# on the written file agrees.
+kfile = os.path.join(tmp, "k_pi.json")
+r = run("pi-notch", "--plant", jd, "--crossover-hz", "300", "--out", kfile)
+check(r.returncode == 0, "pi-notch: %d %s" % (r.returncode, r.stderr))
+if r.returncode == 0:
+    out = json.loads(r.stdout)
+    check(out["crossover_Hz"] < 300 and out["warnings"] and "lowered" in out["warnings"][0], "pi-notch lowered")
+    check(any(abs(n["f_Hz"] - 595.5) < 1 for n in out["notches"]), "595 Hz notched: %r" % out["notches"])
+    r = subprocess.run([exe, "analyze", "loop", "--plant", jd, "--controller", kfile, "--no-family"],
+                       capture_output=True, text=True)
+    loop = json.loads(r.stdout) if r.returncode == 0 else {}
+    check(loop.get("stable") is True and abs(loop["phase_margin_deg"] - out["phase_margin_deg"]) < 1e-6
+          and loop["gain_margin_db"] >= 6, "pi-notch loop: %r" % {k: loop.get(k) for k in ("stable", "phase_margin_deg")})
+r = run("pi-notch", "--plant", jd, "--crossover-hz", "300", "--pm-min-deg", "179")
+check(r.returncode == 2 and "crossover_hz" in r.stderr, "pi-notch impossible: %d %s" % (r.returncode, r.stderr))
+
 print("%d passed, %d failed" % (passed, failed))
 sys.exit(1 if failed else 0)
