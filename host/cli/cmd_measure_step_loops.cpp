@@ -112,7 +112,7 @@ struct StepArgs {
 };
 
 measure::StepRequest step_request(const StepArgs& a, Target& t) {
-    measure::StepAsked o;
+    measure::StepInput o;
     o.step_um = a.step_um;
     o.step_V = a.step_V;
     o.from_um = a.from_um;
@@ -120,7 +120,7 @@ measure::StepRequest step_request(const StepArgs& a, Target& t) {
     o.mode = a.mode;
     o.duration_s = a.duration_s;
     std::optional<double> board_setpoint_um;
-    if (t.board) board_setpoint_um = t.board->status().r_um;  // a board's closed step starts where it holds
+    if (t.board && !a.from_um) board_setpoint_um = t.board->status().r_um;  // a closed step starts where the board holds
     return measure::step_request(o, t.bounds, board_setpoint_um);
 }
 

@@ -10,7 +10,7 @@ namespace piezoloop::measure {
 
 using nlohmann::json;
 
-StepRequest step_request(const StepAsked& o, const MeasureBounds& b, std::optional<double> board_setpoint_um) {
+StepRequest step_request(const StepInput& o, const MeasureBounds& b, std::optional<double> board_setpoint_um) {
     const bool has_um = o.step_um.has_value(), has_v = o.step_V.has_value();
     if (has_um == has_v) throw std::invalid_argument("--step-um: give exactly one of --step-um (closed loop) and --step-v (open loop)");
     const std::string mode = o.mode.empty() ? (has_um ? "closed" : "open") : o.mode;

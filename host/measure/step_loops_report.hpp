@@ -16,7 +16,7 @@ namespace piezoloop::measure {
 
 // A step as asked for: exactly one of step_um (closed loop, the reference)
 // and step_V (open loop, the command); mode "" follows from that one.
-struct StepAsked {
+struct StepInput {
     std::optional<double> step_um, step_V, from_um, bias_V;
     std::string mode;
     double duration_s = 0.1;
@@ -27,7 +27,7 @@ struct StepAsked {
 // closed-loop range; open loop from bias_V, else max(0, u_min). Throws
 // std::invalid_argument naming the option (--step-um, --step-v, --bias-v,
 // --from-um) for a contradictory request; plan_step checks the ranges.
-StepRequest step_request(const StepAsked& o, const MeasureBounds& b, std::optional<double> board_setpoint_um);
+StepRequest step_request(const StepInput& o, const MeasureBounds& b, std::optional<double> board_setpoint_um);
 
 // What `measure step --out` writes: the figures with their definitions, the
 // response (time_s, reference_um, command_V, response_um), the source, the

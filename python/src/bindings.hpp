@@ -35,7 +35,7 @@ measure::FrfRequest frf_request(double from_Hz, double to_Hz, double amplitude_V
                                 int transient_periods);
 
 // A `measure step` request's options from the Python call's arguments.
-measure::StepAsked step_options(std::optional<double> step_um, std::optional<double> step_V,
+measure::StepInput step_options(std::optional<double> step_um, std::optional<double> step_V,
                                   std::optional<double> from_um, std::optional<double> bias_V, const std::string& mode,
                                   double duration_s);
 

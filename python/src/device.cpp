@@ -204,7 +204,7 @@ public:
     // `piezoloop --device measure step`: the JSON `measure step --out`
     // writes; a closed-loop step starts from the setpoint the board holds
     // unless from_um is given. Ctrl-C as measure_frf.
-    pyb::object measure_step(const measure::StepAsked& so, bool restart_stage) {
+    pyb::object measure_step(const measure::StepInput& so, bool restart_stage) {
         Interrupt ctrl_c;
         const hostlink::MeasureOptions o = measure_options(ctrl_c, restart_stage);
         json out;

@@ -34,10 +34,10 @@ measure::FrfRequest frf_request(double from_Hz, double to_Hz, double amplitude_V
     return r;
 }
 
-measure::StepAsked step_options(std::optional<double> step_um, std::optional<double> step_V,
+measure::StepInput step_options(std::optional<double> step_um, std::optional<double> step_V,
                                   std::optional<double> from_um, std::optional<double> bias_V, const std::string& mode,
                                   double duration_s) {
-    measure::StepAsked o;
+    measure::StepInput o;
     o.step_um = step_um;
     o.step_V = step_V;
     o.from_um = from_um;
