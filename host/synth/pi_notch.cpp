@@ -26,7 +26,7 @@ Candidate shape(const Zpk& plant, double w_c, const PiNotchOptions& o) {
     c.controller.ts = 0.0;
     c.controller.gain = 1.0;
     c.controller.zeros.push_back(-w_c / o.integral_ratio);
-    c.controller.poles.push_back(0.0);
+    c.controller.poles.push_back(-o.leak * w_c);
     for (const cplx p : plant.poles) {
         if (!(p.imag() > 0.0)) continue;  // one of each pair
         const double wn = std::abs(p), zeta = -p.real() / wn;

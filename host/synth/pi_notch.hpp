@@ -3,10 +3,13 @@
 // crossover, tuned to a target crossover and lowered until the margins hold
 // (what PI E-727 users tune by hand: a PID and notches against the graph).
 //
-//   K(s) = kp (s + ω_i) / s · Π_r (s² + 2 ζ_r ω_r s + ω_r²) / (s² + 2 ζ_n ω_r s + ω_r²)
+//   K(s) = kp (s + ω_i) / (s + ω_l) · Π_r (s² + 2 ζ_r ω_r s + ω_r²) / (s² + 2 ζ_n ω_r s + ω_r²)
 //
 // ω_i = ω_c / integral_ratio (the PI zero a factor below crossover costs
-// atan(1 / integral_ratio) of phase there); each notch's zeros sit on a
+// atan(1 / integral_ratio) of phase there); ω_l = leak · ω_c, the
+// integrator's pole just off the origin: the core's sections refuse a pole
+// on the unit circle, and at 1e-4 ω_c the leak leaves a DC loop gain of
+// about 4e3 |G(0)| kp-units, far above what the tracking needs; each notch's zeros sit on a
 // plant pole pair with ζ_r < resonance_damping_max and ω_r above 1.5 ω_c
 // (they cancel it on the model; on the stage the cancellation is as good as
 // the fit, which `analyze measured-loop` checks), its poles damped to ζ_n.
@@ -25,6 +28,7 @@ namespace piezoloop::design {
 
 struct PiNotchOptions {
     double integral_ratio = 4.0;
+    double leak = 1e-4;
     double notch_damping = 0.7;
     double resonance_damping_max = 0.2;
     double pm_min_deg = 45.0;

@@ -14,15 +14,16 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kDeg = 180.0 / std::numbers::pi;
 
 TEST(PiNotch, FirstOrderPlantGetsTheAnalyticGainAndPhaseMargin) {
-    // G = 1/(s+1), w_c = 10 rad/s, w_i = 2.5: kp = |j10 + 1| 10 / |j10 + 2.5|,
-    // PM = 180 + atan(10/2.5) - 90 - atan(10) degrees, no phase crossover.
+    // G = 1/(s+1), w_c = 10 rad/s, w_i = 2.5, leak w_l = 1e-3: kp =
+    // |j10 + 1| |j10 + 1e-3| / |j10 + 2.5|, PM = 180 + atan(10/2.5) -
+    // atan(10/1e-3) - atan(10) degrees, no phase crossover.
     const Zpk g{{}, {cplx(-1.0)}, 1.0, 0.0};
     const PiNotchDesign d = design_pi_notch(g, 10.0 / kTwoPi);
-    EXPECT_NEAR(d.kp, std::abs(cplx(1.0, 10.0)) * 10.0 / std::abs(cplx(2.5, 10.0)), 1e-12);
+    EXPECT_NEAR(d.kp, std::abs(cplx(1.0, 10.0)) * std::abs(cplx(1e-3, 10.0)) / std::abs(cplx(2.5, 10.0)), 1e-12);
     EXPECT_NEAR(d.integral_Hz, 2.5 / kTwoPi, 1e-12);
     EXPECT_DOUBLE_EQ(d.crossover_Hz, 10.0 / kTwoPi);
     // The library's margin search refines to 1e-12 relative in frequency.
-    EXPECT_NEAR(d.phase_margin_deg, 180.0 + (std::atan(4.0) - std::numbers::pi / 2 - std::atan(10.0)) * kDeg, 1e-6);
+    EXPECT_NEAR(d.phase_margin_deg, 180.0 + (std::atan(4.0) - std::atan(1e4) - std::atan(10.0)) * kDeg, 1e-6);
     EXPECT_TRUE(std::isinf(d.gain_margin_db));
     EXPECT_TRUE(d.notches.empty());
     EXPECT_TRUE(d.warnings.empty());
@@ -31,7 +32,7 @@ TEST(PiNotch, FirstOrderPlantGetsTheAnalyticGainAndPhaseMargin) {
 TEST(PiNotch, ALightlyDampedModeAboveCrossoverIsNotched) {
     // G = a/(s+a) · wn²/(s² + 2 ζ wn s + wn²), a = 2π 50, wn = 2π 1000, ζ = 0.01;
     // target 20 Hz. The notch's zeros are G's pole pair, so
-    // L = kp (s + w_i)/s · a/(s+a) · wn²/(s² + 1.4 wn s + wn²).
+    // L = kp (s + w_i)/(s + w_l) · a/(s+a) · wn²/(s² + 1.4 wn s + wn²), w_l = 1e-4 w_c.
     const double a = kTwoPi * 50.0, wn = kTwoPi * 1000.0, z = 0.01;
     const cplx p(-z * wn, wn * std::sqrt(1.0 - z * z));
     const Zpk g{{}, {cplx(-a), p, std::conj(p)}, a * wn * wn, 0.0};
@@ -41,7 +42,7 @@ TEST(PiNotch, ALightlyDampedModeAboveCrossoverIsNotched) {
     EXPECT_NEAR(d.notches[0].plant_damping, z, 1e-12);
     const double wc = kTwoPi * d.crossover_Hz, wi = wc / 4.0;
     const cplx s(0.0, wc);
-    const cplx l = d.kp * (s + wi) / s * a / (s + a) * wn * wn / (s * s + 1.4 * wn * s + wn * wn);
+    const cplx l = d.kp * (s + wi) / (s + 1e-4 * wc) * a / (s + a) * wn * wn / (s * s + 1.4 * wn * s + wn * wn);
     EXPECT_NEAR(std::abs(l), 1.0, 1e-9);
     EXPECT_DOUBLE_EQ(d.crossover_Hz, 20.0);
     EXPECT_NEAR(d.phase_margin_deg, 180.0 + std::arg(l) * kDeg, 1e-6);
@@ -57,13 +58,13 @@ TEST(PiNotch, TheCrossoverIsLoweredUntilTheMarginsHold) {
     EXPECT_GE(d.gain_margin_db, 6.0);
     const double wc = kTwoPi * d.crossover_Hz;
     const cplx s(0.0, wc);
-    const cplx l = d.kp * (s + wc / 4.0) / s / ((s + 1.0) * (s + 1.0) * (s + 1.0));
+    const cplx l = d.kp * (s + wc / 4.0) / (s + 1e-4 * wc) / ((s + 1.0) * (s + 1.0) * (s + 1.0));
     EXPECT_NEAR(std::abs(l), 1.0, 1e-9);
     EXPECT_NEAR(d.phase_margin_deg, 180.0 + std::arg(l) * kDeg, 1e-6);
     // One step (x 0.9) higher would miss PM >= 45: the search stops at the first that holds.
     const double w_up = wc / 0.9;
     const cplx su(0.0, w_up);
-    const cplx lu = (su + w_up / 4.0) / su / ((su + 1.0) * (su + 1.0) * (su + 1.0));
+    const cplx lu = (su + w_up / 4.0) / (su + 1e-4 * w_up) / ((su + 1.0) * (su + 1.0) * (su + 1.0));
     EXPECT_LT(180.0 + std::arg(lu) * kDeg, 45.0);
     ASSERT_FALSE(d.warnings.empty());
     EXPECT_NE(d.warnings[0].find("lowered"), std::string::npos);

@@ -1,0 +1,280 @@
+#include "commission/commission.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include "ident/balred.hpp"
+#include "lti/freqresp.hpp"
+#include "lti/lti_convert.hpp"
+#include "measure/frf_sim.hpp"
+#include "measure/step_loops_sim.hpp"
+#include "sim/design_bridge.hpp"
+#include "sim/sim_case.hpp"
+#include "synth/mixsyn.hpp"
+#include "synth/pi_notch.hpp"
+
+namespace piezoloop::commission {
+
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+
+std::string num(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.4g", v);
+    return b;
+}
+
+// Checks a candidate on the measured lines (K at the loop rate, as a board runs it).
+void check_on_measurement(Candidate& c, const measure::FrfRun& frf, double rate_Hz) {
+    const design::Zpk k = sim::discretise(c.controller, rate_Hz, "tustin", 0.0, false, "controller");
+    c.measured = design::measured_loop(frf.estimate.frequency_Hz, frf.estimate.response, k);
+    const auto& m = c.measured;
+    if (!m.phase_margin) c.refusal = "no gain crossover on the measured lines";
+    else if (m.phase_margin->value < 45.0) c.refusal = "PM " + num(m.phase_margin->value) + " deg < 45 on the measurement";
+    else if (m.gain_margin && m.gain_margin->value < 6.0) c.refusal = "GM " + num(m.gain_margin->value) + " dB < 6 on the measurement";
+    else if (m.max_sensitivity > 2.0) c.refusal = "max|S| " + num(m.max_sensitivity) + " > 2 on the measurement";
+    c.passes = c.refusal.empty();
+}
+
+// Tracking of a triangle over half the range on the scenario's stage.
+void simulate(Candidate& c, const sim::Scenario& stage, double range_um) {
+    sim::Scenario s = stage;
+    sim::CaseSpec cs;
+    cs.name = "commissioned_" + c.name;
+    cs.label = "commissioned " + c.name;
+    cs.feedback.kind = "lti";
+    cs.feedback.error_per_um = 1.0;
+    cs.feedback.model = sim::LinearSpec{c.controller, "commission", "controller"};
+    cs.feedback.method = "tustin";
+    s.cases.push_back(cs);
+    for (const double f : {10.0, 1.0}) {
+        sim::SimCaseRequest q;
+        q.case_name = cs.name;
+        q.frequency_Hz = f;
+        q.amplitude_um = 0.5 * range_um;
+        const sim::SimCasePlan p = sim::plan_sim_case(s, q);
+        const sim::RunResult r = sim::run_loop(p.built.model, p.options);
+        if (f == 10.0) {
+            c.e_max_pct_10Hz = r.tracking.e_max_pct;
+            c.e_rms_pct_10Hz = r.tracking.e_rms_pct;
+        } else {
+            c.e_max_pct_1Hz = r.tracking.e_max_pct;
+        }
+    }
+}
+
+}  // namespace
+
+SafetyStep check_safety_step(const measure::StepRun& run, double step_V, double from_V, const measure::RangeUm& rails,
+                             const SafetyStep* previous) {
+    const std::string which = "safety step of " + num(step_V) + " V from " + num(from_V) + " V: ";
+    if (run.trip != "none") throw std::runtime_error(which + "the limiter tripped (" + run.trip + ")");
+    double lo = run.y_um.front(), hi = lo, sum = 0.0;
+    int n = 0;
+    for (std::size_t i = 0; i < run.y_um.size(); ++i) {
+        lo = std::min(lo, run.y_um[i]);
+        hi = std::max(hi, run.y_um[i]);
+        if (run.time_s[i] < 0.0) sum += run.y_um[i], ++n;
+    }
+    // The noise: the spread of the samples before the step (two passes).
+    double var = 0.0;
+    for (std::size_t i = 0; i < run.y_um.size(); ++i)
+        if (run.time_s[i] < 0.0) var += (run.y_um[i] - sum / n) * (run.y_um[i] - sum / n);
+    if (hi >= rails.max_um || lo <= rails.min_um)
+        throw std::runtime_error(which + "the sensor is at its rail (" + num(lo) + " .. " + num(hi) + " um)");
+    SafetyStep s;
+    s.step_V = step_V;
+    s.from_V = from_V;
+    s.dy_um = run.figures.final_value - run.figures.initial;
+    s.noise_um = n > 1 ? std::sqrt(var / n) : 0.0;
+    if (!(std::fabs(s.dy_um) > 5.0 * s.noise_um + 1e-9))
+        throw std::runtime_error(which + "the stage does not respond (moved " + num(s.dy_um) + " um, noise " +
+                                 num(s.noise_um) + " um)");
+    s.gain_um_per_V = s.dy_um / step_V;
+    if (previous) {
+        const double ratio = s.gain_um_per_V / previous->gain_um_per_V;
+        if (!(ratio > 0.5 && ratio < 1.5))
+            throw std::runtime_error(which + "the response does not match the previous step (gain " +
+                                     num(s.gain_um_per_V) + " um/V after " + num(previous->gain_um_per_V) + ")");
+    }
+    return s;
+}
+
+Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
+                             const std::function<void(const std::string&)>& progress) {
+    auto say = [&](Commissioning& c, const std::string& line) {
+        c.log.push_back(line);
+        if (progress) progress(line);
+    };
+    const measure::MeasureBounds b = measure::scenario_bounds(s);
+    const double u_min = b.limits.u_min_V, u_max = b.limits.u_max_V, span = u_max - u_min, mid = 0.5 * (u_min + u_max);
+    const double travel = b.closed_range.max_um - b.closed_range.min_um;
+    if (!(r.range_um > 0.0) || !std::isfinite(r.range_um))
+        throw std::invalid_argument("--range-um: must be finite and > 0");
+    if (r.range_um > travel)
+        throw std::invalid_argument("--range-um: " + num(r.range_um) + " um is beyond the " + b.whose + " travel (" +
+                                    num(travel) + " um the sensor reads)");
+    if (r.target_bandwidth_Hz < 0.0 || !std::isfinite(r.target_bandwidth_Hz))
+        throw std::invalid_argument("--target-bandwidth-hz: must be finite and > 0");
+    // The response is measured up to a fifth of the rate; a design needs a
+    // few times its bandwidth measured.
+    const double frf_to_Hz = 0.2 * s.rate_Hz;
+    if (r.target_bandwidth_Hz > frf_to_Hz / 4.0)
+        throw std::invalid_argument("--target-bandwidth-hz: " + num(r.target_bandwidth_Hz) +
+                                    " Hz is above what the measurement supports (a quarter of its " + num(frf_to_Hz) +
+                                    " Hz band)");
+    Commissioning c;
+
+    // 1. Safety: growing open-loop steps.
+    for (const double frac : {0.02, 0.05, 0.10}) {
+        measure::StepRequest q;
+        q.closed = false;
+        q.step = frac * span;
+        q.from = mid;
+        q.duration_s = 0.05;
+        measure::StepRun run;
+        try {
+            run = measure::run_step_sim(s, nullptr, q);
+        } catch (const std::invalid_argument& e) {
+            throw std::runtime_error("safety step of " + num(q.step) + " V: the stage does not respond (" + e.what() + ")");
+        }
+        c.safety.push_back(check_safety_step(run, q.step, mid, b.closed_range, c.safety.empty() ? nullptr : &c.safety.back()));
+        say(c, "safety step " + num(q.step) + " V: " + num(c.safety.back().dy_um) + " um (" +
+                   num(c.safety.back().gain_um_per_V) + " um/V)");
+    }
+    c.gain_um_per_V = c.safety.back().gain_um_per_V;
+    const double reach = std::fabs(c.gain_um_per_V) * span;
+    if (r.range_um > reach)
+        throw std::invalid_argument("--range-um: " + num(r.range_um) + " um is more than the command span reaches (about " +
+                                    num(reach) + " um at " + num(c.gain_um_per_V) + " um/V)");
+
+    // 2. Frequency response about mid-span.
+    c.frf_request.from_Hz = 10.0;
+    c.frf_request.to_Hz = frf_to_Hz;
+    c.frf_request.amplitude_V = 0.05 * span;
+    c.frf_request.bias_V = mid;
+    c.frf_request.periods = 4;
+    c.frf = measure::run_frf_sim(s, nullptr, c.frf_request);
+    say(c, "frequency response: " + std::to_string(c.frf.estimate.frequency_Hz.size()) + " lines, " +
+               num(c.frf_request.from_Hz) + " Hz to " + num(c.frf_request.to_Hz) + " Hz");
+
+    // 3. The model: the lowest order that fits.
+    for (const int n : {2, 4, 6, 8}) {
+        measure::TfFitOptions o;
+        o.poles = n;
+        o.zeros = n - 1;
+        o.delay_samples = 1;
+        o.continuous = true;
+        o.ts = 1.0 / s.rate_Hz;
+        try {
+            const measure::TfFit fit = measure::fit_tf(c.frf.estimate.frequency_Hz, c.frf.estimate.response,
+                                                       c.frf.estimate.var, o);
+            ModelFit m;
+            m.poles = n;
+            m.zeros = n - 1;
+            // RMS relative error on the lines measured with SNR >= 20 dB (where
+            // the noise is below 10 %, so the error is the model's).
+            const std::vector<design::cplx> g = measure::tf_fit_response(fit, c.frf.estimate.frequency_Hz);
+            double sum = 0.0;
+            int lines = 0;
+            for (std::size_t i = 0; i < g.size(); ++i) {
+                if (!(c.frf.estimate.snr_db[i] >= 20.0)) continue;
+                sum += std::norm((g[i] - c.frf.estimate.response[i]) / c.frf.estimate.response[i]);
+                ++lines;
+            }
+            if (lines == 0) throw std::runtime_error("no line of the frequency response has an SNR of 20 dB");
+            m.rms_rel = std::sqrt(sum / lines);
+            m.model = design::tf2zpk(fit.model);
+            m.dc_gain_um_per_V = design::dc_gain(m.model);
+            if (fit.reflected > 0 || !(m.dc_gain_um_per_V * c.gain_um_per_V > 0.0)) continue;
+            c.fits.push_back(m);
+            say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 1) + ": rms error " +
+                       num(100.0 * m.rms_rel) + " % on " + std::to_string(lines) + " lines");
+        } catch (const std::invalid_argument& e) {
+            say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 1) + ": refused (" + e.what() + ")");
+        }
+    }
+    if (c.fits.empty()) throw std::runtime_error("no model order fits the measured response");
+    for (std::size_t i = 0; i < c.fits.size(); ++i)
+        if (c.fits[i].rms_rel < 0.10) { c.chosen_fit = static_cast<int>(i); break; }
+    if (c.chosen_fit < 0) {
+        c.chosen_fit = 0;
+        for (std::size_t i = 1; i < c.fits.size(); ++i)
+            if (c.fits[i].rms_rel < c.fits[static_cast<std::size_t>(c.chosen_fit)].rms_rel) c.chosen_fit = static_cast<int>(i);
+    }
+    const ModelFit& fit = c.fits[static_cast<std::size_t>(c.chosen_fit)];
+    design::Zpk gn = fit.model;
+    gn.gain /= fit.dc_gain_um_per_V;
+
+    // The bandwidth: asked for, or a third of the first lightly damped mode.
+    c.target_bandwidth_Hz = r.target_bandwidth_Hz;
+    if (c.target_bandwidth_Hz == 0.0) {
+        double first = INFINITY;
+        for (const design::cplx p : gn.poles)
+            if (p.imag() > 0.0 && -p.real() / std::abs(p) < 0.2) first = std::min(first, std::abs(p) / kTwoPi);
+        c.target_bandwidth_Hz = std::min(first / 3.0, s.rate_Hz / 20.0);
+    }
+    say(c, "model " + std::to_string(fit.poles) + "/" + std::to_string(fit.zeros) + ", target bandwidth " +
+               num(c.target_bandwidth_Hz) + " Hz");
+
+    // 4-5. Candidates, checked on the measurement.
+    {
+        Candidate k;
+        k.name = "robust";
+        try {
+            design::Zpk plant = gn;
+            if (plant.poles.size() > 6) plant = design::ss2zpk(design::balanced_truncation(design::zpk2ss(gn), 6).reduced);
+            const double wb = kTwoPi * c.target_bandwidth_Hz;
+            // |S| <= 1.6 gamma at high frequency: the measured check wants max|S| <= 2.
+            const design::Zpk w1{{design::cplx(-1.6 * wb)}, {design::cplx(-1e-3 * wb)}, 1.0 / 1.6, 0.0};
+            const design::Zpk w2{{}, {}, 0.5, 0.0};
+            design::HinfOptions ho;
+            ho.rel_tol = 1e-4;
+            const design::MixsynResult m = design::mixsyn(plant, w1, w2, std::nullopt, ho);
+            k.controller = m.controller_zpk;
+            k.controller.gain /= fit.dc_gain_um_per_V;
+            k.order = static_cast<int>(k.controller.poles.size());
+            k.design_crossover_Hz = c.target_bandwidth_Hz;
+            k.method = "mixsyn on the " + std::to_string(plant.poles.size()) +
+                       "-state model, W1 = (s/1.6 + wb)/(s + 1e-3 wb) at " + num(c.target_bandwidth_Hz) +
+                       " Hz, W2 = 0.5, gamma " + num(m.synthesis.gamma_controller);
+            check_on_measurement(k, c.frf, s.rate_Hz);
+        } catch (const std::exception& e) {
+            k.refusal = std::string("synthesis failed: ") + e.what();
+        }
+        c.candidates.push_back(k);
+    }
+    {
+        Candidate k;
+        k.name = "classic";
+        try {
+            const design::PiNotchDesign d = design::design_pi_notch(gn, c.target_bandwidth_Hz);
+            k.controller = d.controller;
+            k.controller.gain /= fit.dc_gain_um_per_V;
+            k.order = static_cast<int>(k.controller.poles.size());
+            k.design_crossover_Hz = d.crossover_Hz;
+            k.method = "PI + " + std::to_string(d.notches.size()) + " notches, crossover " + num(d.crossover_Hz) + " Hz";
+            check_on_measurement(k, c.frf, s.rate_Hz);
+        } catch (const std::exception& e) {
+            k.refusal = std::string("design failed: ") + e.what();
+        }
+        c.candidates.push_back(k);
+    }
+
+    // 6. Tracking of the passing ones; the better is chosen.
+    for (std::size_t i = 0; i < c.candidates.size(); ++i) {
+        Candidate& k = c.candidates[i];
+        say(c, k.name + ": " + (k.passes ? "passes the measured checks" : "refused: " + k.refusal));
+        if (!k.passes) continue;
+        simulate(k, s, r.range_um);
+        say(c, k.name + ": 10 Hz triangle over " + num(0.5 * r.range_um) + " um, e_max " + num(*k.e_max_pct_10Hz) + " %");
+        if (c.chosen < 0 || *k.e_max_pct_10Hz < *c.candidates[static_cast<std::size_t>(c.chosen)].e_max_pct_10Hz)
+            c.chosen = static_cast<int>(i);
+    }
+    return c;
+}
+
+}  // namespace piezoloop::commission

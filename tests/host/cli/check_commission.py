@@ -1,0 +1,58 @@
+#!/usr/bin/python3
+"""End to end: `piezoloop commission --scenario configs/ahmad2020.json
+--range-um 12 --out DIR` writes report.md, controller.json and frf.json; the
+chosen controller passes `piezoloop analyze measured-loop` on the written
+measurement with the figures the summary reports (same lines, same
+discretisation: equal to 1e-9); bad requests exit 2 naming the option, with
+nothing written.
+Usage: check_commission.py PIEZOLOOP_BINARY CONFIGS_DIR
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+exe, configs = sys.argv[1], sys.argv[2]
+tmp = tempfile.mkdtemp()
+passed = failed = 0
+
+
+def check(ok, what):
+    global passed, failed
+    if ok:
+        passed += 1
+    else:
+        failed += 1
+        print("FAIL", what)
+
+
+scenario = os.path.join(configs, "ahmad2020.json")
+out = os.path.join(tmp, "c")
+r = subprocess.run([exe, "commission", "--scenario", scenario, "--range-um", "12", "--out", out],
+                   capture_output=True, text=True)
+check(r.returncode == 0, "commission: %d %s" % (r.returncode, r.stderr))
+if r.returncode == 0:
+    s = json.loads(r.stdout)
+    for name in ("report.md", "controller.json", "frf.json"):
+        check(os.path.exists(os.path.join(out, name)), name)
+    chosen = [c for c in s["candidates"] if c["name"] == s["chosen"]][0]
+    check(chosen["passes"] and chosen["measured_phase_margin_deg"] >= 45, "chosen passes: %r" % chosen["name"])
+    m = subprocess.run([exe, "analyze", "measured-loop", "--frf", os.path.join(out, "frf.json"), "--controller",
+                        os.path.join(out, "controller.json")], capture_output=True, text=True)
+    check(m.returncode == 0, "measured-loop: %d %s" % (m.returncode, m.stderr))
+    if m.returncode == 0:
+        ml = json.loads(m.stdout)
+        pm = ml["phase_margin"]["phase_margin_deg"]
+        check(abs(pm - chosen["measured_phase_margin_deg"]) <= 1e-9 * abs(pm), "PM %r vs %r" % (pm, chosen))
+    check("**chosen**" in open(os.path.join(out, "report.md")).read(), "report names the chosen one")
+
+for args, option in ((["--range-um", "1000"], "--range-um"), (["--range-um", "12", "--target-bandwidth-hz", "4000"],
+                                                             "--target-bandwidth-hz")):
+    bad = os.path.join(tmp, "bad")
+    r = subprocess.run([exe, "commission", "--scenario", scenario, *args, "--out", bad], capture_output=True, text=True)
+    check(r.returncode == 2 and option in r.stderr and not os.path.exists(bad),
+          "%s: %d %s" % (option, r.returncode, r.stderr))
+
+print("%d passed, %d failed" % (passed, failed))
+sys.exit(1 if failed else 0)

@@ -1,0 +1,92 @@
+// commission/commission: the safety step's checks on made-up records (each
+// stop names the step and the reason), and the whole sequence on the
+// shipped Ahmad2020 scenario: a controller is chosen that passes the checks
+// on the measured response.
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <string>
+
+#include "commission/commission.hpp"
+#include "sim/scenario.hpp"
+
+namespace piezoloop::commission {
+namespace {
+
+// A step record: 100 samples at y0 before t = 0, then 100 at y1, noise +-n alternating.
+measure::StepRun record(double y0, double y1, double n) {
+    measure::StepRun r;
+    for (int i = -100; i < 100; ++i) {
+        r.time_s.push_back(i * 1e-4);
+        r.y_um.push_back((i < 0 ? y0 : y1) + (i % 2 == 0 ? n : -n));
+    }
+    r.figures.initial = y0;
+    r.figures.final_value = y1;
+    return r;
+}
+
+const measure::RangeUm kRails{0.0, 50.0};
+const std::string kConfigs = std::string(PIEZOLOOP_GOLDEN_DIR) + "/../../configs/";
+
+void expect_stop(const measure::StepRun& r, const SafetyStep* previous, const std::string& reason) {
+    try {
+        check_safety_step(r, 1.0, 5.0, kRails, previous);
+        FAIL() << "expected a stop: " << reason;
+    } catch (const std::runtime_error& e) {
+        EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("safety step of 1 V"), std::string::npos) << e.what();
+    }
+}
+
+TEST(CommissionSafety, AStepThatMovesGivesItsGain) {
+    const SafetyStep s = check_safety_step(record(10.0, 13.0, 0.01), 1.0, 5.0, kRails, nullptr);
+    EXPECT_DOUBLE_EQ(s.gain_um_per_V, 3.0);
+    EXPECT_NEAR(s.noise_um, 0.01, 1e-12);
+}
+
+TEST(CommissionSafety, EachStopNamesItsReason) {
+    expect_stop(record(10.0, 10.02, 0.01), nullptr, "does not respond");
+    expect_stop(record(10.0, 50.0, 0.0), nullptr, "at its rail");
+    measure::StepRun tripped = record(10.0, 13.0, 0.0);
+    tripped.trip = "slew";
+    expect_stop(tripped, nullptr, "limiter tripped");
+    SafetyStep previous;
+    previous.gain_um_per_V = 3.0;
+    expect_stop(record(10.0, 15.0, 0.01), &previous, "does not match the previous step");  // 5 um/V after 3
+    expect_stop(record(10.0, 7.0, 0.01), &previous, "does not match the previous step");   // the sign flipped
+    EXPECT_NO_THROW(check_safety_step(record(10.0, 13.3, 0.01), 1.0, 5.0, kRails, &previous));
+}
+
+TEST(Commission, Ahmad2020FromMeasurementsAlone) {
+    const sim::Scenario s = sim::load_scenario(kConfigs + "ahmad2020.json");
+    CommissionRequest r;
+    r.range_um = 12.0;
+    const Commissioning c = commission_sim(s, r);
+    ASSERT_GE(c.chosen, 0);
+    const Candidate& k = c.candidates[static_cast<std::size_t>(c.chosen)];
+    ASSERT_TRUE(k.passes && k.measured.phase_margin);
+    EXPECT_GE(k.measured.phase_margin->value, 45.0);
+    EXPECT_LE(k.measured.max_sensitivity, 2.0);
+    // The safety steps measure the stage's small-signal gain, 2.8 um/V.
+    EXPECT_NEAR(c.gain_um_per_V, 2.8, 0.2);
+    ASSERT_TRUE(k.e_max_pct_10Hz.has_value());
+    EXPECT_LT(*k.e_max_pct_10Hz, 1.5);  // feedback alone, no hysteresis compensation (docs/commissioning.md)
+}
+
+TEST(Commission, RequestsBeyondTheStageAreRefusedBeforeAnythingMoves) {
+    const sim::Scenario s = sim::load_scenario(kConfigs + "ahmad2020.json");
+    CommissionRequest r;
+    r.range_um = 1000.0;
+    EXPECT_THROW(commission_sim(s, r), std::invalid_argument);
+    r.range_um = 12.0;
+    r.target_bandwidth_Hz = 4000.0;  // the measurement reaches 2 kHz at 10 kHz
+    try {
+        commission_sim(s, r);
+        FAIL() << "a bandwidth above the measurement";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("--target-bandwidth-hz"), std::string::npos);
+    }
+}
+
+}  // namespace
+}  // namespace piezoloop::commission
