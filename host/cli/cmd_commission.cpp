@@ -21,6 +21,7 @@
 #include "commands.hpp"
 #include "commission/commission.hpp"
 #include "exit_codes.hpp"
+#include "format/number.hpp"
 #include "lti/model_json.hpp"
 #include "measure/frf_report.hpp"
 #include "sim/scenario.hpp"
@@ -35,11 +36,7 @@ struct CommissionArgs {
     commission::CommissionRequest request;
 };
 
-std::string fmt(double v, int digits = 4) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.*g", digits, v);
-    return b;
-}
+std::string fmt(double v, int digits = 4) { return format::significant(v, digits); }
 
 std::string opt(const std::optional<double>& v) { return v ? fmt(*v, 3) : "–"; }
 

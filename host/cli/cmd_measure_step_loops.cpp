@@ -195,17 +195,9 @@ int run_loops(const LoopsArgs& a) {
     const measure::LoopsRun run = t.board ? hostlink::run_loops_device(*t.board, r, p.board_options(a.restart_stage))
                                           : measure::run_loops_sim(*t.scenario, t.case_spec, r, p.sim_progress());
     p.bar.done();
-    // Columns for both identifiers' defaults: identify pi reads u, y;
-    // identify dahl reads v, x; t gives the sample period.
-    // Written as it is formatted: a long record would double its memory as one string.
     std::ofstream csv(a.out);
     if (!csv) throw std::runtime_error("--out: cannot write " + a.out);
-    csv << "t,u,y,v,x,amplitude_V\n";
-    for (std::size_t i = 0; i < run.y_um.size(); ++i) {
-        const std::string u = format::significant(run.u_V[i], 9), y = format::significant(run.y_um[i], 9);
-        csv << format::significant(run.time_s[i], 9) << ',' << u << ',' << y << ',' << u << ',' << y << ','
-            << format::significant(run.amplitude_V[i], 9) << '\n';
-    }
+    measure::write_loops_csv(csv, run);
     if (!csv.flush()) throw std::runtime_error("--out: cannot write " + a.out);
     json out = measure::loops_report(r, run, t.source);
     out["out"] = a.out;

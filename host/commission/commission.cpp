@@ -5,6 +5,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "format/number.hpp"
 #include "ident/balred.hpp"
 #include "lti/freqresp.hpp"
 #include "lti/lti_convert.hpp"
@@ -21,11 +22,8 @@ namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
-std::string num(double v) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.4g", v);
-    return b;
-}
+// Figures in messages: four significant digits.
+std::string num(double v) { return format::significant(v, 4); }
 
 // Checks a candidate on the measured lines (K at the loop rate, as a board runs it).
 void check_on_measurement(Candidate& c, const measure::FrfRun& frf, double rate_Hz) {

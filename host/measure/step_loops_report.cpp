@@ -113,4 +113,13 @@ json loops_report(const LoopsRequest& r, const LoopsRun& run, const json& source
     return out;
 }
 
+void write_loops_csv(std::ostream& out, const LoopsRun& run) {
+    out << "t,u,y,v,x,amplitude_V\n";
+    for (std::size_t i = 0; i < run.y_um.size(); ++i) {
+        const std::string u = format::significant(run.u_V[i], 9), y = format::significant(run.y_um[i], 9);
+        out << format::significant(run.time_s[i], 9) << ',' << u << ',' << y << ',' << u << ',' << y << ','
+            << format::significant(run.amplitude_V[i], 9) << '\n';
+    }
+}
+
 }  // namespace piezoloop::measure

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <optional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -41,5 +42,13 @@ LoopsRequest loops_request(const std::vector<double>& amplitudes_V, std::optiona
 // What `measure loops --json` writes: per amplitude its hysteresis, widest
 // gap and output span, with the definitions; the samples go to the CSV.
 nlohmann::json loops_report(const LoopsRequest& r, const LoopsRun& run, const nlohmann::json& source);
+
+// The samples as the CSV `measure loops --out` writes and `identify pi`
+// (columns u, y) and `identify dahl` (v, x) read: t, u, y, v, x,
+// amplitude_V; u = v the command after the limiter (V), y = x the
+// displacement read at the next tick (um); 9 significant digits (a float
+// round-trips). Written as it is formatted: a long record would double its
+// memory as one string.
+void write_loops_csv(std::ostream& out, const LoopsRun& run);
 
 }  // namespace piezoloop::measure

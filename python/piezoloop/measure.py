@@ -152,10 +152,7 @@ class Loops:
 
     def save_csv(self, path: str | os.PathLike) -> None:
         """The CSV `identify pi` (columns u, y) and `identify dahl` (v, x) read."""
-        with open(path, "w") as f:
-            f.write("t,u,y,v,x,amplitude_V\n")
-            for t, u, y, a in zip(self.time_s, self.command_v, self.response_um, self.amplitude_v):
-                f.write(f"{t:.9g},{u:.9g},{y:.9g},{u:.9g},{y:.9g},{a:.9g}\n")
+        _piezoloop.write_loops_csv(os.fspath(path), self.time_s, self.command_v, self.response_um, self.amplitude_v)
 
 
 def loops_from_result(r: dict) -> Loops:

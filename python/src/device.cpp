@@ -55,13 +55,6 @@ private:
     bool interrupted_ = false;
 };
 
-hostlink::MeasureOptions measure_options(Interrupt& ctrl_c, bool restart_stage) {
-    hostlink::MeasureOptions o;
-    o.restart_stage = restart_stage;
-    o.stop_requested = ctrl_c.poll();
-    return o;
-}
-
 json board_source(Client& c, const measure::MeasureBounds& b) {
     return {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}, {"rate_Hz", b.rate_Hz}};
 }
@@ -180,68 +173,64 @@ public:
         return out;
     }
 
-    // `piezoloop --device measure frf`: the JSON of frf_report. Ctrl-C as in
-    // record(): the board is left clean (excitation stopped, groups put
-    // back), then KeyboardInterrupt.
-    pyb::object measure_frf(const measure::FrfRequest& r, bool restart_stage) {
+    // A measurement session (link/measure_session) with Ctrl-C: body(client,
+    // options) runs without the GIL; Ctrl-C stops what runs on the board,
+    // which the session leaves clean (excitation stopped, groups put back),
+    // and then raises KeyboardInterrupt.
+    template <class Body>
+    void measure_session(bool restart_stage, Body body) {
         Interrupt ctrl_c;
-        const hostlink::MeasureOptions o = measure_options(ctrl_c, restart_stage);
-        json out;
+        hostlink::MeasureOptions o;
+        o.restart_stage = restart_stage;
+        o.stop_requested = ctrl_c.poll();
         try {
             pyb::gil_scoped_release release;
-            Client& c = client();
-            const hostlink::DeviceFrfRun d = hostlink::run_frf_device(c, r, o);
-            out = measure::frf_report(r, d.run, {{"kind", "board"}, {"device", c.address()},
-                                                 {"board", c.info().board.data()}});
-            out["recording"] = hostlink::recording_summary(d.record);
+            body(client(), o);
         } catch (const hostlink::LinkError&) {
             if (!ctrl_c.interrupted()) throw;
         }
         ctrl_c.raise_if_interrupted();
+    }
+
+    // `piezoloop --device measure frf`: the JSON of frf_report.
+    pyb::object measure_frf(const measure::FrfRequest& r, bool restart_stage) {
+        json out;
+        measure_session(restart_stage, [&](Client& c, const hostlink::MeasureOptions& o) {
+            const hostlink::DeviceFrfRun d = hostlink::run_frf_device(c, r, o);
+            out = measure::frf_report(r, d.run, {{"kind", "board"}, {"device", c.address()},
+                                                 {"board", c.info().board.data()}});
+            out["recording"] = hostlink::recording_summary(d.record);
+        });
         return to_python(out);
     }
 
     // `piezoloop --device measure step`: the JSON `measure step --out`
     // writes; a closed-loop step starts from the setpoint the board holds
-    // unless from_um is given. Ctrl-C as measure_frf.
+    // unless from_um is given.
     pyb::object measure_step(const measure::StepInput& so, bool restart_stage) {
-        Interrupt ctrl_c;
-        const hostlink::MeasureOptions o = measure_options(ctrl_c, restart_stage);
         json out;
-        try {
-            pyb::gil_scoped_release release;
-            Client& c = client();
+        measure_session(restart_stage, [&](Client& c, const hostlink::MeasureOptions& o) {
             const measure::MeasureBounds b = hostlink::board_bounds(c);
             std::optional<double> setpoint_um;
             if (!so.from_um) setpoint_um = c.status().r_um;
             const measure::StepRequest r = measure::step_request(so, b, setpoint_um);
             out = measure::step_report(r, hostlink::run_step_device(c, r, o), board_source(c, b));
-        } catch (const hostlink::LinkError&) {
-            if (!ctrl_c.interrupted()) throw;
-        }
-        ctrl_c.raise_if_interrupted();
+        });
         return to_python(out);
     }
 
     // `piezoloop --device measure loops`: as piezoloop.measure_loops.
     pyb::object measure_loops(const std::vector<double>& amplitudes_V, std::optional<double> base_V,
                               double frequency_Hz, int cycles, const std::string& shape, bool restart_stage) {
-        Interrupt ctrl_c;
-        const hostlink::MeasureOptions o = measure_options(ctrl_c, restart_stage);
         measure::LoopsRequest r;
         measure::LoopsRun run;
         json source;
-        try {
-            pyb::gil_scoped_release release;
-            Client& c = client();
+        measure_session(restart_stage, [&](Client& c, const hostlink::MeasureOptions& o) {
             const measure::MeasureBounds b = hostlink::board_bounds(c);
             r = measure::loops_request(amplitudes_V, base_V, frequency_Hz, cycles, shape, b);
             run = hostlink::run_loops_device(c, r, o);
             source = board_source(c, b);
-        } catch (const hostlink::LinkError&) {
-            if (!ctrl_c.interrupted()) throw;
-        }
-        ctrl_c.raise_if_interrupted();
+        });
         return loops_result(run, measure::loops_report(r, run, source));
     }
 

@@ -6,6 +6,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <fstream>
 #include <optional>
 #include <string>
 
@@ -148,6 +149,24 @@ void add_measure(pyb::module_& m) {
         },
         pyb::arg("scenario"), pyb::arg("case_name"), pyb::arg("sample"), pyb::arg("amplitudes_V"), pyb::arg("base_V"),
         pyb::arg("frequency_Hz"), pyb::arg("cycles"), pyb::arg("shape"));
+
+    // Loops.save_csv: the CSV through the command line's writer.
+    m.def(
+        "write_loops_csv",
+        [](const std::string& path, std::vector<double> time_s, std::vector<double> u_V, std::vector<double> y_um,
+           std::vector<double> amplitude_V) {
+            if (u_V.size() != time_s.size() || y_um.size() != time_s.size() || amplitude_V.size() != time_s.size())
+                throw std::invalid_argument("loops: time_s, command_v, response_um and amplitude_v differ in length");
+            measure::LoopsRun run;
+            run.time_s = std::move(time_s);
+            run.u_V = std::move(u_V);
+            run.y_um = std::move(y_um);
+            run.amplitude_V = std::move(amplitude_V);
+            std::ofstream f(path);
+            if (f) measure::write_loops_csv(f, run);
+            if (!f.flush()) throw std::runtime_error(path + ": cannot write");
+        },
+        pyb::arg("path"), pyb::arg("time_s"), pyb::arg("u_V"), pyb::arg("y_um"), pyb::arg("amplitude_V"));
 }
 
 }  // namespace piezoloop::py
