@@ -60,6 +60,8 @@ PiNotchDesign design_pi_notch(const Zpk& plant, double crossover_Hz, const PiNot
             throw std::invalid_argument("plant: poles must be stable or at the origin");
     if (!(crossover_Hz > 0.0) || !std::isfinite(crossover_Hz))
         throw std::invalid_argument("crossover_hz: must be finite and > 0");
+    if (!(o.pm_min_deg >= 0.0 && o.pm_min_deg < 180.0)) throw std::invalid_argument("pm_min_deg: must be in [0, 180)");
+    if (!(o.gm_min_db >= 0.0) || !std::isfinite(o.gm_min_db)) throw std::invalid_argument("gm_min_db: must be finite and >= 0");
     PiNotchDesign d;
     d.target_Hz = crossover_Hz;
     for (double f = crossover_Hz; f >= o.min_fraction * crossover_Hz; f *= o.step) {

@@ -47,8 +47,10 @@ if r.returncode == 0:
         check(abs(pm - chosen["measured_phase_margin_deg"]) <= 1e-9 * abs(pm), "PM %r vs %r" % (pm, chosen))
     check("**chosen**" in open(os.path.join(out, "report.md")).read(), "report names the chosen one")
 
-for args, option in ((["--range-um", "1000"], "--range-um"), (["--range-um", "12", "--target-bandwidth-hz", "4000"],
-                                                             "--target-bandwidth-hz")):
+for args, option in ((["--range-um", "1000"], "--range-um"), (["--range-um", "-1"], "--range-um"),
+                     (["--range-um", "nan"], "--range-um"),
+                     (["--range-um", "12", "--target-bandwidth-hz", "4000"], "--target-bandwidth-hz"),
+                     (["--range-um", "12", "--target-bandwidth-hz", "-5"], "--target-bandwidth-hz")):
     bad = os.path.join(tmp, "bad")
     r = subprocess.run([exe, "commission", "--scenario", scenario, *args, "--out", bad], capture_output=True, text=True)
     check(r.returncode == 2 and option in r.stderr and not os.path.exists(bad),

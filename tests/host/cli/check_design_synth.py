@@ -184,6 +184,10 @@ if r.returncode == 0:
     loop = json.loads(r.stdout) if r.returncode == 0 else {}
     check(loop.get("stable") is True and abs(loop["phase_margin_deg"] - out["phase_margin_deg"]) < 1e-6
           and loop["gain_margin_db"] >= 6, "pi-notch loop: %r" % {k: loop.get(k) for k in ("stable", "phase_margin_deg")})
+r = run("pi-notch", "--plant", jd, "--crossover-hz", "0")
+check(r.returncode == 2 and "crossover_hz" in r.stderr, "pi-notch crossover 0: %d %s" % (r.returncode, r.stderr))
+r = run("pi-notch", "--plant", jd, "--crossover-hz", "300", "--pm-min-deg", "nan")
+check(r.returncode == 2 and "pm-min-deg" in r.stderr, "pi-notch pm nan: %d %s" % (r.returncode, r.stderr))
 r = run("pi-notch", "--plant", jd, "--crossover-hz", "300", "--pm-min-deg", "179")
 check(r.returncode == 2 and "crossover_hz" in r.stderr, "pi-notch impossible: %d %s" % (r.returncode, r.stderr))
 

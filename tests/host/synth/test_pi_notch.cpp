@@ -75,6 +75,12 @@ TEST(PiNotch, BadInputNamesTheField) {
     EXPECT_THROW(design_pi_notch(Zpk{{}, {cplx(1.0)}, 1.0, 0.0}, 1.0), std::invalid_argument);
     EXPECT_THROW(design_pi_notch(Zpk{{}, {cplx(0.5)}, 1.0, 1e-3}, 1.0), std::invalid_argument);
     EXPECT_THROW(design_pi_notch(stable, 0.0), std::invalid_argument);
+    PiNotchOptions nan_pm;
+    nan_pm.pm_min_deg = NAN;
+    EXPECT_THROW(design_pi_notch(stable, 1.0, nan_pm), std::invalid_argument);
+    PiNotchOptions negative_gm;
+    negative_gm.gm_min_db = -1.0;
+    EXPECT_THROW(design_pi_notch(stable, 1.0, negative_gm), std::invalid_argument);
     PiNotchOptions impossible;
     impossible.pm_min_deg = 179.0;
     try {
