@@ -9,10 +9,8 @@
 #include "ident/balred.hpp"
 #include "lti/freqresp.hpp"
 #include "lti/lti_convert.hpp"
-#include "measure/frf_sim.hpp"
-#include "measure/step_loops_sim.hpp"
+#include "commission/sim_stage.hpp"
 #include "sim/design_bridge.hpp"
-#include "sim/sim_case.hpp"
 #include "synth/mixsyn.hpp"
 #include "synth/pi_notch.hpp"
 
@@ -37,31 +35,20 @@ void check_on_measurement(Candidate& c, const measure::FrfRun& frf, double rate_
     c.passes = c.refusal.empty();
 }
 
-// Tracking of a triangle over half the range on the scenario's stage.
-void simulate(Candidate& c, const sim::Scenario& stage, double range_um) {
-    sim::Scenario s = stage;
-    sim::CaseSpec cs;
-    cs.name = "commissioned_" + c.name;
-    cs.label = "commissioned " + c.name;
-    cs.feedback.kind = "lti";
-    cs.feedback.error_per_um = 1.0;
-    cs.feedback.model = sim::LinearSpec{c.controller, "commission", "controller"};
-    cs.feedback.method = "tustin";
-    s.cases.push_back(cs);
-    for (const double f : {10.0, 1.0}) {
-        sim::SimCaseRequest q;
-        q.case_name = cs.name;
-        q.frequency_Hz = f;
-        q.amplitude_um = 0.5 * range_um;
-        const sim::SimCasePlan p = sim::plan_sim_case(s, q);
-        const sim::RunResult r = sim::run_loop(p.built.model, p.options);
-        if (f == 10.0) {
-            c.e_max_pct_10Hz = r.tracking.e_max_pct;
-            c.e_rms_pct_10Hz = r.tracking.e_rms_pct;
-        } else {
-            c.e_max_pct_1Hz = r.tracking.e_max_pct;
-        }
+// Where |T| = |L / (1 + L)| first falls below -3 dB on the measured lines
+// (log-frequency interpolation between the two lines around it); 0 when it
+// stays above.
+double closed_loop_bandwidth_Hz(const design::MeasuredLoop& m) {
+    const double level = 1.0 / std::sqrt(2.0);
+    for (std::size_t i = 0; i < m.loop.size(); ++i) {
+        const double t = std::abs(m.loop[i] / (1.0 + m.loop[i]));
+        if (t >= level) continue;
+        if (i == 0) return m.f_Hz[0];
+        const double t0 = std::abs(m.loop[i - 1] / (1.0 + m.loop[i - 1]));
+        const double a = (t0 - level) / (t0 - t);
+        return std::exp(std::log(m.f_Hz[i - 1]) + a * (std::log(m.f_Hz[i]) - std::log(m.f_Hz[i - 1])));
     }
+    return 0.0;
 }
 
 }  // namespace
@@ -86,6 +73,7 @@ SafetyStep check_safety_step(const measure::StepRun& run, double step_V, double 
     SafetyStep s;
     s.step_V = step_V;
     s.from_V = from_V;
+    s.y_before_um = run.figures.initial;
     s.dy_um = run.figures.final_value - run.figures.initial;
     s.noise_um = n > 1 ? std::sqrt(var / n) : 0.0;
     if (!(std::fabs(s.dy_um) > 5.0 * s.noise_um + 1e-9))
@@ -101,13 +89,14 @@ SafetyStep check_safety_step(const measure::StepRun& run, double step_V, double 
     return s;
 }
 
-Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
-                             const std::function<void(const std::string&)>& progress) {
+Commissioning commission(StageAccess& stage, const CommissionRequest& r,
+                         const std::function<void(const std::string&)>& progress) {
     auto say = [&](Commissioning& c, const std::string& line) {
         c.log.push_back(line);
         if (progress) progress(line);
     };
-    const measure::MeasureBounds b = measure::scenario_bounds(s);
+    const measure::MeasureBounds b = stage.bounds();
+    const LoopFacts loop = stage.loop();
     const double u_min = b.limits.u_min_V, u_max = b.limits.u_max_V, span = u_max - u_min, mid = 0.5 * (u_min + u_max);
     const double travel = b.closed_range.max_um - b.closed_range.min_um;
     if (!(r.range_um > 0.0) || !std::isfinite(r.range_um))
@@ -119,12 +108,14 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
         throw std::invalid_argument("--target-bandwidth-hz: must be finite and > 0");
     // The response is measured up to a fifth of the rate; a design needs a
     // few times its bandwidth measured.
-    const double frf_to_Hz = 0.2 * s.rate_Hz;
+    const double frf_to_Hz = 0.2 * loop.rate_Hz;
     if (r.target_bandwidth_Hz > frf_to_Hz / 4.0)
         throw std::invalid_argument("--target-bandwidth-hz: " + num(r.target_bandwidth_Hz) +
                                     " Hz is above what the measurement supports (a quarter of its " + num(frf_to_Hz) +
                                     " Hz band)");
     Commissioning c;
+    say(c, "stage: " + stage.describe() + ", loop " + num(loop.rate_Hz) + " Hz, command " + num(u_min) + " .. " +
+               num(u_max) + " V");
 
     // 1. Safety: growing open-loop steps.
     for (const double frac : {0.02, 0.05, 0.10}) {
@@ -135,7 +126,7 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
         q.duration_s = 0.05;
         measure::StepRun run;
         try {
-            run = measure::run_step_sim(s, nullptr, q);
+            run = stage.step(q);
         } catch (const std::invalid_argument& e) {
             throw std::runtime_error("safety step of " + num(q.step) + " V: the stage does not respond (" + e.what() + ")");
         }
@@ -144,6 +135,7 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
                    num(c.safety.back().gain_um_per_V) + " um/V)");
     }
     c.gain_um_per_V = c.safety.back().gain_um_per_V;
+    c.centre_um = c.safety.front().y_before_um;
     const double reach = std::fabs(c.gain_um_per_V) * span;
     if (r.range_um > reach)
         throw std::invalid_argument("--range-um: " + num(r.range_um) + " um is more than the command span reaches (about " +
@@ -155,7 +147,7 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
     c.frf_request.amplitude_V = 0.05 * span;
     c.frf_request.bias_V = mid;
     c.frf_request.periods = 4;
-    c.frf = measure::run_frf_sim(s, nullptr, c.frf_request);
+    c.frf = stage.frf(c.frf_request);
     say(c, "frequency response: " + std::to_string(c.frf.estimate.frequency_Hz.size()) + " lines, " +
                num(c.frf_request.from_Hz) + " Hz to " + num(c.frf_request.to_Hz) + " Hz");
 
@@ -163,16 +155,16 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
     for (const int n : {2, 4, 6, 8}) {
         measure::TfFitOptions o;
         o.poles = n;
-        o.zeros = n - 1;
+        o.zeros = n - 2;
         o.delay_samples = 1;
         o.continuous = true;
-        o.ts = 1.0 / s.rate_Hz;
+        o.ts = 1.0 / loop.rate_Hz;
         try {
             const measure::TfFit fit = measure::fit_tf(c.frf.estimate.frequency_Hz, c.frf.estimate.response,
                                                        c.frf.estimate.var, o);
             ModelFit m;
             m.poles = n;
-            m.zeros = n - 1;
+            m.zeros = n - 2;
             // RMS relative error on the lines measured with SNR >= 20 dB (where
             // the noise is below 10 %, so the error is the model's).
             const std::vector<design::cplx> g = measure::tf_fit_response(fit, c.frf.estimate.frequency_Hz);
@@ -189,10 +181,10 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
             m.dc_gain_um_per_V = design::dc_gain(m.model);
             if (fit.reflected > 0 || !(m.dc_gain_um_per_V * c.gain_um_per_V > 0.0)) continue;
             c.fits.push_back(m);
-            say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 1) + ": rms error " +
+            say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": rms error " +
                        num(100.0 * m.rms_rel) + " % on " + std::to_string(lines) + " lines");
         } catch (const std::invalid_argument& e) {
-            say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 1) + ": refused (" + e.what() + ")");
+            say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": refused (" + e.what() + ")");
         }
     }
     if (c.fits.empty()) throw std::runtime_error("no model order fits the measured response");
@@ -206,6 +198,18 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
     const ModelFit& fit = c.fits[static_cast<std::size_t>(c.chosen_fit)];
     design::Zpk gn = fit.model;
     gn.gain /= fit.dc_gain_um_per_V;
+    c.identified.name = "commissioned";
+    c.identified.measured_on = stage.describe();
+    c.identified.loop = loop;
+    c.identified.bounds = b;
+    c.identified.model = fit.model;
+    c.identified.gain_um_per_V = c.gain_um_per_V;
+    c.identified.noise_um = c.safety.front().noise_um;
+    SimStage identified(sim::parse_scenario(identified_scenario_json(c.identified, std::nullopt), "."),
+                        loop.q31 ? sim::SampleType::kQ31 : sim::SampleType::kFloat);
+    // The identified stage's own displacement at mid-span: its triangles are
+    // centred there as the stage's are at c.centre_um.
+    const double predicted_centre_um = c.gain_um_per_V * mid;
 
     // The bandwidth: asked for, or a third of the first lightly damped mode.
     c.target_bandwidth_Hz = r.target_bandwidth_Hz;
@@ -213,7 +217,7 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
         double first = INFINITY;
         for (const design::cplx p : gn.poles)
             if (p.imag() > 0.0 && -p.real() / std::abs(p) < 0.2) first = std::min(first, std::abs(p) / kTwoPi);
-        c.target_bandwidth_Hz = std::min(first / 3.0, s.rate_Hz / 20.0);
+        c.target_bandwidth_Hz = std::min(first / 3.0, loop.rate_Hz / 20.0);
     }
     say(c, "model " + std::to_string(fit.poles) + "/" + std::to_string(fit.zeros) + ", target bandwidth " +
                num(c.target_bandwidth_Hz) + " Hz");
@@ -239,7 +243,7 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
             k.method = "mixsyn on the " + std::to_string(plant.poles.size()) +
                        "-state model, W1 = (s/1.6 + wb)/(s + 1e-3 wb) at " + num(c.target_bandwidth_Hz) +
                        " Hz, W2 = 0.5, gamma " + num(m.synthesis.gamma_controller);
-            check_on_measurement(k, c.frf, s.rate_Hz);
+            check_on_measurement(k, c.frf, loop.rate_Hz);
         } catch (const std::exception& e) {
             k.refusal = std::string("synthesis failed: ") + e.what();
         }
@@ -255,24 +259,62 @@ Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
             k.order = static_cast<int>(k.controller.poles.size());
             k.design_crossover_Hz = d.crossover_Hz;
             k.method = "PI + " + std::to_string(d.notches.size()) + " notches, crossover " + num(d.crossover_Hz) + " Hz";
-            check_on_measurement(k, c.frf, s.rate_Hz);
+            check_on_measurement(k, c.frf, loop.rate_Hz);
         } catch (const std::exception& e) {
             k.refusal = std::string("design failed: ") + e.what();
         }
         c.candidates.push_back(k);
     }
 
-    // 6. Tracking of the passing ones; the better is chosen.
+    // 6. Predicted tracking of the passing ones; the better is chosen.
+    const TrackRequest check{10.0, 0.5 * r.range_um, predicted_centre_um};
     for (std::size_t i = 0; i < c.candidates.size(); ++i) {
         Candidate& k = c.candidates[i];
         say(c, k.name + ": " + (k.passes ? "passes the measured checks" : "refused: " + k.refusal));
         if (!k.passes) continue;
-        simulate(k, s, r.range_um);
-        say(c, k.name + ": 10 Hz triangle over " + num(0.5 * r.range_um) + " um, e_max " + num(*k.e_max_pct_10Hz) + " %");
-        if (c.chosen < 0 || *k.e_max_pct_10Hz < *c.candidates[static_cast<std::size_t>(c.chosen)].e_max_pct_10Hz)
+        k.predicted = identified.track(k.controller, check);
+        say(c, k.name + ": predicted e_max " + num(k.predicted->e_max_pct) + " % on a 10 Hz triangle over " +
+                   num(check.range_um) + " um");
+        if (c.chosen < 0 || k.predicted->e_max_pct < c.candidates[static_cast<std::size_t>(c.chosen)].predicted->e_max_pct)
             c.chosen = static_cast<int>(i);
     }
+    if (c.chosen < 0) return c;
+
+    // 7. Verification on the stage, each triangle beside its prediction; the
+    // last run leaves the chosen controller loaded.
+    const Candidate& k = c.candidates[static_cast<std::size_t>(c.chosen)];
+    c.bandwidth_Hz = closed_loop_bandwidth_Hz(k.measured);
+    std::vector<TrackRequest> runs{{10.0, 0.5 * r.range_um, c.centre_um},
+                                   {1.0, r.range_um, c.centre_um},
+                                   {10.0, r.range_um, c.centre_um}};
+    if (c.bandwidth_Hz > 0.0) runs.push_back({0.1 * c.bandwidth_Hz, r.range_um, c.centre_um});
+    for (const TrackRequest& q : runs) {
+        Verification v;
+        v.request = q;
+        TrackRequest p = q;
+        p.centre_um = predicted_centre_um;
+        v.predicted = identified.track(k.controller, p);
+        v.measured = stage.track(k.controller, q);
+        say(c, "verify " + k.name + ": " + num(q.frequency_Hz) + " Hz triangle over " + num(q.range_um) + " um: e_max " +
+                   num(v.measured.e_max_pct) + " % (predicted " + num(v.predicted.e_max_pct) + " %)" +
+                   (v.measured.trip != "none" ? ", trip: " + v.measured.trip : ""));
+        if (c.verification_failure.empty() &&
+            (v.measured.trip != "none" || v.measured.e_max_pct > 2.0 * v.predicted.e_max_pct + 2.0))
+            c.verification_failure = "the " + num(q.frequency_Hz) + " Hz triangle over " + num(q.range_um) +
+                                     " um: e_max " + num(v.measured.e_max_pct) + " % against " +
+                                     num(v.predicted.e_max_pct) + " % predicted" +
+                                     (v.measured.trip != "none" ? ", trip: " + v.measured.trip : "");
+        c.verification.push_back(v);
+    }
+    say(c, c.verified() ? "verified: every run within 2x its prediction + 2 %"
+                        : "verification failed: " + c.verification_failure);
     return c;
+}
+
+nlohmann::json commissioned_scenario(const Commissioning& c) {
+    std::optional<design::Zpk> k;
+    if (c.chosen >= 0) k = c.candidates[static_cast<std::size_t>(c.chosen)].controller;
+    return identified_scenario_json(c.identified, k);
 }
 
 }  // namespace piezoloop::commission

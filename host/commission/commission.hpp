@@ -1,27 +1,35 @@
 // Commissioning a stage the tool has not seen (issue 17, docs/commissioning.md):
-// from measurements alone to a checked controller, on the simulator
-// (`piezoloop commission --scenario S`). Each step is a function of what the
-// previous measured, so a board session can run the same steps with the
-// board's measurements (link/measure_session).
+// from measurements alone to a checked, verified controller, on a board
+// (link/board_stage) or the simulator (commission/sim_stage), through the
+// same steps (commission/stage_access.hpp):
 //
 //   1. safety: open-loop command steps of 2, 5 and 10 % of the command span
 //      from mid-span; each must move the stage (|Δy| above 5x the noise),
 //      off the sensor's rails, with the gain of the previous step within
-//      ±50 % (same sign); the gain estimate g0 (µm/V) checks the range.
+//      ±50 % (same sign); the gain estimate g0 (µm/V) checks the range. The
+//      displacement at mid-span is the centre of every triangle after.
 //   2. frequency response: open loop about mid-span, 5 % of the span.
 //   3. model: continuous fits of order 2, 4, 6, 8 (zeros one fewer, one tick
 //      of delay taken out); the lowest whose RMS relative error on the lines
 //      with SNR >= 20 dB is below 10 % (the hysteresis bends a stage's
-//      response by several %), else the best.
+//      response by several %), else the best. The identified stage
+//      (commission/identified_stage) is its dynamics with the largest safety
+//      step's static gain.
 //   4. candidates on the fitted model normalised to unit DC gain: robust,
 //      mixed-sensitivity H∞ (plant reduced to 6 states if larger, W1 =
 //      (s/1.6 + ω_b)/(s + 1e-3 ω_b) at the target bandwidth, W2 = 0.5), and
 //      classic, PI + notches (synth/pi_notch) at the target bandwidth.
 //   5. each checked on the measured response (analysis/measured_loop):
 //      PM >= 45°, GM >= 6 dB, max|S| <= 2; a candidate that fails is never
-//      chosen.
-//   6. each passing candidate tracks a triangle over half the range at 10 Hz
-//      on the stage (simulated); the lower e_max is chosen.
+//      loaded.
+//   6. each passing candidate's tracking of a 10 Hz triangle over half the
+//      range is predicted on the identified stage; the lower e_max is chosen.
+//   7. verification on the stage: the chosen controller loaded, triangles
+//      over half the range at 10 Hz (the check) and over the whole range at
+//      1 Hz, 10 Hz and a tenth of the bandwidth, each beside its prediction.
+//      A run worse than twice its prediction plus 2 % of its range (the
+//      identified stage has no hysteresis), or one that trips, fails the
+//      verification: the loop does not behave as designed, and is not kept.
 #pragma once
 
 #include <functional>
@@ -29,22 +37,26 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "analysis/measured_loop.hpp"
+#include "commission/identified_stage.hpp"
+#include "commission/stage_access.hpp"
 #include "lti/lti.hpp"
 #include "measure/frf_plan.hpp"
 #include "measure/step_loops_plan.hpp"
 #include "measure/tf_fit.hpp"
-#include "sim/scenario.hpp"
 
 namespace piezoloop::commission {
 
 struct CommissionRequest {
     double range_um = 0.0;             // the travel the loop must hold
-    double target_bandwidth_Hz = 0.0;  // 0: a third of the first lightly damped mode, at most rate / 100
+    double target_bandwidth_Hz = 0.0;  // 0: a third of the first lightly damped mode, at most rate / 20
 };
 
 struct SafetyStep {
     double step_V = 0.0, from_V = 0.0;
+    double y_before_um = 0.0;  // at rest before the step
     double dy_um = 0.0, noise_um = 0.0, gain_um_per_V = 0.0;
 };
 
@@ -64,7 +76,13 @@ struct Candidate {
     design::MeasuredLoop measured;  // on the measured lines
     bool passes = false;
     std::string refusal;       // why it fails the checks or could not be made
-    std::optional<double> e_max_pct_10Hz, e_rms_pct_10Hz, e_max_pct_1Hz;  // simulated tracking
+    std::optional<TrackingRun> predicted;  // 10 Hz triangle over half the range, on the identified stage
+};
+
+// One verification triangle on the stage beside its prediction.
+struct Verification {
+    TrackRequest request;
+    TrackingRun predicted, measured;
 };
 
 struct Commissioning {
@@ -75,18 +93,31 @@ struct Commissioning {
     std::vector<ModelFit> fits;  // every order tried
     int chosen_fit = -1;
     double target_bandwidth_Hz = 0.0;
+    double centre_um = 0.0;      // the displacement at mid-span: every triangle's centre
+    IdentifiedStage identified;
     std::vector<Candidate> candidates;
     int chosen = -1;             // index into candidates; -1: none passes
+    double bandwidth_Hz = 0.0;   // the chosen loop's: |T| = |L / (1 + L)| falls below -3 dB on the measured lines
+    std::vector<Verification> verification;  // the first is the check: 10 Hz over half the range
+    // Every run on the stage within 2x its prediction + 2 % of its range, no
+    // trip; otherwise why not (the result is then not kept).
+    std::string verification_failure;
+    bool verified() const { return chosen >= 0 && verification_failure.empty(); }
     std::vector<std::string> log;  // what was done, in order
 };
 
-// The whole sequence on a scenario's stage (open loop: no case). Throws
-// std::invalid_argument naming the option for a bad request (range beyond
-// the travel or the command span, a bandwidth above what the measurement
-// supports) and std::runtime_error with the reason when a safety step stops
-// it (a trip, a sensor at its rail, no response, an inconsistent response).
-Commissioning commission_sim(const sim::Scenario& s, const CommissionRequest& r,
-                             const std::function<void(const std::string&)>& progress = {});
+// The whole sequence. Throws std::invalid_argument naming the option for a
+// bad request (range beyond the travel or the command span, a bandwidth
+// above what the measurement supports) and std::runtime_error with the
+// reason when a safety step stops it (a trip, a sensor at its rail, no
+// response, an inconsistent response). On return the chosen controller is
+// loaded on the stage (when one passes), the loop disarmed.
+Commissioning commission(StageAccess& stage, const CommissionRequest& r,
+                         const std::function<void(const std::string&)>& progress = {});
+
+// The identified stage with the chosen controller as its case "commissioned"
+// (DIR/scenario.json).
+nlohmann::json commissioned_scenario(const Commissioning& c);
 
 // Step 1 from the steps' records (exposed for tests): throws
 // std::runtime_error naming the step and the reason.

@@ -268,20 +268,9 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         design::Zpk z = fb.model->zpk;
         z.gain *= k;
         const design::Zpk zd = discretise(z, s.rate_Hz, fb.method, fb.prewarp_Hz, false, fb.path + ".model");
-        std::vector<SosSection> sos =
-            discretise_sos(z, s.rate_Hz, fb.method, fb.prewarp_Hz, false, fb.path + ".model", kMaxControllerSections);
-        if (c.sample == SampleType::kQ31) {
-            // Fixed point: spread the gain so that no internal node can
-            // overflow for a full-scale error (lti/sos, L1 scaling).
-            design::SosScaling sc;
-            sc.norm = design::SosNorm::kL1;
-            sc.in_full_scale = m.setup.position.full_scale;
-            sc.out_full_scale = fb_out.full_scale;
-            sos = design::scale_sos(sos, sc);
-        }
-        if (sos.size() > static_cast<size_t>(kMaxControllerSections))
-            throw ScenarioError(fb.path + ".model: at most " + std::to_string(kMaxControllerSections) +
-                                " biquad sections (order 8) in the core's feedback");
+        const std::vector<SosSection> sos =
+            controller_sos(z, s.rate_Hz, fb.method, fb.prewarp_Hz, c.sample == SampleType::kQ31,
+                           m.setup.position.full_scale, fb_out.full_scale, fb.path + ".model");
         p.feedback = FeedbackKind::kSos;
         p.sos_count = static_cast<int>(sos.size());
         for (size_t i = 0; i < sos.size(); ++i) p.sos[i] = sos[i];

@@ -110,6 +110,20 @@ std::vector<SosSection> discretise_sos(const design::Zpk& zpk, double rate_Hz, c
     return sos;
 }
 
+std::vector<SosSection> controller_sos(const design::Zpk& zpk, double rate_Hz, const std::string& method,
+                                       double prewarp_Hz, bool q31, double in_full_scale, double out_full_scale,
+                                       const std::string& what) {
+    std::vector<SosSection> sos = discretise_sos(zpk, rate_Hz, method, prewarp_Hz, false, what, kMaxControllerSections);
+    if (q31) {
+        design::SosScaling sc;
+        sc.norm = design::SosNorm::kL1;
+        sc.in_full_scale = in_full_scale;
+        sc.out_full_scale = out_full_scale;
+        sos = design::scale_sos(sos, sc);
+    }
+    return sos;
+}
+
 design::Ss state_space(const design::Zpk& zpk) { return design::balance(design::zpk2ss(zpk)); }
 
 }  // namespace piezoloop::sim

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "commission/commission.hpp"
+#include "commission/sim_stage.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::commission {
@@ -61,7 +62,8 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     const sim::Scenario s = sim::load_scenario(kConfigs + "ahmad2020.json");
     CommissionRequest r;
     r.range_um = 12.0;
-    const Commissioning c = commission_sim(s, r);
+    SimStage stage(s);
+    const Commissioning c = commission(stage, r);
     ASSERT_GE(c.chosen, 0);
     const Candidate& k = c.candidates[static_cast<std::size_t>(c.chosen)];
     ASSERT_TRUE(k.passes && k.measured.phase_margin);
@@ -69,19 +71,59 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     EXPECT_LE(k.measured.max_sensitivity, 2.0);
     // The safety steps measure the stage's small-signal gain, 2.8 um/V.
     EXPECT_NEAR(c.gain_um_per_V, 2.8, 0.2);
-    ASSERT_TRUE(k.e_max_pct_10Hz.has_value());
-    EXPECT_LT(*k.e_max_pct_10Hz, 1.5);  // feedback alone, no hysteresis compensation (docs/commissioning.md)
+    ASSERT_TRUE(k.predicted.has_value());
+    // Verified on the stage: the 10 Hz triangle over half the range first,
+    // then the whole range at 1 Hz, 10 Hz and a tenth of the bandwidth.
+    EXPECT_TRUE(c.verified()) << c.verification_failure;
+    ASSERT_EQ(c.verification.size(), 4u);
+    EXPECT_EQ(c.verification[0].request.frequency_Hz, 10.0);
+    EXPECT_EQ(c.verification[0].request.range_um, 6.0);
+    EXPECT_LT(c.verification[0].measured.e_max_pct, 1.5);  // feedback alone, no hysteresis compensation
+    EXPECT_NEAR(c.verification[3].request.frequency_Hz, 0.1 * c.bandwidth_Hz, 1e-12);
+    // The stage is centred at mid-span (its displacement at 5 V).
+    EXPECT_NEAR(c.centre_um, 5.0 * 2.8, 2.0);
+
+    // The written scenario: the identified stage with the controller as
+    // its case, which `sim` runs.
+    const sim::Scenario id = sim::parse_scenario(commissioned_scenario(c), ".");
+    EXPECT_EQ(id.rate_Hz, s.rate_Hz);
+    EXPECT_NO_THROW(id.find_case("commissioned"));
+    EXPECT_EQ(id.plant.hysteresis.gain_um_per_V, c.gain_um_per_V);
+}
+
+// A stage that tracks far worse than predicted (the model misses something):
+// the verification fails and says which run.
+class BadTracker : public SimStage {
+public:
+    using SimStage::SimStage;
+    TrackingRun track(const design::Zpk& k, const TrackRequest& t) override {
+        TrackingRun r = SimStage::track(k, t);
+        r.e_max_pct = 50.0;
+        return r;
+    }
+};
+
+TEST(Commission, AStageThatDoesNotTrackAsPredictedFailsTheVerification) {
+    CommissionRequest r;
+    r.range_um = 12.0;
+    BadTracker stage(sim::load_scenario(kConfigs + "ahmad2020.json"));
+    const Commissioning c = commission(stage, r);
+    ASSERT_GE(c.chosen, 0);
+    EXPECT_FALSE(c.verified());
+    EXPECT_NE(c.verification_failure.find("10 Hz triangle over 6 um: e_max 50 %"), std::string::npos)
+        << c.verification_failure;
 }
 
 TEST(Commission, RequestsBeyondTheStageAreRefusedBeforeAnythingMoves) {
     const sim::Scenario s = sim::load_scenario(kConfigs + "ahmad2020.json");
     CommissionRequest r;
     r.range_um = 1000.0;
-    EXPECT_THROW(commission_sim(s, r), std::invalid_argument);
+    SimStage stage(s);
+    EXPECT_THROW(commission(stage, r), std::invalid_argument);
     r.range_um = 12.0;
     r.target_bandwidth_Hz = 4000.0;  // the measurement reaches 2 kHz at 10 kHz
     try {
-        commission_sim(s, r);
+        commission(stage, r);
         FAIL() << "a bandwidth above the measurement";
     } catch (const std::invalid_argument& e) {
         EXPECT_NE(std::string(e.what()).find("--target-bandwidth-hz"), std::string::npos);

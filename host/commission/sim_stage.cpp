@@ -1,0 +1,51 @@
+#include "commission/sim_stage.hpp"
+
+#include "measure/frf_sim.hpp"
+#include "measure/step_loops_sim.hpp"
+#include "sim/build_case.hpp"
+#include "sim/experiments.hpp"
+
+namespace piezoloop::commission {
+
+std::string SimStage::describe() const { return "the simulated stage of scenario " + s_.name; }
+
+LoopFacts SimStage::loop() {
+    return {s_.rate_Hz, false, s_.setup.position.full_scale, s_.setup.voltage.full_scale};
+}
+
+measure::MeasureBounds SimStage::bounds() { return measure::scenario_bounds(s_); }
+
+measure::StepRun SimStage::step(const measure::StepRequest& r) { return measure::run_step_sim(s_, nullptr, r); }
+
+measure::FrfRun SimStage::frf(const measure::FrfRequest& r) { return measure::run_frf_sim(s_, nullptr, r); }
+
+TrackingRun SimStage::track(const design::Zpk& controller, const TrackRequest& t) {
+    // The controller as a scenario's lti feedback (e in µm, Tustin).
+    sim::CaseSpec cs;
+    cs.name = cs.label = "commissioned";
+    cs.sample = sample_;
+    cs.feedback.kind = "lti";
+    cs.feedback.model = sim::LinearSpec{controller, "commission", "commissioned.controller"};
+    cs.feedback.path = "commissioned.feedback";
+    sim::BuildOptions bo;
+    bo.check_realisation = false;
+    const sim::BuiltCase b = sim::build_case(s_, cs, bo);
+    sim::TrajectoryRequest w;
+    w.waveform = Waveform::kTriangle;
+    w.frequency_Hz = t.frequency_Hz;
+    w.range_um = t.range_um;
+    sim::RunOptions o = sim::plan_run(s_.rate_Hz, w, 0, false);
+    o.wave.offset_um = static_cast<float>(t.centre_um);
+    o.window_midpoint_um = t.centre_um;
+    const sim::RunResult r = sim::run_loop(b.model, o);
+    TrackingRun out;
+    out.e_max_um = r.tracking.e_max_um;
+    out.e_rms_um = r.tracking.e_rms_um;
+    out.e_max_pct = r.tracking.e_max_pct;
+    out.e_rms_pct = r.tracking.e_rms_pct;
+    out.hysteresis_pct = r.hysteresis_pct;
+    out.trip = trip_reason_name(r.trip);
+    return out;
+}
+
+}  // namespace piezoloop::commission

@@ -1,0 +1,26 @@
+// A scenario's stage as commissioning sees it (commission/stage_access.hpp):
+// measured in open loop by the simulator, its cases and models never read.
+// Also the identified stage a prediction runs on (commission/identified_stage).
+#pragma once
+
+#include "commission/stage_access.hpp"
+#include "sim/scenario.hpp"
+
+namespace piezoloop::commission {
+
+class SimStage : public StageAccess {
+public:
+    explicit SimStage(sim::Scenario s, sim::SampleType sample = sim::SampleType::kFloat) : s_(std::move(s)), sample_(sample) {}
+    std::string describe() const override;
+    LoopFacts loop() override;
+    measure::MeasureBounds bounds() override;
+    measure::StepRun step(const measure::StepRequest& r) override;
+    measure::FrfRun frf(const measure::FrfRequest& r) override;
+    TrackingRun track(const design::Zpk& controller, const TrackRequest& t) override;
+
+private:
+    sim::Scenario s_;
+    sim::SampleType sample_;
+};
+
+}  // namespace piezoloop::commission

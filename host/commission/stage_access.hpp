@@ -1,0 +1,52 @@
+// Where commissioning measures and verifies (commission/commission.hpp): the
+// simulator's stage (commission/sim_stage) or a board over the link
+// (link/board_stage). The sequence sees only what an implementation
+// measures, so a board and `--scenario` run the same steps.
+#pragma once
+
+#include <string>
+
+#include "lti/lti.hpp"
+#include "measure/frf_plan.hpp"
+#include "measure/step_loops_plan.hpp"
+
+namespace piezoloop::commission {
+
+// A triangle centred on a displacement (a range held inside what the
+// command reaches, wherever the stage's zero is).
+struct TrackRequest {
+    double frequency_Hz = 10.0;
+    double range_um = 0.0;   // peak-to-peak
+    double centre_um = 0.0;
+};
+
+// Tracking over the last period of two (the first takes the start).
+struct TrackingRun {
+    double e_max_um = 0.0, e_rms_um = 0.0, e_max_pct = 0.0, e_rms_pct = 0.0;
+    double hysteresis_pct = -1.0;  // y against r; negative: undefined
+    std::string trip = "none";
+};
+
+// The loop the stage runs in: its rate, sample type and Q31 full scales.
+struct LoopFacts {
+    double rate_Hz = 0.0;
+    bool q31 = false;
+    double position_full_scale_um = 0.0, voltage_full_scale_V = 0.0;
+};
+
+class StageAccess {
+public:
+    virtual ~StageAccess() = default;
+    virtual std::string describe() const = 0;
+    virtual LoopFacts loop() = 0;
+    virtual measure::MeasureBounds bounds() = 0;
+    // Open loop, as `measure step` / `measure frf` run them.
+    virtual measure::StepRun step(const measure::StepRequest& r) = 0;
+    virtual measure::FrfRun frf(const measure::FrfRequest& r) = 0;
+    // Runs `controller` (continuous, e in µm -> u in V, discretised by Tustin
+    // at the loop rate) on the triangle, feedback alone; the loop is left
+    // disarmed with the controller loaded.
+    virtual TrackingRun track(const design::Zpk& controller, const TrackRequest& t) = 0;
+};
+
+}  // namespace piezoloop::commission

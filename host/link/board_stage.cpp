@@ -1,0 +1,75 @@
+#include "link/board_stage.hpp"
+
+#include "link/record_session.hpp"
+#include "sim/design_bridge.hpp"
+
+namespace piezoloop::hostlink {
+
+std::string BoardStage::describe() const {
+    const link::HelloReply& h = c_.info();
+    return "board " + std::string(h.board.data()) + " (firmware " + std::string(h.firmware_version.data()) + ") at " +
+           c_.address();
+}
+
+commission::LoopFacts BoardStage::loop() {
+    const link::HelloReply& h = c_.info();
+    return {h.loop_rate_Hz, h.sample_format == link::SampleFormat::kQ31, h.position_full_scale_um, h.voltage_full_scale_V};
+}
+
+link::FeedbackParams feedback_group(const design::Zpk& controller, const link::HelloReply& h) {
+    const std::vector<SosSection> sos =
+        sim::controller_sos(controller, h.loop_rate_Hz, "tustin", 0.0, h.sample_format == link::SampleFormat::kQ31,
+                            h.position_full_scale_um, h.voltage_full_scale_V, "controller");
+    if (sos.size() > h.max_sos_sections)
+        throw std::invalid_argument("controller: " + std::to_string(sos.size()) + " biquad sections, this board runs " +
+                                    std::to_string(h.max_sos_sections));
+    link::FeedbackParams g;
+    g.kind = FeedbackKind::kSos;
+    g.sos_count = static_cast<int>(sos.size());
+    for (std::size_t i = 0; i < sos.size(); ++i) g.sos[i] = sos[i];
+    return g;
+}
+
+commission::TrackingRun BoardStage::track(const design::Zpk& controller, const commission::TrackRequest& t) {
+    const link::HelloReply& h = c_.info();
+    const link::FeedbackParams fb = feedback_group(controller, h);
+    link::StatusReply st = c_.status();
+    if (st.wave_running) c_.stop_wave();
+    if (st.armed) c_.disarm();
+    if (st.tripped) throw std::runtime_error(std::string("the board's limiter is tripped (") +
+                                             trip_reason_name(st.trip_reason) + ")");
+    // Feedback alone: RC off before the feedback changes (it needs one).
+    c_.set(link::RepetitiveParams{});
+    c_.set(link::FeedforwardParams{});
+    c_.set(fb);
+    link::TrajectoryParams w;
+    w.waveform = Waveform::kTriangle;
+    w.amplitude_um = static_cast<float>(0.5 * t.range_um);
+    w.offset_um = static_cast<float>(t.centre_um);
+    w.frequency_Hz = static_cast<float>(t.frequency_Hz);
+    w.start_phase_cycles = 0.0f;  // from the triangle's minimum
+    RecordOptions ro;
+    ro.signals = {signal_index(SignalId::kR), signal_index(SignalId::kY), signal_index(SignalId::kE),
+                  signal_index(SignalId::kU)};
+    ro.duration_s = 2.0 / t.frequency_Hz;  // the second period is the window
+    ro.wave = w;
+    ro.start_wave = true;
+    ro.stop_requested = o_.stop_requested;
+    ro.progress = o_.progress;
+    const RecordResult rec = record(c_, ro);
+    st = c_.status();
+    if (st.wave_running) c_.stop_wave();
+    c_.disarm();
+    if (!rec.complete()) throw LinkError("the recording is incomplete:" + rec.problems());
+    if (!rec.figures) throw LinkError("the recording has no tracking figures");
+    commission::TrackingRun out;
+    out.e_max_um = rec.figures->e_max_um;
+    out.e_rms_um = rec.figures->e_rms_um;
+    out.e_max_pct = rec.figures->e_max_pct;
+    out.e_rms_pct = rec.figures->e_rms_pct;
+    out.hysteresis_pct = rec.figures->hysteresis_pct;
+    out.trip = trip_reason_name(st.trip_reason);
+    return out;
+}
+
+}  // namespace piezoloop::hostlink
