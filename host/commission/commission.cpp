@@ -7,6 +7,7 @@
 
 #include "format/number.hpp"
 #include "ident/balred.hpp"
+#include "piezoloop/pi_inverse.hpp"
 #include "lti/freqresp.hpp"
 #include "lti/lti_convert.hpp"
 #include "commission/sim_stage.hpp"
@@ -99,6 +100,9 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     const LoopFacts loop = stage.loop();
     const double u_min = b.limits.u_min_V, u_max = b.limits.u_max_V, span = u_max - u_min, mid = 0.5 * (u_min + u_max);
     const double travel = b.closed_range.max_um - b.closed_range.min_um;
+    if (!(span > 0.0))
+        throw std::invalid_argument("limits: the command span " + num(u_min) + " .. " + num(u_max) +
+                                    " V is empty; set the limits group first");
     if (!(r.range_um > 0.0) || !std::isfinite(r.range_um))
         throw std::invalid_argument("--range-um: must be finite and > 0");
     if (r.range_um > travel)
@@ -124,12 +128,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         q.step = frac * span;
         q.from = mid;
         q.duration_s = 0.05;
-        measure::StepRun run;
-        try {
-            run = stage.step(q);
-        } catch (const std::invalid_argument& e) {
-            throw std::runtime_error("safety step of " + num(q.step) + " V: the stage does not respond (" + e.what() + ")");
-        }
+        const measure::StepRun run = stage.step(q);
         c.safety.push_back(check_safety_step(run, q.step, mid, b.closed_range, c.safety.empty() ? nullptr : &c.safety.back()));
         say(c, "safety step " + num(q.step) + " V: " + num(c.safety.back().dy_um) + " um (" +
                    num(c.safety.back().gain_um_per_V) + " um/V)");
@@ -150,6 +149,46 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     c.frf = stage.frf(c.frf_request);
     say(c, "frequency response: " + std::to_string(c.frf.estimate.frequency_Hz.size()) + " lines, " +
                num(c.frf_request.from_Hz) + " Hz to " + num(c.frf_request.to_Hz) + " Hz");
+
+    // The hysteresis: one loop about mid-span over what the range needs
+    // (1.2x at the safety steps' gain), a monotone PI fit. A loop that
+    // reaches the sensor's rails or trips is repeated at 0.7x, twice at most.
+    double loop_V = std::min(span, 1.2 * r.range_um / std::fabs(c.gain_um_per_V));
+    for (int attempt = 0; attempt < 3; ++attempt, loop_V *= 0.7) {
+        c.loops_request.amplitudes_V = {loop_V};
+        c.loops_request.base_V = std::max(u_min, mid - 0.5 * loop_V);
+        c.loops_request.frequency_Hz = 5.0;
+        c.loops_request.cycles = 2;
+        c.loops_request.shape = "sine";
+        c.loops = stage.loops(c.loops_request);
+        // A sensor at its rail reads the same extreme value again and again
+        // (a moving stage's noise does not).
+        const auto [lo, hi] = std::minmax_element(c.loops.y_um.begin(), c.loops.y_um.end());
+        const auto at = [&](double v) { return std::count(c.loops.y_um.begin(), c.loops.y_um.end(), v) >= 10; };
+        c.hysteresis_note = c.loops.trip != "none" ? "the limiter tripped (" + c.loops.trip + ")"
+                            : at(*lo) || at(*hi) ? "the sensor reached its rail (" + num(*lo) + " .. " + num(*hi) + " um)"
+                                                 : "";
+        if (c.hysteresis_note.empty()) break;
+        say(c, "hysteresis loop of " + num(loop_V) + " V: " + c.hysteresis_note);
+    }
+    try {
+        if (!c.hysteresis_note.empty()) throw std::invalid_argument(c.hysteresis_note);
+        design::PiFitOptions o;
+        o.operators = 8;
+        o.monotone = true;
+        o.first_fitted = static_cast<std::size_t>(c.loops.plan.cycle_ticks);  // the jump to the base rings
+        // Thresholds below half the loop: each play then turns in the fitted cycle.
+        for (int j = 1; j <= o.operators; ++j) o.thresholds.push_back(0.5 * loop_V * j / (o.operators + 1));
+        const design::PiFitResult fit = design::fit_pi(c.loops.u_V, c.loops.y_um, o);
+        if (!fit.invertible) throw std::invalid_argument("not invertible: " + fit.invertibility);
+        c.hysteresis = fit;
+        c.hysteresis_note = "PI model, 8 operators: RMS error " + num(fit.rms_error) + " um (" +
+                            num(fit.nrmse_percent) + " %), max " + num(fit.max_error) + " um";
+    } catch (const std::invalid_argument& e) {
+        c.hysteresis_note = std::string("no PI model: ") + e.what();
+    }
+    say(c, "hysteresis loop " + num(c.loops_request.base_V) + " .. " + num(c.loops_request.base_V + loop_V) +
+               " V at 5 Hz: " + c.hysteresis_note);
 
     // 3. The model: the lowest order that fits.
     for (const int n : {2, 4, 6, 8}) {
@@ -204,12 +243,13 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     c.identified.bounds = b;
     c.identified.model = fit.model;
     c.identified.gain_um_per_V = c.gain_um_per_V;
+    if (c.hysteresis) c.identified.hysteresis = c.hysteresis->model;
     c.identified.noise_um = c.safety.front().noise_um;
     SimStage identified(sim::parse_scenario(identified_scenario_json(c.identified, std::nullopt), "."),
                         loop.q31 ? sim::SampleType::kQ31 : sim::SampleType::kFloat);
-    // The identified stage's own displacement at mid-span: its triangles are
-    // centred there as the stage's are at c.centre_um.
-    const double predicted_centre_um = c.gain_um_per_V * mid;
+    // Triangles on the identified stage: centred where the stage's are, or,
+    // for a linear one, at its own displacement at mid-span.
+    const double predicted_centre_um = c.hysteresis ? c.centre_um : c.gain_um_per_V * mid;
 
     // The bandwidth: asked for, or a third of the first lightly damped mode.
     c.target_bandwidth_Hz = r.target_bandwidth_Hz;
@@ -266,13 +306,29 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         c.candidates.push_back(k);
     }
 
-    // 6. Predicted tracking of the passing ones; the better is chosen.
+    // Each passing one with the PI model's inverse as feedforward too (it
+    // does not change the loop's margins).
+    if (c.hysteresis) {
+        PiModel inverse{};
+        if (invert_pi(c.hysteresis->model, inverse).ok()) {
+            for (std::size_t i = 0, n = c.candidates.size(); i < n; ++i) {
+                if (!c.candidates[i].passes) continue;
+                Candidate k = c.candidates[i];
+                k.name += " + PI inverse";
+                k.method += "; the fitted PI model's analytic inverse as feedforward on the reference";
+                k.feedforward = inverse;
+                c.candidates.push_back(k);
+            }
+        }
+    }
+
+    // 6. Predicted tracking of the passing ones; the best is chosen.
     const TrackRequest check{10.0, 0.5 * r.range_um, predicted_centre_um};
     for (std::size_t i = 0; i < c.candidates.size(); ++i) {
         Candidate& k = c.candidates[i];
         say(c, k.name + ": " + (k.passes ? "passes the measured checks" : "refused: " + k.refusal));
         if (!k.passes) continue;
-        k.predicted = identified.track(k.controller, check);
+        k.predicted = identified.track({k.controller, k.feedforward}, check);
         say(c, k.name + ": predicted e_max " + num(k.predicted->e_max_pct) + " % on a 10 Hz triangle over " +
                    num(check.range_um) + " um");
         if (c.chosen < 0 || k.predicted->e_max_pct < c.candidates[static_cast<std::size_t>(c.chosen)].predicted->e_max_pct)
@@ -293,8 +349,8 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         v.request = q;
         TrackRequest p = q;
         p.centre_um = predicted_centre_um;
-        v.predicted = identified.track(k.controller, p);
-        v.measured = stage.track(k.controller, q);
+        v.predicted = identified.track({k.controller, k.feedforward}, p);
+        v.measured = stage.track({k.controller, k.feedforward}, q);
         say(c, "verify " + k.name + ": " + num(q.frequency_Hz) + " Hz triangle over " + num(q.range_um) + " um: e_max " +
                    num(v.measured.e_max_pct) + " % (predicted " + num(v.predicted.e_max_pct) + " %)" +
                    (v.measured.trip != "none" ? ", trip: " + v.measured.trip : ""));
@@ -312,8 +368,11 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
 }
 
 nlohmann::json commissioned_scenario(const Commissioning& c) {
-    std::optional<design::Zpk> k;
-    if (c.chosen >= 0) k = c.candidates[static_cast<std::size_t>(c.chosen)].controller;
+    std::optional<Controller> k;
+    if (c.chosen >= 0) {
+        const Candidate& chosen = c.candidates[static_cast<std::size_t>(c.chosen)];
+        k = Controller{chosen.controller, chosen.feedforward};
+    }
     return identified_scenario_json(c.identified, k);
 }
 

@@ -8,13 +8,19 @@
 //      off the sensor's rails, with the gain of the previous step within
 //      ±50 % (same sign); the gain estimate g0 (µm/V) checks the range. The
 //      displacement at mid-span is the centre of every triangle after.
-//   2. frequency response: open loop about mid-span, 5 % of the span.
+//   2. frequency response: open loop about mid-span, 5 % of the span; and
+//      hysteresis: an open-loop triangle about mid-span over what the range
+//      needs (1.2x at the safety gain; 0.7x again while the sensor sits at a
+//      rail: ten samples at the extreme value), 5 Hz, two smooth (1 - cos)
+//      cycles, a PI model fitted to the second (the first runs the plays:
+//      the jump to its base rings the stage's modes; ident/pi_fit, 8
+//      operators, monotone so that it has an analytic inverse).
 //   3. model: continuous fits of order 2, 4, 6, 8 (zeros one fewer, one tick
 //      of delay taken out); the lowest whose RMS relative error on the lines
 //      with SNR >= 20 dB is below 10 % (the hysteresis bends a stage's
 //      response by several %), else the best. The identified stage
-//      (commission/identified_stage) is its dynamics with the largest safety
-//      step's static gain.
+//      (commission/identified_stage) is the PI hysteresis followed by its
+//      dynamics (without a PI fit: the largest safety step's static gain).
 //   4. candidates on the fitted model normalised to unit DC gain: robust,
 //      mixed-sensitivity H∞ (plant reduced to 6 states if larger, W1 =
 //      (s/1.6 + ω_b)/(s + 1e-3 ω_b) at the target bandwidth, W2 = 0.5), and
@@ -23,7 +29,9 @@
 //      PM >= 45°, GM >= 6 dB, max|S| <= 2; a candidate that fails is never
 //      loaded.
 //   6. each passing candidate's tracking of a 10 Hz triangle over half the
-//      range is predicted on the identified stage; the lower e_max is chosen.
+//      range is predicted on the identified stage, alone and with the PI
+//      model's inverse as feedforward on the reference; the lowest e_max is
+//      chosen.
 //   7. verification on the stage: the chosen controller loaded, triangles
 //      over half the range at 10 Hz (the check) and over the whole range at
 //      1 Hz, 10 Hz and a tenth of the bandwidth, each beside its prediction.
@@ -45,6 +53,7 @@
 #include "lti/lti.hpp"
 #include "measure/frf_plan.hpp"
 #include "measure/step_loops_plan.hpp"
+#include "ident/pi_fit.hpp"
 #include "measure/tf_fit.hpp"
 
 namespace piezoloop::commission {
@@ -68,9 +77,10 @@ struct ModelFit {
 };
 
 struct Candidate {
-    std::string name;          // robust | classic
+    std::string name;          // robust | classic, "+ PI inverse" with the feedforward
     std::string method;        // how it was made
     design::Zpk controller;    // continuous, e (µm) -> u (V)
+    std::optional<PiModel> feedforward;  // r (µm) -> u (V)
     int order = 0;
     double design_crossover_Hz = 0.0;
     design::MeasuredLoop measured;  // on the measured lines
@@ -90,6 +100,10 @@ struct Commissioning {
     double gain_um_per_V = 0.0;
     measure::FrfRun frf;
     measure::FrfRequest frf_request;
+    measure::LoopsRequest loops_request;
+    measure::LoopsRun loops;
+    std::optional<design::PiFitResult> hysteresis;  // the PI fit; absent when it failed
+    std::string hysteresis_note;                    // the fit's figures, or why it failed
     std::vector<ModelFit> fits;  // every order tried
     int chosen_fit = -1;
     double target_bandwidth_Hz = 0.0;

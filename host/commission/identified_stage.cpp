@@ -7,9 +7,28 @@
 
 namespace piezoloop::commission {
 
-nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::optional<design::Zpk>& controller) {
+namespace {
+
+// A plain PI model's thresholds and weights as two lists.
+std::pair<std::vector<double>, std::vector<double>> lists(const PiModel& m) {
+    std::vector<double> r, w;
+    for (int j = 0; j < m.count; ++j) {
+        r.push_back(m.thresholds[static_cast<unsigned>(j)]);
+        w.push_back(m.weights[static_cast<unsigned>(j)]);
+    }
+    return {r, w};
+}
+
+}  // namespace
+
+nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::optional<Controller>& controller) {
     using nlohmann::json;
-    const double g = st.gain_um_per_V;
+    const double g = st.gain_um_per_V;  // the reference's mean slope, and the open loop's
+    json hysteresis = {{"kind", "none"}, {"gain_um_per_V", g}};
+    if (st.hysteresis) {
+        const auto [r, w] = lists(*st.hysteresis);
+        hysteresis = {{"kind", "pi"}, {"thresholds_V", r}, {"weights_um_per_V", w}, {"p0_um_per_V", st.hysteresis->p0}};
+    }
     design::Zpk unit = st.model;
     unit.gain /= design::dc_gain(st.model);
     const double u_min = st.bounds.limits.u_min_V, u_max = st.bounds.limits.u_max_V;
@@ -17,8 +36,10 @@ nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::op
     j["scenario"] = st.name;
     j["title"] = "The stage as measured by piezoloop commission";
     j["source"] = "piezoloop commission, measured on " + st.measured_on;
-    j["notes"] = json::array({"Linear: the fitted model's dynamics with the largest safety step's static gain; the stage's "
-                              "hysteresis is not in it. "
+    j["notes"] = json::array({std::string(st.hysteresis ? "The PI hysteresis fitted to the measured loops, then the fitted "
+                                                          "linear model's dynamics. "
+                                                        : "Linear: the fitted model's dynamics with the largest safety "
+                                                          "step's static gain; the stage's hysteresis is not in it. ") +
                               "The amplifier is the identity and the command limits are the loop's."});
     j["loop"] = {{"rate_Hz", st.loop.rate_Hz},
                  {"position_full_scale_um", st.loop.position_full_scale_um},
@@ -27,7 +48,7 @@ nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::op
     j["plant"] = {{"dac", {{"bits", 0}, {"min", u_min}, {"max", u_max}}},
                   {"amplifier",
                    {{"gain", 1.0}, {"input_min_V", u_min}, {"input_max_V", u_max}, {"output_min_V", u_min}, {"output_max_V", u_max}}},
-                  {"hysteresis", {{"kind", "none"}, {"gain_um_per_V", g}}},
+                  {"hysteresis", hysteresis},
                   {"dynamics", {{"model", design::to_json(unit)}, {"normalise_dc", false}, {"discretisation", "zoh"}}},
                   {"sensor", {{"gain_per_um", 1.0}, {"noise_rms", st.noise_um}, {"seed", 1}}},
                   {"adc", {{"bits", 0}, {"min", st.bounds.closed_range.min_um}, {"max", st.bounds.closed_range.max_um}}}};
@@ -36,14 +57,20 @@ nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::op
     j["cases"] = json::array({{{"name", "open_loop"},
                                {"label", "open loop"},
                                {"controller", {{"feedforward", {{"kind", "gain"}, {"V_per_um", 1.0 / g}}}}}}});
-    if (controller)
+    if (controller) {
+        json k = {{"feedback",
+                   {{"kind", "lti"}, {"error_per_um", 1.0}, {"model", design::to_json(controller->feedback)},
+                    {"method", "tustin"}}}};
+        if (controller->feedforward) {
+            const auto [r, w] = lists(*controller->feedforward);
+            k["feedforward"] = {{"kind", "pi_compensator"}, {"thresholds_um", r}, {"weights_V_per_um", w},
+                                {"p0_V_per_um", controller->feedforward->p0}};
+        }
         j["cases"].push_back({{"name", "commissioned"},
                               {"label", "commissioned controller"},
                               {"sample", st.loop.q31 ? "q31" : "float"},
-                              {"controller",
-                               {{"feedback",
-                                 {{"kind", "lti"}, {"error_per_um", 1.0}, {"model", design::to_json(*controller)},
-                                  {"method", "tustin"}}}}}});
+                              {"controller", k}});
+    }
     return j;
 }
 

@@ -19,14 +19,22 @@ measure::StepRun SimStage::step(const measure::StepRequest& r) { return measure:
 
 measure::FrfRun SimStage::frf(const measure::FrfRequest& r) { return measure::run_frf_sim(s_, nullptr, r); }
 
-TrackingRun SimStage::track(const design::Zpk& controller, const TrackRequest& t) {
-    // The controller as a scenario's lti feedback (e in µm, Tustin).
+measure::LoopsRun SimStage::loops(const measure::LoopsRequest& r) { return measure::run_loops_sim(s_, nullptr, r); }
+
+TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
+    // The controller as a scenario's case: lti feedback (e in µm, Tustin)
+    // and the compensator as pi_compensator feedforward.
     sim::CaseSpec cs;
     cs.name = cs.label = "commissioned";
     cs.sample = sample_;
     cs.feedback.kind = "lti";
-    cs.feedback.model = sim::LinearSpec{controller, "commission", "commissioned.controller"};
+    cs.feedback.model = sim::LinearSpec{k.feedback, "commission", "commissioned.controller"};
     cs.feedback.path = "commissioned.feedback";
+    if (k.feedforward) {
+        cs.feedforward.kind = "pi_compensator";
+        cs.feedforward.pi = *k.feedforward;
+        cs.feedforward.path = "commissioned.feedforward";
+    }
     sim::BuildOptions bo;
     bo.check_realisation = false;
     const sim::BuiltCase b = sim::build_case(s_, cs, bo);

@@ -16,7 +16,8 @@ public:
     measure::MeasureBounds bounds() override;
     measure::StepRun step(const measure::StepRequest& r) override;
     measure::FrfRun frf(const measure::FrfRequest& r) override;
-    TrackingRun track(const design::Zpk& controller, const TrackRequest& t) override;
+    measure::LoopsRun loops(const measure::LoopsRequest& r) override;
+    TrackingRun track(const Controller& k, const TrackRequest& t) override;
 
 private:
     sim::Scenario s_;

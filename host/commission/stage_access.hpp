@@ -4,13 +4,22 @@
 // measures, so a board and `--scenario` run the same steps.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "lti/lti.hpp"
 #include "measure/frf_plan.hpp"
 #include "measure/step_loops_plan.hpp"
+#include "piezoloop/pi_model.hpp"
 
 namespace piezoloop::commission {
+
+// What commissioning loads: a feedback controller and, where it helps, a
+// hysteresis compensator on the reference.
+struct Controller {
+    design::Zpk feedback;                 // continuous, e (µm) -> u (V), Tustin at the loop rate
+    std::optional<PiModel> feedforward;   // r (µm) -> u (V): the fitted PI model's analytic inverse
+};
 
 // A triangle centred on a displacement (a range held inside what the
 // command reaches, wherever the stage's zero is).
@@ -40,13 +49,13 @@ public:
     virtual std::string describe() const = 0;
     virtual LoopFacts loop() = 0;
     virtual measure::MeasureBounds bounds() = 0;
-    // Open loop, as `measure step` / `measure frf` run them.
+    // Open loop, as `measure step` / `measure frf` / `measure loops` run them.
     virtual measure::StepRun step(const measure::StepRequest& r) = 0;
     virtual measure::FrfRun frf(const measure::FrfRequest& r) = 0;
-    // Runs `controller` (continuous, e in µm -> u in V, discretised by Tustin
-    // at the loop rate) on the triangle, feedback alone; the loop is left
-    // disarmed with the controller loaded.
-    virtual TrackingRun track(const design::Zpk& controller, const TrackRequest& t) = 0;
+    virtual measure::LoopsRun loops(const measure::LoopsRequest& r) = 0;
+    // Runs the controller on the triangle (repetitive control off); the loop
+    // is left disarmed with the controller loaded.
+    virtual TrackingRun track(const Controller& k, const TrackRequest& t) = 0;
 };
 
 }  // namespace piezoloop::commission

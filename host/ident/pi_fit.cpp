@@ -168,8 +168,12 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
     const std::vector<double> r = pi_fit_thresholds(u, o);
     const int n = static_cast<int>(r.size());
     const int need = std::max(3 * (n + 1), 20);
-    if (static_cast<int>(u.size()) < need)
-        throw std::invalid_argument(o.input_name + ": too short: " + std::to_string(u.size()) + " samples; " +
+    if (o.first_fitted >= u.size())
+        throw std::invalid_argument("first_fitted: " + std::to_string(o.first_fitted) + " is not below the " +
+                                    std::to_string(u.size()) + " samples");
+    if (static_cast<int>(u.size() - o.first_fitted) < need)
+        throw std::invalid_argument(o.input_name + ": too short: " + std::to_string(u.size() - o.first_fitted) +
+                                    " fitted samples; " +
                                     std::to_string(n + 1) + " weights need at least " + std::to_string(need));
     const auto [umin, umax] = std::minmax_element(u.begin(), u.end());
     if (!(*umax > *umin)) throw std::invalid_argument(o.input_name + ": no excitation: the input is constant");
@@ -177,12 +181,17 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
 
     // [u, play_1(u) .. play_n(u), y] row by row into R (RowFolder): the
     // regressors Φ are R's first n + 1 columns, Qᵀy's head its last.
-    const int rows = static_cast<int>(u.size());
+    const int first = static_cast<int>(o.first_fitted);
+    const int all = static_cast<int>(u.size()), rows = all - first;
     RowFolder folder(n + 2);
     std::vector<double> play(static_cast<std::size_t>(n), 0.0);
     std::vector<bool> moved(static_cast<std::size_t>(n), false);
-    for (int k = 0; k < rows; ++k) {
+    for (int k = 0; k < all; ++k) {
         const double uk = u[static_cast<std::size_t>(k)];
+        if (k < first) {
+            for (std::size_t j = 0; j < play.size(); ++j) play[j] = std::max(uk - r[j], std::min(uk + r[j], play[j]));
+            continue;
+        }
         double* row = folder.next_row();
         row[0] = uk;
         for (std::size_t j = 0; j < play.size(); ++j) {
@@ -294,13 +303,14 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
     PiOperator<float> op;
     op.configure(mdl);
     double e2 = 0.0, emax = 0.0, mean = 0.0, d2 = 0.0;
-    for (double v : y) mean += v;
+    for (int k = first; k < all; ++k) mean += y[static_cast<std::size_t>(k)];
     mean /= rows;
-    for (int k = 0; k < rows; ++k) {
+    for (int k = 0; k < all; ++k) {
         if (o.progress && (k & 0xFFFFF) == 0xFFFFF)
             o.progress("model errors: " + std::to_string((k + 1) >> 20) + " Mi of " + std::to_string(rows >> 20) +
                        " Mi rows");
         const double e = y[static_cast<std::size_t>(k)] - op.apply(static_cast<float>(u[static_cast<std::size_t>(k)]));
+        if (k < first) continue;
         e2 += e * e;
         emax = std::max(emax, std::fabs(e));
         d2 += (y[static_cast<std::size_t>(k)] - mean) * (y[static_cast<std::size_t>(k)] - mean);

@@ -42,6 +42,10 @@ struct PiFitOptions {
     // Smallest allowed loading-curve slope in the monotone fit, output per
     // input unit. < 0: 1e-3 * (max y - min y) / (max u - min u).
     double min_slope = -1.0;
+    // Samples before this one only run the plays (their history), outside the
+    // fit and its errors: a transient the model does not describe (a
+    // stage's mode ringing after a jump to the first input).
+    std::size_t first_fitted = 0;
     std::string input_name = "u";   // column names used in error messages
     std::string output_name = "y";
     // Called now and then on long data ("regressors: 3 Mi of 10 Mi rows").

@@ -30,17 +30,22 @@ link::FeedbackParams feedback_group(const design::Zpk& controller, const link::H
     return g;
 }
 
-commission::TrackingRun BoardStage::track(const design::Zpk& controller, const commission::TrackRequest& t) {
+commission::TrackingRun BoardStage::track(const commission::Controller& k, const commission::TrackRequest& t) {
     const link::HelloReply& h = c_.info();
-    const link::FeedbackParams fb = feedback_group(controller, h);
+    const link::FeedbackParams fb = feedback_group(k.feedback, h);
+    link::FeedforwardParams ff;
+    if (k.feedforward) {
+        ff.kind = FeedforwardKind::kPiCompensator;
+        ff.pi = *k.feedforward;
+    }
     link::StatusReply st = c_.status();
     if (st.wave_running) c_.stop_wave();
     if (st.armed) c_.disarm();
     if (st.tripped) throw std::runtime_error(std::string("the board's limiter is tripped (") +
                                              trip_reason_name(st.trip_reason) + ")");
-    // Feedback alone: RC off before the feedback changes (it needs one).
+    // RC off before the feedback changes (it needs one).
     c_.set(link::RepetitiveParams{});
-    c_.set(link::FeedforwardParams{});
+    c_.set(ff);
     c_.set(fb);
     link::TrajectoryParams w;
     w.waveform = Waveform::kTriangle;

@@ -1,7 +1,7 @@
 // A board as commissioning sees it (commission/stage_access.hpp): open-loop
 // steps and frequency responses through the measurement sessions
 // (link/measure_session), and a controller verified by loading it as the
-// board's feedback (feedforward and repetitive control off, the board's
+// board's feedback and feedforward (repetitive control off, the board's
 // limits group as it is) and recording a centred triangle
 // (link/record_session). `piezoloop --device ADDR commission`.
 #pragma once
@@ -20,7 +20,8 @@ public:
     measure::MeasureBounds bounds() override { return board_bounds(c_); }
     measure::StepRun step(const measure::StepRequest& r) override { return run_step_device(c_, r, o_); }
     measure::FrfRun frf(const measure::FrfRequest& r) override { return run_frf_device(c_, r, o_).run; }
-    commission::TrackingRun track(const design::Zpk& controller, const commission::TrackRequest& t) override;
+    measure::LoopsRun loops(const measure::LoopsRequest& r) override { return run_loops_device(c_, r, o_); }
+    commission::TrackingRun track(const commission::Controller& k, const commission::TrackRequest& t) override;
 
 private:
     Client& c_;

@@ -72,6 +72,12 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     // The safety steps measure the stage's small-signal gain, 2.8 um/V.
     EXPECT_NEAR(c.gain_um_per_V, 2.8, 0.2);
     ASSERT_TRUE(k.predicted.has_value());
+    // The loop about mid-span is fitted by a PI model within 1 % (NRMSE)
+    // and the chosen controller carries its inverse: on this stage it
+    // predicts better than feedback alone.
+    ASSERT_TRUE(c.hysteresis.has_value()) << c.hysteresis_note;
+    EXPECT_LT(c.hysteresis->nrmse_percent, 1.0);
+    EXPECT_TRUE(k.feedforward.has_value()) << k.name;
     // Verified on the stage: the 10 Hz triangle over half the range first,
     // then the whole range at 1 Hz, 10 Hz and a tenth of the bandwidth.
     EXPECT_TRUE(c.verified()) << c.verification_failure;
@@ -88,7 +94,8 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     const sim::Scenario id = sim::parse_scenario(commissioned_scenario(c), ".");
     EXPECT_EQ(id.rate_Hz, s.rate_Hz);
     EXPECT_NO_THROW(id.find_case("commissioned"));
-    EXPECT_EQ(id.plant.hysteresis.gain_um_per_V, c.gain_um_per_V);
+    EXPECT_EQ(id.plant.hysteresis.kind, "pi");  // the fitted model
+    EXPECT_EQ(id.nominal_um_per_V, c.gain_um_per_V);
 }
 
 // A stage that tracks far worse than predicted (the model misses something):
@@ -96,7 +103,7 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
 class BadTracker : public SimStage {
 public:
     using SimStage::SimStage;
-    TrackingRun track(const design::Zpk& k, const TrackRequest& t) override {
+    TrackingRun track(const Controller& k, const TrackRequest& t) override {
         TrackingRun r = SimStage::track(k, t);
         r.e_max_pct = 50.0;
         return r;

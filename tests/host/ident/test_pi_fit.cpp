@@ -173,6 +173,29 @@ TEST(IdentPi, ShanGridRecoversExponentialDensityWeights) {
     EXPECT_LT(res.rms_error, 1e-6);  // the float PiModel's rounding (|y| ~ 3)
 }
 
+TEST(IdentPi, SamplesBeforeFirstFittedOnlyRunThePlays) {
+    // The Shan2012 data with its first 100 outputs corrupted (a transient
+    // the model does not describe): fitted from sample 100 on, the weights
+    // come back as from the clean data, since the plays still run through
+    // the skipped inputs; the errors are those of the fitted samples.
+    const auto& s = golden()["shan"];
+    const std::vector<double> u = s["u"], w = s["weights"];
+    std::vector<double> y = s["y"];
+    for (std::size_t k = 0; k < 100; ++k) y[k] += 5.0 * std::sin(0.3 * static_cast<double>(k));
+    PiFitOptions o;
+    o.grid = ThresholdGrid::kShan;
+    o.rho = s["rho"];
+    o.operators = 8;
+    EXPECT_GT(fit_pi(u, y, o).rms_error, 1e-2);  // the corruption spoils a fit of every sample
+    o.first_fitted = 100;
+    const PiFitResult res = fit_pi(u, y, o);
+    for (int j = 0; j < 9; ++j) EXPECT_NEAR(res.weights[j], w[j], 1e-10 * w.back()) << j;
+    EXPECT_LT(res.rms_error, 1e-6);
+    EXPECT_LT(res.max_error, 1e-5);
+    o.first_fitted = u.size();
+    EXPECT_THROW(fit_pi(u, y, o), std::invalid_argument);
+}
+
 TEST(IdentPi, NnlsSatisfiesKkt) {
     // Random problems: x >= 0, gradient g = A'(Ax - b) is 0 on free variables
     // and >= 0 on those held at 0 (optimality of the convex problem).
