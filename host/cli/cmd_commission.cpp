@@ -24,6 +24,7 @@
 
 #include "commands.hpp"
 #include "commission/commission.hpp"
+#include "commission/commission_figures.hpp"
 #include "commission/sim_stage.hpp"
 #include "device_common.hpp"
 #include "exit_codes.hpp"
@@ -31,6 +32,7 @@
 #include "link/board_stage.hpp"
 #include "lti/model_json.hpp"
 #include "measure/frf_report.hpp"
+#include "sim/plotting.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::cli {
@@ -179,7 +181,18 @@ int run_commission(const CommissionArgs& a) {
         std::ofstream f(dir / name);
         if (!(f << text)) throw std::runtime_error("--out: cannot write " + (dir / name).string());
     };
-    write("report.md", report_md(a, stage->describe(), rate_Hz, c, kept));
+    // The figures; a report without them is still a report.
+    std::string figures = "Figures: frf.png (measured and fitted response), loops.png (hysteresis loop and PI model), "
+                          "candidates.png (loop and sensitivity on the measured lines)" +
+                          std::string(c.verification.empty() ? "" : ", verification.png (tracking, measured and predicted)") +
+                          ".";
+    try {
+        sim::plot_spec("plot_sim.py", commission::commission_figures(c, std::filesystem::absolute(dir)));
+    } catch (const std::exception& e) {
+        figures = std::string("The figures could not be drawn: ") + e.what();
+        say("warning: " + figures);
+    }
+    write("report.md", report_md(a, stage->describe(), rate_Hz, c, kept) + "\n" + figures + "\n");
     write("frf.json", measure::frf_report(c.frf_request, c.frf, source).dump(1) + "\n");
     json out;
     out["stage"] = stage->describe();

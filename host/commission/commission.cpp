@@ -36,6 +36,57 @@ void check_on_measurement(Candidate& c, const measure::FrfRun& frf, double rate_
     c.passes = c.refusal.empty();
 }
 
+// The robust and the classic candidate on the model normalised to unit DC
+// gain (gn), each checked on the measured lines.
+std::vector<Candidate> design_candidates(const design::Zpk& gn, double dc_gain_um_per_V, double target_Hz,
+                                         const measure::FrfRun& frf, double rate_Hz) {
+    std::vector<Candidate> out;
+    {
+        Candidate k;
+        k.name = "robust";
+        try {
+            design::Zpk plant = gn;
+            if (plant.poles.size() > 6) plant = design::ss2zpk(design::balanced_truncation(design::zpk2ss(gn), 6).reduced);
+            const double wb = kTwoPi * target_Hz;
+            // |S| <= 1.6 gamma at high frequency: the measured check wants max|S| <= 2.
+            const design::Zpk w1{{design::cplx(-1.6 * wb)}, {design::cplx(-1e-3 * wb)}, 1.0 / 1.6, 0.0};
+            const design::Zpk w2{{}, {}, 0.5, 0.0};
+            design::HinfOptions ho;
+            ho.rel_tol = 1e-4;
+            const design::MixsynResult m = design::mixsyn(plant, w1, w2, std::nullopt, ho);
+            k.controller = m.controller_zpk;
+            k.controller.gain /= dc_gain_um_per_V;
+            k.order = static_cast<int>(k.controller.poles.size());
+            k.design_crossover_Hz = target_Hz;
+            k.method = "mixsyn on the " + std::to_string(plant.poles.size()) +
+                       "-state model, W1 = (s/1.6 + wb)/(s + 1e-3 wb) at " + num(target_Hz) +
+                       " Hz, W2 = 0.5, gamma " + num(m.synthesis.gamma_controller);
+            check_on_measurement(k, frf, rate_Hz);
+        } catch (const std::exception& e) {
+            k.refusal = std::string("synthesis failed: ") + e.what();
+        }
+        out.push_back(k);
+    }
+    {
+        Candidate k;
+        k.name = "classic";
+        try {
+            const design::PiNotchDesign d = design::design_pi_notch(gn, target_Hz);
+            k.controller = d.controller;
+            k.controller.gain /= dc_gain_um_per_V;
+            k.order = static_cast<int>(k.controller.poles.size());
+            k.design_crossover_Hz = d.crossover_Hz;
+            k.method = "PI + " + std::to_string(d.notches.size()) + " notches, crossover " + num(d.crossover_Hz) + " Hz";
+            check_on_measurement(k, frf, rate_Hz);
+        } catch (const std::exception& e) {
+            k.refusal = std::string("design failed: ") + e.what();
+        }
+        out.push_back(k);
+    }
+
+    return out;
+}
+
 // Where |T| = |L / (1 + L)| first falls below -3 dB on the measured lines
 // (log-frequency interpolation between the two lines around it); 0 when it
 // stays above.
@@ -262,48 +313,15 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     say(c, "model " + std::to_string(fit.poles) + "/" + std::to_string(fit.zeros) + ", target bandwidth " +
                num(c.target_bandwidth_Hz) + " Hz");
 
-    // 4-5. Candidates, checked on the measurement.
-    {
-        Candidate k;
-        k.name = "robust";
-        try {
-            design::Zpk plant = gn;
-            if (plant.poles.size() > 6) plant = design::ss2zpk(design::balanced_truncation(design::zpk2ss(gn), 6).reduced);
-            const double wb = kTwoPi * c.target_bandwidth_Hz;
-            // |S| <= 1.6 gamma at high frequency: the measured check wants max|S| <= 2.
-            const design::Zpk w1{{design::cplx(-1.6 * wb)}, {design::cplx(-1e-3 * wb)}, 1.0 / 1.6, 0.0};
-            const design::Zpk w2{{}, {}, 0.5, 0.0};
-            design::HinfOptions ho;
-            ho.rel_tol = 1e-4;
-            const design::MixsynResult m = design::mixsyn(plant, w1, w2, std::nullopt, ho);
-            k.controller = m.controller_zpk;
-            k.controller.gain /= fit.dc_gain_um_per_V;
-            k.order = static_cast<int>(k.controller.poles.size());
-            k.design_crossover_Hz = c.target_bandwidth_Hz;
-            k.method = "mixsyn on the " + std::to_string(plant.poles.size()) +
-                       "-state model, W1 = (s/1.6 + wb)/(s + 1e-3 wb) at " + num(c.target_bandwidth_Hz) +
-                       " Hz, W2 = 0.5, gamma " + num(m.synthesis.gamma_controller);
-            check_on_measurement(k, c.frf, loop.rate_Hz);
-        } catch (const std::exception& e) {
-            k.refusal = std::string("synthesis failed: ") + e.what();
-        }
-        c.candidates.push_back(k);
-    }
-    {
-        Candidate k;
-        k.name = "classic";
-        try {
-            const design::PiNotchDesign d = design::design_pi_notch(gn, c.target_bandwidth_Hz);
-            k.controller = d.controller;
-            k.controller.gain /= fit.dc_gain_um_per_V;
-            k.order = static_cast<int>(k.controller.poles.size());
-            k.design_crossover_Hz = d.crossover_Hz;
-            k.method = "PI + " + std::to_string(d.notches.size()) + " notches, crossover " + num(d.crossover_Hz) + " Hz";
-            check_on_measurement(k, c.frf, loop.rate_Hz);
-        } catch (const std::exception& e) {
-            k.refusal = std::string("design failed: ") + e.what();
-        }
-        c.candidates.push_back(k);
+    // 4-5. Candidates, checked on the measurement. When none passes at the
+    // automatic target, it is halved, twice at most.
+    for (int attempt = 0;; ++attempt) {
+        c.candidates = design_candidates(gn, fit.dc_gain_um_per_V, c.target_bandwidth_Hz, c.frf, loop.rate_Hz);
+        const bool any = std::any_of(c.candidates.begin(), c.candidates.end(), [](const Candidate& k) { return k.passes; });
+        if (any || r.target_bandwidth_Hz > 0.0 || attempt == 2) break;
+        for (const Candidate& k : c.candidates) say(c, k.name + " at " + num(c.target_bandwidth_Hz) + " Hz: refused: " + k.refusal);
+        c.target_bandwidth_Hz *= 0.5;
+        say(c, "target bandwidth halved: " + num(c.target_bandwidth_Hz) + " Hz");
     }
 
     // Each passing one with the PI model's inverse as feedforward too (it

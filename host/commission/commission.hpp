@@ -27,7 +27,8 @@
 //      classic, PI + notches (synth/pi_notch) at the target bandwidth.
 //   5. each checked on the measured response (analysis/measured_loop):
 //      PM >= 45°, GM >= 6 dB, max|S| <= 2; a candidate that fails is never
-//      loaded.
+//      loaded. When none passes at the automatic target bandwidth, it is
+//      halved (twice at most).
 //   6. each passing candidate's tracking of a 10 Hz triangle over half the
 //      range is predicted on the identified stage, alone and with the PI
 //      model's inverse as feedforward on the reference; the lowest e_max is

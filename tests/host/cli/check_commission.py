@@ -1,10 +1,12 @@
 #!/usr/bin/python3
 """End to end: `piezoloop commission --scenario configs/ahmad2020.json
---range-um 12 --out DIR` writes report.md, controller.json and frf.json; the
-chosen controller passes `piezoloop analyze measured-loop` on the written
-measurement with the figures the summary reports (same lines, same
-discretisation: equal to 1e-9); bad requests exit 2 naming the option, with
-nothing written.
+--range-um 12 --out DIR` writes report.md, controller.json, frf.json,
+scenario.json and the figures; the chosen controller passes `piezoloop
+analyze measured-loop` on the written measurement with the figures the
+summary reports (same lines, same discretisation: equal to 1e-9); the
+written scenario's commissioned case runs in `piezoloop sim`; the
+verification agrees; bad requests exit 2 naming the option, with nothing
+written; options for a board only are refused on the simulator.
 Usage: check_commission.py PIEZOLOOP_BINARY CONFIGS_DIR
 """
 import json
@@ -34,8 +36,14 @@ r = subprocess.run([exe, "commission", "--scenario", scenario, "--range-um", "12
 check(r.returncode == 0, "commission: %d %s" % (r.returncode, r.stderr))
 if r.returncode == 0:
     s = json.loads(r.stdout)
-    for name in ("report.md", "controller.json", "frf.json"):
+    for name in ("report.md", "controller.json", "frf.json", "scenario.json", "frf.png", "loops.png",
+                 "candidates.png", "verification.png"):
         check(os.path.exists(os.path.join(out, name)), name)
+    check(s.get("verified") is True and s["verification"][0]["frequency_Hz"] == 10 and
+          s["verification"][0]["range_um"] == 6, "verified, the check first: %r" % s.get("verification"))
+    r2 = subprocess.run([exe, "sim", "--scenario", os.path.join(out, "scenario.json"), "--case", "commissioned",
+                         "--amplitude-um", "6", "--frequency-hz", "10"], capture_output=True, text=True)
+    check(r2.returncode == 0 and json.loads(r2.stdout)["e_max_pct"] < 5, "sim of scenario.json: %s" % r2.stderr)
     chosen = [c for c in s["candidates"] if c["name"] == s["chosen"]][0]
     check(chosen["passes"] and chosen["measured_phase_margin_deg"] >= 45, "chosen passes: %r" % chosen["name"])
     m = subprocess.run([exe, "analyze", "measured-loop", "--frf", os.path.join(out, "frf.json"), "--controller",
@@ -55,6 +63,10 @@ for args, option in ((["--range-um", "1000"], "--range-um"), (["--range-um", "-1
     r = subprocess.run([exe, "commission", "--scenario", scenario, *args, "--out", bad], capture_output=True, text=True)
     check(r.returncode == 2 and option in r.stderr and not os.path.exists(bad),
           "%s: %d %s" % (option, r.returncode, r.stderr))
+
+r = subprocess.run([exe, "commission", "--scenario", scenario, "--range-um", "12", "--no-save", "--out", bad],
+                   capture_output=True, text=True)
+check(r.returncode == 2 and "--no-save" in r.stderr, "--no-save on the simulator: %s" % r.stderr)
 
 print("%d passed, %d failed" % (passed, failed))
 sys.exit(1 if failed else 0)
