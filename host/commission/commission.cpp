@@ -24,6 +24,15 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 // Figures in messages: four significant digits.
 std::string num(double v) { return format::significant(v, 4); }
 
+// A sensor at its rail reads one extreme value again and again, at or beyond
+// the range it reads (a moving stage's noise does not repeat its extreme,
+// and a stage's rest near the range's edge is not a rail).
+bool at_rail(const std::vector<double>& y, const measure::RangeUm& rails) {
+    const auto [lo, hi] = std::minmax_element(y.begin(), y.end());
+    const auto pinned = [&](double v) { return std::count(y.begin(), y.end(), v) >= 10; };
+    return (*lo <= rails.min_um && pinned(*lo)) || (*hi >= rails.max_um && pinned(*hi));
+}
+
 // Checks a candidate on the measured lines (K at the loop rate, as a board runs it).
 void check_on_measurement(Candidate& c, const measure::FrfRun& frf, double rate_Hz) {
     const design::Zpk k = sim::discretise(c.controller, rate_Hz, "tustin", 0.0, false, "controller");
@@ -120,7 +129,7 @@ SafetyStep check_safety_step(const measure::StepRun& run, double step_V, double 
     double var = 0.0;
     for (std::size_t i = 0; i < run.y_um.size(); ++i)
         if (run.time_s[i] < 0.0) var += (run.y_um[i] - sum / n) * (run.y_um[i] - sum / n);
-    if (hi >= rails.max_um || lo <= rails.min_um)
+    if (at_rail(run.y_um, rails))
         throw std::runtime_error(which + "the sensor is at its rail (" + num(lo) + " .. " + num(hi) + " um)");
     SafetyStep s;
     s.step_V = step_V;
@@ -212,13 +221,11 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         c.loops_request.cycles = 2;
         c.loops_request.shape = "sine";
         c.loops = stage.loops(c.loops_request);
-        // A sensor at its rail reads the same extreme value again and again
-        // (a moving stage's noise does not).
         const auto [lo, hi] = std::minmax_element(c.loops.y_um.begin(), c.loops.y_um.end());
-        const auto at = [&](double v) { return std::count(c.loops.y_um.begin(), c.loops.y_um.end(), v) >= 10; };
         c.hysteresis_note = c.loops.trip != "none" ? "the limiter tripped (" + c.loops.trip + ")"
-                            : at(*lo) || at(*hi) ? "the sensor reached its rail (" + num(*lo) + " .. " + num(*hi) + " um)"
-                                                 : "";
+                            : at_rail(c.loops.y_um, b.closed_range)
+                                ? "the sensor reached its rail (" + num(*lo) + " .. " + num(*hi) + " um)"
+                                : "";
         if (c.hysteresis_note.empty()) break;
         say(c, "hysteresis loop of " + num(loop_V) + " V: " + c.hysteresis_note);
     }

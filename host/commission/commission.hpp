@@ -5,13 +5,14 @@
 //
 //   1. safety: open-loop command steps of 2, 5 and 10 % of the command span
 //      from mid-span; each must move the stage (|Δy| above 5x the noise),
-//      off the sensor's rails, with the gain of the previous step within
+//      off the sensor's rails (ten samples at one extreme value at or beyond
+//      the range the sensor reads), with the gain of the previous step within
 //      ±50 % (same sign); the gain estimate g0 (µm/V) checks the range. The
 //      displacement at mid-span is the centre of every triangle after.
 //   2. frequency response: open loop about mid-span, 5 % of the span; and
 //      hysteresis: an open-loop triangle about mid-span over what the range
 //      needs (1.2x at the safety gain; 0.7x again while the sensor sits at a
-//      rail: ten samples at the extreme value), 5 Hz, two smooth (1 - cos)
+//      rail), 5 Hz, two smooth (1 - cos)
 //      cycles, a PI model fitted to the second (the first runs the plays:
 //      the jump to its base rings the stage's modes; ident/pi_fit, 8
 //      operators, monotone so that it has an analytic inverse).

@@ -6,7 +6,8 @@ analyze measured-loop` on the written measurement with the figures the
 summary reports (same lines, same discretisation: equal to 1e-9); the
 written scenario's commissioned case runs in `piezoloop sim`; the
 verification agrees; bad requests exit 2 naming the option, with nothing
-written; options for a board only are refused on the simulator.
+written; a stage that does not respond stops at the first safety step;
+options for a board only are refused on the simulator.
 Usage: check_commission.py PIEZOLOOP_BINARY CONFIGS_DIR
 """
 import json
@@ -63,6 +64,18 @@ for args, option in ((["--range-um", "1000"], "--range-um"), (["--range-um", "-1
     r = subprocess.run([exe, "commission", "--scenario", scenario, *args, "--out", bad], capture_output=True, text=True)
     check(r.returncode == 2 and option in r.stderr and not os.path.exists(bad),
           "%s: %d %s" % (option, r.returncode, r.stderr))
+
+# A stage that does not move (its dynamics' gain 1e-9): the first safety step
+# stops it, exit 1 naming the step and the reason, nothing written.
+dead = json.load(open(os.path.join(configs, "stages", "stiff_stack.json")))
+dead["plant"]["dynamics"]["normalise_dc"] = False
+dead["plant"]["dynamics"]["model"]["gain"] = 1e-9
+dead_file = os.path.join(tmp, "dead.json")
+json.dump(dead, open(dead_file, "w"))
+r = subprocess.run([exe, "commission", "--scenario", dead_file, "--range-um", "10", "--out", bad], capture_output=True,
+                   text=True)
+check(r.returncode == 1 and "safety step of 0.2 V" in r.stderr and "does not respond" in r.stderr and
+      not os.path.exists(bad), "a stage that does not respond: %d %s" % (r.returncode, r.stderr))
 
 r = subprocess.run([exe, "commission", "--scenario", scenario, "--range-um", "12", "--no-save", "--out", bad],
                    capture_output=True, text=True)

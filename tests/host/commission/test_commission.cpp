@@ -4,6 +4,7 @@
 // on the measured response.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -48,6 +49,11 @@ TEST(CommissionSafety, AStepThatMovesGivesItsGain) {
 TEST(CommissionSafety, EachStopNamesItsReason) {
     expect_stop(record(10.0, 10.02, 0.01), nullptr, "does not respond");
     expect_stop(record(10.0, 50.0, 0.0), nullptr, "at its rail");
+    // Noise that dips below the range's edge is not a rail (it does not
+    // repeat its extreme value).
+    measure::StepRun near_edge = record(0.0, 3.0, 0.0);
+    for (std::size_t i = 0; i < near_edge.y_um.size(); ++i) near_edge.y_um[i] += 0.01 * std::sin(0.7 * static_cast<double>(i));
+    EXPECT_NO_THROW(check_safety_step(near_edge, 1.0, 5.0, kRails, nullptr));
     measure::StepRun tripped = record(10.0, 13.0, 0.0);
     tripped.trip = "slew";
     expect_stop(tripped, nullptr, "limiter tripped");
