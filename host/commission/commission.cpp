@@ -160,9 +160,12 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     const LoopFacts loop = stage.loop();
     const double u_min = b.limits.u_min_V, u_max = b.limits.u_max_V, span = u_max - u_min, mid = 0.5 * (u_min + u_max);
     const double travel = b.closed_range.max_um - b.closed_range.min_um;
+    // The limits are the stage's command range (its amplifier's input):
+    // commissioning stays inside them and cannot guess them.
     if (!(span > 0.0))
         throw std::invalid_argument("limits: the command span " + num(u_min) + " .. " + num(u_max) +
-                                    " V is empty; set the limits group first");
+                                    " V is empty; set the limits group to the stage's command range first "
+                                    "(`piezoloop set limits`)");
     if (!(r.range_um > 0.0) || !std::isfinite(r.range_um))
         throw std::invalid_argument("--range-um: must be finite and > 0");
     if (r.range_um > travel)

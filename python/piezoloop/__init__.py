@@ -10,10 +10,12 @@ See docs/python.md.
 from . import _piezoloop
 from . import design
 from ._piezoloop import DeviceError, LinkError
+from .commission import commission
 from .device import Device, Recording, connect, devices
 from .emulate import Emulator, emulate
 from .measure import FrequencyResponse, Loops, StepResponse, measure_frf, measure_loops, measure_step
 from .simulate import SimRun, sim
 
 __all__ = ["sim", "SimRun", "connect", "devices", "Device", "Recording", "emulate", "Emulator", "design", "measure_frf",
-           "measure_step", "measure_loops", "FrequencyResponse", "StepResponse", "Loops", "LinkError", "DeviceError"]
+           "measure_step", "measure_loops", "FrequencyResponse", "StepResponse", "Loops", "commission", "LinkError",
+           "DeviceError"]

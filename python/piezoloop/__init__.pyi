@@ -2,7 +2,7 @@
 # names: _um micrometres, _V volts, _s seconds, _hz hertz.
 import os
 from dataclasses import dataclass
-from typing import Dict, Optional, Union
+from typing import Callable, Dict, Optional, Union
 
 import numpy as np
 
@@ -76,6 +76,9 @@ def measure_loops(scenario: PathLike, amplitudes_v: Sequence[float], *, bias_v: 
                   frequency_hz: float = 1.0, cycles: int = 2, shape: str = "triangle", case: Optional[str] = None,
                   sample: Optional[str] = None) -> Loops: ...
 
+def commission(scenario: PathLike, range_um: float, out: PathLike, *, target_bandwidth_hz: Optional[float] = None,
+               progress: Optional[Callable[[str], None]] = None) -> dict: ...
+
 @dataclass
 class Recording:
     signals: Dict[str, np.ndarray]  # t_s and r_um, y_um, e_um, u_V, u_ff_V, u_fb_V, u_rc_V as recorded
@@ -116,6 +119,8 @@ class Device:
     def measure_loops(self, amplitudes_v: Sequence[float], *, bias_v: Optional[float] = None,
                       frequency_hz: float = 1.0, cycles: int = 2, shape: str = "triangle",
                       restart_stage: bool = False) -> Loops: ...
+    def commission(self, range_um: float, out: PathLike, *, target_bandwidth_hz: Optional[float] = None,
+                   save: bool = True, progress: Optional[Callable[[str], None]] = None) -> dict: ...
     def wave(self, trajectory: str = "triangle", frequency_hz: float = 10.0, amplitude_um: float = 0.0, *,
              offset: Optional[str] = None, scenario: Optional[PathLike] = None, cycles: int = 0,
              arm: bool = False) -> dict: ...

@@ -4,11 +4,12 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass
-from typing import Dict, Optional, Sequence
+from typing import Callable, Dict, Optional, Sequence
 
 import numpy as np
 
 from . import _piezoloop
+from .commission import check_commission
 from .measure import (FrequencyResponse, Loops, StepResponse, check_request, check_shape, check_step,
                       loops_from_result, response_from_report, step_from_report)
 
@@ -236,6 +237,18 @@ class Device:
         r = self._dev.measure_loops([float(a) for a in amplitudes_v], None if bias_v is None else float(bias_v),
                                     float(frequency_hz), int(cycles), shape, bool(restart_stage))
         return loops_from_result(r)
+
+    def commission(self, range_um: float, out: str | os.PathLike, *, target_bandwidth_hz: Optional[float] = None,
+                   save: bool = True, progress: Optional[Callable[[str], None]] = None) -> dict:
+        """Commissions the board's stage from measurements alone, as
+        `piezoloop --device commission` (docs/commissioning.md): measured,
+        designed, checked on the measured response, loaded, verified on the
+        board and, when verified and `save`, saved on the board. Writes the
+        report and files to `out`; returns the summary. Ctrl-C stops it with
+        the board disarmed."""
+        check_commission(range_um, target_bandwidth_hz)
+        return self._dev.commission(float(range_um), float(target_bandwidth_hz or 0.0), os.fspath(out), bool(save),
+                                    progress)
 
 
 def devices() -> list:

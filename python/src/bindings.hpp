@@ -6,6 +6,7 @@
 
 #include <pybind11/pybind11.h>
 
+#include <functional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -22,6 +23,18 @@ namespace pyb = pybind11;
 
 inline pyb::object to_python(const nlohmann::json& j) {
     return pyb::module_::import("json").attr("loads")(j.dump());
+}
+
+// A Python callable taking one line (or None) as a progress callback that
+// may run with the GIL released: it takes the GIL for the call. `f` must
+// outlive the callback (it is held by reference: no reference counting
+// without the GIL).
+inline std::function<void(const std::string&)> progress_lines(const pyb::object& f) {
+    if (f.is_none()) return {};
+    return [&f](const std::string& line) {
+        pyb::gil_scoped_acquire acquire;
+        f(line);
+    };
 }
 
 void add_sim(pyb::module_& m);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bindings.hpp"
+#include "commission_session.hpp"
 #include "device_common.hpp"
 #include "link/client.hpp"
 #include "link/measure_session.hpp"
@@ -234,6 +235,22 @@ public:
         return loops_result(run, measure::loops_report(r, run, source));
     }
 
+    // `piezoloop --device commission`: as piezoloop.commission, on the board;
+    // the progress lines go to `progress` (with the GIL) when given.
+    pyb::object commission(double range_um, double target_bandwidth_Hz, const std::string& out, bool save,
+                           const pyb::object& progress) {
+        cli::CommissionSession s;
+        s.request.range_um = range_um;
+        s.request.target_bandwidth_Hz = target_bandwidth_Hz;
+        s.out = out;
+        s.save = save;
+        json summary;
+        measure_session(false, [&](Client& c, const hostlink::MeasureOptions& o) {
+            summary = cli::run_commission_session(&c, s, progress_lines(progress), o.stop_requested);
+        });
+        return to_python(summary);
+    }
+
     // `piezoloop wave`: the trajectory group set and started, detached (it
     // runs on when this client goes quiet); arm: the loop armed at its
     // first tick (it must be disarmed).
@@ -354,7 +371,8 @@ void add_device(pyb::module_& m) {
                 std::optional<double> bias_V, const std::string& mode, double duration_s, bool restart_stage) {
                  return d.measure_step(step_options(step_um, step_V, from_um, bias_V, mode, duration_s), restart_stage);
              })
-        .def("measure_loops", &Device::measure_loops);
+        .def("measure_loops", &Device::measure_loops)
+        .def("commission", &Device::commission);
 }
 
 }  // namespace piezoloop::py

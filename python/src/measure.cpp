@@ -11,6 +11,7 @@
 #include <string>
 
 #include "bindings.hpp"
+#include "commission_session.hpp"
 #include "device_common.hpp"
 #include "measure/frf_report.hpp"
 #include "measure/frf_sim.hpp"
@@ -149,6 +150,27 @@ void add_measure(pyb::module_& m) {
         },
         pyb::arg("scenario"), pyb::arg("case_name"), pyb::arg("sample"), pyb::arg("amplitudes_V"), pyb::arg("base_V"),
         pyb::arg("frequency_Hz"), pyb::arg("cycles"), pyb::arg("shape"));
+
+    // `piezoloop commission --scenario`: the summary JSON.
+    m.def(
+        "commission",
+        [](const std::string& scenario, double range_um, double target_bandwidth_Hz, const std::string& out,
+           const pyb::object& progress) {
+            cli::CommissionSession s;
+            s.scenario = scenario;
+            s.request.range_um = range_um;
+            s.request.target_bandwidth_Hz = target_bandwidth_Hz;
+            s.out = out;
+            const auto say = progress_lines(progress);
+            nlohmann::json summary;
+            {
+                pyb::gil_scoped_release release;
+                summary = cli::run_commission_session(nullptr, s, say);
+            }
+            return to_python(summary);
+        },
+        pyb::arg("scenario"), pyb::arg("range_um"), pyb::arg("target_bandwidth_Hz"), pyb::arg("out"),
+        pyb::arg("progress"));
 
     // Loops.save_csv: the CSV through the command line's writer.
     m.def(

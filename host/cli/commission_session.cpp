@@ -1,0 +1,197 @@
+#include "commission_session.hpp"
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "commission/commission_figures.hpp"
+#include "commission/sim_stage.hpp"
+#include "format/number.hpp"
+#include "link/board_stage.hpp"
+#include "lti/model_json.hpp"
+#include "measure/frf_report.hpp"
+#include "sim/plotting.hpp"
+#include "sim/scenario.hpp"
+
+namespace piezoloop::cli {
+namespace {
+
+using nlohmann::json;
+
+std::string fmt(double v, int digits = 4) { return format::significant(v, digits); }
+
+json tracking_json(const commission::TrackingRun& t) {
+    return {{"e_max_pct", t.e_max_pct}, {"e_rms_pct", t.e_rms_pct}, {"e_max_um", t.e_max_um},
+            {"hysteresis_pct", t.hysteresis_pct}, {"trip", t.trip}};
+}
+
+json candidate_json(const commission::Candidate& k) {
+    const auto& m = k.measured;
+    return {{"name", k.name},
+            {"method", k.method},
+            {"order", k.order},
+            {"passes", k.passes},
+            {"refusal", k.refusal},
+            {"measured_phase_margin_deg", m.phase_margin ? json(m.phase_margin->value) : json()},
+            {"measured_crossover_Hz", m.phase_margin ? json(m.phase_margin->f_Hz) : json()},
+            {"measured_gain_margin_db", m.gain_margin ? json(m.gain_margin->value) : json()},
+            {"measured_max_sensitivity", m.max_sensitivity},
+            {"predicted_10Hz_half_range", k.predicted ? tracking_json(*k.predicted) : json()},
+            {"controller", k.passes ? design::to_json(k.controller) : json()}};
+}
+
+std::string report_md(const CommissionSession& a, const std::string& stage, double rate_Hz,
+                      const commission::Commissioning& c, const std::string& kept) {
+    std::string t = "# piezoloop commission\n\n";
+    t += "Stage: " + stage + " (the tool reads only its measurements). Range " + fmt(a.request.range_um) +
+         " µm about " + fmt(c.centre_um) + " µm (the stage at mid-span), loop rate " + fmt(rate_Hz) + " Hz.\n\n## Steps\n\n";
+    for (const std::string& l : c.log) t += "- " + l + "\n";
+    t += "\n## Safety steps (open loop, from mid-span)\n\n| step (V) | Δy (µm) | noise (µm) | gain (µm/V) |\n|---:|---:|---:|---:|\n";
+    for (const auto& st : c.safety)
+        t += "| " + fmt(st.step_V) + " | " + fmt(st.dy_um) + " | " + fmt(st.noise_um, 2) + " | " + fmt(st.gain_um_per_V) + " |\n";
+    t += "\n## Model fits (continuous, one tick of delay taken out)\n\n| order | RMS error (lines with SNR >= 20 dB) | DC gain (µm/V) | chosen |\n|---|---:|---:|---|\n";
+    for (std::size_t i = 0; i < c.fits.size(); ++i)
+        t += "| " + std::to_string(c.fits[i].poles) + "/" + std::to_string(c.fits[i].zeros) + " | " +
+             fmt(100.0 * c.fits[i].rms_rel, 3) + " % | " + fmt(c.fits[i].dc_gain_um_per_V) + " | " +
+             (static_cast<int>(i) == c.chosen_fit ? "yes" : "") + " |\n";
+    t += "\n## Hysteresis (open loop, " + fmt(c.loops_request.frequency_Hz) + " Hz, " +
+         fmt(c.loops_request.base_V) + " V to " + fmt(c.loops_request.base_V + c.loops_request.amplitudes_V.at(0)) +
+         " V)\n\n" + c.hysteresis_note + "\n";
+    t += "\n## Candidates (checked on the measured response; tracking predicted on the identified stage, 10 Hz "
+         "triangle over half the range)\n\n"
+         "| candidate | how | order | PM (measured) | GM (measured) | max\\|S\\| | predicted e_max | verdict |\n"
+         "|---|---|---:|---:|---:|---:|---:|---|\n";
+    for (std::size_t i = 0; i < c.candidates.size(); ++i) {
+        const auto& k = c.candidates[i];
+        const auto& m = k.measured;
+        t += "| " + k.name + " | " + k.method + " | " + std::to_string(k.order) + " | " +
+             (m.phase_margin ? fmt(m.phase_margin->value, 3) + "° at " + fmt(m.phase_margin->f_Hz, 3) + " Hz" : "–") +
+             " | " + (m.gain_margin ? fmt(m.gain_margin->value, 3) + " dB" : "–") + " | " + fmt(m.max_sensitivity, 3) +
+             " | " + (k.predicted ? fmt(k.predicted->e_max_pct, 3) + " %" : "–") + " | " +
+             (static_cast<int>(i) == c.chosen ? "**chosen**" : k.passes ? "passes" : "refused: " + k.refusal) + " |\n";
+    }
+    if (c.chosen < 0) return t + "\nNo candidate passed the checks on the measurement: nothing was loaded or kept.\n";
+    t += "\n## Verification on the stage (feedback alone, triangles about " + fmt(c.centre_um) +
+         " µm)\n\nClosed-loop bandwidth from the measured lines (|L/(1+L)| at -3 dB): " + fmt(c.bandwidth_Hz, 3) +
+         " Hz.\n\n| triangle | range (µm) | e_max measured | predicted | e_rms measured | predicted | hysteresis measured | trip |\n"
+         "|---|---:|---:|---:|---:|---:|---:|---|\n";
+    for (const auto& v : c.verification)
+        t += "| " + fmt(v.request.frequency_Hz, 3) + " Hz | " + fmt(v.request.range_um) + " | " +
+             fmt(v.measured.e_max_pct, 3) + " % | " + fmt(v.predicted.e_max_pct, 3) + " % | " +
+             fmt(v.measured.e_rms_pct, 3) + " % | " + fmt(v.predicted.e_rms_pct, 3) + " % | " +
+             (v.measured.hysteresis_pct >= 0.0 ? fmt(v.measured.hysteresis_pct, 3) + " %" : "–") + " | " +
+             v.measured.trip + " |\n";
+    t += "\nThe identified stage is a linear model: the stage's hysteresis is in the measured figures, not in the "
+         "predicted ones.\n\nThe chosen controller is in controller.json (e in µm -> u in V; `error_per_um` 1); "
+         "scenario.json is the identified stage with it as case `commissioned` (`piezoloop sim --scenario "
+         "scenario.json --case commissioned`).\n\n" + kept + "\n";
+    return t;
+}
+
+}  // namespace
+
+nlohmann::json run_commission_session(hostlink::Client* board, const CommissionSession& a,
+                                      const std::function<void(const std::string&)>& progress,
+                                      const std::function<bool()>& stop_requested) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::function<void(const std::string&)> say = [&](const std::string& line) {
+        if (progress) progress(line);
+    };
+    std::unique_ptr<commission::StageAccess> stage;
+    json source;
+    if (board) {
+        hostlink::MeasureOptions o;
+        o.stop_requested = stop_requested;
+        stage = std::make_unique<hostlink::BoardStage>(*board, o);
+        source = {{"kind", "board"}, {"device", board->address()}, {"board", board->info().board.data()}};
+    } else {
+        const sim::Scenario s = sim::load_scenario(a.scenario);
+        source = {{"kind", "simulator"}, {"scenario", s.name}, {"case", ""}};
+        stage = std::make_unique<commission::SimStage>(s);
+    }
+    commission::Commissioning c;
+    try {
+        c = commission::commission(*stage, a.request, say);
+    } catch (...) {
+        // Whatever stopped it, a board is left disarmed (the measurement
+        // sessions put its groups back).
+        if (board) try { board->disarm(); } catch (const std::exception&) {}
+        throw;
+    }
+    const double rate_Hz = stage->loop().rate_Hz;
+    std::string kept = "Nothing was kept: the simulator has no storage.";
+    if (c.chosen >= 0 && !c.verified()) {
+        kept = "Not kept: the verification failed (" + c.verification_failure + ").";
+    } else if (board && c.chosen >= 0) {
+        if (!a.save) {
+            kept = "Loaded, not saved: the board forgets it at its next boot.";
+        } else {
+            board->save();
+            kept = "Saved on the board (`save`): applied, disarmed, at its next boot.";
+        }
+        say(kept);
+    }
+
+    std::filesystem::create_directories(a.out);
+    const std::filesystem::path dir(a.out);
+    auto write = [&](const std::string& name, const std::string& text) {
+        std::ofstream f(dir / name);
+        if (!(f << text)) throw std::runtime_error("--out: cannot write " + (dir / name).string());
+    };
+    // The figures; a report without them is still a report.
+    std::string figures = "Figures: frf.png (measured and fitted response), loops.png (hysteresis loop and PI model), "
+                          "candidates.png (loop and sensitivity on the measured lines)" +
+                          std::string(c.verification.empty() ? "" : ", verification.png (tracking, measured and predicted)") +
+                          ".";
+    try {
+        sim::plot_spec("plot_sim.py", commission::commission_figures(c, std::filesystem::absolute(dir)));
+    } catch (const std::exception& e) {
+        figures = std::string("The figures could not be drawn: ") + e.what();
+        say("warning: " + figures);
+    }
+    write("report.md", report_md(a, stage->describe(), rate_Hz, c, kept) + "\n" + figures + "\n");
+    write("frf.json", measure::frf_report(c.frf_request, c.frf, source).dump(1) + "\n");
+    json out;
+    out["stage"] = stage->describe();
+    out["range_um"] = a.request.range_um;
+    out["centre_um"] = c.centre_um;
+    out["gain_um_per_V"] = c.gain_um_per_V;
+    out["target_bandwidth_Hz"] = c.target_bandwidth_Hz;
+    const auto& fit = c.fits[static_cast<std::size_t>(c.chosen_fit)];
+    out["model"] = {{"order", std::to_string(fit.poles) + "/" + std::to_string(fit.zeros)}, {"rms_rel", fit.rms_rel}};
+    out["hysteresis"] = c.hysteresis_note;
+    json cands = json::array();
+    for (const auto& k : c.candidates) cands.push_back(candidate_json(k));
+    out["candidates"] = cands;
+    out["chosen"] = c.chosen >= 0 ? json(c.candidates[static_cast<std::size_t>(c.chosen)].name) : json();
+    out["report"] = (dir / "report.md").string();
+    out["verified"] = c.verified();
+    if (c.chosen >= 0) {
+        const auto& k = c.candidates[static_cast<std::size_t>(c.chosen)];
+        out["bandwidth_Hz"] = c.bandwidth_Hz;
+        json v = json::array();
+        for (const auto& r : c.verification)
+            v.push_back({{"frequency_Hz", r.request.frequency_Hz},
+                         {"range_um", r.request.range_um},
+                         {"measured", tracking_json(r.measured)},
+                         {"predicted", tracking_json(r.predicted)}});
+        out["verification"] = v;
+        if (!c.verified()) out["verification_failure"] = c.verification_failure;
+        json m = design::to_json(k.controller);
+        m["description"] = "commissioned by piezoloop commission on " + stage->describe() + ": " + k.name + " (" +
+                           k.method + "); e (um) -> u (V)" +
+                           (k.feedforward ? "; the feedforward is in scenario.json (case commissioned)" : "");
+        write("controller.json", m.dump(1) + "\n");
+        write("scenario.json", commission::commissioned_scenario(c).dump(1) + "\n");
+        out["controller_file"] = (dir / "controller.json").string();
+        out["scenario_file"] = (dir / "scenario.json").string();
+    }
+    if (board) out["saved"] = c.verified() && a.save;
+    out["wall_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+}
+
+}  // namespace piezoloop::cli
