@@ -279,7 +279,16 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
             m.rms_rel = std::sqrt(sum / lines);
             m.model = design::tf2zpk(fit.model);
             m.dc_gain_um_per_V = design::dc_gain(m.model);
-            if (fit.reflected > 0 || !(m.dc_gain_um_per_V * c.gain_um_per_V > 0.0)) continue;
+            const std::string name = "fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": ";
+            if (fit.reflected > 0) {
+                say(c, name + "dropped: unstable poles (" + std::to_string(fit.reflected) + "; rms error " +
+                           num(100.0 * m.rms_rel) + " %)");
+                continue;
+            }
+            if (!(m.dc_gain_um_per_V * c.gain_um_per_V > 0.0)) {
+                say(c, name + "dropped: its DC gain " + num(m.dc_gain_um_per_V) + " um/V disagrees in sign with the steps");
+                continue;
+            }
             c.fits.push_back(m);
             say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": rms error " +
                        num(100.0 * m.rms_rel) + " % on " + std::to_string(lines) + " lines");
