@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <string>
 
@@ -57,6 +58,12 @@ std::string report_md(const CommissionSession& a, const std::string& stage, doub
         t += "| " + std::to_string(c.fits[i].poles) + "/" + std::to_string(c.fits[i].zeros) + " | " +
              fmt(100.0 * c.fits[i].rms_rel, 3) + " % | " + fmt(c.fits[i].dc_gain_um_per_V) + " | " +
              (static_cast<int>(i) == c.chosen_fit ? "yes" : "") + " |\n";
+    if (c.uncertainty)
+        t += "\n## Uncertainty weight\n\nThe chosen fit's error on the lines with SNR >= 20 dB as W3 = r0 (1 + s/wz) / "
+             "(1 + s/wp): r0 " + fmt(100.0 * c.uncertainty->r0, 3) + " %, rising from " +
+             fmt(c.uncertainty->wz_rad_s / (2.0 * std::numbers::pi), 3) + " Hz to 200 % (" +
+             std::to_string(c.uncertainty->uncovered_lines) + " lines above it). The candidate `robust, uncertainty` "
+             "is designed with it on T.\n";
     t += "\n## Hysteresis (open loop, " + fmt(c.loops_request.frequency_Hz) + " Hz, " +
          fmt(c.loops_request.base_V) + " V to " + fmt(c.loops_request.base_V + c.loops_request.amplitudes_V.at(0)) +
          " V)\n\n" + c.hysteresis_note + "\n";
@@ -75,8 +82,9 @@ std::string report_md(const CommissionSession& a, const std::string& stage, doub
     }
     if (c.chosen < 0) return t + "\nNo candidate passed the checks on the measurement: nothing was loaded or kept.\n";
     t += "\n## Verification on the stage (feedback alone, triangles about " + fmt(c.centre_um) +
-         " µm)\n\nClosed-loop bandwidth from the measured lines (|L/(1+L)| at -3 dB): " + fmt(c.bandwidth_Hz, 3) +
-         " Hz.\n\n| triangle | range (µm) | e_max measured | predicted | e_rms measured | predicted | hysteresis measured | trip |\n"
+         " µm)\n\nClosed-loop bandwidth (|T| at -3 dB) measured on the stage: " +
+         fmt(c.measured_bandwidth_Hz, 3) + " Hz; from the open-loop lines and the controller, |L/(1+L)|: " +
+         fmt(c.bandwidth_Hz, 3) + " Hz.\n\n| triangle | range (µm) | e_max measured | predicted | e_rms measured | predicted | hysteresis measured | trip |\n"
          "|---|---:|---:|---:|---:|---:|---:|---|\n";
     for (const auto& v : c.verification)
         t += "| " + fmt(v.request.frequency_Hz, 3) + " Hz | " + fmt(v.request.range_um) + " | " +
@@ -144,7 +152,8 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     // The figures; a report without them is still a report.
     std::string figures = "Figures: frf.png (measured and fitted response), loops.png (hysteresis loop and PI model), "
                           "candidates.png (loop and sensitivity on the measured lines)" +
-                          std::string(c.verification.empty() ? "" : ", verification.png (tracking, measured and predicted)") +
+                          std::string(c.verification.empty() ? "" : ", verification.png (tracking, measured and predicted; "
+                                                                    "the closed loop's response)") +
                           ".";
     try {
         sim::plot_spec("plot_sim.py", commission::commission_figures(c, std::filesystem::absolute(dir)));
@@ -163,6 +172,11 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     const auto& fit = c.fits[static_cast<std::size_t>(c.chosen_fit)];
     out["model"] = {{"order", std::to_string(fit.poles) + "/" + std::to_string(fit.zeros)}, {"rms_rel", fit.rms_rel}};
     out["hysteresis"] = c.hysteresis_note;
+    if (c.uncertainty)
+        out["uncertainty_weight"] = {{"r0", c.uncertainty->r0},
+                                     {"corner_Hz", c.uncertainty->wz_rad_s / (2.0 * std::numbers::pi)},
+                                     {"uncovered_lines", c.uncertainty->uncovered_lines},
+                                     {"w3", design::to_json(c.uncertainty->w3)}};
     json cands = json::array();
     for (const auto& k : c.candidates) cands.push_back(candidate_json(k));
     out["candidates"] = cands;
@@ -171,7 +185,8 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     out["verified"] = c.verified();
     if (c.chosen >= 0) {
         const auto& k = c.candidates[static_cast<std::size_t>(c.chosen)];
-        out["bandwidth_Hz"] = c.bandwidth_Hz;
+        out["bandwidth_Hz"] = c.measured_bandwidth_Hz;
+        out["bandwidth_from_open_loop_Hz"] = c.bandwidth_Hz;
         json v = json::array();
         for (const auto& r : c.verification)
             v.push_back({{"frequency_Hz", r.request.frequency_Hz},

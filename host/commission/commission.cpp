@@ -11,6 +11,7 @@
 #include "lti/freqresp.hpp"
 #include "lti/lti_convert.hpp"
 #include "commission/sim_stage.hpp"
+#include "commission/uncertainty_weight.hpp"
 #include "sim/design_bridge.hpp"
 #include "synth/mixsyn.hpp"
 #include "synth/pi_notch.hpp"
@@ -48,11 +49,12 @@ void check_on_measurement(Candidate& c, const measure::FrfRun& frf, double rate_
 // The robust and the classic candidate on the model normalised to unit DC
 // gain (gn), each checked on the measured lines.
 std::vector<Candidate> design_candidates(const design::Zpk& gn, double dc_gain_um_per_V, double target_Hz,
-                                         const measure::FrfRun& frf, double rate_Hz) {
+                                         const measure::FrfRun& frf, double rate_Hz,
+                                         const std::optional<UncertaintyWeight>& uncertainty) {
     std::vector<Candidate> out;
-    {
+    auto robust = [&](const std::string& name, const std::optional<design::Zpk>& w3) {
         Candidate k;
-        k.name = "robust";
+        k.name = name;
         try {
             design::Zpk plant = gn;
             if (plant.poles.size() > 6) plant = design::ss2zpk(design::balanced_truncation(design::zpk2ss(gn), 6).reduced);
@@ -62,20 +64,22 @@ std::vector<Candidate> design_candidates(const design::Zpk& gn, double dc_gain_u
             const design::Zpk w2{{}, {}, 0.5, 0.0};
             design::HinfOptions ho;
             ho.rel_tol = 1e-4;
-            const design::MixsynResult m = design::mixsyn(plant, w1, w2, std::nullopt, ho);
+            const design::MixsynResult m = design::mixsyn(plant, w1, w2, w3, ho);
             k.controller = m.controller_zpk;
             k.controller.gain /= dc_gain_um_per_V;
             k.order = static_cast<int>(k.controller.poles.size());
             k.design_crossover_Hz = target_Hz;
             k.method = "mixsyn on the " + std::to_string(plant.poles.size()) +
-                       "-state model, W1 = (s/1.6 + wb)/(s + 1e-3 wb) at " + num(target_Hz) +
-                       " Hz, W2 = 0.5, gamma " + num(m.synthesis.gamma_controller);
+                       "-state model, W1 = (s/1.6 + wb)/(s + 1e-3 wb) at " + num(target_Hz) + " Hz, W2 = 0.5" +
+                       (w3 ? ", W3 from the model error" : "") + ", gamma " + num(m.synthesis.gamma_controller);
             check_on_measurement(k, frf, rate_Hz);
         } catch (const std::exception& e) {
             k.refusal = std::string("synthesis failed: ") + e.what();
         }
         out.push_back(k);
-    }
+    };
+    robust("robust", std::nullopt);
+    if (uncertainty) robust("robust, uncertainty", uncertainty->w3);
     {
         Candidate k;
         k.name = "classic";
@@ -96,20 +100,25 @@ std::vector<Candidate> design_candidates(const design::Zpk& gn, double dc_gain_u
     return out;
 }
 
-// Where |T| = |L / (1 + L)| first falls below -3 dB on the measured lines
-// (log-frequency interpolation between the two lines around it); 0 when it
-// stays above.
-double closed_loop_bandwidth_Hz(const design::MeasuredLoop& m) {
+// Where |T| first falls below -3 dB along the lines (log-frequency
+// interpolation between the two lines around it); 0 when it stays above.
+double bandwidth_Hz(const std::vector<double>& f_Hz, const std::vector<design::cplx>& t) {
     const double level = 1.0 / std::sqrt(2.0);
-    for (std::size_t i = 0; i < m.loop.size(); ++i) {
-        const double t = std::abs(m.loop[i] / (1.0 + m.loop[i]));
-        if (t >= level) continue;
-        if (i == 0) return m.f_Hz[0];
-        const double t0 = std::abs(m.loop[i - 1] / (1.0 + m.loop[i - 1]));
-        const double a = (t0 - level) / (t0 - t);
-        return std::exp(std::log(m.f_Hz[i - 1]) + a * (std::log(m.f_Hz[i]) - std::log(m.f_Hz[i - 1])));
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        if (std::abs(t[i]) >= level) continue;
+        if (i == 0) return f_Hz[0];
+        const double t0 = std::abs(t[i - 1]), t1 = std::abs(t[i]);
+        const double a = (t0 - level) / (t0 - t1);
+        return std::exp(std::log(f_Hz[i - 1]) + a * (std::log(f_Hz[i]) - std::log(f_Hz[i - 1])));
     }
     return 0.0;
+}
+
+// T = L / (1 + L) on the measured open-loop lines.
+std::vector<design::cplx> complementary_sensitivity(const design::MeasuredLoop& m) {
+    std::vector<design::cplx> t;
+    for (const design::cplx l : m.loop) t.push_back(l / (1.0 + l));
+    return t;
 }
 
 }  // namespace
@@ -305,6 +314,23 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
             if (c.fits[i].rms_rel < c.fits[static_cast<std::size_t>(c.chosen_fit)].rms_rel) c.chosen_fit = static_cast<int>(i);
     }
     const ModelFit& fit = c.fits[static_cast<std::size_t>(c.chosen_fit)];
+    // The fit's error on the lines measured with SNR >= 20 dB, as a
+    // multiplicative uncertainty weight (commission/uncertainty_weight).
+    {
+        std::vector<double> f, delta;
+        const measure::FrfEstimate& e = c.frf.estimate;
+        for (std::size_t i = 0; i < e.frequency_Hz.size(); ++i) {
+            if (!(e.snr_db[i] >= 20.0)) continue;
+            const double w = kTwoPi * e.frequency_Hz[i];
+            const design::cplx g = design::evaluate(fit.model, design::cplx(0.0, w)) * std::polar(1.0, -w / loop.rate_Hz);
+            f.push_back(e.frequency_Hz[i]);
+            delta.push_back(std::abs(e.response[i] / g - 1.0));
+        }
+        c.uncertainty = uncertainty_weight(f, delta);
+        say(c, "uncertainty weight W3: " + num(100.0 * c.uncertainty->r0) + " % rising from " +
+                   num(c.uncertainty->wz_rad_s / kTwoPi) + " Hz to 200 % (" +
+                   std::to_string(c.uncertainty->uncovered_lines) + " lines above it)");
+    }
     design::Zpk gn = fit.model;
     gn.gain /= fit.dc_gain_um_per_V;
     c.identified.name = "commissioned";
@@ -335,7 +361,8 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     // 4-5. Candidates, checked on the measurement. When none passes at the
     // automatic target, it is halved, twice at most.
     for (int attempt = 0;; ++attempt) {
-        c.candidates = design_candidates(gn, fit.dc_gain_um_per_V, c.target_bandwidth_Hz, c.frf, loop.rate_Hz);
+        c.candidates =
+            design_candidates(gn, fit.dc_gain_um_per_V, c.target_bandwidth_Hz, c.frf, loop.rate_Hz, c.uncertainty);
         const bool any = std::any_of(c.candidates.begin(), c.candidates.end(), [](const Candidate& k) { return k.passes; });
         if (any || r.target_bandwidth_Hz > 0.0 || attempt == 2) break;
         for (const Candidate& k : c.candidates) say(c, k.name + " at " + num(c.target_bandwidth_Hz) + " Hz: refused: " + k.refusal);
@@ -373,15 +400,12 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     }
     if (c.chosen < 0) return c;
 
-    // 7. Verification on the stage, each triangle beside its prediction; the
-    // last run leaves the chosen controller loaded.
+    // 7. Verification on the stage, each triangle beside its prediction: the
+    // check first (it loads the controller), then the closed loop's own
+    // response, whose bandwidth sets the last triangle.
     const Candidate& k = c.candidates[static_cast<std::size_t>(c.chosen)];
-    c.bandwidth_Hz = closed_loop_bandwidth_Hz(k.measured);
-    std::vector<TrackRequest> runs{{10.0, 0.5 * r.range_um, c.centre_um},
-                                   {1.0, r.range_um, c.centre_um},
-                                   {10.0, r.range_um, c.centre_um}};
-    if (c.bandwidth_Hz > 0.0) runs.push_back({0.1 * c.bandwidth_Hz, r.range_um, c.centre_um});
-    for (const TrackRequest& q : runs) {
+    c.bandwidth_Hz = bandwidth_Hz(k.measured.f_Hz, complementary_sensitivity(k.measured));
+    auto verify = [&](const TrackRequest& q) {
         Verification v;
         v.request = q;
         TrackRequest p = q;
@@ -398,7 +422,23 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
                                      num(v.predicted.e_max_pct) + " % predicted" +
                                      (v.measured.trip != "none" ? ", trip: " + v.measured.trip : "");
         c.verification.push_back(v);
-    }
+    };
+    verify({10.0, 0.5 * r.range_um, c.centre_um});
+
+    // The closed loop's response on the stage: d at the command, 2 % of the
+    // span, its T = 1 - S where the excitation enters.
+    c.closed_frf_request = c.frf_request;
+    c.closed_frf_request.closed = true;
+    c.closed_frf_request.amplitude_V = 0.02 * span;
+    c.closed_frf = stage.frf(c.closed_frf_request);
+    c.measured_bandwidth_Hz = bandwidth_Hz(c.closed_frf->estimate.frequency_Hz, c.closed_frf->complementary_sensitivity);
+    say(c, "closed-loop response on the stage: bandwidth " + num(c.measured_bandwidth_Hz) + " Hz (" +
+               num(c.bandwidth_Hz) + " Hz from the open-loop lines)");
+
+    verify({1.0, r.range_um, c.centre_um});
+    verify({10.0, r.range_um, c.centre_um});
+    const double achieved_Hz = c.measured_bandwidth_Hz > 0.0 ? c.measured_bandwidth_Hz : c.bandwidth_Hz;
+    if (achieved_Hz > 0.0) verify({0.1 * achieved_Hz, r.range_um, c.centre_um});
     say(c, c.verified() ? "verified: every run within 2x its prediction + 2 %"
                         : "verification failed: " + c.verification_failure);
     return c;

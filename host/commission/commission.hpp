@@ -16,16 +16,18 @@
 //      cycles, a PI model fitted to the second (the first runs the plays:
 //      the jump to its base rings the stage's modes; ident/pi_fit, 8
 //      operators, monotone so that it has an analytic inverse).
-//   3. model: continuous fits of order 2, 4, 6, 8 (zeros one fewer, one tick
-//      of delay taken out); the lowest whose RMS relative error on the lines
+//   3. model: continuous fits of order 2, 4, 6, 8 (zeros two fewer: a stage
+//      rolls off beyond the band; one tick of delay taken out); the lowest whose RMS relative error on the lines
 //      with SNR >= 20 dB is below 10 % (the hysteresis bends a stage's
 //      response by several %), else the best. The identified stage
 //      (commission/identified_stage) is the PI hysteresis followed by its
 //      dynamics (without a PI fit: the largest safety step's static gain).
 //   4. candidates on the fitted model normalised to unit DC gain: robust,
 //      mixed-sensitivity H∞ (plant reduced to 6 states if larger, W1 =
-//      (s/1.6 + ω_b)/(s + 1e-3 ω_b) at the target bandwidth, W2 = 0.5), and
-//      classic, PI + notches (synth/pi_notch) at the target bandwidth.
+//      (s/1.6 + ω_b)/(s + 1e-3 ω_b) at the target bandwidth, W2 = 0.5), the
+//      same with the fit's error on the measured lines as the uncertainty
+//      weight W3 on T (commission/uncertainty_weight), and classic, PI +
+//      notches (synth/pi_notch) at the target bandwidth.
 //   5. each checked on the measured response (analysis/measured_loop):
 //      PM >= 45°, GM >= 6 dB, max|S| <= 2; a candidate that fails is never
 //      loaded. When none passes at the automatic target bandwidth, it is
@@ -34,12 +36,14 @@
 //      range is predicted on the identified stage, alone and with the PI
 //      model's inverse as feedforward on the reference; the lowest e_max is
 //      chosen.
-//   7. verification on the stage: the chosen controller loaded, triangles
-//      over half the range at 10 Hz (the check) and over the whole range at
-//      1 Hz, 10 Hz and a tenth of the bandwidth, each beside its prediction.
-//      A run worse than twice its prediction plus 2 % of its range (the
-//      identified stage has no hysteresis), or one that trips, fails the
-//      verification: the loop does not behave as designed, and is not kept.
+//   7. verification on the stage: the chosen controller loaded, a triangle
+//      over half the range at 10 Hz (the check), the closed loop's frequency
+//      response (d at the command, 2 % of the span; its T gives the achieved
+//      bandwidth), then triangles over the whole range at 1 Hz, 10 Hz and a
+//      tenth of the achieved bandwidth, each beside its prediction. A run
+//      worse than twice its prediction plus 2 % of its range, or one that
+//      trips, fails the verification: the loop does not behave as designed,
+//      and is not kept.
 #pragma once
 
 #include <functional>
@@ -52,6 +56,7 @@
 #include "analysis/measured_loop.hpp"
 #include "commission/identified_stage.hpp"
 #include "commission/stage_access.hpp"
+#include "commission/uncertainty_weight.hpp"
 #include "lti/lti.hpp"
 #include "measure/frf_plan.hpp"
 #include "measure/step_loops_plan.hpp"
@@ -107,13 +112,17 @@ struct Commissioning {
     std::optional<design::PiFitResult> hysteresis;  // the PI fit; absent when it failed
     std::string hysteresis_note;                    // the fit's figures, or why it failed
     std::vector<ModelFit> fits;  // every order tried
+    std::optional<UncertaintyWeight> uncertainty;  // from the chosen fit's error on the measured lines
     int chosen_fit = -1;
     double target_bandwidth_Hz = 0.0;
     double centre_um = 0.0;      // the displacement at mid-span: every triangle's centre
     IdentifiedStage identified;
     std::vector<Candidate> candidates;
     int chosen = -1;             // index into candidates; -1: none passes
-    double bandwidth_Hz = 0.0;   // the chosen loop's: |T| = |L / (1 + L)| falls below -3 dB on the measured lines
+    double bandwidth_Hz = 0.0;   // the chosen loop's: |T| = |L / (1 + L)| falls below -3 dB on the open-loop lines
+    measure::FrfRequest closed_frf_request;
+    std::optional<measure::FrfRun> closed_frf;  // the chosen loop's response on the stage
+    double measured_bandwidth_Hz = 0.0;          // where its T falls below -3 dB (0: it stays above)
     std::vector<Verification> verification;  // the first is the check: 10 Hz over half the range
     // Every run on the stage within 2x its prediction + 2 % of its range, no
     // trip; otherwise why not (the result is then not kept).

@@ -107,15 +107,27 @@ json verification_figure(const Commissioning& c, const std::filesystem::path& di
     const Verification& check = c.verification.front();
     const std::vector<double> f_half{check.request.frequency_Hz}, measured_half{check.measured.e_max_pct},
         predicted_half{check.predicted.e_max_pct};
+    json panels = json::array({panel("e_max (% of the triangle's range)", "triangle frequency (Hz)", "%",
+                                     {series("measured, whole range", f, measured, "o-"),
+                                      series("predicted, whole range", f, predicted, "s--"),
+                                      series("measured, half range", f_half, measured_half, "o"),
+                                      series("predicted, half range", f_half, predicted_half, "s")},
+                                     "log")});
+    if (c.closed_frf) {
+        // T measured in closed loop, and L / (1 + L) from the open-loop lines.
+        const Candidate& k = c.candidates[static_cast<std::size_t>(c.chosen)];
+        std::vector<double> measured_t, computed_t;
+        for (const design::cplx x : c.closed_frf->complementary_sensitivity) measured_t.push_back(design::magnitude_db(x));
+        for (const design::cplx l : k.measured.loop) computed_t.push_back(design::magnitude_db(l / (1.0 + l)));
+        panels.push_back(panel("closed loop |T|", "frequency (Hz)", "dB",
+                               {series("measured in closed loop", c.closed_frf->estimate.frequency_Hz, measured_t),
+                                series("from the open-loop lines", k.measured.f_Hz, computed_t, "--")},
+                               "log"));
+    }
     return {{"output", (dir / "verification.png").string()},
-            {"title", "triangles on the stage: measured against predicted"},
+            {"title", "the chosen loop on the stage: tracking against prediction, closed-loop response"},
             {"columns", 1},
-            {"panels", json::array({panel("e_max (% of the triangle's range)", "triangle frequency (Hz)", "%",
-                                          {series("measured, whole range", f, measured, "o-"),
-                                           series("predicted, whole range", f, predicted, "s--"),
-                                           series("measured, half range", f_half, measured_half, "o"),
-                                           series("predicted, half range", f_half, predicted_half, "s")},
-                                          "log")})}};
+            {"panels", panels}};
 }
 
 }  // namespace

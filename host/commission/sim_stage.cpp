@@ -1,5 +1,7 @@
 #include "commission/sim_stage.hpp"
 
+#include <stdexcept>
+
 #include "measure/frf_sim.hpp"
 #include "measure/step_loops_sim.hpp"
 #include "sim/build_case.hpp"
@@ -17,7 +19,10 @@ measure::MeasureBounds SimStage::bounds() { return measure::scenario_bounds(s_);
 
 measure::StepRun SimStage::step(const measure::StepRequest& r) { return measure::run_step_sim(s_, nullptr, r); }
 
-measure::FrfRun SimStage::frf(const measure::FrfRequest& r) { return measure::run_frf_sim(s_, nullptr, r); }
+measure::FrfRun SimStage::frf(const measure::FrfRequest& r) {
+    if (r.closed && !loaded_) throw std::invalid_argument("closed loop: no controller loaded (track one first)");
+    return measure::run_frf_sim(s_, r.closed ? &*loaded_ : nullptr, r);
+}
 
 measure::LoopsRun SimStage::loops(const measure::LoopsRequest& r) { return measure::run_loops_sim(s_, nullptr, r); }
 
@@ -38,6 +43,7 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
     sim::BuildOptions bo;
     bo.check_realisation = false;
     const sim::BuiltCase b = sim::build_case(s_, cs, bo);
+    loaded_ = cs;
     sim::TrajectoryRequest w;
     w.waveform = Waveform::kTriangle;
     w.frequency_Hz = t.frequency_Hz;

@@ -1,7 +1,10 @@
 // A scenario's stage as commissioning sees it (commission/stage_access.hpp):
-// measured in open loop by the simulator, its cases and models never read.
+// measured by the simulator, its cases and models never read. A closed-loop
+// frequency response runs the controller `track` loaded last.
 // Also the identified stage a prediction runs on (commission/identified_stage).
 #pragma once
+
+#include <optional>
 
 #include "commission/stage_access.hpp"
 #include "sim/scenario.hpp"
@@ -22,6 +25,7 @@ public:
 private:
     sim::Scenario s_;
     sim::SampleType sample_;
+    std::optional<sim::CaseSpec> loaded_;  // what track() ran
 };
 
 }  // namespace piezoloop::commission

@@ -49,7 +49,9 @@ public:
     virtual std::string describe() const = 0;
     virtual LoopFacts loop() = 0;
     virtual measure::MeasureBounds bounds() = 0;
-    // Open loop, as `measure step` / `measure frf` / `measure loops` run them.
+    // As `measure step` / `measure frf` / `measure loops` run them: open
+    // loop, and a closed-loop frequency response with the controller track()
+    // loaded last.
     virtual measure::StepRun step(const measure::StepRequest& r) = 0;
     virtual measure::FrfRun frf(const measure::FrfRequest& r) = 0;
     virtual measure::LoopsRun loops(const measure::LoopsRequest& r) = 0;
