@@ -22,6 +22,9 @@ namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
+// A line for the log and the caller's progress.
+using Say = std::function<void(const std::string&)>;
+
 // Figures in messages: four significant digits.
 std::string num(double v) { return format::significant(v, 4); }
 
@@ -121,6 +124,122 @@ std::vector<design::cplx> complementary_sensitivity(const design::MeasuredLoop& 
     return t;
 }
 
+// The hysteresis: one loop about mid-span over what the range needs (1.2x
+// at the safety steps' gain), a monotone PI fit. A loop that reaches the
+// sensor's rails or trips is repeated at 0.7x, twice at most.
+void measure_hysteresis(StageAccess& stage, Commissioning& c, const measure::MeasureBounds& b, double range_um,
+                        const Say& say) {
+    const double u_min = b.limits.u_min_V, span = b.limits.u_max_V - u_min, mid = u_min + 0.5 * span;
+    double loop_V = std::min(span, 1.2 * range_um / std::fabs(c.gain_um_per_V));
+    for (int attempt = 0; attempt < 3; ++attempt, loop_V *= 0.7) {
+        c.loops_request.amplitudes_V = {loop_V};
+        c.loops_request.base_V = std::max(u_min, mid - 0.5 * loop_V);
+        c.loops_request.frequency_Hz = 5.0;
+        c.loops_request.cycles = 2;
+        c.loops_request.shape = "sine";
+        c.loops = stage.loops(c.loops_request);
+        const auto [lo, hi] = std::minmax_element(c.loops.y_um.begin(), c.loops.y_um.end());
+        c.hysteresis_note = c.loops.trip != "none" ? "the limiter tripped (" + c.loops.trip + ")"
+                            : at_rail(c.loops.y_um, b.closed_range)
+                                ? "the sensor reached its rail (" + num(*lo) + " .. " + num(*hi) + " um)"
+                                : "";
+        if (c.hysteresis_note.empty()) break;
+        say("hysteresis loop of " + num(loop_V) + " V: " + c.hysteresis_note);
+    }
+    try {
+        if (!c.hysteresis_note.empty()) throw std::invalid_argument(c.hysteresis_note);
+        design::PiFitOptions o;
+        o.operators = 8;
+        o.monotone = true;
+        o.first_fitted = static_cast<std::size_t>(c.loops.plan.cycle_ticks);  // the jump to the base rings
+        // Thresholds below half the loop: each play then turns in the fitted cycle.
+        for (int j = 1; j <= o.operators; ++j) o.thresholds.push_back(0.5 * loop_V * j / (o.operators + 1));
+        const design::PiFitResult fit = design::fit_pi(c.loops.u_V, c.loops.y_um, o);
+        if (!fit.invertible) throw std::invalid_argument("not invertible: " + fit.invertibility);
+        c.hysteresis = fit;
+        c.hysteresis_note = "PI model, 8 operators: RMS error " + num(fit.rms_error) + " um (" +
+                            num(fit.nrmse_percent) + " %), max " + num(fit.max_error) + " um";
+    } catch (const std::invalid_argument& e) {
+        c.hysteresis_note = std::string("no PI model: ") + e.what();
+    }
+    say("hysteresis loop " + num(c.loops_request.base_V) + " .. " + num(c.loops_request.base_V + loop_V) +
+        " V at 5 Hz: " + c.hysteresis_note);
+}
+
+// The model: continuous fits of order 2 to 8; the lowest order that fits.
+void fit_models(Commissioning& c, double rate_Hz, const Say& say) {
+    for (const int n : {2, 4, 6, 8}) {
+        measure::TfFitOptions o;
+        o.poles = n;
+        o.zeros = n - 2;
+        o.delay_samples = 1;
+        o.continuous = true;
+        o.ts = 1.0 / rate_Hz;
+        try {
+            const measure::TfFit fit = measure::fit_tf(c.frf.estimate.frequency_Hz, c.frf.estimate.response,
+                                                       c.frf.estimate.var, o);
+            ModelFit m;
+            m.poles = n;
+            m.zeros = n - 2;
+            // RMS relative error on the lines measured with SNR >= 20 dB (where
+            // the noise is below 10 %, so the error is the model's).
+            const std::vector<design::cplx> g = measure::tf_fit_response(fit, c.frf.estimate.frequency_Hz);
+            double sum = 0.0;
+            int lines = 0;
+            for (std::size_t i = 0; i < g.size(); ++i) {
+                if (!(c.frf.estimate.snr_db[i] >= 20.0)) continue;
+                sum += std::norm((g[i] - c.frf.estimate.response[i]) / c.frf.estimate.response[i]);
+                ++lines;
+            }
+            if (lines == 0) throw std::runtime_error("no line of the frequency response has an SNR of 20 dB");
+            m.rms_rel = std::sqrt(sum / lines);
+            m.model = design::tf2zpk(fit.model);
+            m.dc_gain_um_per_V = design::dc_gain(m.model);
+            const std::string name = "fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": ";
+            if (fit.reflected > 0) {
+                say(name + "dropped: unstable poles (" + std::to_string(fit.reflected) + "; rms error " +
+                           num(100.0 * m.rms_rel) + " %)");
+                continue;
+            }
+            if (!(m.dc_gain_um_per_V * c.gain_um_per_V > 0.0)) {
+                say(name + "dropped: its DC gain " + num(m.dc_gain_um_per_V) + " um/V disagrees in sign with the steps");
+                continue;
+            }
+            c.fits.push_back(m);
+            say("fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": rms error " +
+                       num(100.0 * m.rms_rel) + " % on " + std::to_string(lines) + " lines");
+        } catch (const std::invalid_argument& e) {
+            say("fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": refused (" + e.what() + ")");
+        }
+    }
+    if (c.fits.empty()) throw std::runtime_error("no model order fits the measured response");
+    for (std::size_t i = 0; i < c.fits.size(); ++i)
+        if (c.fits[i].rms_rel < 0.10) { c.chosen_fit = static_cast<int>(i); break; }
+    if (c.chosen_fit < 0) {
+        c.chosen_fit = 0;
+        for (std::size_t i = 1; i < c.fits.size(); ++i)
+            if (c.fits[i].rms_rel < c.fits[static_cast<std::size_t>(c.chosen_fit)].rms_rel) c.chosen_fit = static_cast<int>(i);
+    }
+}
+
+// The fit's error on the lines measured with SNR >= 20 dB, as a
+// multiplicative uncertainty weight (commission/uncertainty_weight).
+void weigh_uncertainty(Commissioning& c, const ModelFit& fit, double rate_Hz, const Say& say) {
+    std::vector<double> f, delta;
+    const measure::FrfEstimate& e = c.frf.estimate;
+    for (std::size_t i = 0; i < e.frequency_Hz.size(); ++i) {
+        if (!(e.snr_db[i] >= 20.0)) continue;
+        const double w = kTwoPi * e.frequency_Hz[i];
+        const design::cplx g = design::evaluate(fit.model, design::cplx(0.0, w)) * std::polar(1.0, -w / rate_Hz);
+        f.push_back(e.frequency_Hz[i]);
+        delta.push_back(std::abs(e.response[i] / g - 1.0));
+    }
+    c.uncertainty = uncertainty_weight(f, delta);
+    say("uncertainty weight W3: " + num(100.0 * c.uncertainty->r0) + " % rising from " +
+        num(c.uncertainty->wz_rad_s / kTwoPi) + " Hz to 200 % (" + std::to_string(c.uncertainty->uncovered_lines) +
+        " lines above it)");
+}
+
 }  // namespace
 
 SafetyStep check_safety_step(const measure::StepRun& run, double step_V, double from_V, const measure::RangeUm& rails,
@@ -190,6 +309,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
                                     " Hz is above what the measurement supports (a quarter of its " + num(frf_to_Hz) +
                                     " Hz band)");
     Commissioning c;
+    const Say note = [&](const std::string& line) { say(c, line); };
     say(c, "stage: " + stage.describe() + ", loop " + num(loop.rate_Hz) + " Hz, command " + num(u_min) + " .. " +
                num(u_max) + " V");
 
@@ -222,115 +342,12 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     say(c, "frequency response: " + std::to_string(c.frf.estimate.frequency_Hz.size()) + " lines, " +
                num(c.frf_request.from_Hz) + " Hz to " + num(c.frf_request.to_Hz) + " Hz");
 
-    // The hysteresis: one loop about mid-span over what the range needs
-    // (1.2x at the safety steps' gain), a monotone PI fit. A loop that
-    // reaches the sensor's rails or trips is repeated at 0.7x, twice at most.
-    double loop_V = std::min(span, 1.2 * r.range_um / std::fabs(c.gain_um_per_V));
-    for (int attempt = 0; attempt < 3; ++attempt, loop_V *= 0.7) {
-        c.loops_request.amplitudes_V = {loop_V};
-        c.loops_request.base_V = std::max(u_min, mid - 0.5 * loop_V);
-        c.loops_request.frequency_Hz = 5.0;
-        c.loops_request.cycles = 2;
-        c.loops_request.shape = "sine";
-        c.loops = stage.loops(c.loops_request);
-        const auto [lo, hi] = std::minmax_element(c.loops.y_um.begin(), c.loops.y_um.end());
-        c.hysteresis_note = c.loops.trip != "none" ? "the limiter tripped (" + c.loops.trip + ")"
-                            : at_rail(c.loops.y_um, b.closed_range)
-                                ? "the sensor reached its rail (" + num(*lo) + " .. " + num(*hi) + " um)"
-                                : "";
-        if (c.hysteresis_note.empty()) break;
-        say(c, "hysteresis loop of " + num(loop_V) + " V: " + c.hysteresis_note);
-    }
-    try {
-        if (!c.hysteresis_note.empty()) throw std::invalid_argument(c.hysteresis_note);
-        design::PiFitOptions o;
-        o.operators = 8;
-        o.monotone = true;
-        o.first_fitted = static_cast<std::size_t>(c.loops.plan.cycle_ticks);  // the jump to the base rings
-        // Thresholds below half the loop: each play then turns in the fitted cycle.
-        for (int j = 1; j <= o.operators; ++j) o.thresholds.push_back(0.5 * loop_V * j / (o.operators + 1));
-        const design::PiFitResult fit = design::fit_pi(c.loops.u_V, c.loops.y_um, o);
-        if (!fit.invertible) throw std::invalid_argument("not invertible: " + fit.invertibility);
-        c.hysteresis = fit;
-        c.hysteresis_note = "PI model, 8 operators: RMS error " + num(fit.rms_error) + " um (" +
-                            num(fit.nrmse_percent) + " %), max " + num(fit.max_error) + " um";
-    } catch (const std::invalid_argument& e) {
-        c.hysteresis_note = std::string("no PI model: ") + e.what();
-    }
-    say(c, "hysteresis loop " + num(c.loops_request.base_V) + " .. " + num(c.loops_request.base_V + loop_V) +
-               " V at 5 Hz: " + c.hysteresis_note);
+    measure_hysteresis(stage, c, b, r.range_um, note);
 
     // 3. The model: the lowest order that fits.
-    for (const int n : {2, 4, 6, 8}) {
-        measure::TfFitOptions o;
-        o.poles = n;
-        o.zeros = n - 2;
-        o.delay_samples = 1;
-        o.continuous = true;
-        o.ts = 1.0 / loop.rate_Hz;
-        try {
-            const measure::TfFit fit = measure::fit_tf(c.frf.estimate.frequency_Hz, c.frf.estimate.response,
-                                                       c.frf.estimate.var, o);
-            ModelFit m;
-            m.poles = n;
-            m.zeros = n - 2;
-            // RMS relative error on the lines measured with SNR >= 20 dB (where
-            // the noise is below 10 %, so the error is the model's).
-            const std::vector<design::cplx> g = measure::tf_fit_response(fit, c.frf.estimate.frequency_Hz);
-            double sum = 0.0;
-            int lines = 0;
-            for (std::size_t i = 0; i < g.size(); ++i) {
-                if (!(c.frf.estimate.snr_db[i] >= 20.0)) continue;
-                sum += std::norm((g[i] - c.frf.estimate.response[i]) / c.frf.estimate.response[i]);
-                ++lines;
-            }
-            if (lines == 0) throw std::runtime_error("no line of the frequency response has an SNR of 20 dB");
-            m.rms_rel = std::sqrt(sum / lines);
-            m.model = design::tf2zpk(fit.model);
-            m.dc_gain_um_per_V = design::dc_gain(m.model);
-            const std::string name = "fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": ";
-            if (fit.reflected > 0) {
-                say(c, name + "dropped: unstable poles (" + std::to_string(fit.reflected) + "; rms error " +
-                           num(100.0 * m.rms_rel) + " %)");
-                continue;
-            }
-            if (!(m.dc_gain_um_per_V * c.gain_um_per_V > 0.0)) {
-                say(c, name + "dropped: its DC gain " + num(m.dc_gain_um_per_V) + " um/V disagrees in sign with the steps");
-                continue;
-            }
-            c.fits.push_back(m);
-            say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": rms error " +
-                       num(100.0 * m.rms_rel) + " % on " + std::to_string(lines) + " lines");
-        } catch (const std::invalid_argument& e) {
-            say(c, "fit " + std::to_string(n) + "/" + std::to_string(n - 2) + ": refused (" + e.what() + ")");
-        }
-    }
-    if (c.fits.empty()) throw std::runtime_error("no model order fits the measured response");
-    for (std::size_t i = 0; i < c.fits.size(); ++i)
-        if (c.fits[i].rms_rel < 0.10) { c.chosen_fit = static_cast<int>(i); break; }
-    if (c.chosen_fit < 0) {
-        c.chosen_fit = 0;
-        for (std::size_t i = 1; i < c.fits.size(); ++i)
-            if (c.fits[i].rms_rel < c.fits[static_cast<std::size_t>(c.chosen_fit)].rms_rel) c.chosen_fit = static_cast<int>(i);
-    }
+    fit_models(c, loop.rate_Hz, note);
     const ModelFit& fit = c.fits[static_cast<std::size_t>(c.chosen_fit)];
-    // The fit's error on the lines measured with SNR >= 20 dB, as a
-    // multiplicative uncertainty weight (commission/uncertainty_weight).
-    {
-        std::vector<double> f, delta;
-        const measure::FrfEstimate& e = c.frf.estimate;
-        for (std::size_t i = 0; i < e.frequency_Hz.size(); ++i) {
-            if (!(e.snr_db[i] >= 20.0)) continue;
-            const double w = kTwoPi * e.frequency_Hz[i];
-            const design::cplx g = design::evaluate(fit.model, design::cplx(0.0, w)) * std::polar(1.0, -w / loop.rate_Hz);
-            f.push_back(e.frequency_Hz[i]);
-            delta.push_back(std::abs(e.response[i] / g - 1.0));
-        }
-        c.uncertainty = uncertainty_weight(f, delta);
-        say(c, "uncertainty weight W3: " + num(100.0 * c.uncertainty->r0) + " % rising from " +
-                   num(c.uncertainty->wz_rad_s / kTwoPi) + " Hz to 200 % (" +
-                   std::to_string(c.uncertainty->uncovered_lines) + " lines above it)");
-    }
+    weigh_uncertainty(c, fit, loop.rate_Hz, note);
     design::Zpk gn = fit.model;
     gn.gain /= fit.dc_gain_um_per_V;
     c.identified.name = "commissioned";
