@@ -110,7 +110,19 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     };
     std::unique_ptr<commission::StageAccess> stage;
     json source;
+    // The verification's triangles and recordings change the board's
+    // trajectory and recorder groups; the user's are put back (before a
+    // save), as the measurement sessions do. An unconfigured recorder stays
+    // as the recordings left it (it cannot be set back to empty).
+    std::optional<link::TrajectoryParams> trajectory;
+    std::optional<link::RecorderParams> recorder;
+    auto put_back = [&] {
+        if (trajectory) board->set(*trajectory);
+        if (recorder && recorder->channel_count != 0) board->set(*recorder);
+    };
     if (board) {
+        trajectory = board->get<link::TrajectoryParams>();
+        recorder = board->get<link::RecorderParams>();
         hostlink::MeasureOptions o;
         o.stop_requested = stop_requested;
         stage = std::make_unique<hostlink::BoardStage>(*board, o);
@@ -126,9 +138,14 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     } catch (...) {
         // Whatever stopped it, a board is left disarmed (the measurement
         // sessions put its groups back).
-        if (board) try { board->disarm(); } catch (const std::exception&) {}
+        if (board) try {
+                board->disarm();
+                put_back();
+            } catch (const std::exception&) {
+            }
         throw;
     }
+    if (board) put_back();
     const double rate_Hz = stage->loop().rate_Hz;
     std::string kept = "Nothing was kept: the simulator has no storage.";
     if (c.chosen >= 0 && !c.verified()) {

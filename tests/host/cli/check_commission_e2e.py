@@ -8,7 +8,8 @@ the emulator reads:
   commission --range-um 12    -> exit 0: a candidate chosen with PM >= 45 deg,
       GM >= 6 dB and max|S| <= 2 on the measured response; the 10 Hz triangle
       over half the range tracked on the board with e_max <= 1 % (the issue's
-      check); verified and saved; the board disarmed; the files written
+      check); verified and saved; the board disarmed, its trajectory group
+      put back; the files written
   (stop the board, start it again with F)
       -> status: the stored set applied at boot, disarmed; the feedback group
          is the commissioned one.
@@ -55,6 +56,7 @@ try:
     check(not os.path.exists(out), "nothing written for a refused request")
     check(status(d).get("armed") is False and os.path.getsize(store) == 0, "disarmed, nothing stored")
 
+    trajectory = run(*d, "get", "trajectory").stdout
     r = run(*d, "commission", "--range-um", "12", "--out", out, timeout=240)
     j = json.loads(r.stdout) if r.returncode == 0 else {}
     check(r.returncode == 0 and j.get("verified") is True and j.get("saved") is True,
@@ -74,6 +76,7 @@ try:
         check(os.path.exists(os.path.join(out, name)), f"{name} written")
     s = status(d)
     check(s.get("armed") is False, "the board is left disarmed")
+    check(run(*d, "get", "trajectory").stdout == trajectory, "the trajectory group is put back")
     feedback = run(*d, "get", "feedback").stdout
     check(stop(emu) == 0, "SIGTERM ends the board")
 
