@@ -1,6 +1,7 @@
 // The control pipeline: one tick of docs/architecture.md, "Data flow of one tick".
 //
 //   r    <- wave generator, or the held / streamed setpoint
+//   r    <- reference pre-filter of r (biquad sections; none by default)
 //   u_ff <- inverse hysteresis of r (analytic PI inverse, a PI compensator
 //           such as Shan2012's fitted inverse, or Dahl feedforward)
 //   e     = r - y;  e' = e + RC(e) when repetitive control is on
@@ -16,6 +17,15 @@
 // excitation ran are counted. Without an excitation the tick pays one
 // well-predicted branch per phase and its arithmetic is unchanged (the log
 // hashes do not move).
+//
+// Reference pre-filter (issue 17): up to two sections on the reference, so
+// that its corners and steps do not excite the stage's lightly damped modes
+// through the feedforward (notches at the modes). It runs every tick, armed
+// or not, so it has settled on the reference when the loop arms; r as
+// recorded and tracked is the filtered one. A changed pre-filter starts from
+// rest, so it changes only while disarmed (its fields are limit-critical).
+// Without one the tick pays one well-predicted branch and its arithmetic is
+// unchanged.
 //
 // Series placement (FeedforwardKind::kPiSeries, Shan2012's structure): the
 // compensator follows the controller instead of adding to it,
@@ -62,6 +72,7 @@
 namespace piezoloop {
 
 inline constexpr int kMaxControllerSections = 4;
+inline constexpr int kMaxPrefilterSections = 2;
 
 enum class FeedforwardKind : uint8_t {
     kNone = 0,
@@ -94,6 +105,9 @@ struct PipelineParams {
     bool rc_enabled = false;
     RepetitiveConfig rc{};
     LimitsConfig limits{};
+    // Reference pre-filter r (µm) -> r (µm), discrete at the loop rate; 0: none.
+    int prefilter_count = 0;
+    std::array<SosSection, kMaxPrefilterSections> prefilter{};
 };
 
 // Everything the tick computes, in sample units (µm and V for float).
@@ -344,12 +358,13 @@ private:
             stop_request_.store(false, std::memory_order_relaxed);
             s.r = setpoint_;
         }
-        s.d = sample_zero<T>();
-        if (excite) [[unlikely]] excitation_phase(s);
         // One reference for the whole phase: re-indexing banks_ by active_
         // after every byte-sized store (which may alias active_) costs a
         // reload and a multiply each time.
         Bank& b = bank();
+        if (b.pf_count > 0) [[unlikely]] s.r = b.prefilter.apply(s.r);
+        s.d = sample_zero<T>();
+        if (excite) [[unlikely]] excitation_phase(s);
         if (armed && !was_armed_) b.reset();
         was_armed_ = armed;
         // The cascade's states as they are before this tick's sample, for its
@@ -429,6 +444,8 @@ private:
         Pid<T> pid{};
         bool rc_enabled = false;
         RepetitiveController<T, RcCapacity> rc{};
+        int pf_count = 0;
+        BiquadCascade<T, kMaxPrefilterSections> prefilter{};  // not reset at arming: it runs disarmed too
         SignalScale position{}, voltage{};
 
         T feedforward(T r) {
@@ -519,6 +536,15 @@ private:
             default:
                 return error("feedback", "must be none, sos or pid");
         }
+        if (p.prefilter_count < 0 || p.prefilter_count > kMaxPrefilterSections)
+            return error("prefilter_count", "must be in [0, 2]");
+        b.pf_count = p.prefilter_count;
+        if (p.prefilter_count > 0) {
+            if (const Status s = b.prefilter.configure(p.prefilter.data(), p.prefilter_count, setup_.position,
+                                                       setup_.position);
+                !s.ok())
+                return in_group("prefilter", s);
+        }
         b.rc_enabled = p.rc_enabled;
         if (p.rc_enabled) {
             if (p.feedback == FeedbackKind::kNone)
@@ -553,6 +579,10 @@ private:
             next.pid = old.pid;
         }
         if (!rc_changes_) next.rc = old.rc;
+        if (pn.prefilter_count == po.prefilter_count && pn.prefilter == po.prefilter)
+            next.prefilter = old.prefilter;
+        else
+            next.prefilter.reset();
         active_ ^= 1u;
         // Prepared in stage(); the limiter keeps its last output and slews
         // into the new range.

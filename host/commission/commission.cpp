@@ -242,6 +242,26 @@ void weigh_uncertainty(Commissioning& c, const ModelFit& fit, double rate_Hz, co
 
 }  // namespace
 
+std::optional<design::Zpk> reference_prefilter(const design::Zpk& model, double to_Hz) {
+    std::vector<design::cplx> modes;
+    for (const design::cplx p : model.poles)
+        if (p.imag() > 0.0 && -p.real() / std::abs(p) < 0.2 && std::abs(p) < kTwoPi * to_Hz) modes.push_back(p);
+    if (modes.empty()) return std::nullopt;
+    std::sort(modes.begin(), modes.end(), [](design::cplx a, design::cplx b) { return std::abs(a) < std::abs(b); });
+    modes.resize(std::min<std::size_t>(modes.size(), kMaxPrefilterSections));
+    design::Zpk f{{}, {}, 1.0, 0.0};
+    for (const design::cplx p : modes) {
+        const double w = std::abs(p), zeta = 0.7;
+        const design::cplx q(-zeta * w, w * std::sqrt(1.0 - zeta * zeta));
+        f.zeros.push_back(p);
+        f.zeros.push_back(std::conj(p));
+        f.poles.push_back(q);
+        f.poles.push_back(std::conj(q));
+    }
+    // Unit DC gain: each section's zeros and poles have the same |.|^2.
+    return f;
+}
+
 SafetyStep check_safety_step(const measure::StepRun& run, double step_V, double from_V, const measure::RangeUm& rails,
                              const SafetyStep* previous) {
     const std::string which = "safety step of " + num(step_V) + " V from " + num(from_V) + " V: ";
@@ -387,8 +407,10 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         say(c, "target bandwidth halved: " + num(c.target_bandwidth_Hz) + " Hz");
     }
 
-    // Each passing one with the PI model's inverse as feedforward too (it
-    // does not change the loop's margins).
+    // Each passing one with the PI model's inverse as feedforward too, and
+    // with the reference pre-filter as well (neither changes the loop's
+    // margins).
+    const std::optional<design::Zpk> prefilter = reference_prefilter(gn, c.frf_request.to_Hz);
     if (c.hysteresis) {
         PiModel inverse{};
         if (invert_pi(c.hysteresis->model, inverse).ok()) {
@@ -398,6 +420,12 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
                 k.name += " + PI inverse";
                 k.method += "; the fitted PI model's analytic inverse as feedforward on the reference";
                 k.feedforward = inverse;
+                c.candidates.push_back(k);
+                if (!prefilter) continue;
+                k.name += " + pre-filter";
+                k.method += "; a pre-filter on the reference with a notch at each of the " +
+                            std::to_string(prefilter->zeros.size() / 2) + " lowest lightly damped modes";
+                k.prefilter = prefilter;
                 c.candidates.push_back(k);
             }
         }
@@ -409,7 +437,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         Candidate& k = c.candidates[i];
         say(c, k.name + ": " + (k.passes ? "passes the measured checks" : "refused: " + k.refusal));
         if (!k.passes) continue;
-        k.predicted = identified.track({k.controller, k.feedforward}, check);
+        k.predicted = identified.track(k.loaded(), check);
         say(c, k.name + ": predicted e_max " + num(k.predicted->e_max_pct) + " % on a 10 Hz triangle over " +
                    num(check.range_um) + " um");
         if (c.chosen < 0 || k.predicted->e_max_pct < c.candidates[static_cast<std::size_t>(c.chosen)].predicted->e_max_pct)
@@ -427,8 +455,8 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         v.request = q;
         TrackRequest p = q;
         p.centre_um = predicted_centre_um;
-        v.predicted = identified.track({k.controller, k.feedforward}, p);
-        v.measured = stage.track({k.controller, k.feedforward}, q);
+        v.predicted = identified.track(k.loaded(), p);
+        v.measured = stage.track(k.loaded(), q);
         say(c, "verify " + k.name + ": " + num(q.frequency_Hz) + " Hz triangle over " + num(q.range_um) + " um: e_max " +
                    num(v.measured.e_max_pct) + " % (predicted " + num(v.predicted.e_max_pct) + " %)" +
                    (v.measured.trip != "none" ? ", trip: " + v.measured.trip : ""));
@@ -464,8 +492,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
 nlohmann::json commissioned_scenario(const Commissioning& c) {
     std::optional<Controller> k;
     if (c.chosen >= 0) {
-        const Candidate& chosen = c.candidates[static_cast<std::size_t>(c.chosen)];
-        k = Controller{chosen.controller, chosen.feedforward};
+        k = c.candidates[static_cast<std::size_t>(c.chosen)].loaded();
     }
     return identified_scenario_json(c.identified, k);
 }

@@ -33,9 +33,12 @@
 //      loaded. When none passes at the automatic target bandwidth, it is
 //      halved (twice at most).
 //   6. each passing candidate's tracking of a 10 Hz triangle over half the
-//      range is predicted on the identified stage, alone and with the PI
-//      model's inverse as feedforward on the reference; the lowest e_max is
-//      chosen.
+//      range is predicted on the identified stage, alone, with the PI
+//      model's inverse as feedforward on the reference, and with that and a
+//      reference pre-filter (a notch at each lightly damped mode of the fit
+//      in the measured band, ζ < 0.2, the two lowest: the mode's poles as
+//      zeros, the same frequency at ζ 0.7 as poles, unit DC gain); the lowest
+//      e_max is chosen.
 //   7. verification on the stage: the chosen controller loaded, a triangle
 //      over half the range at 10 Hz (the check), the closed loop's frequency
 //      response (d at the command, 2 % of the span; its T gives the achieved
@@ -84,10 +87,12 @@ struct ModelFit {
 };
 
 struct Candidate {
-    std::string name;          // robust | classic, "+ PI inverse" with the feedforward
+    std::string name;          // robust | classic, "+ PI inverse", "+ pre-filter"
     std::string method;        // how it was made
     design::Zpk controller;    // continuous, e (µm) -> u (V)
-    std::optional<PiModel> feedforward;  // r (µm) -> u (V)
+    std::optional<PiModel> feedforward;     // r (µm) -> u (V)
+    std::optional<design::Zpk> prefilter;   // r (µm) -> r (µm), continuous
+    Controller loaded() const { return {controller, feedforward, prefilter}; }
     int order = 0;
     double design_crossover_Hz = 0.0;
     design::MeasuredLoop measured;  // on the measured lines
@@ -143,6 +148,12 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
 // The identified stage with the chosen controller as its case "commissioned"
 // (DIR/scenario.json).
 nlohmann::json commissioned_scenario(const Commissioning& c);
+
+// The reference pre-filter of a model (continuous): for each of its two
+// lowest lightly damped pole pairs (ζ < 0.2) below to_Hz, the pair as zeros
+// and the same frequency at ζ 0.7 as poles, so the reference carries nothing
+// at the mode and the filter has unit DC gain. None without such a mode.
+std::optional<design::Zpk> reference_prefilter(const design::Zpk& model, double to_Hz);
 
 // Step 1 from the steps' records (exposed for tests): throws
 // std::runtime_error naming the step and the reason.

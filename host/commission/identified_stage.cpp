@@ -61,6 +61,7 @@ nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::op
         json k = {{"feedback",
                    {{"kind", "lti"}, {"error_per_um", 1.0}, {"model", design::to_json(controller->feedback)},
                     {"method", "tustin"}}}};
+        if (controller->prefilter) k["prefilter"] = design::to_json(*controller->prefilter);
         if (controller->feedforward) {
             const auto [r, w] = lists(*controller->feedforward);
             k["feedforward"] = {{"kind", "pi_compensator"}, {"thresholds_um", r}, {"weights_V_per_um", w},

@@ -27,14 +27,15 @@ measure::FrfRun SimStage::frf(const measure::FrfRequest& r) {
 measure::LoopsRun SimStage::loops(const measure::LoopsRequest& r) { return measure::run_loops_sim(s_, nullptr, r); }
 
 TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
-    // The controller as a scenario's case: lti feedback (e in µm, Tustin)
-    // and the compensator as pi_compensator feedforward.
+    // The controller as a scenario's case: lti feedback (e in µm, Tustin),
+    // the compensator as pi_compensator feedforward, and the pre-filter.
     sim::CaseSpec cs;
     cs.name = cs.label = "commissioned";
     cs.sample = sample_;
     cs.feedback.kind = "lti";
     cs.feedback.model = sim::LinearSpec{k.feedback, "commission", "commissioned.controller"};
     cs.feedback.path = "commissioned.feedback";
+    if (k.prefilter) cs.prefilter = sim::LinearSpec{*k.prefilter, "commission", "commissioned.prefilter"};
     if (k.feedforward) {
         cs.feedforward.kind = "pi_compensator";
         cs.feedforward.pi = *k.feedforward;

@@ -15,10 +15,11 @@
 namespace piezoloop::commission {
 
 // What commissioning loads: a feedback controller and, where it helps, a
-// hysteresis compensator on the reference.
+// hysteresis compensator on the reference and a pre-filter of the reference.
 struct Controller {
     design::Zpk feedback;                 // continuous, e (µm) -> u (V), Tustin at the loop rate
     std::optional<PiModel> feedforward;   // r (µm) -> u (V): the fitted PI model's analytic inverse
+    std::optional<design::Zpk> prefilter; // r (µm) -> r (µm), continuous: notches at the lightly damped modes
 };
 
 // A triangle centred on a displacement (a range held inside what the

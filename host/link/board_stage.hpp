@@ -1,8 +1,8 @@
 // A board as commissioning sees it (commission/stage_access.hpp): open-loop
 // steps and frequency responses through the measurement sessions
 // (link/measure_session), and a controller verified by loading it as the
-// board's feedback and feedforward (repetitive control off, the board's
-// limits group as it is) and recording a centred triangle
+// board's feedback, feedforward and reference pre-filter (repetitive control
+// off, the board's limits group as it is) and recording a centred triangle
 // (link/record_session). `piezoloop --device ADDR commission`.
 #pragma once
 

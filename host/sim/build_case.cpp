@@ -278,6 +278,16 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         if (o.check_realisation) b.notes.push_back(realisation_note(zd, p, c.sample, m.setup.position, fb_out));
     }
 
+    // Reference pre-filter, µm -> µm.
+    if (c.prefilter) {
+        const std::vector<SosSection> pf =
+            controller_sos(c.prefilter->zpk, s.rate_Hz, "tustin", 0.0, c.sample == SampleType::kQ31,
+                           m.setup.position.full_scale, m.setup.position.full_scale, c.prefilter->path,
+                           kMaxPrefilterSections);
+        p.prefilter_count = static_cast<int>(pf.size());
+        for (size_t i = 0; i < pf.size(); ++i) p.prefilter[i] = pf[i];
+    }
+
     // Repetitive control.
     if (c.rc.enabled) {
         p.rc_enabled = true;

@@ -112,8 +112,8 @@ std::vector<SosSection> discretise_sos(const design::Zpk& zpk, double rate_Hz, c
 
 std::vector<SosSection> controller_sos(const design::Zpk& zpk, double rate_Hz, const std::string& method,
                                        double prewarp_Hz, bool q31, double in_full_scale, double out_full_scale,
-                                       const std::string& what) {
-    std::vector<SosSection> sos = discretise_sos(zpk, rate_Hz, method, prewarp_Hz, false, what, kMaxControllerSections);
+                                       const std::string& what, size_t max_sections) {
+    std::vector<SosSection> sos = discretise_sos(zpk, rate_Hz, method, prewarp_Hz, false, what, max_sections);
     if (q31) {
         design::SosScaling sc;
         sc.norm = design::SosNorm::kL1;

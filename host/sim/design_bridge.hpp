@@ -36,14 +36,14 @@ std::vector<SosSection> discretise_sos(const design::Zpk& zpk, double rate_Hz, c
                                        double prewarp_Hz, bool advance, const std::string& what,
                                        size_t max_sections);
 
-// A continuous controller as the core's feedback sections at rate_Hz. For a
-// Q31 core the gain is spread (lti/sos, L1 scaling) so that no internal node
-// can overflow for a full-scale error: in_full_scale is the error's (µm),
-// out_full_scale the output's. More than kMaxControllerSections fails
-// (std::invalid_argument naming `what`).
+// A continuous controller (or reference pre-filter) as the core's sections
+// at rate_Hz. For a Q31 core the gain is spread (lti/sos, L1 scaling) so
+// that no internal node can overflow for a full-scale input: in_full_scale
+// is the input's (µm), out_full_scale the output's. More than max_sections
+// fails (std::invalid_argument naming `what`).
 std::vector<SosSection> controller_sos(const design::Zpk& zpk, double rate_Hz, const std::string& method,
                                        double prewarp_Hz, bool q31, double in_full_scale, double out_full_scale,
-                                       const std::string& what);
+                                       const std::string& what, size_t max_sections = kMaxControllerSections);
 
 // Continuous state-space realisation (balanced, real blocks).
 design::Ss state_space(const design::Zpk& zpk);

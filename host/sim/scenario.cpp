@@ -283,7 +283,8 @@ CaseSpec parse_case(const Field& f, const std::filesystem::path& base) {
         c.plant_hysteresis = parse_hysteresis((*p)["hysteresis"]);
     }
     const Field ctl = f["controller"];
-    ctl.only({"feedforward", "feedback", "rc"});
+    ctl.only({"prefilter", "feedforward", "feedback", "rc"});
+    if (const auto pf = ctl.get("prefilter")) c.prefilter = read_linear_model(*pf, base);
     if (const auto ff = ctl.get("feedforward")) c.feedforward = parse_feedforward(*ff);
     if (const auto fb = ctl.get("feedback")) c.feedback = parse_feedback(*fb, base);
     if (const auto rc = ctl.get("rc")) c.rc = parse_rc(*rc);

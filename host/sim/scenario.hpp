@@ -98,6 +98,7 @@ struct CaseSpec {
     std::string name, label;
     SampleType sample = SampleType::kFloat;
     std::optional<HysteresisSpec> plant_hysteresis;  // overrides the scenario's
+    std::optional<LinearSpec> prefilter;  // continuous reference pre-filter, µm -> µm (Tustin at the loop rate)
     FeedforwardSpec feedforward;
     FeedbackSpec feedback;
     RcSpec rc;

@@ -103,6 +103,8 @@ TEST(Pipeline, InvalidSetsAreRejectedFieldByFieldAndChangeNothing) {
         {"limits", "u_max_V", [](PipelineParams& p) { p.limits.u_max_V = 50.0f; }},
         {"limits", "u_min_V", [](PipelineParams& p) { p.limits.u_min_V = NAN; }},
         {"pid", nullptr, [](PipelineParams& p) { p.feedback = FeedbackKind::kPid; p.pid.u_min = 5; p.pid.u_max = -5; }},
+        {nullptr, "prefilter_count", [](PipelineParams& p) { p.prefilter_count = 3; }},
+        {"prefilter", "sections[0].a2", [](PipelineParams& p) { p.prefilter_count = 1; p.prefilter[0].a2 = 1.2; }},
     };
     // Reference: a pipeline that never sees a bad set. Subject: the same one
     // offered every bad set between ticks. Their outputs must stay identical.
@@ -134,6 +136,46 @@ TEST(Pipeline, InvalidSetsAreRejectedFieldByFieldAndChangeNothing) {
         ASSERT_EQ(a, b) << "tick " << k;
         y = 0.9f * y + 0.4f * a;  // a crude plant, identical for both
     }
+}
+
+// The reference pre-filter: r as the loop sees and records it is the
+// trajectory through the sections (a standalone cascade, the reference),
+// armed or not, carried across the arming and across a swap that keeps it;
+// a changed pre-filter starts from rest. Without one r is the trajectory.
+TEST(Pipeline, ReferencePreFilterShapesTheReferenceArmedOrNot) {
+    PipelineParams with = reference::params();
+    with.prefilter_count = 2;
+    with.prefilter[0] = SosSection{0.02, 0.04, 0.02, -1.56, 0.64};  // a low-pass pair, DC gain 1
+    with.prefilter[1] = SosSection{0.5, 0.5, 0.0, 0.0, 0.0};         // an average of two samples
+    auto plain = std::make_unique<RefPipeline<float>>(reference::setup());
+    auto shaped = std::make_unique<RefPipeline<float>>(reference::setup());
+    ASSERT_TRUE(plain->stage(reference::params()).ok());
+    ASSERT_TRUE(shaped->stage(with).ok());
+    BiquadCascade<float, 2> filter;
+    ASSERT_TRUE(filter.configure(with.prefilter.data(), 2, reference::setup().position, reference::setup().position).ok());
+    for (auto* p : {plain.get(), shaped.get()}) ASSERT_TRUE(p->start_wave(triangle_10Hz()).ok());
+    float y = 0.0f;
+    for (int k = 0; k < 3000; ++k) {
+        if (k == 1000) {
+            plain->arm();
+            shaped->arm();
+        }
+        if (k == 2000) {
+            ASSERT_TRUE(shaped->stage(with).ok());  // the same pre-filter: it carries on
+        }
+        plain->tick(0.0f);
+        shaped->tick(y);
+        ASSERT_EQ(shaped->last().r, filter.apply(plain->last().r)) << "tick " << k;
+        y = shaped->last().u * 1.5f;
+    }
+    // A changed pre-filter starts from rest: its first output is b0 times r.
+    PipelineParams changed = with;
+    changed.prefilter[1] = SosSection{0.25, 0.75, 0.0, 0.0, 0.0};
+    shaped->disarm();
+    ASSERT_TRUE(shaped->stage(changed).ok());
+    plain->tick(0.0f);
+    shaped->tick(0.0f);
+    EXPECT_FLOAT_EQ(shaped->last().r, 0.02f * 0.25f * plain->last().r);
 }
 
 TEST(Pipeline, DahlFeedforwardRunsInBothPipelines) {

@@ -40,7 +40,9 @@ namespace piezoloop::link {
 // Version 3: StartExcitation / StopExcitation, Save / Load / Forget;
 // HelloReply ends with the excitation capacity, StatusReply with the
 // excitation's state and the storage block.
-inline constexpr uint8_t kProtocolVersion = 3;
+// Version 4: the feedforward group ends with the reference pre-filter
+// (prefilter_count and up to two sections).
+inline constexpr uint8_t kProtocolVersion = 4;
 
 enum class MsgType : uint8_t {
     // Requests, host -> device.

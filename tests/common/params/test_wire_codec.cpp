@@ -1,7 +1,7 @@
 // The wire layouts derived from the declarations (params/wire_codec.hpp),
 // against layouts written out by hand from the protocol's tables: the
 // field order, types and counts of each group, byte for byte, and the sizes
-// the protocol states (docs/protocol.md, section 3: feedforward 39 + 8 per
+// the protocol states (docs/protocol.md, section 3: feedforward 120 + 8 per
 // operator, feedback 187, rc 58, limits 17, trajectory 32 + 4 per table
 // point, recorder 29, with the group id byte).
 #include <gtest/gtest.h>
@@ -57,8 +57,11 @@ TEST(ParamsWireCodec, FeedforwardByHand) {
     e.f32(0.0f); e.f32(1.5f);      // thresholds[count]
     e.f32(0.75f); e.f32(-0.125f);  // weights[count]
     for (float d : {1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f}) e.f32(d);
+    e.u8(0);  // prefilter_count; both sections always travel (the default, b0 = 1)
+    for (int i = 0; i < 2; ++i)
+        for (double d : {1.0, 0.0, 0.0, 0.0, 0.0}) e.f64(d);
     EXPECT_EQ(encode(g), e.b);
-    EXPECT_EQ(e.b.size() + 1, 39u + 8u * 2u);
+    EXPECT_EQ(e.b.size() + 1, 120u + 8u * 2u);
 }
 
 TEST(ParamsWireCodec, FeedbackAlwaysCarriesFourSections) {
@@ -129,7 +132,7 @@ TEST(ParamsWireCodec, RcLimitsTrajectoryRecorderByHand) {
 }
 
 TEST(ParamsWireCodec, SizesFromTheDeclarations) {
-    EXPECT_EQ(layout_size<FeedforwardParams>().fixed + 1, 39u);
+    EXPECT_EQ(layout_size<FeedforwardParams>().fixed + 1, 120u);
     EXPECT_EQ(layout_size<FeedforwardParams>().per_count, 8u);
     EXPECT_EQ(layout_size<FeedbackParams>().fixed + 1, 187u);
     EXPECT_EQ(layout_size<FeedbackParams>().per_count, 0u);

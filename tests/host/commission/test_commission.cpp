@@ -5,11 +5,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
+#include <utility>
+#include <vector>
 #include <stdexcept>
 #include <string>
 
 #include "commission/commission.hpp"
 #include "commission/sim_stage.hpp"
+#include "lti/freqresp.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::commission {
@@ -84,6 +88,7 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     ASSERT_TRUE(c.hysteresis.has_value()) << c.hysteresis_note;
     EXPECT_LT(c.hysteresis->nrmse_percent, 1.0);
     EXPECT_TRUE(k.feedforward.has_value()) << k.name;
+    EXPECT_TRUE(k.prefilter.has_value()) << k.name;  // the 1 kHz mode is notched out of the reference
     // Verified on the stage: the 10 Hz triangle over half the range first,
     // then the whole range at 1 Hz, 10 Hz and a tenth of the bandwidth.
     EXPECT_TRUE(c.verified()) << c.verification_failure;
@@ -107,6 +112,36 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     EXPECT_NO_THROW(id.find_case("commissioned"));
     EXPECT_EQ(id.plant.hysteresis.kind, "pi");  // the fitted model
     EXPECT_EQ(id.nominal_um_per_V, c.gain_um_per_V);
+}
+
+TEST(Commission, ReferencePreFilterNotchesTheTwoLowestLightlyDampedModes) {
+    // Modes at 100 Hz (ζ 0.01), 300 Hz (ζ 0.05), 500 Hz (ζ 0.02), 50 Hz (ζ 0.5)
+    // and 5 kHz (ζ 0.01, beyond to_Hz = 2 kHz).
+    auto pair = [](double f_Hz, double zeta) {
+        const double w = 2.0 * std::numbers::pi * f_Hz;
+        return design::cplx(-zeta * w, w * std::sqrt(1.0 - zeta * zeta));
+    };
+    design::Zpk g{{}, {}, 1.0, 0.0};
+    for (const auto& [f, z] : std::vector<std::pair<double, double>>{{300, 0.05}, {100, 0.01}, {500, 0.02}, {50, 0.5}, {5000, 0.01}}) {
+        g.poles.push_back(pair(f, z));
+        g.poles.push_back(std::conj(pair(f, z)));
+    }
+    const std::optional<design::Zpk> f = reference_prefilter(g, 2000.0);
+    ASSERT_TRUE(f.has_value());
+    ASSERT_EQ(f->zeros.size(), 4u);
+    ASSERT_EQ(f->poles.size(), 4u);
+    EXPECT_EQ(f->zeros[0], pair(100, 0.01));
+    EXPECT_EQ(f->zeros[2], pair(300, 0.05));
+    EXPECT_NEAR(std::abs(f->poles[0] - pair(100, 0.7)), 0.0, 1e-9 * std::abs(f->poles[0]));
+    EXPECT_NEAR(std::abs(f->poles[2] - pair(300, 0.7)), 0.0, 1e-9 * std::abs(f->poles[2]));
+    EXPECT_NEAR(design::dc_gain(*f), 1.0, 1e-12);
+    // |F| at the notched mode: its damping over the pre-filter's, 0.01 / 0.7 (analytic, second order).
+    const double w = 2.0 * std::numbers::pi * 100.0;
+    const double at_mode = std::abs(design::evaluate(*f, design::cplx(0.0, w)));
+    const double second = std::abs(design::evaluate(design::Zpk{{f->zeros[2], f->zeros[3]}, {f->poles[2], f->poles[3]}, 1.0, 0.0}, design::cplx(0.0, w)));
+    EXPECT_NEAR(at_mode / second, 0.01 / 0.7, 1e-3);
+    design::Zpk well_damped{{}, {pair(100, 0.5), std::conj(pair(100, 0.5))}, 1.0, 0.0};
+    EXPECT_FALSE(reference_prefilter(well_damped, 2000.0).has_value());
 }
 
 // A stage that tracks far worse than predicted (the model misses something):

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <numbers>
 #include <random>
 #include <string>
 
@@ -102,6 +103,40 @@ TEST(SimScenario, ErrorsNameTheFieldPath) {
 // WindowMetrics (streamed) against tracking_metrics / hysteresis_pct
 // (stored) on the same samples: same definitions, so equal to rounding of
 // the sums (1e-12 relative).
+// controller.prefilter: a continuous model discretised by Tustin at the loop
+// rate into the core's pre-filter sections (float and Q31), r shaped as they
+// say; more than two sections are refused naming the field.
+TEST(SimScenario, ReferencePreFilterBuildsIntoTheCoreSections) {
+    nlohmann::json j = read("ahmad2020");
+    // A notch at 1 kHz (ζ 0.01 -> 0.7): four poles, two sections.
+    const double w = 2.0 * std::numbers::pi * 1000.0;
+    auto pair = [&](double zeta) { return nlohmann::json{-zeta * w, w * std::sqrt(1.0 - zeta * zeta)}; };
+    auto conj = [&](double zeta) { return nlohmann::json{-zeta * w, -w * std::sqrt(1.0 - zeta * zeta)}; };
+    j["cases"][0]["controller"]["prefilter"] = {{"zeros", {pair(0.01), conj(0.01)}}, {"poles", {pair(0.7), conj(0.7)}},
+                                                {"gain", 1.0}};
+    const Scenario s = parse_scenario(j, kConfigs);
+    for (const SampleType sample : {SampleType::kFloat, SampleType::kQ31}) {
+        CaseSpec c = s.cases[0];
+        c.sample = sample;
+        BuildOptions o;
+        o.check_realisation = false;
+        const BuiltCase b = build_case(s, c, o);
+        ASSERT_EQ(b.model.params.prefilter_count, 1);
+        // Unit DC gain, and the section's zeros on the notch.
+        const SosSection& f = b.model.params.prefilter[0];
+        EXPECT_NEAR((f.b0 + f.b1 + f.b2) / (1.0 + f.a1 + f.a2), 1.0, 1e-9);
+    }
+    j["cases"][0]["controller"]["prefilter"]["zeros"] = {pair(0.01), conj(0.01), pair(0.02), conj(0.02), pair(0.03), conj(0.03)};
+    j["cases"][0]["controller"]["prefilter"]["poles"] = {pair(0.7), conj(0.7), pair(0.6), conj(0.6), pair(0.5), conj(0.5)};
+    const Scenario too_many = parse_scenario(j, kConfigs);
+    try {
+        (void)build_case(too_many, too_many.cases[0], BuildOptions{});
+        FAIL() << "three sections";
+    } catch (const std::exception& e) {
+        EXPECT_NE(std::string(e.what()).find("cases[0].controller.prefilter"), std::string::npos) << e.what();
+    }
+}
+
 TEST(SimScenario, StreamedMetricsEqualStoredOnes) {
     std::mt19937 rng(4);
     std::normal_distribution<double> noise(0.0, 0.05);
