@@ -215,7 +215,9 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
         json m = design::to_json(k.controller);
         m["description"] = "commissioned by piezoloop commission on " + stage->describe() + ": " + k.name + " (" +
                            k.method + "); e (um) -> u (V)" +
-                           (k.feedforward ? "; the feedforward is in scenario.json (case commissioned)" : "");
+                           (k.feedforward || k.prefilter ? "; the feedforward and pre-filter are in scenario.json "
+                                                           "(case commissioned)"
+                                                         : "");
         write("controller.json", m.dump(1) + "\n");
         write("scenario.json", commission::commissioned_scenario(c).dump(1) + "\n");
         out["controller_file"] = (dir / "controller.json").string();
