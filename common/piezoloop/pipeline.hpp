@@ -23,7 +23,7 @@
 // through the feedforward (notches at the modes). It runs every tick, armed
 // or not, so it has settled on the reference when the loop arms; r as
 // recorded and tracked is the filtered one. A changed pre-filter starts from
-// rest, so it changes only while disarmed (its fields are limit-critical).
+// rest, so it changes only while disarmed (stage() refuses it while armed).
 // Without one the tick pays one well-predicted branch and its arithmetic is
 // unchanged.
 //
@@ -159,6 +159,11 @@ public:
         typename OutputLimiter<T>::Setting limits{};
         if (const Status s = limiter_.prepare(p.limits, limits); !s.ok()) return in_group("limits", s);
         if (const Status s = configure_bank(p, next); !s.ok()) return s;
+        // A changed pre-filter starts from rest: inside a running loop that
+        // would step the reference.
+        const PipelineParams& running = params_[active_];
+        if (armed() && (p.prefilter_count != running.prefilter_count || !(p.prefilter == running.prefilter)))
+            return error("prefilter", "the reference pre-filter changes only while disarmed");
         limits_next_ = limits;
         params_[active_ ^ 1u] = p;
         rc_changes_ = p.rc_enabled != params_[active_].rc_enabled || !(p.rc == params_[active_].rc);

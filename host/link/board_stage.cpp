@@ -43,7 +43,7 @@ commission::TrackingRun BoardStage::track(const commission::Controller& k, const
             sim::controller_sos(*k.prefilter, h.loop_rate_Hz, "tustin", 0.0, h.sample_format == link::SampleFormat::kQ31,
                                 h.position_full_scale_um, h.position_full_scale_um, "prefilter", kMaxPrefilterSections);
         ff.prefilter_count = static_cast<int>(pf.size());
-        for (std::size_t i = 0; i < pf.size(); ++i) static_cast<SosSection&>(ff.prefilter[i]) = pf[i];
+        for (std::size_t i = 0; i < pf.size(); ++i) ff.prefilter[i] = pf[i];
     }
     link::StatusReply st = c_.status();
     if (st.wave_running) c_.stop_wave();

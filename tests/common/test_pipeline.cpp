@@ -168,9 +168,14 @@ TEST(Pipeline, ReferencePreFilterShapesTheReferenceArmedOrNot) {
         ASSERT_EQ(shaped->last().r, filter.apply(plain->last().r)) << "tick " << k;
         y = shaped->last().u * 1.5f;
     }
-    // A changed pre-filter starts from rest: its first output is b0 times r.
+    // A changed pre-filter is refused while armed (it would restart from
+    // rest inside the running loop), and starts from rest once disarmed: its
+    // first output is b0 times r.
     PipelineParams changed = with;
     changed.prefilter[1] = SosSection{0.25, 0.75, 0.0, 0.0, 0.0};
+    const Status armed = shaped->stage(changed);
+    EXPECT_FALSE(armed.ok());
+    EXPECT_STREQ(armed.field, "prefilter");
     shaped->disarm();
     ASSERT_TRUE(shaped->stage(changed).ok());
     plain->tick(0.0f);

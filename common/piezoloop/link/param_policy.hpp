@@ -13,9 +13,10 @@
 //      tick boundary.
 // Limit-critical: limits (every field, they bound the output), the PID's
 // u_min / u_max, and feedforward kind, feedback kind, sos_count, rc enabled
-// and the reference pre-filter (they replace a block, which would restart
-// from rest inside a running loop). Everything else is swapped in while armed, with the limiter (not
-// banked) slewing the output across the change.
+// and prefilter_count (they replace a block, which would restart from rest
+// inside a running loop; the pipeline refuses new pre-filter coefficients
+// while armed too). Everything else is swapped in while armed, with the
+// limiter (not banked) slewing the output across the change.
 // The trajectory is validated by a scratch generator and stored (StartWave
 // runs it); the recorder is configured at once, inside the tick mask.
 //

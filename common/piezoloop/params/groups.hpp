@@ -76,20 +76,16 @@ concept GroupRef = std::is_same_v<std::remove_const_t<G>, Group>;
 
 // ---- the groups -----------------------------------------------------------
 
-// A reference pre-filter section (pipeline.hpp): a controller section's
-// coefficients, each limit-critical (a changed pre-filter restarts from
-// rest, which would step the reference inside a running loop).
-struct PrefilterSection : SosSection {
-    bool operator==(const PrefilterSection&) const = default;
-};
-
 struct FeedforwardParams {
     static constexpr ParamGroup kGroup = ParamGroup::kFeedforward;
     FeedforwardKind kind = FeedforwardKind::kNone;
     PiModel pi{};
     DahlParams dahl{};
-    int prefilter_count = 0;  // reference pre-filter sections on r, 0: none
-    std::array<PrefilterSection, kMaxPrefilterSections> prefilter{};
+    // Reference pre-filter sections on r, 0: none. Changed only while
+    // disarmed: the count is limit-critical, and the pipeline refuses new
+    // coefficients while armed (Pipeline::stage).
+    int prefilter_count = 0;
+    std::array<SosSection, kMaxPrefilterSections> prefilter{};
     bool operator==(const FeedforwardParams&) const = default;
 };
 
@@ -172,15 +168,6 @@ constexpr void describe(V& v, S& s) {
     v.value(f64("b2", "1", "numerator, z^-2"), s.b2);
     v.value(f64("a1", "1", "denominator, z^-1 (a0 = 1)"), s.a1);
     v.value(f64("a2", "1", "denominator, z^-2"), s.a2);
-}
-
-template <class V, GroupRef<PrefilterSection> S>
-constexpr void describe(V& v, S& s) {
-    v.value(f64("b0", "1", "numerator, z^0").limit_critical(), s.b0);
-    v.value(f64("b1", "1", "numerator, z^-1").limit_critical(), s.b1);
-    v.value(f64("b2", "1", "numerator, z^-2").limit_critical(), s.b2);
-    v.value(f64("a1", "1", "denominator, z^-1 (a0 = 1)").limit_critical(), s.a1);
-    v.value(f64("a2", "1", "denominator, z^-2").limit_critical(), s.a2);
 }
 
 template <class V, GroupRef<FeedforwardParams> G>
@@ -323,9 +310,7 @@ constexpr bool with_group(ParamGroup g, F&& f) {
 // ---- groups of a pipeline parameter set ----------------------------------------
 
 constexpr FeedforwardParams feedforward_of(const PipelineParams& p) {
-    FeedforwardParams g{p.feedforward, p.pi, p.dahl, p.prefilter_count, {}};
-    for (std::size_t i = 0; i < g.prefilter.size(); ++i) static_cast<SosSection&>(g.prefilter[i]) = p.prefilter[i];
-    return g;
+    return {p.feedforward, p.pi, p.dahl, p.prefilter_count, p.prefilter};
 }
 constexpr FeedbackParams feedback_of(const PipelineParams& p) { return {p.feedback, p.sos_count, p.sos, p.pid}; }
 constexpr RepetitiveParams rc_of(const PipelineParams& p) { return {p.rc_enabled, p.rc}; }
@@ -336,7 +321,7 @@ constexpr void set_group(PipelineParams& p, const FeedforwardParams& g) {
     p.pi = g.pi;
     p.dahl = g.dahl;
     p.prefilter_count = g.prefilter_count;
-    for (std::size_t i = 0; i < g.prefilter.size(); ++i) p.prefilter[i] = g.prefilter[i];
+    p.prefilter = g.prefilter;
 }
 constexpr void set_group(PipelineParams& p, const FeedbackParams& g) {
     p.feedback = g.kind;
