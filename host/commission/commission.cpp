@@ -103,20 +103,6 @@ std::vector<Candidate> design_candidates(const design::Zpk& gn, double dc_gain_u
     return out;
 }
 
-// Where |T| first falls below -3 dB along the lines (log-frequency
-// interpolation between the two lines around it); 0 when it stays above.
-double bandwidth_Hz(const std::vector<double>& f_Hz, const std::vector<design::cplx>& t) {
-    const double level = 1.0 / std::sqrt(2.0);
-    for (std::size_t i = 0; i < t.size(); ++i) {
-        if (std::abs(t[i]) >= level) continue;
-        if (i == 0) return f_Hz[0];
-        const double t0 = std::abs(t[i - 1]), t1 = std::abs(t[i]);
-        const double a = (t0 - level) / (t0 - t1);
-        return std::exp(std::log(f_Hz[i - 1]) + a * (std::log(f_Hz[i]) - std::log(f_Hz[i - 1])));
-    }
-    return 0.0;
-}
-
 // T = L / (1 + L) on the measured open-loop lines.
 std::vector<design::cplx> complementary_sensitivity(const design::MeasuredLoop& m) {
     std::vector<design::cplx> t;
@@ -229,10 +215,8 @@ void weigh_uncertainty(Commissioning& c, const ModelFit& fit, double rate_Hz, co
     const measure::FrfEstimate& e = c.frf.estimate;
     for (std::size_t i = 0; i < e.frequency_Hz.size(); ++i) {
         if (!(e.snr_db[i] >= 20.0)) continue;
-        const double w = kTwoPi * e.frequency_Hz[i];
-        const design::cplx g = design::evaluate(fit.model, design::cplx(0.0, w)) * std::polar(1.0, -w / rate_Hz);
         f.push_back(e.frequency_Hz[i]);
-        delta.push_back(std::abs(e.response[i] / g - 1.0));
+        delta.push_back(std::abs(e.response[i] / fit_response(fit, e.frequency_Hz[i], rate_Hz) - 1.0));
     }
     c.uncertainty = uncertainty_weight(f, delta);
     say("uncertainty weight W3: " + num(100.0 * c.uncertainty->r0) + " % rising from " +
@@ -260,6 +244,23 @@ std::optional<design::Zpk> reference_prefilter(const design::Zpk& model, double 
     }
     // Unit DC gain: each section's zeros and poles have the same |.|^2.
     return f;
+}
+
+double bandwidth_Hz(const std::vector<double>& f_Hz, const std::vector<design::cplx>& t) {
+    const double level = 1.0 / std::sqrt(2.0);
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        if (std::abs(t[i]) >= level) continue;
+        if (i == 0) return f_Hz[0];
+        const double t0 = std::abs(t[i - 1]), t1 = std::abs(t[i]);
+        const double a = (t0 - level) / (t0 - t1);
+        return std::exp(std::log(f_Hz[i - 1]) + a * (std::log(f_Hz[i]) - std::log(f_Hz[i - 1])));
+    }
+    return 0.0;
+}
+
+design::cplx fit_response(const ModelFit& fit, double f_Hz, double rate_Hz) {
+    const double w = kTwoPi * f_Hz;
+    return design::evaluate(fit.model, design::cplx(0.0, w)) * std::polar(1.0, -w / rate_Hz);
 }
 
 SafetyStep check_safety_step(const measure::StepRun& run, double step_V, double from_V, const measure::RangeUm& rails,

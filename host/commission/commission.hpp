@@ -149,6 +149,15 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
 // (DIR/scenario.json).
 nlohmann::json commissioned_scenario(const Commissioning& c);
 
+// Where |T| first falls below -3 dB along the lines f_Hz (ascending),
+// interpolated linearly in |T| on a log-frequency axis between the two lines
+// around it; the first line if it starts below, 0 when it stays above.
+double bandwidth_Hz(const std::vector<double>& f_Hz, const std::vector<design::cplx>& t);
+
+// A fit's response at the measured lines, with the tick of delay the fit
+// took out put back: what it is compared with the measurement by.
+design::cplx fit_response(const ModelFit& fit, double f_Hz, double rate_Hz);
+
 // The reference pre-filter of a model (continuous): for each of its two
 // lowest lightly damped pole pairs (ζ < 0.2) below to_Hz, the pair as zeros
 // and the same frequency at ζ 0.7 as poles, so the reference carries nothing

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "lti/freqresp.hpp"
@@ -28,12 +27,9 @@ json panel(const std::string& title, const std::string& xlabel, const std::strin
 json frf_figure(const Commissioning& c, const std::filesystem::path& dir) {
     const measure::FrfEstimate& e = c.frf.estimate;
     const ModelFit& fit = c.fits[static_cast<std::size_t>(c.chosen_fit)];
-    const double ts = 1.0 / c.identified.loop.rate_Hz;
     std::vector<double> mag, ph, fit_mag, fit_ph;
     for (std::size_t i = 0; i < e.frequency_Hz.size(); ++i) {
-        const double w = 2.0 * std::numbers::pi * e.frequency_Hz[i];
-        // The fit with the tick of delay it left out.
-        const design::cplx g = design::evaluate(fit.model, design::cplx(0.0, w)) * std::polar(1.0, -w * ts);
+        const design::cplx g = fit_response(fit, e.frequency_Hz[i], c.identified.loop.rate_Hz);
         mag.push_back(design::magnitude_db(e.response[i]));
         ph.push_back(design::phase_deg(e.response[i]));
         fit_mag.push_back(design::magnitude_db(g));

@@ -114,6 +114,21 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     EXPECT_EQ(id.nominal_um_per_V, c.gain_um_per_V);
 }
 
+TEST(Commission, BandwidthIsWhereTFallsBelowMinus3dB) {
+    // T = 1 / (1 + s/wc): |T| = 1/sqrt(2) exactly at fc = 500 Hz. Lines at 20
+    // per decade: the interpolation between the two around fc is within 1 %
+    // (|T| is smooth there: its log-log slope changes by < 0.3 over a line).
+    std::vector<double> f;
+    std::vector<design::cplx> t;
+    for (double x = 10.0; x < 10000.0; x *= std::pow(10.0, 1.0 / 20.0)) {
+        f.push_back(x);
+        t.push_back(1.0 / (1.0 + design::cplx(0.0, x / 500.0)));
+    }
+    EXPECT_NEAR(bandwidth_Hz(f, t), 500.0, 5.0);
+    EXPECT_EQ(bandwidth_Hz({10.0, 20.0}, {design::cplx(1.0), design::cplx(0.9)}), 0.0);  // stays above
+    EXPECT_EQ(bandwidth_Hz({10.0, 20.0}, {design::cplx(0.5), design::cplx(0.4)}), 10.0);  // starts below
+}
+
 TEST(Commission, ReferencePreFilterNotchesTheTwoLowestLightlyDampedModes) {
     // Modes at 100 Hz (ζ 0.01), 300 Hz (ζ 0.05), 500 Hz (ζ 0.02), 50 Hz (ζ 0.5)
     // and 5 kHz (ζ 0.01, beyond to_Hz = 2 kHz).
