@@ -68,6 +68,17 @@
 
 namespace piezoloop::commission {
 
+// A loading curve whose slope grows by more than this over the loop is
+// strong hysteresis (Shan2012's stage: about 4.5): a loop designed on the
+// small-signal slope sees several times its gain at large amplitudes, so the
+// candidates are also realised with the fitted inverse in series, which
+// linearises the stage at every amplitude.
+inline constexpr double kStrongHysteresisSpread = 2.0;
+
+// The triangles stay this fraction of the measured reach inside each of its
+// ends (the loop's corners and the controller's overshoot need room).
+inline constexpr double kReachMargin = 0.02;
+
 struct CommissionRequest {
     double range_um = 0.0;             // the travel the loop must hold
     double target_bandwidth_Hz = 0.0;  // 0: a third of the first lightly damped mode, at most rate / 20
@@ -92,7 +103,8 @@ struct Candidate {
     design::Zpk controller;    // continuous, e (µm) -> u (V)
     std::optional<PiModel> feedforward;     // r (µm) -> u (V)
     std::optional<design::Zpk> prefilter;   // r (µm) -> r (µm), continuous
-    Controller loaded() const { return {controller, feedforward, prefilter}; }
+    bool series = false;       // the inverse in series after the feedback (controller e -> µm)
+    Controller loaded() const { return {controller, feedforward, prefilter, series}; }
     int order = 0;
     double design_crossover_Hz = 0.0;
     design::MeasuredLoop measured;  // on the measured lines
@@ -116,6 +128,14 @@ struct Commissioning {
     measure::LoopsRun loops;
     std::optional<design::PiFitResult> hysteresis;  // the PI fit; absent when it failed
     std::string hysteresis_note;                    // the fit's figures, or why it failed
+    // The travel, from the hysteresis loop's measured cycle (the large
+    // signal): what the loop moved the stage over, within the sensor's range.
+    double reach_min_um = 0.0, reach_max_um = 0.0;
+    double loop_span_V = 0.0;                 // the loop's command span
+    double large_signal_gain_um_per_V = 0.0;  // reach over the loop's span
+    // The fitted loading curve's slope spread (last / first slope): above
+    // kStrongHysteresisSpread the inverse is also put in series.
+    double slope_spread = 0.0;
     std::vector<ModelFit> fits;  // every order tried
     std::optional<UncertaintyWeight> uncertainty;  // from the chosen fit's error on the measured lines
     int chosen_fit = -1;

@@ -66,6 +66,7 @@ nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::op
             const auto [r, w] = lists(*controller->feedforward);
             k["feedforward"] = {{"kind", "pi_compensator"}, {"thresholds_um", r}, {"weights_V_per_um", w},
                                 {"p0_V_per_um", controller->feedforward->p0}};
+            if (controller->series) k["feedforward"]["placement"] = "series";
         }
         j["cases"].push_back({{"name", "commissioned"},
                               {"label", "commissioned controller"},

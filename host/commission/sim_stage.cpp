@@ -39,6 +39,7 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
     if (k.feedforward) {
         cs.feedforward.kind = "pi_compensator";
         cs.feedforward.pi = *k.feedforward;
+        if (k.series) cs.feedforward.placement = "series";
         cs.feedforward.path = "commissioned.feedforward";
     }
     sim::BuildOptions bo;
@@ -52,6 +53,7 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
     sim::RunOptions o = sim::plan_run(s_.rate_Hz, w, 0, false);
     o.wave.offset_um = static_cast<float>(t.centre_um);
     o.window_midpoint_um = t.centre_um;
+    o.log_every = 1;
     const sim::RunResult r = sim::run_loop(b.model, o);
     TrackingRun out;
     out.e_max_um = r.tracking.e_max_um;
@@ -60,6 +62,12 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
     out.e_rms_pct = r.tracking.e_rms_pct;
     out.hysteresis_pct = r.hysteresis_pct;
     out.trip = trip_reason_name(r.trip);
+    const measure::MeasureBounds mb = bounds();
+    out.diagnosis_inputs = {s_.rate_Hz, t.frequency_Hz, t.range_um, mb.limits.u_min_V, mb.limits.u_max_V,
+                            mb.closed_range.min_um, mb.closed_range.max_um};
+    const std::vector<double> rr(r.log.r_um.begin(), r.log.r_um.end()), yy(r.log.y_um.begin(), r.log.y_um.end()),
+        uu(r.log.u_V.begin(), r.log.u_V.end());
+    out.diagnosis = diagnose_tracking(rr, yy, uu, out.diagnosis_inputs);
     return out;
 }
 

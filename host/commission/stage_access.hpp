@@ -10,6 +10,7 @@
 #include "lti/lti.hpp"
 #include "measure/frf_plan.hpp"
 #include "measure/step_loops_plan.hpp"
+#include "commission/tracking_diagnosis.hpp"
 #include "piezoloop/pi_model.hpp"
 
 namespace piezoloop::commission {
@@ -17,9 +18,13 @@ namespace piezoloop::commission {
 // What commissioning loads: a feedback controller and, where it helps, a
 // hysteresis compensator on the reference and a pre-filter of the reference.
 struct Controller {
-    design::Zpk feedback;                 // continuous, e (µm) -> u (V), Tustin at the loop rate
+    design::Zpk feedback;                 // continuous, e (µm) -> u (V), Tustin at the loop rate; in series: e -> µm
     std::optional<PiModel> feedforward;   // r (µm) -> u (V): the fitted PI model's analytic inverse
     std::optional<design::Zpk> prefilter; // r (µm) -> r (µm), continuous: notches at the lightly damped modes
+    // The inverse in series after the feedback (the core's pi_series,
+    // Shan2012's structure): u = limits(P^-1(r + u_fb)), u_fb in µm. The loop
+    // then sees the stage linearised by the inverse at every amplitude.
+    bool series = false;
 };
 
 // A triangle centred on a displacement (a range held inside what the
@@ -35,6 +40,8 @@ struct TrackingRun {
     double e_max_um = 0.0, e_rms_um = 0.0, e_max_pct = 0.0, e_rms_pct = 0.0;
     double hysteresis_pct = -1.0;  // y against r; negative: undefined
     std::string trip = "none";
+    TrackingDiagnosis diagnosis;   // over the whole run (both periods)
+    TrackingDiagnosisInputs diagnosis_inputs;
 };
 
 // The loop the stage runs in: its rate, sample type and Q31 full scales.

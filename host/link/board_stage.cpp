@@ -16,10 +16,11 @@ commission::LoopFacts BoardStage::loop() {
     return {h.loop_rate_Hz, h.sample_format == link::SampleFormat::kQ31, h.position_full_scale_um, h.voltage_full_scale_V};
 }
 
-link::FeedbackParams feedback_group(const design::Zpk& controller, const link::HelloReply& h) {
+link::FeedbackParams feedback_group(const design::Zpk& controller, const link::HelloReply& h, bool series) {
     const std::vector<SosSection> sos =
         sim::controller_sos(controller, h.loop_rate_Hz, "tustin", 0.0, h.sample_format == link::SampleFormat::kQ31,
-                            h.position_full_scale_um, h.voltage_full_scale_V, "controller");
+                            h.position_full_scale_um, series ? h.position_full_scale_um : h.voltage_full_scale_V,
+                            "controller");
     if (sos.size() > h.max_sos_sections)
         throw std::invalid_argument("controller: " + std::to_string(sos.size()) + " biquad sections, this board runs " +
                                     std::to_string(h.max_sos_sections));
@@ -32,10 +33,10 @@ link::FeedbackParams feedback_group(const design::Zpk& controller, const link::H
 
 commission::TrackingRun BoardStage::track(const commission::Controller& k, const commission::TrackRequest& t) {
     const link::HelloReply& h = c_.info();
-    const link::FeedbackParams fb = feedback_group(k.feedback, h);
+    const link::FeedbackParams fb = feedback_group(k.feedback, h, k.series);
     link::FeedforwardParams ff;
     if (k.feedforward) {
-        ff.kind = FeedforwardKind::kPiCompensator;
+        ff.kind = k.series ? FeedforwardKind::kPiSeries : FeedforwardKind::kPiCompensator;
         ff.pi = *k.feedforward;
     }
     if (k.prefilter) {
@@ -51,9 +52,11 @@ commission::TrackingRun BoardStage::track(const commission::Controller& k, const
     if (st.tripped) throw std::runtime_error(std::string("the board's limiter is tripped (") +
                                              trip_reason_name(st.trip_reason) + ")");
     // RC off before the feedback changes (it needs one).
+    // The feedback before the feedforward: a compensator in series needs a
+    // feedback to follow.
     c_.set(link::RepetitiveParams{});
-    c_.set(ff);
     c_.set(fb);
+    c_.set(ff);
     link::TrajectoryParams w;
     w.waveform = Waveform::kTriangle;
     w.amplitude_um = static_cast<float>(0.5 * t.range_um);
@@ -81,6 +84,11 @@ commission::TrackingRun BoardStage::track(const commission::Controller& k, const
     out.e_rms_pct = rec.figures->e_rms_pct;
     out.hysteresis_pct = rec.figures->hysteresis_pct;
     out.trip = trip_reason_name(st.trip_reason);
+    const measure::MeasureBounds mb = bounds();
+    out.diagnosis_inputs = {h.loop_rate_Hz, t.frequency_Hz, t.range_um, mb.limits.u_min_V, mb.limits.u_max_V,
+                            mb.closed_range.min_um, mb.closed_range.max_um};
+    if (rec.values.size() == 4)  // r, y, e, u as asked
+        out.diagnosis = commission::diagnose_tracking(rec.values[0], rec.values[1], rec.values[3], out.diagnosis_inputs);
     return out;
 }
 

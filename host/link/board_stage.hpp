@@ -31,6 +31,6 @@ private:
 // The controller (continuous, e in µm -> u in V) as the board's feedback
 // group: Tustin sections at its loop rate, scaled for its Q31 full scales
 // on a Q31 board.
-link::FeedbackParams feedback_group(const design::Zpk& controller, const link::HelloReply& h);
+link::FeedbackParams feedback_group(const design::Zpk& controller, const link::HelloReply& h, bool series = false);
 
 }  // namespace piezoloop::hostlink

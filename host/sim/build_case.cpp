@@ -230,8 +230,8 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
                               "u = limits(P^-1(r + u_fb)), the feedback's output in um (its published volts at " +
                               format::significant(s.command_um_per_V(), 4) + " um/V); the limits stay last, in volts");
     } else if (ff.kind == "pi_compensator") {
-        p.feedforward = FeedforwardKind::kPiCompensator;
-        p.pi = ff.pi;
+        p.feedforward = ff.placement == "series" ? FeedforwardKind::kPiSeries : FeedforwardKind::kPiCompensator;
+        p.pi = ff.placement == "series" ? on_unit_input(ff.pi) : ff.pi;
     } else if (ff.kind == "dahl") {
         p.feedforward = FeedforwardKind::kDahl;
         if (ff.dahl) {
@@ -251,7 +251,8 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
     // correction: the published controller's volts become µm at the mean
     // slope (and its Q31 output is scaled by the position full scale).
     const bool series = p.feedforward == FeedforwardKind::kPiSeries;
-    const double out = series ? s.command_um_per_V() : 1.0;
+    // A compensator given in series takes the feedback's output in µm as it is.
+    const double out = series && ff.kind == "pi_inverse" ? s.command_um_per_V() : 1.0;
     const SignalScale fb_out = series ? m.setup.position : m.setup.voltage;
     const double k = fb.error_per_um * out;
     if (fb.kind == "pid") {

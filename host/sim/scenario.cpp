@@ -174,8 +174,10 @@ FeedforwardSpec parse_feedforward(const Field& f) {
         if (const auto o = f.get("of")) s.of = o->choice({"base", "plant"});
         if (const auto p = f.get("placement")) s.placement = p->choice({"feedforward", "series"});
     } else if (s.kind == "pi_compensator") {
-        // A compensator given directly, r (µm) -> u (V).
-        f.only({"kind", "thresholds_um", "weights_V_per_um", "p0_V_per_um"});
+        // A compensator given directly, r (µm) -> u (V); in series, after a
+        // feedback whose output is in µm.
+        f.only({"kind", "thresholds_um", "weights_V_per_um", "p0_V_per_um", "placement"});
+        if (const auto p = f.get("placement")) s.placement = p->choice({"feedforward", "series"});
         const std::vector<double> r = f["thresholds_um"].numbers();
         const std::vector<double> p = f["weights_V_per_um"].numbers();
         if (r.size() != p.size()) f["weights_V_per_um"].fail("must have as many entries as thresholds_um");
