@@ -75,6 +75,12 @@ CsvData parse_csv(std::string_view text, const std::string& source, const CsvPro
         if (line.empty() || line.front() == '#') continue;
         const auto fields = split(line);
         if (!have_header) {
+            const bool numeric_start = std::string_view("0123456789+-.").find(line.front()) != std::string_view::npos;
+            if (fields.size() == 1 && (line.find('\t') != std::string_view::npos ||
+                                       (numeric_start && line.find(' ') != std::string_view::npos)))
+                fail(source, line_no,
+                     "header: no comma-separated column names (fields separated by blanks or tabs: a headerless "
+                     "table? `identify` reads one with --columns NAME=FIELD,..., e.g. u=1,y=5)");
             for (std::size_t c = 0; c < fields.size(); ++c) {
                 std::string_view name = fields[c];
                 if (name.size() >= 2 && name.front() == '"' && name.back() == '"')

@@ -113,6 +113,8 @@ TEST(IdentCsv, HeaderlessTableWithChosenFields) {
     EXPECT_EQ(error_of([&] { parse_table("1 2 3 4 x\n", picks, "run.dat"); }),
               "run.dat:1: column 'y' (field 5): 'x' is not a number");
     EXPECT_EQ(error_of([&] { parse_table("# only\n", picks, "run.dat"); }), "run.dat: no data rows");
+    // The same file read as CSV says what it looks like.
+    EXPECT_EQ(error_of([] { parse_csv("1.8\t0\t-123\n", "run.dat"); }).rfind("run.dat:1: header: no comma-separated", 0), 0u);
     EXPECT_EQ(error_of([&] { parse_column_picks("u=0,y=5"); }).rfind("columns: 'u=0': FIELD must be", 0), 0u);
     EXPECT_EQ(error_of([&] { parse_column_picks("u1"); }).rfind("columns: 'u1': expected NAME=FIELD", 0), 0u);
     EXPECT_EQ(error_of([&] { parse_column_picks("u=1,u=2"); }), "columns: 'u=2': column 'u' named twice");
