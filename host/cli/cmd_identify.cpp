@@ -257,7 +257,7 @@ int run_pi(const PiArgs& a) {
     std::cout << out.dump(1) << "\n";
     const bool validated = r.validation.samples > 0;
     std::cerr << "identify pi: " << (o.output_dead_zones > 0 ? "modified PI, " : "PI, ") << r.thresholds.size()
-              << " operators" << (o.output_dead_zones > 0 ? ", " + std::to_string(o.output_dead_zones) + " dead zones" : "")
+              << " operators" << (o.output_dead_zones > 0 ? ", " + std::to_string(o.output_dead_zones) + (o.output_dead_zones > 1 ? " dead zones" : " dead zone") : "")
               << "; offset " << r.offset_after_descent << " (output at input 0 after a descent)"
               << "; NRMSE " << r.nrmse_percent << " % on samples " << r.first_fitted << ".."
               << r.validated_from - 1;
