@@ -336,6 +336,50 @@ TEST(IdentPi, RecoversOffsetAndWeightsFromPeriodicDataWithUnknownInitialStates) 
     EXPECT_GT(bad.judged_nrmse_percent, 10.0);
 }
 
+TEST(IdentPi, MonotoneFitWithOffsetMeetsTheOptimalityConditions) {
+    // The non-monotone golden data read with an offset of 5, fitted with
+    // the offset free and the slopes bounded: checked against the KKT
+    // conditions of min |y - c - Phi D P|^2, P >= m, on the regressors built
+    // here: the gradient is 0 in c and in every P_j above the bound and
+    // points into the bound (>= 0 for the objective) where P_j = m.
+    const auto& g = golden();
+    const auto& c = g["nonmonotone"];
+    const std::vector<double> u = g["u"], r = c["thresholds"];
+    std::vector<double> y = c["y"];
+    for (double& v : y) v += 5.0;
+    PiFitOptions o;
+    o.thresholds = r;
+    o.fit_offset = true;
+    o.monotone = true;
+    o.min_slope = c["min_slope"];
+    const PiFitResult res = fit_pi(u, y, o);
+    EXPECT_GE(res.active_constraints, 1);
+    const Eigen::MatrixXd phi = regressors(u, r);
+    const int n = static_cast<int>(phi.cols());
+    Eigen::VectorXd p(n);
+    for (int j = 0; j < n; ++j) p(j) = res.weights[j];
+    const Eigen::VectorXd yv = Eigen::Map<const Eigen::VectorXd>(y.data(), static_cast<Eigen::Index>(y.size()));
+    const Eigen::VectorXd e = yv - phi * p - Eigen::VectorXd::Constant(yv.size(), res.offset);
+    Eigen::MatrixXd d = Eigen::MatrixXd::Identity(n, n);
+    for (int j = 1; j < n; ++j) d(j, j - 1) = -1.0;
+    const Eigen::VectorXd grad = -(phi * d).transpose() * e;  // d(|e|^2/2)/dP
+    // Rounding of sums over 3000 rows: 1e-9 of |(Phi D)' y|.
+    const double tol = 1e-9 * ((phi * d).transpose() * yv).norm();
+    EXPECT_NEAR(e.sum(), 0.0, 1e-9 * yv.cwiseAbs().sum());
+    int at_bound = 0;
+    for (int j = 0; j < n; ++j) {
+        EXPECT_GE(res.slopes[j], o.min_slope - 1e-12) << j;
+        if (res.slopes[j] > o.min_slope + 1e-9) {
+            EXPECT_NEAR(grad(j), 0.0, tol) << j;
+        } else {
+            ++at_bound;
+            EXPECT_GE(grad(j), -tol) << j;
+        }
+    }
+    EXPECT_EQ(at_bound, res.active_constraints);
+    EXPECT_TRUE(res.invertible) << res.invertibility;
+}
+
 TEST(IdentPi, UniformGridWithOffsetStaysBelowHalfTheSpan) {
     // With an offset a play that never turns is a constant: the grid covers
     // half the input span (1.8 here), not max |u| (3.6).
