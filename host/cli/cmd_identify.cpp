@@ -2,7 +2,9 @@
 // `piezoloop reduce --model M.json --order N`: identification from CSV data
 // and balanced truncation (host/ident/rls, pi_fit, dahl_fit, balred). JSON
 // on stdout; a bad file, column, option or unidentifiable data gives
-// "error: <field>: <why>" on stderr and exit code 2.
+// "error: <field>: <why>" on stderr and exit code 2; a hysteresis fit that
+// misses the data by more than --max-nrmse prints its JSON with
+// "poor_fit": true, says so on stderr and exits 1.
 #include <unistd.h>
 
 #include <chrono>
@@ -232,10 +234,9 @@ int run_pi(const PiArgs& a) {
     out["slopes"] = r.slopes;
     out["grid"] = o.thresholds.empty() ? a.grid : "explicit";
     out["monotone"] = o.monotone;
-    if (o.monotone || o.output_dead_zones > 0) {
-        out["min_slope"] = r.min_slope;
-        out["active_constraints"] = r.active_constraints;
-    }
+    if (o.monotone) out["min_slope"] = r.min_slope;
+    if (o.output_dead_zones > 0) out["min_output_slope"] = o.min_output_slope;
+    if (o.monotone || o.output_dead_zones > 0) out["active_constraints"] = r.active_constraints;
     out["offset_fitted"] = o.fit_offset;
     out["offset_um"] = r.offset_after_descent;
     out["rest_offset_um"] = r.offset;
