@@ -2,7 +2,9 @@
 // `piezoloop reduce --model M.json --order N`: identification from CSV data
 // and balanced truncation (host/ident/rls, pi_fit, dahl_fit, balred). JSON
 // on stdout; a bad file, column, option or unidentifiable data gives
-// "error: <field>: <why>" on stderr and exit code 2.
+// "error: <field>: <why>" on stderr and exit code 2; a hysteresis fit that
+// misses the data by more than --max-nrmse prints its JSON with
+// "poor_fit": true, says so on stderr and exits 1.
 #include <unistd.h>
 
 #include <chrono>
@@ -66,14 +68,43 @@ struct DataArgs {
     std::string file;
     std::string input;
     std::string output;
+    std::string columns;  // "u=1,y=5": a headerless table, these fields
 };
 
 void add_data_options(CLI::App* cmd, DataArgs& a, const char* in_default, const char* out_default) {
     a.input = in_default;
     a.output = out_default;
-    cmd->add_option("--data", a.file, "CSV file with a header row naming the columns")->required();
+    cmd->add_option("--data", a.file,
+                    "CSV file with a header row naming the columns, or with --columns a headerless table")
+        ->required();
     cmd->add_option("--input", a.input, "input column name")->capture_default_str();
     cmd->add_option("--output", a.output, "output column name")->capture_default_str();
+    cmd->add_option("--columns", a.columns,
+                    "read a headerless table (fields separated by tabs, spaces or commas) and name its fields, "
+                    "counted from 1: e.g. u=1,y=5");
+}
+
+template <class Progress>
+d::CsvData read_data(const DataArgs& a, Progress& progress) {
+    if (a.columns.empty()) return d::read_csv(a.file, std::ref(progress));
+    const std::vector<d::ColumnPick> picks = d::parse_column_picks(a.columns);
+    return d::read_table(a.file, picks, std::ref(progress));
+}
+
+// Fit figures as JSON.
+json errors_json(const d::FitErrors& e) {
+    return {{"rms_error", e.rms_error},
+            {"max_error", e.max_error},
+            {"nrmse_percent", number(e.nrmse_percent)},
+            {"samples", e.samples}};
+}
+
+// What a poor fit means, on stderr; the caller exits 1 after printing the JSON.
+void warn_poor_fit(const std::string& model, double nrmse, double limit, bool validated) {
+    std::cerr << "error: poor fit: the " << model << " misses the " << (validated ? "held-out" : "fitted")
+              << " data by NRMSE " << nrmse << " % (limit " << limit
+              << " %, --max-nrmse); the model is not a result to use (see docs/identification.md, "
+                 "'Fit quality')\n";
 }
 
 // ---------------------------------------------------------------- rls
@@ -88,7 +119,7 @@ struct RlsArgs {
 
 void run_rls(const RlsArgs& a) {
     FitProgress progress("identify rls");
-    const d::CsvData csv = d::read_csv(a.data.file, std::ref(progress));
+    const d::CsvData csv = read_data(a.data, progress);
     const std::vector<double>& u = csv.column(a.data.input);
     const std::vector<double>& y = csv.column(a.data.output);
     double ts = a.ts;
@@ -157,16 +188,38 @@ void add_rls(CLI::App* parent) {
 struct PiArgs {
     DataArgs data;
     std::string grid = "uniform";
+    std::string first_fitted = "auto";
+    bool no_offset = false;
     d::PiFitOptions options;
 };
 
-void run_pi(const PiArgs& a) {
+json dead_zone_json(const d::DeadZoneMap& m) {
+    return {{"thresholds", m.thresholds}, {"weights", m.weights}, {"slopes", m.slopes()}};
+}
+
+int run_pi(const PiArgs& a) {
     FitProgress progress("identify pi");
-    const d::CsvData csv = d::read_csv(a.data.file, std::ref(progress));
+    const d::CsvData csv = read_data(a.data, progress);
     const std::vector<double>& u = csv.column(a.data.input);
     const std::vector<double>& y = csv.column(a.data.output);
     d::PiFitOptions o = a.options;
     o.grid = a.grid == "shan" ? d::ThresholdGrid::kShan : d::ThresholdGrid::kUniform;
+    o.fit_offset = !a.no_offset;
+    if (a.first_fitted == "auto") {
+        o.first_fitted = d::PiFitOptions::kAutoFirstFitted;
+    } else {
+        std::size_t pos = 0;
+        long long v = -1;
+        try {
+            v = std::stoll(a.first_fitted, &pos);
+        } catch (const std::exception&) {
+            pos = 0;
+        }
+        if (pos != a.first_fitted.size() || v < 0)
+            throw std::invalid_argument("first-fitted: '" + a.first_fitted +
+                                        "' must be 'auto' or a sample index >= 0");
+        o.first_fitted = static_cast<std::size_t>(v);
+    }
     o.input_name = a.data.input;
     o.output_name = a.data.output;
     o.progress = std::ref(progress);
@@ -181,30 +234,57 @@ void run_pi(const PiArgs& a) {
     out["slopes"] = r.slopes;
     out["grid"] = o.thresholds.empty() ? a.grid : "explicit";
     out["monotone"] = o.monotone;
-    if (o.monotone) {
-        out["min_slope"] = r.min_slope;
-        out["active_constraints"] = r.active_constraints;
-    }
+    if (o.monotone) out["min_slope"] = r.min_slope;
+    if (o.output_dead_zones > 0) out["min_output_slope"] = o.min_output_slope;
+    if (o.monotone || o.output_dead_zones > 0) out["active_constraints"] = r.active_constraints;
+    out["offset_fitted"] = o.fit_offset;
+    out["offset_um"] = r.offset_after_descent;
+    out["rest_offset_um"] = r.offset;
+    out["first_fitted"] = r.first_fitted;
+    if (o.output_dead_zones > 0)
+        out["output_nonlinearity"] = {{"dead_zones", o.output_dead_zones},
+                                      {"inverse", dead_zone_json(r.output_inverse)},
+                                      {"forward", dead_zone_json(r.output_map)}};
+    else
+        out["output_nonlinearity"] = nullptr;
     out["invertible"] = r.invertible;
     out["invertibility"] = r.invertibility;
-    out["fit"] = {{"rms_error", r.rms_error},
-                  {"max_error", r.max_error},
-                  {"nrmse_percent", number(r.nrmse_percent)},
-                  {"regressor_condition", r.regressor_condition},
-                  {"samples", u.size()}};
+    json fit = errors_json({r.rms_error, r.max_error, r.nrmse_percent, r.validated_from - r.first_fitted});
+    fit["regressor_condition"] = r.regressor_condition;
+    out["fit"] = fit;
+    out["validation"] = r.validation.samples > 0 ? errors_json(r.validation) : json(nullptr);
+    out["poor_fit"] = r.poor_fit;
+    out["max_nrmse_percent"] = o.max_nrmse_percent;
     std::cout << out.dump(1) << "\n";
+    const bool validated = r.validation.samples > 0;
+    std::cerr << "identify pi: " << (o.output_dead_zones > 0 ? "modified PI, " : "PI, ") << r.thresholds.size()
+              << " operators" << (o.output_dead_zones > 0 ? ", " + std::to_string(o.output_dead_zones) + (o.output_dead_zones > 1 ? " dead zones" : " dead zone") : "")
+              << "; offset " << r.offset_after_descent << " (output at input 0 after a descent)"
+              << "; NRMSE " << r.nrmse_percent << " % on samples " << r.first_fitted << ".."
+              << r.validated_from - 1;
+    if (validated) std::cerr << ", " << r.validation.nrmse_percent << " % held out (from sample " << r.validated_from << ")";
+    std::cerr << "\n";
+    if (!r.invertible) std::cerr << "identify pi: not invertible: " << r.invertibility << "\n";
+    if (r.poor_fit) {
+        warn_poor_fit(o.output_dead_zones > 0 ? "modified PI model" : "PI model", r.judged_nrmse_percent,
+                      o.max_nrmse_percent, validated);
+        if (!o.fit_offset) std::cerr << "identify pi: the output offset was not fitted (--no-offset)\n";
+        return kExitFailure;
+    }
+    return kExitOk;
 }
 
 void add_pi(CLI::App* parent) {
     auto a = std::make_shared<PiArgs>();
     CLI::App* cmd = parent->add_subcommand(
-        "pi", "Prandtl-Ishlinskii weights by least squares on play-operator regressors");
+        "pi", "Prandtl-Ishlinskii weights (and output offset) by least squares on play-operator regressors");
     add_data_options(cmd, a->data, "u", "y");
     cmd->add_option("--operators", a->options.operators, "play operators besides the linear term")
         ->check(CLI::Range(1, 16))
         ->capture_default_str();
     cmd->add_option("--grid", a->grid,
-                    "thresholds: uniform (j*max|u|/(n+1)) or shan (rho*j, Shan2012)")
+                    "thresholds: uniform (j*reach/(n+1), reach = half the input span with the offset) or shan "
+                    "(rho*j, Shan2012)")
         ->check(CLI::IsMember({"uniform", "shan"}))
         ->capture_default_str();
     cmd->add_option("--rho", a->options.rho, "threshold spacing of the shan grid")->check(CLI::PositiveNumber);
@@ -214,7 +294,24 @@ void add_pi(CLI::App* parent) {
                   "constrain the loading-curve slopes P_j >= min-slope (invertible result)");
     cmd->add_option("--min-slope", a->options.min_slope,
                     "smallest slope in the monotone fit (default 1e-3 * output range / input range)");
-    cmd->callback([a] { guarded([&] { run_pi(*a); }); });
+    cmd->add_flag("--no-offset", a->no_offset, "no output offset: y = PI[u] (plays at rest at the start)");
+    cmd->add_option("--first-fitted", a->first_fitted,
+                    "first sample in the fit: auto (where the plays have forgotten their state before the "
+                    "record) or an index (earlier samples only run the plays)")
+        ->capture_default_str();
+    cmd->add_option("--holdout", a->options.holdout,
+                    "fraction of the record, at its end, kept out of the fit to validate it")
+        ->check(CLI::Range(0.0, 0.9))
+        ->capture_default_str();
+    cmd->add_option("--output-nonlinearity", a->options.output_dead_zones,
+                    "dead zones of a static output nonlinearity (modified PI, Kuhnen 2003); 0: plain PI")
+        ->check(CLI::Range(0, 8))
+        ->capture_default_str();
+    cmd->add_option("--max-nrmse", a->options.max_nrmse_percent,
+                    "NRMSE (%) above which the fit is flagged poor and the exit code is 1")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    cmd->callback([a] { guarded([&] { return run_pi(*a); }); });
 }
 
 // ---------------------------------------------------------------- dahl
@@ -224,6 +321,8 @@ struct DahlArgs {
     double gamma_a = 1.0;
     std::vector<double> start;
     int max_evaluations = 4000;
+    bool no_offset = false;
+    double max_nrmse_percent = 10.0;
 };
 
 json dahl_json(const d::DahlParamsD& p) {
@@ -231,14 +330,16 @@ json dahl_json(const d::DahlParamsD& p) {
             {"beta2", p.beta2},   {"gamma_a", p.gamma_a}, {"ga", p.ga}};
 }
 
-void run_dahl(const DahlArgs& a) {
+int run_dahl(const DahlArgs& a) {
     FitProgress progress("identify dahl");
-    const d::CsvData csv = d::read_csv(a.data.file, std::ref(progress));
+    const d::CsvData csv = read_data(a.data, progress);
     const std::vector<double>& v = csv.column(a.data.input);
     const std::vector<double>& x = csv.column(a.data.output);
     d::DahlFitOptions o;
     o.gamma_a = a.gamma_a;
     o.max_evaluations = a.max_evaluations;
+    o.fit_offset = !a.no_offset;
+    o.max_nrmse_percent = a.max_nrmse_percent;
     o.input_name = a.data.input;
     o.output_name = a.data.output;
     if (!a.start.empty()) {
@@ -256,15 +357,26 @@ void run_dahl(const DahlArgs& a) {
     out["beta1_gamma_a"] = r.beta1_gamma_a;
     out["beta2_gamma_a"] = r.beta2_gamma_a;
     out["gamma_a_held"] = true;
+    out["offset_fitted"] = o.fit_offset;
+    out["offset_um"] = r.offset;
     out["fit"] = {{"rms_error", r.rms_error},
                   {"max_error", r.max_error},
                   {"nrmse_percent", r.nrmse_percent},
                   {"samples", v.size()}};
+    out["poor_fit"] = r.poor_fit;
+    out["max_nrmse_percent"] = o.max_nrmse_percent;
     out["lm"] = {{"termination", r.termination},
                  {"evaluations", r.evaluations},
                  {"starts", r.starts},
                  {"jacobian_condition", r.jacobian_condition}};
     std::cout << out.dump(1) << "\n";
+    std::cerr << "identify dahl: offset " << r.offset << " (output at voltage 0 from the virgin state); NRMSE "
+              << r.nrmse_percent << " %\n";
+    if (r.poor_fit) {
+        warn_poor_fit("Dahl model", r.nrmse_percent, o.max_nrmse_percent, false);
+        return kExitFailure;
+    }
+    return kExitOk;
 }
 
 void add_dahl(CLI::App* parent) {
@@ -280,7 +392,12 @@ void add_dahl(CLI::App* parent) {
     cmd->add_option("--max-evaluations", a->max_evaluations, "model simulations per LM run")
         ->check(CLI::Range(10, 1000000))
         ->capture_default_str();
-    cmd->callback([a] { guarded([&] { run_dahl(*a); }); });
+    cmd->add_flag("--no-offset", a->no_offset, "no output offset: x = the Dahl plant's output");
+    cmd->add_option("--max-nrmse", a->max_nrmse_percent,
+                    "NRMSE (%) above which the fit is flagged poor and the exit code is 1")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    cmd->callback([a] { guarded([&] { return run_dahl(*a); }); });
 }
 
 void add_identify(CLI::App& app) {

@@ -75,6 +75,12 @@ CsvData parse_csv(std::string_view text, const std::string& source, const CsvPro
         if (line.empty() || line.front() == '#') continue;
         const auto fields = split(line);
         if (!have_header) {
+            const bool numeric_start = std::string_view("0123456789+-.").find(line.front()) != std::string_view::npos;
+            if (fields.size() == 1 && (line.find('\t') != std::string_view::npos ||
+                                       (numeric_start && line.find(' ') != std::string_view::npos)))
+                fail(source, line_no,
+                     "header: no comma-separated column names (fields separated by blanks or tabs: a headerless "
+                     "table? `identify` reads one with --columns NAME=FIELD,..., e.g. u=1,y=5)");
             for (std::size_t c = 0; c < fields.size(); ++c) {
                 std::string_view name = fields[c];
                 if (name.size() >= 2 && name.front() == '"' && name.back() == '"')
@@ -121,7 +127,9 @@ CsvData parse_csv(std::string_view text, const std::string& source, const CsvPro
     return d;
 }
 
-CsvData read_csv(const std::string& path, const CsvProgress& progress) {
+namespace {
+
+std::string read_text(const std::string& path) {
     std::ifstream f(path, std::ios::binary);
     if (!f) throw std::invalid_argument(path + ": cannot open file");
     // Read in place (one copy of the file in memory, not two through a
@@ -129,7 +137,100 @@ CsvData read_csv(const std::string& path, const CsvProgress& progress) {
     std::string text;
     char buf[1 << 16];
     while (f.read(buf, sizeof buf) || f.gcount() > 0) text.append(buf, static_cast<std::size_t>(f.gcount()));
-    return parse_csv(text, path, progress);
+    return text;
+}
+
+// A finite number or a message saying what the field is instead.
+std::string parse_number(std::string_view f, double& v) {
+    if (f.empty()) return "empty field";
+    // from_chars does not accept a leading '+'; allow it as people write it.
+    const char* first = f.data() + (f.front() == '+' ? 1 : 0);
+    const auto r = std::from_chars(first, f.data() + f.size(), v);
+    if (r.ec == std::errc::result_out_of_range) return in_quotes(f) + " is out of the double range";
+    if (r.ec != std::errc() || r.ptr != f.data() + f.size()) return in_quotes(f) + " is not a number";
+    if (!std::isfinite(v)) return in_quotes(f) + " is not finite (NaN/Inf)";
+    return {};
+}
+
+}  // namespace
+
+CsvData read_csv(const std::string& path, const CsvProgress& progress) {
+    return parse_csv(read_text(path), path, progress);
+}
+
+std::vector<ColumnPick> parse_column_picks(std::string_view spec, const std::string& option) {
+    std::vector<ColumnPick> picks;
+    std::size_t start = 0;
+    for (;;) {
+        const std::size_t comma = spec.find(',', start);
+        const std::string_view item =
+            trim(spec.substr(start, comma == std::string_view::npos ? std::string_view::npos : comma - start));
+        const std::size_t eq = item.find('=');
+        const std::string bad = option + ": " + in_quotes(item) + ": ";
+        if (eq == std::string_view::npos || eq == 0)
+            throw std::invalid_argument(bad + "expected NAME=FIELD (e.g. u=1,y=5; fields count from 1)");
+        const std::string_view name = trim(item.substr(0, eq)), field = trim(item.substr(eq + 1));
+        int f = 0;
+        const auto r = std::from_chars(field.data(), field.data() + field.size(), f);
+        if (r.ec != std::errc() || r.ptr != field.data() + field.size() || f < 1 || f > 1000)
+            throw std::invalid_argument(bad + "FIELD must be a whole number in [1, 1000] (fields count from 1)");
+        for (const auto& p : picks)
+            if (p.name == name) throw std::invalid_argument(bad + "column " + in_quotes(name) + " named twice");
+        picks.push_back({std::string(name), f});
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
+    }
+    return picks;
+}
+
+CsvData parse_table(std::string_view text, const std::vector<ColumnPick>& picks, const std::string& source,
+                    const CsvProgress& progress) {
+    if (picks.empty()) throw std::invalid_argument("columns: none chosen");
+    CsvData d;
+    d.source = source;
+    for (const auto& p : picks) d.names.push_back(p.name);
+    d.columns.resize(picks.size());
+    int line_no = 0;
+    std::size_t pos = 0;
+    std::vector<std::string_view> fields;
+    while (pos <= text.size()) {
+        const std::size_t nl = text.find('\n', pos);
+        const std::string_view raw =
+            text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+        pos = nl == std::string_view::npos ? text.size() + 1 : nl + 1;
+        ++line_no;
+        if (progress && (line_no & 0xFFFFF) == 0)
+            progress("reading: " + std::to_string(line_no >> 20) + " Mi lines, " +
+                     std::to_string(100 * std::min(pos, text.size()) / std::max<std::size_t>(text.size(), 1)) + " %");
+        const std::string_view line = trim(raw);
+        if (line.empty() || line.front() == '#') continue;
+        fields.clear();
+        std::size_t i = 0;
+        while (i < line.size()) {
+            while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == ',')) ++i;
+            const std::size_t b = i;
+            while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != ',') ++i;
+            if (i > b) fields.push_back(line.substr(b, i - b));
+        }
+        for (std::size_t c = 0; c < picks.size(); ++c) {
+            const std::string col = "column " + in_quotes(picks[c].name) + " (field " +
+                                    std::to_string(picks[c].field) + "): ";
+            if (static_cast<std::size_t>(picks[c].field) > fields.size())
+                fail(source, line_no, col + "the line has only " + std::to_string(fields.size()) + " fields");
+            double v = 0.0;
+            if (const std::string why = parse_number(fields[static_cast<std::size_t>(picks[c].field - 1)], v);
+                !why.empty())
+                fail(source, line_no, col + why);
+            d.columns[c].push_back(v);
+        }
+        d.lines.push_back(line_no);
+    }
+    if (d.lines.empty()) throw std::invalid_argument(source + ": no data rows");
+    return d;
+}
+
+CsvData read_table(const std::string& path, const std::vector<ColumnPick>& picks, const CsvProgress& progress) {
+    return parse_table(read_text(path), picks, path, progress);
 }
 
 double uniform_sample_period(const CsvData& data, std::string_view time_column, double rel_jitter) {

@@ -37,6 +37,22 @@ CsvData parse_csv(std::string_view text, const std::string& source = "<data>", c
 // Reads and parses a file; an unreadable file throws naming the path.
 CsvData read_csv(const std::string& path, const CsvProgress& progress = {});
 
+// Headerless numeric tables (a data logger's .dat file): fields separated
+// by tabs, spaces or commas (runs of blanks count once), '#' comment lines
+// and blank lines skipped. `picks` names the 1-based fields to keep, e.g.
+// "u=1,y=5" (parse_column_picks); the result holds those columns under
+// those names. Errors name the file, line and column as parse_csv's do.
+struct ColumnPick {
+    std::string name;
+    int field = 0;  // 1-based
+};
+// Parses "name=field,name=field,..."; throws naming `option` on bad syntax,
+// a field < 1, or a name given twice.
+std::vector<ColumnPick> parse_column_picks(std::string_view spec, const std::string& option = "columns");
+CsvData parse_table(std::string_view text, const std::vector<ColumnPick>& picks,
+                    const std::string& source = "<data>", const CsvProgress& progress = {});
+CsvData read_table(const std::string& path, const std::vector<ColumnPick>& picks, const CsvProgress& progress = {});
+
 // Sample period of a time column: strictly increasing, every step within
 // `rel_jitter` of the median step (default 1 %: time stamps printed with six
 // significant digits jitter by up to ~0.5 % of a period); returns the mean

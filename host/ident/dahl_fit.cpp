@@ -166,6 +166,7 @@ struct OutputError {
     Scaling sc;
     double penalty = 0.0;  // residual used when the model cannot be simulated
     int* count = nullptr;
+    bool project_offset = false;  // residuals minus their mean (the best offset removed)
     std::function<void()> on_simulation;  // progress
 
     int inputs() const { return 5; }
@@ -184,6 +185,7 @@ struct OutputError {
             const double e = xm[static_cast<std::size_t>(k)] - x[static_cast<std::size_t>(k)];
             f(k) = std::isfinite(e) ? e : penalty;
         }
+        if (project_offset) f.array() -= f.mean();
         return 0;
     }
 };
@@ -211,7 +213,8 @@ struct Candidate {
 };
 
 // Equation-error starting points (see header).
-std::vector<Candidate> grid_starts(std::span<const double> v, std::span<const double> x, double gamma_a) {
+std::vector<Candidate> grid_starts(std::span<const double> v, std::span<const double> x, double gamma_a,
+                                   bool offset) {
     const std::size_t n = v.size();
     // Measured x made monotone between reversals of v.
     std::vector<double> xd(n);
@@ -228,7 +231,7 @@ std::vector<Candidate> grid_starts(std::span<const double> v, std::span<const do
     for (double w : {0.25, 0.5, 1.0, 2.0, 4.0, 8.0}) {
         for (double zeta : {0.1, 0.3, 1.0, 2.0, 4.0}) {
             DahlParamsD p{zeta * w / length, (w / length) * (w / length), 0.0, 0.0, 1.0, 1.0};
-            Eigen::MatrixXd a(static_cast<int>(n), 3);
+            Eigen::MatrixXd a(static_cast<int>(n), offset ? 4 : 3);
             Eigen::VectorXd b(static_cast<int>(n));
             Z z;
             int s = 1;
@@ -244,6 +247,7 @@ std::vector<Candidate> grid_starts(std::span<const double> v, std::span<const do
                 a(r, 0) = v[k];
                 a(r, 1) = -s * z.z2;
                 a(r, 2) = -z.z1;
+                if (offset) a(r, 3) = 1.0;
                 b(r) = x[k];
             }
             const Eigen::VectorXd sol = a.colPivHouseholderQr().solve(b);
@@ -296,7 +300,7 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
             throw std::invalid_argument("start: needs alpha1 >= 0, alpha2 > 0, ga > 0, all finite");
         starts.push_back(s);
     } else {
-        const std::vector<Candidate> c = grid_starts(v, x, o.gamma_a);
+        const std::vector<Candidate> c = grid_starts(v, x, o.gamma_a, o.fit_offset);
         for (std::size_t i = 0; i < c.size() && i < 3; ++i) starts.push_back(c[i].p);
         if (starts.empty())
             throw std::invalid_argument(o.output_name +
@@ -321,7 +325,7 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
         Scaling sc{o.gamma_a, 0.0, std::fabs(s.beta2)};
         if (!(sc.sb2 > 0.0)) sc.sb2 = s.alpha2 * (*xmax - *xmin) / std::fabs(o.gamma_a);
         sc.sb1 = std::fabs(s.beta1) > 0.0 ? std::fabs(s.beta1) : sc.sb2 / std::sqrt(s.alpha2);
-        OutputError fn{v, x, sc, 1e3 * (xrms + 1.0), &evaluations, {}};
+        OutputError fn{v, x, sc, 1e3 * (xrms + 1.0), &evaluations, o.fit_offset, {}};
         if (o.progress) {
             const std::string run = "LM run " + std::to_string(best.starts + 1) + " of " + std::to_string(starts.size());
             fn.on_simulation = [&o, &evaluations, run] {
@@ -356,7 +360,7 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
     best.beta2_gamma_a = p.beta2 * p.gamma_a;
 
     // Jacobian in the parameters' own units, by central differences.
-    OutputError fn{v, x, best_sc, 1e3 * (xrms + 1.0), &evaluations, {}};
+    OutputError fn{v, x, best_sc, 1e3 * (xrms + 1.0), &evaluations, o.fit_offset, {}};
     Eigen::VectorXd f0;
     fn(best_q, f0);
     const int m = static_cast<int>(x.size());
@@ -417,6 +421,13 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
     best.rms_error = r;
     best.max_error = f0.cwiseAbs().maxCoeff();
     best.nrmse_percent = xrms > 0.0 ? 100.0 * r / xrms : 0.0;
+    best.poor_fit = !(best.nrmse_percent <= o.max_nrmse_percent);
+    if (o.fit_offset) {
+        const std::vector<double> xm = simulate_dahl_plant(p, v);
+        double sum = 0.0;
+        for (std::size_t k = 0; k < x.size(); ++k) sum += x[k] - xm[k];
+        best.offset = sum / static_cast<double>(x.size());
+    }
     best.evaluations = evaluations;
     return best;
 }

@@ -62,6 +62,11 @@ struct DahlFitOptions {
     double gamma_a = 1.0;               // held (see above); must be finite and non-zero
     std::optional<DahlParamsD> start;   // starting point (its gamma_a is replaced by gamma_a); else grid
     int max_evaluations = 4000;         // model simulations per LM run
+    // Fit a constant output offset c (x_measured = c + x_model): eliminated
+    // from the LM by variable projection (for any parameters the best c is
+    // the mean residual), so the LM keeps its five unknowns.
+    bool fit_offset = false;
+    double max_nrmse_percent = 10.0;    // above: flagged poor_fit
     std::string input_name = "v";       // column names used in error messages
     std::string output_name = "x";
     // Called after every model simulation with what the fit is doing
@@ -80,6 +85,8 @@ struct DahlFitResult {
     double rms_error = 0.0;      // rms(x - x_model)
     double max_error = 0.0;
     double nrmse_percent = 0.0;  // 100 rms_error / rms(x - mean x)
+    double offset = 0.0;         // c (0 unless fit_offset): the model's output at v = 0 from the virgin state
+    bool poor_fit = false;       // nrmse_percent > max_nrmse_percent
     double jacobian_condition = 0.0;  // column-normalised, at the optimum
     int evaluations = 0;         // model simulations, all runs
     int starts = 0;              // LM runs

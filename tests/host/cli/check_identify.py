@@ -90,7 +90,9 @@ if out:
 p = json.load(open(f"{golden_dir}/ident_pi.json"))
 set15_csv = write_csv("set15.csv", ["u", "y"], [p["u"], p["set15"]["y"]])
 thr = ",".join(repr(r) for r in p["set15"]["thresholds"])
-out = ok_json("pi set15", run("identify", "pi", "--data", set15_csv, "--thresholds", thr))
+# The golden references fit y = PI[u] from rest over every sample: --no-offset --first-fitted 0.
+plain = ("--no-offset", "--first-fitted", "0")
+out = ok_json("pi set15", run("identify", "pi", "--data", set15_csv, "--thresholds", thr, *plain))
 if out:
     # Same least-squares problem as numpy's lstsq: 1e-9 (see test_pi_fit.cpp).
     check("pi set15 weights", close(out["weights"], p["set15"]["lstsq"], 1e-9), str(out["weights"]))
@@ -98,17 +100,100 @@ if out:
     check("pi set15 invertible", out["invertible"] is True and out["grid"] == "explicit", str(out["invertible"]))
 nm = p["nonmonotone"]
 nm_csv = write_csv("nonmono.csv", ["u", "y"], [p["u"], nm["y"]])
-out = ok_json("pi free", run("identify", "pi", "--data", nm_csv, "--operators", "8"))
+res = run("identify", "pi", "--data", nm_csv, "--operators", "8", *plain)
+out = ok_json("pi free", res)
 if out:
+    # Not invertible is a result (exit 0), said on stderr with what to do.
+    check("pi free says why not invertible", "not invertible" in res.stderr and "monotone" in res.stderr
+          and "falls while the input rises" in out["invertibility"], res.stderr)
     check("pi free weights", close(out["weights"], nm["lstsq"], 1e-9), str(out["weights"]))
     check("pi free not invertible", out["invertible"] is False and "weights[2]" in out["invertibility"],
           out["invertibility"])
 out = ok_json("pi monotone", run("identify", "pi", "--data", nm_csv, "--operators", "8", "--monotone",
-                                 "--min-slope", repr(nm["min_slope"])))
+                                 "--min-slope", repr(nm["min_slope"]), *plain))
 if out:
     # scipy.optimize.nnls on the slope parametrisation: 1e-8 (see test_pi_fit.cpp).
     check("pi monotone weights", close(out["weights"], nm["monotone"], 1e-8), str(out["weights"]))
     check("pi monotone invertible", out["invertible"] is True and out["active_constraints"] == 1, json.dumps(out)[:300])
+
+# Offset and unknown initial play states: a known PI model read with an
+# offset of -118 from a periodic wave that starts at mid-range.
+kk = np.arange(6 * 200 + 50)
+wave = 1.8 - 1.8 * np.cos(2 * np.pi * (kk + 50) / 200)
+r_true, p_true, c_true = [0.3, 0.6, 0.9, 1.2, 1.5], [2.0, 3.0, 2.0, 1.5, 1.0, 0.5], -118.0
+w = np.array([0.7, -1.0, 2.5, 0.0, 3.0])
+yo = []
+for x in wave:
+    w = np.maximum(x - np.array(r_true), np.minimum(x + np.array(r_true), w))
+    yo.append(c_true + p_true[0] * x + float(np.dot(p_true[1:], w)))
+off_csv = write_csv("offset.csv", ["u", "y"], [wave, yo])
+res = run("identify", "pi", "--data", off_csv, "--thresholds", ",".join(map(repr, r_true)), "--holdout", "0.25")
+out = ok_json("pi offset", res)
+if out:
+    # Exact data of the model class: the least-squares optimum is the model (1e-8).
+    check("pi offset weights", close(out["weights"], p_true, 1e-8), str(out["weights"]))
+    descended = c_true + float(np.dot(p_true[1:], r_true))
+    check("pi offset_um", abs(out["offset_um"] - descended) < 1e-8 and abs(out["rest_offset_um"] - c_true) < 1e-8,
+          f'{out["offset_um"]} {out["rest_offset_um"]}')
+    check("pi offset first fitted on the first descent", 50 < out["first_fitted"] < 150, str(out["first_fitted"]))
+    check("pi offset validation", out["validation"]["samples"] == len(wave) // 4
+          and out["validation"]["max_error"] < 1e-4 and out["poor_fit"] is False, json.dumps(out["validation"]))
+    check("pi offset on stderr", "offset -" in res.stderr and "held out" in res.stderr, res.stderr)
+# The same data without the offset term: a poor fit, exit 1, flagged in the JSON and on stderr.
+res = run("identify", "pi", "--data", off_csv, "--thresholds", ",".join(map(repr, r_true)), "--no-offset")
+check("pi poor fit exit 1", res.returncode == 1, f"exit {res.returncode}: {res.stderr}")
+try:
+    out = json.loads(res.stdout)
+    check("pi poor fit flagged", out["poor_fit"] is True and out["fit"]["nrmse_percent"] > 10, json.dumps(out["fit"]))
+except ValueError:
+    check("pi poor fit JSON", False, res.stdout[:200])
+check("pi poor fit on stderr", "poor fit" in res.stderr and "NRMSE" in res.stderr, res.stderr)
+
+# Modified PI (output nonlinearity) on the same kind of data with a curved output.
+ys = [v + 0.01 * (v + 118.0) ** 2 for v in yo]
+res = run("identify", "pi", "--data", write_csv("curved.csv", ["u", "y"], [wave, ys]), "--thresholds",
+          ",".join(map(repr, r_true)), "--output-nonlinearity", "4", "--holdout", "0.25")
+out = ok_json("pi output nonlinearity", res)
+if out:
+    on = out["output_nonlinearity"]
+    slopes_ok = all(s > 0 for s in on["inverse"]["slopes"]) and all(s > 0 for s in on["forward"]["slopes"])
+    check("pi output nonlinearity reported", on["dead_zones"] == 4 and len(on["inverse"]["thresholds"]) == 4
+          and slopes_ok and out["invertible"] is True, json.dumps(on))
+    # Forward and inverse maps agree: slope products 1 on matching segments.
+    check("pi output nonlinearity inverse", close([a * b for a, b in zip(on["inverse"]["slopes"], on["forward"]["slopes"])],
+                                                 [1.0] * 5, 1e-12), json.dumps(on))
+    check("pi output nonlinearity fits", out["validation"]["nrmse_percent"] < 1.0, json.dumps(out["validation"]))
+
+# The real recording, read raw (tab-separated, no header, fields 1 and 5):
+# <repo>/../shared/data/piezo_micromanipulator, beside the repository.
+real = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "..", "shared", "data",
+                    "piezo_micromanipulator")
+if os.path.exists(os.path.join(real, "Model_Vi_Do.dat")):
+    dat = os.path.join(real, "Model_Vi_Do.dat")
+    raw = np.loadtxt(dat)
+    y0 = float(open(os.path.join(real, "authors_model", "y0.dat")).read())
+    # The authors' y0 is relative to the mean of the period from row 3152 (Step01_GetModel.m).
+    reference = y0 + raw[3151:3351, 4].mean()
+    res = run("identify", "pi", "--data", dat, "--columns", "u=1,y=5", "--operators", "16", "--holdout", "0.25",
+              "--output-nonlinearity", "3")
+    out = ok_json("pi real recording", res)
+    if out:
+        check("pi real held-out NRMSE <= 2 %", out["validation"]["nrmse_percent"] <= 2.0, json.dumps(out["validation"]))
+        check("pi real offset within 1 %", abs(out["offset_um"] - reference) <= 0.01 * abs(reference),
+              f'{out["offset_um"]} vs {reference}')
+        print(f'     real recording: fit {out["fit"]["nrmse_percent"]:.2f} %, held out '
+              f'{out["validation"]["nrmse_percent"]:.2f} %, offset {out["offset_um"]:.3f} um vs {reference:.3f} um')
+    bad_dat = os.path.join(tmp, "real_nan.dat")
+    lines = open(dat).read().splitlines()
+    lines[99] = lines[99].replace(lines[99].split("\t")[4], "nan")
+    open(bad_dat, "w").write("\n".join(lines) + "\n")
+    expect_error("real nan", run("identify", "pi", "--data", bad_dat, "--columns", "u=1,y=5"),
+                 "real_nan.dat:100:", "column 'y' (field 5)", "not finite")
+    expect_error("real field out of range", run("identify", "pi", "--data", dat, "--columns", "u=1,y=9"),
+                 "Model_Vi_Do.dat:1:", "column 'y' (field 9)", "only 7 fields")
+    expect_error("real header expected", run("identify", "pi", "--data", dat), "Model_Vi_Do.dat:1:", "header")
+else:
+    print(f"SKIP real recording: no {real}/Model_Vi_Do.dat (the shared folder sits beside the repository in CI)")
 
 # ------------------------------------------------------------------ dahl
 # Voltages that make the Dahl plant follow a prescribed displacement path
@@ -150,6 +235,8 @@ if out:
     check("dahl params", ok and q["gamma_a"] == gam and abs(q["beta1"]) < 1e-5 * b2 / math.sqrt(a2),
           json.dumps(q))
     check("dahl fit", out["fit"]["rms_error"] < 1e-6 and out["gamma_a_held"] is True, json.dumps(out["fit"]))
+    check("dahl offset", out["offset_fitted"] is True and abs(out["offset_um"]) < 1e-6 and out["poor_fit"] is False,
+          str(out["offset_um"]))
 
 # ------------------------------------------------------------------ reduce
 b = json.load(open(f"{golden_dir}/ident_balred.json"))
@@ -191,14 +278,24 @@ jit = write_csv("jitter.csv", ["t", "u", "y"], [[0, 1, 2, 4] + list(range(5, 100
 expect_error("non-uniform time", run("identify", "rls", "--data", jit), "jitter.csv:5:", "column 't'", "not uniform")
 expect_error("no time column", run("identify", "rls", "--data", named_csv, "--input", "v_V", "--output", "x_um"),
              "ts:", "--ts")
-expect_error("far threshold", run("identify", "pi", "--data", set15_csv, "--thresholds", "1,50"),
+expect_error("far threshold", run("identify", "pi", "--data", set15_csv, "--thresholds", "1,50", *plain),
              "thresholds[1]", "never reached")
+expect_error("threshold never forgets", run("identify", "pi", "--data", set15_csv, "--thresholds", "1,50"),
+             "thresholds[1]", "never moves by 2 r = 100", "first fitted")
 expect_error("descending thresholds", run("identify", "pi", "--data", set15_csv, "--thresholds", "2,1"),
              "thresholds[1]")
 expect_error("operators range", run("identify", "pi", "--data", set15_csv, "--operators", "17"), "--operators")
 expect_error("dahl start", run("identify", "dahl", "--data", dahl_csv, "--input", "v_V", "--output", "x_um",
                                "--start", "1,2,3"), "start: needs 5 values")
 expect_error("dahl columns", run("identify", "dahl", "--data", dahl_csv), "v: no such column")
+expect_error("columns syntax", run("identify", "pi", "--data", off_csv, "--columns", "u=0,y=2"), "columns: 'u=0'")
+expect_error("columns twice", run("identify", "pi", "--data", off_csv, "--columns", "u=1,u=2"), "named twice")
+expect_error("first-fitted", run("identify", "pi", "--data", off_csv, "--first-fitted", "soon"), "first-fitted")
+expect_error("holdout range", run("identify", "pi", "--data", off_csv, "--holdout", "0.95"), "--holdout")
+expect_error("too few samples", run("identify", "pi", "--data", write_csv("few.csv", ["u", "y"],
+             [wave[:30], yo[:30]]), "--first-fitted", "0"), "u: too short")
+expect_error("dead zones range", run("identify", "pi", "--data", off_csv, "--output-nonlinearity", "9"),
+             "--output-nonlinearity")
 unstable = os.path.join(tmp, "unstable.json")
 json.dump({"num": [1.0], "den": [1.0, -1.0]}, open(unstable, "w"))
 expect_error("reduce unstable", run("reduce", "--model", unstable, "--order", "1"), "not stable")

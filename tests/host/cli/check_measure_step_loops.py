@@ -148,7 +148,8 @@ if res.returncode == 0:
               f"{loop['hysteresis_pct']:.4f} vs {h:.4f} %")
         print(f"     {amplitudes[i]:>4} V: hysteresis {loop['hysteresis_pct']:.2f} %, widest "
               f"{loop['max_width_pct']:.2f} %, y {loop['y_min_um']:.2f} .. {loop['y_max_um']:.2f} um")
-    res = run("identify", "pi", "--data", loops_csv)
+    # y = PI[u] from rest over every sample, as the model is rerun below.
+    res = run("identify", "pi", "--data", loops_csv, "--no-offset", "--first-fitted", "0")
     check("identify pi reads the loops", res.returncode == 0, res.stderr)
     if res.returncode == 0:
         fit = json.loads(res.stdout)

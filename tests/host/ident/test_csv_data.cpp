@@ -96,4 +96,28 @@ TEST(IdentCsv, RequireFiniteNamesTheSample) {
     EXPECT_EQ(error_of([&] { require_finite(std::span<const double>(v, 2), "x_um"); }), "");
 }
 
+TEST(IdentCsv, HeaderlessTableWithChosenFields) {
+    // Tab- and space-separated, as a data logger writes; comments skipped.
+    const CsvData d = parse_table("# logger\n1.8\t0\t-123.0\n  1.9 0  -120.5\n\n2.0,0,-118\n",
+                                  parse_column_picks("u=1, y=3"), "run.dat");
+    ASSERT_EQ(d.rows(), 3u);
+    EXPECT_EQ(d.names, (std::vector<std::string>{"u", "y"}));
+    EXPECT_EQ(d.column("u"), (std::vector<double>{1.8, 1.9, 2.0}));
+    EXPECT_EQ(d.column("y"), (std::vector<double>{-123.0, -120.5, -118.0}));
+    EXPECT_EQ(d.lines, (std::vector<int>{2, 3, 5}));
+    const auto picks = parse_column_picks("u=1,y=5");
+    EXPECT_EQ(error_of([&] { parse_table("1 2 3\n", picks, "run.dat"); }),
+              "run.dat:1: column 'y' (field 5): the line has only 3 fields");
+    EXPECT_EQ(error_of([&] { parse_table("1 2 3 4 5\n1 2 3 4 nan\n", picks, "run.dat"); }),
+              "run.dat:2: column 'y' (field 5): 'nan' is not finite (NaN/Inf)");
+    EXPECT_EQ(error_of([&] { parse_table("1 2 3 4 x\n", picks, "run.dat"); }),
+              "run.dat:1: column 'y' (field 5): 'x' is not a number");
+    EXPECT_EQ(error_of([&] { parse_table("# only\n", picks, "run.dat"); }), "run.dat: no data rows");
+    // The same file read as CSV says what it looks like.
+    EXPECT_EQ(error_of([] { parse_csv("1.8\t0\t-123\n", "run.dat"); }).rfind("run.dat:1: header: no comma-separated", 0), 0u);
+    EXPECT_EQ(error_of([&] { parse_column_picks("u=0,y=5"); }).rfind("columns: 'u=0': FIELD must be", 0), 0u);
+    EXPECT_EQ(error_of([&] { parse_column_picks("u1"); }).rfind("columns: 'u1': expected NAME=FIELD", 0), 0u);
+    EXPECT_EQ(error_of([&] { parse_column_picks("u=1,u=2"); }), "columns: 'u=2': column 'u' named twice");
+}
+
 }  // namespace

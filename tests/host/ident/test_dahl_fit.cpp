@@ -121,6 +121,30 @@ void expect_recovered(const DahlFitResult& r, const DahlParamsD& truth, double g
     EXPECT_EQ(r.params.gamma_a, gamma_a);
 }
 
+TEST(IdentDahl, FitsAnOutputOffset) {
+    // The same loops read by a sensor with an offset of -100 um.
+    const std::vector<double> v = loops(40.0, 15.0, 3, 200);
+    const double sigma = 0.005, offset = -100.0;
+    std::vector<double> x = noisy(simulate_dahl_plant(kVisible, v), sigma, 1);
+    for (double& xv : x) xv += offset;
+    DahlFitOptions o;
+    o.gamma_a = kVisible.gamma_a;
+    o.fit_offset = true;
+    const DahlFitResult r = fit_dahl(v, x, o);
+    expect_recovered(r, kVisible, o.gamma_a);
+    // The offset is the mean residual: its error ~ sigma / sqrt(1401) plus
+    // what the parameters' errors shift; 4 sigma = 20 nm covers both.
+    EXPECT_NEAR(r.offset, offset, 4 * sigma);
+    EXPECT_NEAR(r.rms_error, sigma, 0.06 * sigma);
+    EXPECT_FALSE(r.poor_fit);
+    // Without the offset term the same data is flagged a poor fit or refused.
+    o.fit_offset = false;
+    try {
+        EXPECT_TRUE(fit_dahl(v, x, o).poor_fit);
+    } catch (const std::invalid_argument&) {
+    }
+}
+
 TEST(IdentDahl, RecoversThePublishedSetInTheVisibleConvention) {
     const std::vector<double> v = loops(40.0, 15.0, 3, 200);
     const double sigma = 0.005;  // 5 nm sensor noise
