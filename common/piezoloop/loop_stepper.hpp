@@ -49,6 +49,14 @@ public:
         u_ = sample_zero<T>();
     }
 
+    // A stage that is already running (the host simulator carrying one stage
+    // across runs, as a board's carries on): the next tick reads y_um.
+    constexpr void resume(float y_um) {
+        y_ = position_.template to_sample<T>(y_um);
+        u_ = sample_zero<T>();
+    }
+    // The last command, in the controller's sample type.
+    constexpr T last_command() const { return u_; }
     // The reading the next tick uses, in the controller's sample type.
     constexpr T reading() const { return y_; }
     // The controller's output, applied to the stage by the next step().

@@ -507,11 +507,15 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     }
 
     // 7. Predicted tracking of the passing ones; the best is chosen.
+    // Each from the same state of the identified stage (at rest), so that
+    // the order of the candidates does not matter.
     const TrackRequest check{10.0, 0.5 * r.range_um, predicted_centre_um};
+    const sim::CarriedStage at_rest = identified.state();
     for (std::size_t i = 0; i < c.candidates.size(); ++i) {
         Candidate& k = c.candidates[i];
         say(c, k.name + ": " + (k.passes ? "passes the measured checks" : "refused: " + k.refusal));
         if (!k.passes) continue;
+        identified.set_state(at_rest);
         k.predicted = identified.track(k.loaded(), check);
         say(c, k.name + ": predicted e_max " + num(k.predicted->e_max_pct) + " % on a 10 Hz triangle over " +
                    num(check.range_um) + " um");
@@ -522,7 +526,9 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
 
     // 8. Verification on the stage, each triangle beside its prediction: the
     // check first (it loads the controller), then the closed loop's own
-    // response, whose bandwidth sets the last triangle.
+    // response, whose bandwidth sets the last triangle. The identified stage
+    // runs the same sequence, carrying on from one run to the next as the
+    // stage does.
     const Candidate& k = c.candidates[static_cast<std::size_t>(c.chosen)];
     c.bandwidth_Hz = bandwidth_Hz(k.measured.f_Hz, complementary_sensitivity(k.measured));
     auto verify = [&](const TrackRequest& q) {
@@ -551,6 +557,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         }
         c.verification.push_back(v);
     };
+    identified.set_state(at_rest);
     verify({10.0, 0.5 * r.range_um, c.centre_um});
 
     // The closed loop's response on the stage: d at the command, 2 % of the
@@ -559,6 +566,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     c.closed_frf_request.closed = true;
     c.closed_frf_request.amplitude_V = 0.02 * span;
     c.closed_frf = stage.frf(c.closed_frf_request);
+    (void)identified.frf(c.closed_frf_request);
     c.measured_bandwidth_Hz = bandwidth_Hz(c.closed_frf->estimate.frequency_Hz, c.closed_frf->complementary_sensitivity);
     say(c, "closed-loop response on the stage: bandwidth " + num(c.measured_bandwidth_Hz) + " Hz (" +
                num(c.bandwidth_Hz) + " Hz from the open-loop lines)");

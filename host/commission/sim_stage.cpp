@@ -17,14 +17,25 @@ LoopFacts SimStage::loop() {
 
 measure::MeasureBounds SimStage::bounds() { return measure::scenario_bounds(s_); }
 
-measure::StepRun SimStage::step(const measure::StepRequest& r) { return measure::run_step_sim(s_, nullptr, r); }
+void SimStage::rest() {
+    carried_.rest(s_.limits, static_cast<float>(s_.rate_Hz), s_.plant.sensor.gain, kRestBetweenRuns_s);
+}
+
+measure::StepRun SimStage::step(const measure::StepRequest& r) {
+    rest();
+    return measure::run_step_sim(s_, nullptr, r, {}, &carried_);
+}
 
 measure::FrfRun SimStage::frf(const measure::FrfRequest& r) {
     if (r.closed && !loaded_) throw std::invalid_argument("closed loop: no controller loaded (track one first)");
-    return measure::run_frf_sim(s_, r.closed ? &*loaded_ : nullptr, r);
+    rest();
+    return measure::run_frf_sim(s_, r.closed ? &*loaded_ : nullptr, r, {}, &carried_);
 }
 
-measure::LoopsRun SimStage::loops(const measure::LoopsRequest& r) { return measure::run_loops_sim(s_, nullptr, r); }
+measure::LoopsRun SimStage::loops(const measure::LoopsRequest& r) {
+    rest();
+    return measure::run_loops_sim(s_, nullptr, r, {}, &carried_);
+}
 
 TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
     // The controller as a scenario's case: lti feedback (e in µm, Tustin),
@@ -54,6 +65,8 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
     o.wave.offset_um = static_cast<float>(t.centre_um);
     o.window_midpoint_um = t.centre_um;
     o.log_every = 1;
+    o.carried = &carried_;
+    rest();
     const sim::RunResult r = sim::run_loop(b.model, o);
     TrackingRun out;
     out.e_max_um = r.tracking.e_max_um;

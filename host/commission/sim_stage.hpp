@@ -2,11 +2,16 @@
 // measured by the simulator, its cases and models never read. A closed-loop
 // frequency response runs the controller `track` loaded last.
 // Also the identified stage a prediction runs on (commission/identified_stage).
+// As on a board, the stage carries on from one run to the next (its
+// hysteresis's memory, its position), with the disarmed loop's ramp to the
+// safe command and a rest of kRestBetweenRuns_s between them
+// (sim/carried_stage.hpp); state() and set_state() save and restore that.
 #pragma once
 
 #include <optional>
 
 #include "commission/stage_access.hpp"
+#include "sim/carried_stage.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::commission {
@@ -22,10 +27,18 @@ public:
     measure::LoopsRun loops(const measure::LoopsRequest& r) override;
     TrackingRun track(const Controller& k, const TrackRequest& t) override;
 
+    static constexpr double kRestBetweenRuns_s = 0.1;
+    const sim::CarriedStage& state() const { return carried_; }
+    void set_state(const sim::CarriedStage& s) { carried_ = s; }
+
 private:
+    // The disarmed loop between two runs.
+    void rest();
+
     sim::Scenario s_;
     sim::SampleType sample_;
     std::optional<sim::CaseSpec> loaded_;  // what track() ran
+    sim::CarriedStage carried_;
 };
 
 }  // namespace piezoloop::commission

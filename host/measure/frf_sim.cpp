@@ -21,7 +21,7 @@ namespace {
 
 template <class T>
 FrfRun run_with(const sim::LoopModel& m, const FrfRequest& r, const FrfPlan& plan, double setpoint_um,
-                const std::function<void(double)>& progress) {
+                const std::function<void(double)>& progress, sim::CarriedStage* carried) {
     using PipelineT = Pipeline<T, sim::kSimRcCapacity, 4, 1024, kSimExcitationCapacity>;
     auto pipe = std::make_unique<PipelineT>(m.setup);
     auto fail = [](const char* what, const Status& st) {
@@ -59,7 +59,7 @@ FrfRun run_with(const sim::LoopModel& m, const FrfRequest& r, const FrfPlan& pla
     };
     reference::LogHash hash;
     const auto t0 = std::chrono::steady_clock::now();
-    sim::run_ticks<T>(*pipe, stage, m.stage.sensor.gain, plan.ticks, &hash, observe);
+    sim::run_ticks<T>(*pipe, stage, m.stage.sensor.gain, plan.ticks, &hash, observe, carried);
     run.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (progress) progress(1.0);
     run.log_hash = hash.value();
@@ -78,7 +78,7 @@ FrfPlan plan_frf(const sim::Scenario& s, const FrfRequest& r) {
 }
 
 FrfRun run_frf_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const FrfRequest& r,
-                   const std::function<void(double)>& progress) {
+                   const std::function<void(double)>& progress, sim::CarriedStage* carried) {
     const FrfPlan plan = plan_frf(s, r);
     sim::LoopModel m;
     if (r.closed) {
@@ -95,8 +95,8 @@ FrfRun run_frf_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const
     }
     // Closed loop holds the displacement the bias gives at the mean slope.
     const double setpoint_um = r.bias_V * s.command_um_per_V();
-    return m.sample == sim::SampleType::kQ31 ? run_with<Q31>(m, r, plan, setpoint_um, progress)
-                                             : run_with<float>(m, r, plan, setpoint_um, progress);
+    return m.sample == sim::SampleType::kQ31 ? run_with<Q31>(m, r, plan, setpoint_um, progress, carried)
+                                             : run_with<float>(m, r, plan, setpoint_um, progress, carried);
 }
 
 }  // namespace piezoloop::measure

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "measure/frf_plan.hpp"
+#include "sim/carried_stage.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::measure {
@@ -28,8 +29,9 @@ inline constexpr uint32_t kSimExcitationCapacity = 16384;
 FrfPlan plan_frf(const sim::Scenario& s, const FrfRequest& r);
 
 // case_spec: the controller (closed loop) and any hysteresis override of the
-// case (open loop); null: the scenario's stage, open loop.
+// case (open loop); null: the scenario's stage, open loop. carried: the
+// stage carried on from an earlier run (sim/carried_stage.hpp); null: from rest.
 FrfRun run_frf_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const FrfRequest& r,
-                   const std::function<void(double)>& progress = {});
+                   const std::function<void(double)>& progress = {}, sim::CarriedStage* carried = nullptr);
 
 }  // namespace piezoloop::measure

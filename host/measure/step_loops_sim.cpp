@@ -57,7 +57,8 @@ struct Recorded {
 // Runs `ticks` ticks from rest; before tick k, `before(k, pipe)` may start
 // the next excitation. Every tick is recorded.
 template <class T, class Before>
-Recorded run(const sim::LoopModel& m, uint64_t ticks, Before&& before, const std::function<void(double)>& progress) {
+Recorded run(const sim::LoopModel& m, uint64_t ticks, Before&& before, const std::function<void(double)>& progress,
+             sim::CarriedStage* carried) {
     auto pipe = std::make_unique<ShapePipeline<T>>(m.setup);
     if (const Status st = pipe->stage(m.params); !st.ok()) fail("controller", st);
     StageModel stage;
@@ -78,6 +79,10 @@ Recorded run(const sim::LoopModel& m, uint64_t ticks, Before&& before, const std
     };
     reference::LogHash hash;
     sim::LoopKernel<T, ShapePipeline<T>, StageModel> loop(*pipe, stage, m.stage.sensor.gain, &hash);
+    if (carried && carried->started) {
+        stage = carried->stage;
+        loop.resume(carried->reading_um);
+    }
     pipe->arm();
     const auto t0 = std::chrono::steady_clock::now();
     for (uint64_t k = 0; k < ticks; ++k) {
@@ -86,6 +91,12 @@ Recorded run(const sim::LoopModel& m, uint64_t ticks, Before&& before, const std
     }
     rec.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (progress) progress(1.0);
+    if (carried) {
+        carried->stage = stage;
+        carried->reading_um = loop.reading_um();
+        carried->command_V = loop.command_V();
+        carried->started = true;
+    }
     rec.clipped = pipe->limiter().clamped_samples() + pipe->limiter().slew_limited_samples();
     rec.trip = trip_reason_name(pipe->limiter().trip_reason());
     rec.hash = hash.value();
@@ -148,7 +159,7 @@ MeasureBounds scenario_bounds(const sim::Scenario& s) {
 }
 
 StepRun run_step_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const StepRequest& r,
-                     const std::function<void(double)>& progress) {
+                     const std::function<void(double)>& progress, sim::CarriedStage* carried) {
     StepRun out;
     out.plan = plan_step(scenario_bounds(s), r);
     const sim::LoopModel m = loop_model(s, case_spec, r.closed);
@@ -161,7 +172,7 @@ StepRun run_step_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, con
             if (r.closed) (void)pipe.set_setpoint(m.setup.position.to_sample<T>(static_cast<float>(r.from)));
             if (const Status st = pipe.start_excitation(exc); !st.ok()) fail("step", st);
         };
-        return run<T>(m, ticks, before, progress);
+        return run<T>(m, ticks, before, progress, carried);
     });
     out.clipped_samples = rec.clipped;
     out.trip = rec.trip;
@@ -173,7 +184,7 @@ StepRun run_step_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, con
 }
 
 LoopsRun run_loops_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const LoopsRequest& r,
-                       const std::function<void(double)>& progress) {
+                       const std::function<void(double)>& progress, sim::CarriedStage* carried) {
     LoopsRun out;
     out.plan = plan_loops(scenario_bounds(s), r);
     const sim::LoopModel m = loop_model(s, case_spec, false);
@@ -186,7 +197,7 @@ LoopsRun run_loops_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, c
             const ExcitationConfig c = loop_excitation(out.plan, r, static_cast<std::size_t>(k / per), s.rate_Hz);
             if (const Status st = pipe.start_excitation(c); !st.ok()) fail("loops", st);
         };
-        return run<T>(m, out.plan.ticks, before, progress);
+        return run<T>(m, out.plan.ticks, before, progress, carried);
     });
     std::vector<std::vector<double>> u, y;
     for (std::size_t j = 0; j < r.amplitudes_V.size(); ++j) {

@@ -9,6 +9,7 @@
 #include <functional>
 
 #include "measure/step_loops_plan.hpp"
+#include "sim/carried_stage.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::measure {
@@ -20,10 +21,12 @@ MeasureBounds scenario_bounds(const sim::Scenario& s);
 
 // `case_spec`: the controller (closed loop) and any hysteresis override and
 // sample type; null: the scenario's stage, open loop, float.
+// `carried`: the stage carried on from an earlier run (sim/carried_stage.hpp);
+// null: from rest.
 StepRun run_step_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const StepRequest& r,
-                     const std::function<void(double)>& progress = {});
+                     const std::function<void(double)>& progress = {}, sim::CarriedStage* carried = nullptr);
 
 LoopsRun run_loops_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const LoopsRequest& r,
-                       const std::function<void(double)>& progress = {});
+                       const std::function<void(double)>& progress = {}, sim::CarriedStage* carried = nullptr);
 
 }  // namespace piezoloop::measure

@@ -93,7 +93,7 @@ RunResult run_with(const LoopModel& m, const RunOptions& o, Stage& stage) {
     };
 
     const auto t0 = std::chrono::steady_clock::now();
-    run_ticks<T>(*pipe, stage, m.stage.sensor.gain, o.ticks, o.hash ? &hash : nullptr, observe);
+    run_ticks<T>(*pipe, stage, m.stage.sensor.gain, o.ticks, o.hash ? &hash : nullptr, observe, o.carried);
     const auto t1 = std::chrono::steady_clock::now();
     res.wall_s = std::chrono::duration<double>(t1 - t0).count();
     res.ticks = o.ticks;

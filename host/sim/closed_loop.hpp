@@ -32,6 +32,7 @@
 
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/stage_model.hpp"
+#include "sim/carried_stage.hpp"
 #include "sim/metrics.hpp"
 #include "sim/stage_double.hpp"
 
@@ -72,6 +73,9 @@ struct RunOptions {
     uint64_t log_start = 0;
     uint64_t log_every = 0;
     bool hash = true;              // compute log_hash (costs ~15 ns per tick)
+    // Float fidelity: run on this stage from where an earlier run left it
+    // (and leave it where this one ends) instead of from rest.
+    CarriedStage* carried = nullptr;
     // Called now and then with the fraction done (from the running thread).
     std::function<void(double)> progress;
 };

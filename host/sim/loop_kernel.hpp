@@ -19,6 +19,8 @@
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "piezoloop/sample.hpp"
+#include "piezoloop/stage_model.hpp"
+#include "sim/carried_stage.hpp"
 
 namespace piezoloop::sim {
 
@@ -57,6 +59,12 @@ public:
         observe(TickView{k, pos_.to_physical(sig.r), pos_.to_physical(sig.y), volt_.to_physical(u)}, sig, stage_);
     }
 
+    // A stage carried on from an earlier run: the first tick reads y_um.
+    void resume(float y_um) { loop_.resume(y_um); }
+    // The reading the next tick would use, and the last command, physical.
+    float reading_um() const { return pos_.to_physical(loop_.reading()); }
+    float command_V() const { return volt_.to_physical(loop_.last_command()); }
+
 private:
     PipelineT& pipe_;
     Stage& stage_;
@@ -65,13 +73,29 @@ private:
     LoopStepper<T> loop_;
 };
 
-// Runs `ticks` ticks from rest. With `hash`, r, y, u of every tick (core
-// sample type, u as the pipeline output) are folded into it.
+// Runs `ticks` ticks from rest, or, with `carried`, from where that stage
+// was left (its model and next reading, which the run updates). With
+// `hash`, r, y, u of every tick (core sample type, u as the pipeline
+// output) are folded into it.
 template <class T, class PipelineT, class Stage, class Observer>
 inline void run_ticks(PipelineT& pipe, Stage& stage, float sensor_gain, uint64_t ticks, reference::LogHash* hash,
-                      Observer&& observe) {
+                      Observer&& observe, CarriedStage* carried = nullptr) {
     LoopKernel<T, PipelineT, Stage> loop(pipe, stage, sensor_gain, hash);
+    if constexpr (std::is_same_v<Stage, StageModel>) {
+        if (carried && carried->started) {
+            stage = carried->stage;
+            loop.resume(carried->reading_um);
+        }
+    }
     for (uint64_t k = 0; k < ticks; ++k) loop.step(k, observe);
+    if constexpr (std::is_same_v<Stage, StageModel>) {
+        if (carried) {
+            carried->stage = stage;
+            carried->reading_um = loop.reading_um();
+            carried->command_V = loop.command_V();
+            carried->started = true;
+        }
+    }
 }
 
 }  // namespace piezoloop::sim
