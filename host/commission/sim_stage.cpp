@@ -26,12 +26,12 @@ measure::FrfRun SimStage::frf(const measure::FrfRequest& r) {
 
 measure::LoopsRun SimStage::loops(const measure::LoopsRequest& r) { return measure::run_loops_sim(s_, nullptr, r); }
 
-TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
-    // The controller as a scenario's case: lti feedback (e in µm, Tustin),
-    // the compensator as pi_compensator feedforward, and the pre-filter.
+sim::CaseSpec controller_case(const Controller& k, sim::SampleType sample) {
+    // lti feedback (e in µm, Tustin), the compensator as pi_compensator
+    // feedforward, and the pre-filter.
     sim::CaseSpec cs;
     cs.name = cs.label = "commissioned";
-    cs.sample = sample_;
+    cs.sample = sample;
     cs.feedback.kind = "lti";
     cs.feedback.model = sim::LinearSpec{k.feedback, "commission", "commissioned.controller"};
     cs.feedback.path = "commissioned.feedback";
@@ -41,6 +41,11 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
         cs.feedforward.pi = *k.feedforward;
         cs.feedforward.path = "commissioned.feedforward";
     }
+    return cs;
+}
+
+TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
+    const sim::CaseSpec cs = controller_case(k, sample_);
     sim::BuildOptions bo;
     bo.check_realisation = false;
     const sim::BuiltCase b = sim::build_case(s_, cs, bo);
