@@ -1,7 +1,6 @@
 #include "commission/recovery.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -67,9 +66,9 @@ RecoveryRun saturation_recovery(const sim::Scenario& stage, const Controller& k,
 
     const sim::RunLog& log = res.log;
     const auto tick_at = [&](int level) { return static_cast<std::size_t>(std::llround(level * unit_s * rate_Hz)); };
-    const std::size_t first = tick_at(settle);
-    for (std::size_t i = tick_at(settle) - std::min(tick_at(settle), static_cast<std::size_t>(0.1 * rate_Hz));
-         i < first; ++i)
+    const std::size_t first = tick_at(settle);  // the first episode's first tick
+    const std::size_t last_100ms = first - std::min(first, static_cast<std::size_t>(0.1 * rate_Hz));
+    for (std::size_t i = last_100ms; i < first; ++i)
         out.settled_error_um = std::max(out.settled_error_um, std::fabs(double{log.x_um[i]} - r.centre_um));
 
     const LimitsConfig& lim = b.model.params.limits;
