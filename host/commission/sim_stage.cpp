@@ -37,12 +37,12 @@ measure::LoopsRun SimStage::loops(const measure::LoopsRequest& r) {
     return measure::run_loops_sim(s_, nullptr, r, {}, &carried_);
 }
 
-TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
-    // The controller as a scenario's case: lti feedback (e in µm, Tustin),
-    // the compensator as pi_compensator feedforward, and the pre-filter.
+sim::CaseSpec controller_case(const Controller& k, sim::SampleType sample) {
+    // lti feedback (e in µm, Tustin), the compensator as pi_compensator
+    // feedforward, and the pre-filter.
     sim::CaseSpec cs;
     cs.name = cs.label = "commissioned";
-    cs.sample = sample_;
+    cs.sample = sample;
     cs.feedback.kind = "lti";
     cs.feedback.model = sim::LinearSpec{k.feedback, "commission", "commissioned.controller"};
     cs.feedback.path = "commissioned.feedback";
@@ -53,6 +53,11 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
         if (k.series) cs.feedforward.placement = "series";
         cs.feedforward.path = "commissioned.feedforward";
     }
+    return cs;
+}
+
+TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
+    const sim::CaseSpec cs = controller_case(k, sample_);
     sim::BuildOptions bo;
     bo.check_realisation = false;
     const sim::BuiltCase b = sim::build_case(s_, cs, bo);

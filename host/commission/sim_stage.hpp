@@ -16,6 +16,10 @@
 
 namespace piezoloop::commission {
 
+// A controller as a scenario's case named "commissioned", in the core's
+// sample type `sample`: what track() runs (and DIR/scenario.json's case).
+sim::CaseSpec controller_case(const Controller& k, sim::SampleType sample);
+
 class SimStage : public StageAccess {
 public:
     explicit SimStage(sim::Scenario s, sim::SampleType sample = sim::SampleType::kFloat) : s_(std::move(s)), sample_(sample) {}
