@@ -20,7 +20,7 @@
 #include "piezoloop/reference_run.hpp"
 #include "piezoloop/sample.hpp"
 #include "piezoloop/stage_model.hpp"
-#include "sim/carried_stage.hpp"
+#include "carried_stage.hpp"  // beside this file: bench_sim includes this header without host/ on its path
 
 namespace piezoloop::sim {
 
