@@ -107,7 +107,7 @@ inline void write_body(link::Writer& w, const EmulationProfile& p) {
     w.f32(s.sensor.offset_um); w.f32(s.sensor.gain_error); w.f32(s.sensor.mains.frequency_Hz);
     const int mains = s.sensor.mains.count;
     w.u8(static_cast<uint8_t>(mains < 0 || mains > 255 ? 255 : mains));
-    for (const float a : s.sensor.mains.amplitudes_um) w.f32(a);
+    for (const float m : s.sensor.mains.amplitudes_um) w.f32(m);
     w.f32(pl.creep.percent_per_decade); w.f32(pl.creep.from_s); w.f32(pl.creep.to_s);
     w.f32(pl.drift_um_per_s);
 }
@@ -137,7 +137,7 @@ inline void read_body(link::Reader& r, EmulationProfile& p) {
     s.adc.bits = r.i32(); s.adc.min = r.f32(); s.adc.max = r.f32();
     s.sensor.offset_um = r.f32(); s.sensor.gain_error = r.f32(); s.sensor.mains.frequency_Hz = r.f32();
     s.sensor.mains.count = r.u8();
-    for (float& a : s.sensor.mains.amplitudes_um) a = r.f32();
+    for (float& m : s.sensor.mains.amplitudes_um) m = r.f32();
     pl.creep.percent_per_decade = r.f32(); pl.creep.from_s = r.f32(); pl.creep.to_s = r.f32();
     pl.drift_um_per_s = r.f32();
 }

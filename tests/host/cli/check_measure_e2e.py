@@ -147,6 +147,8 @@ try:
     emulators.stop(emulators.running[0])
     real = os.path.join(configs, "stages", "drifting_stage.json")
     _, d, _ = emulators.start("--board", board, "--scenario", real, "--image", image)
+    r = run(*d, "set", "--scenario", real, "--case", "open_loop", "--frequency-hz", "10")
+    check(r.returncode == 0, "set --scenario: the drifting stage's limits on the board", r.stderr)
     real_step = ["--step-v", "4", "--bias-v", "3", "--duration-s", "0.25"]
     r = run(*d, "measure", "step", *real_step, "--restart-stage", "--out", board_json)
     s = run("measure", "step", "--scenario", real, "--sample", sample, *real_step, "--out", sim_json)
