@@ -110,7 +110,9 @@ public:
             // overshooting lag.
             if (!(samples_per_tau >= 2.0)) return error("from_s", "must be at least 2 samples (2 / rate)");
             if (samples_per_tau > 4.0e9) return error("to_s", "must be below 4e9 samples (4e9 / rate)");
-            double n = static_cast<double>(static_cast<uint32_t>(samples_per_tau / 100.0));
+            // (1 + 1e-6: 0.01 s as a float is a hair below 0.01, and 200
+            // samples per tau should update every 2, not every 1.)
+            double n = static_cast<double>(static_cast<uint32_t>(samples_per_tau / 100.0 * (1.0 + 1e-6)));
             if (n < 1.0) n = 1.0;
             period_[k] = static_cast<uint32_t>(n);
             gain_[k] = static_cast<float>(1.0 - det_exp(-n / samples_per_tau));
