@@ -14,12 +14,14 @@
 #include <nlohmann/json.hpp>
 
 #include "lti/lti_convert.hpp"
+#include "piezoloop/emulation_profile.hpp"
 #include "piezoloop/reference_stage.hpp"
 #include "sim/build_case.hpp"
 #include "sim/metrics.hpp"
 #include "sim/scenario.hpp"
 #include "sim/stage_double.hpp"
 #include "sim/window_metrics.hpp"
+#include "status_text.hpp"
 
 using namespace piezoloop;
 using namespace piezoloop::sim;
@@ -358,4 +360,49 @@ TEST(SimScenario, RealStageEffectsAreTheSameInBothFidelities) {
         const float y_a = a.step(6.0f), y_b = b.step(6.0f);
         EXPECT_NEAR(y_a, y_b, 2e-6) << k;
     }
+}
+
+// The made-up stages of configs/stages/ load, their one case builds, and
+// their stage fits an emulated board's profile; the three with real-stage
+// effects carry what their README says.
+TEST(SimScenario, MadeUpStagesLoadAndFitTheEmulatedBoards) {
+    for (const char* name : {"stiff_stack", "soft_bender", "rhp_zero", "stiff_stack_unipolar", "drifting_stage",
+                             "strong_hysteresis"}) {
+        SCOPED_TRACE(name);
+        const Scenario s = load_scenario(kConfigs + "stages/" + name + ".json");
+        ASSERT_EQ(s.cases.size(), 1u);
+        BuildOptions o;
+        o.reference_frequency_Hz = 10.0;
+        o.check_realisation = false;
+        EXPECT_NO_THROW(build_case(s, s.find_case("open_loop"), o));
+        LoopModel m;
+        build_stage(s, nullptr, 10, m);
+        EmulationProfile p;
+        p.loop_rate_Hz = static_cast<uint32_t>(s.rate_Hz);
+        p.position_full_scale_um = s.setup.position.full_scale;
+        p.voltage_full_scale_V = s.setup.voltage.full_scale;
+        p.stage = m.stage;
+        EXPECT_TRUE(validate(p).ok()) << describe(validate(p));
+    }
+    const Scenario u = load_scenario(kConfigs + "stages/stiff_stack_unipolar.json");
+    EXPECT_EQ(u.limits.u_min_V, 0.0f);
+    EXPECT_EQ(u.limits.u_max_V, 10.0f);
+    EXPECT_EQ(u.plant.amplifier.input_min_V, -1.0f);
+    EXPECT_EQ(u.plant.amplifier.input_max_V, 11.0f);
+    EXPECT_EQ(u.plant.adc.min, 0.0f);
+    EXPECT_EQ(u.plant.sensor.gain, 0.4f);
+    const Scenario d = load_scenario(kConfigs + "stages/drifting_stage.json");
+    EXPECT_EQ(d.plant.creep, (CreepConfig{2.0f, 0.01f, 100.0f}));
+    EXPECT_EQ(d.plant.sensor.mains.count, 3);
+    EXPECT_NE(d.plant.drift_um_per_s, 0.0f);
+    EXPECT_NE(d.plant.sensor.offset_um, 0.0f);
+    EXPECT_NE(d.plant.sensor.gain_error, 0.0f);
+    // Strong hysteresis: the loading slope about mid-span (75 V) is 4 times
+    // the slope after a reversal (p0).
+    const Scenario h = load_scenario(kConfigs + "stages/strong_hysteresis.json");
+    const PiModel& pi = h.plant.hysteresis.pi;
+    double slope = pi.p0;
+    for (int j = 0; j < pi.count; ++j)
+        if (pi.thresholds[static_cast<size_t>(j)] < 75.0f) slope += pi.weights[static_cast<size_t>(j)];
+    EXPECT_NEAR(slope / pi.p0, 4.0, 0.01);
 }
