@@ -2,8 +2,9 @@
 // (PI model, or Dahl solved per sample), optionally followed by logarithmic
 // creep (creep.hpp), feeding linear dynamics realised as a biquad cascade
 // with unit DC gain; optionally a thermal drift ramp on the displacement.
-// The host simulator, the `piezoloop demo` and the emulated boards all run this one implementation, so they agree bit
-// for bit. Float only: it models physics, not the controller.
+// The host simulator, the `piezoloop demo` and the emulated boards all run
+// this one implementation, so they agree bit for bit. Float only: it models
+// physics, not the controller.
 #pragma once
 
 #include <array>
