@@ -24,7 +24,7 @@
 //               (the simulator's steady-state window, its last period)
 //     u8        sample: link::SampleFormat the case was built for (0 float,
 //               1 Q31); the Q31 build scales the feedback sections
-//     profile   encode_profile(): header + body (507 bytes)
+//     profile   encode_profile(): header + body (568 bytes)
 //     groups    link LimitsParams, FeedforwardParams, FeedbackParams,
 //               RepetitiveParams, TrajectoryParams, each its write()
 // The hard output limits are not in the blob: they are the board's, and the

@@ -7,9 +7,9 @@
 // the board's compiled-in ones. No profile (no magic) means the reference
 // stage at 100 kHz.
 //
-// Layout, little-endian, no padding (version 1):
+// Layout, little-endian, no padding (version 2):
 //   header, 16 bytes: the stored-blob header (blob_header.hpp), magic
-//     0x4D455A50 ("PZEM" in memory order), version 1, body length
+//     0x4D455A50 ("PZEM" in memory order), version 2, body length
 //     kEmulationProfileBodyBytes, CRC-32 of the body
 //   body, kEmulationProfileBodyBytes bytes
 //     u32 loop_rate_Hz, f32 position_full_scale_um, f32 voltage_full_scale_V
@@ -25,6 +25,14 @@
 //                  6 x (f64 b0, b1, b2, a1, a2) dynamics (all 6 travel)
 //       sensor:    f32 gain, bandwidth_Hz, noise_rms, u32 seed
 //       adc:       i32 bits, f32 min, f32 max
+//       sensor, real-stage effects: f32 offset_um, gain_error,
+//                  mains.frequency_Hz, u8 mains.count,
+//                  8 x f32 mains.amplitudes_um (all 8 travel)
+//       plant, real-stage effects: f32 creep.percent_per_decade,
+//                  creep.from_s, creep.to_s, f32 drift_um_per_s
+// (Version 1 ended after the adc, 491 bytes: the stage without offset,
+// gain error, mains, creep and drift. A version 1 profile is refused by
+// its version, not read with those effects off.)
 // Floats travel as IEEE-754 bit patterns (link/wire.hpp), so a NaN arrives
 // as written and is rejected by the validation, which names the field.
 #pragma once
@@ -55,11 +63,11 @@ struct EmulationProfile {
 inline constexpr uint32_t kEmulationProfileAddress = 0x003FFC00u;
 inline constexpr std::size_t kEmulationProfileMaxBytes = 1024;
 inline constexpr uint32_t kEmulationProfileMagic = 0x4D455A50u;  // "PZEM"
-inline constexpr uint16_t kEmulationProfileVersion = 1;
+inline constexpr uint16_t kEmulationProfileVersion = 2;
 inline constexpr BlobKind kEmulationProfileBlob{kEmulationProfileMagic, kEmulationProfileVersion,
-                                                "must be 0x4D455A50 (\"PZEM\")", "must be 1"};
+                                                "must be 0x4D455A50 (\"PZEM\")", "must be 2"};
 inline constexpr std::size_t kEmulationProfileHeaderBytes = kBlobHeaderBytes;
-inline constexpr std::size_t kEmulationProfileBodyBytes = 491;
+inline constexpr std::size_t kEmulationProfileBodyBytes = 552;
 // The MPS2 tick timer clock (CMSDK TIMER0 on the 25 MHz APB): the loop rate
 // must divide it into a whole number of counts.
 inline constexpr uint32_t kEmulationTimerClock_Hz = 25'000'000;
@@ -96,6 +104,12 @@ inline void write_body(link::Writer& w, const EmulationProfile& p) {
     for (const SosSection& q : pl.dynamics) { w.f64(q.b0); w.f64(q.b1); w.f64(q.b2); w.f64(q.a1); w.f64(q.a2); }
     w.f32(s.sensor.gain); w.f32(s.sensor.bandwidth_Hz); w.f32(s.sensor.noise_rms); w.u32(s.sensor.seed);
     w.i32(s.adc.bits); w.f32(s.adc.min); w.f32(s.adc.max);
+    w.f32(s.sensor.offset_um); w.f32(s.sensor.gain_error); w.f32(s.sensor.mains.frequency_Hz);
+    const int mains = s.sensor.mains.count;
+    w.u8(static_cast<uint8_t>(mains < 0 || mains > 255 ? 255 : mains));
+    for (const float m : s.sensor.mains.amplitudes_um) w.f32(m);
+    w.f32(pl.creep.percent_per_decade); w.f32(pl.creep.from_s); w.f32(pl.creep.to_s);
+    w.f32(pl.drift_um_per_s);
 }
 
 inline void read_body(link::Reader& r, EmulationProfile& p) {
@@ -121,6 +135,11 @@ inline void read_body(link::Reader& r, EmulationProfile& p) {
     for (SosSection& q : pl.dynamics) { q.b0 = r.f64(); q.b1 = r.f64(); q.b2 = r.f64(); q.a1 = r.f64(); q.a2 = r.f64(); }
     s.sensor.gain = r.f32(); s.sensor.bandwidth_Hz = r.f32(); s.sensor.noise_rms = r.f32(); s.sensor.seed = r.u32();
     s.adc.bits = r.i32(); s.adc.min = r.f32(); s.adc.max = r.f32();
+    s.sensor.offset_um = r.f32(); s.sensor.gain_error = r.f32(); s.sensor.mains.frequency_Hz = r.f32();
+    s.sensor.mains.count = r.u8();
+    for (float& m : s.sensor.mains.amplitudes_um) m = r.f32();
+    pl.creep.percent_per_decade = r.f32(); pl.creep.from_s = r.f32(); pl.creep.to_s = r.f32();
+    pl.drift_um_per_s = r.f32();
 }
 
 }  // namespace profile_detail
@@ -167,13 +186,13 @@ inline bool profile_present(std::span<const uint8_t> in) { return blob_present(i
 inline Status decode_profile(std::span<const uint8_t> in, EmulationProfile& out) {
     BlobHeader h;
     if (const Status s = read_blob_header(in, kEmulationProfileBlob, h); !s.ok()) return s;
-    if (h.length != kEmulationProfileBodyBytes) return error("length", "body must be 491 bytes (version 1)");
+    if (h.length != kEmulationProfileBodyBytes) return error("length", "body must be 552 bytes (version 2)");
     std::span<const uint8_t> body;
     if (const Status s = blob_body(in, h, body); !s.ok()) return s;
     EmulationProfile p;
     link::Reader r(body);
     profile_detail::read_body(r, p);
-    if (!r.complete()) return error("length", "body does not match the version 1 layout");
+    if (!r.complete()) return error("length", "body does not match the version 2 layout");
     if (const Status s = validate(p); !s.ok()) return s;
     out = p;
     return ok_status();

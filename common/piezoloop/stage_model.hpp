@@ -3,8 +3,14 @@
 //
 //   u (V) -> DAC (bits, range) -> amplifier (input clamp, gain, first-order
 //   bandwidth, output clamp) -> Hammerstein stage (hysteresis, dynamics)
-//   -> sensor (gain, first-order bandwidth, seeded noise) -> ADC (bits,
-//   range) -> y
+//   -> sensor (gain, first-order bandwidth, offset, gain error, mains
+//   pickup, seeded noise) -> ADC (bits, range) -> y
+//
+// The hysteresis may creep and the displacement drift (plant.hpp). The
+// sensor's offset and mains pickup are in µm of displacement and read
+// through the sensor's actual gain G = gain (1 + gain_error):
+//   reading = lag(G x) + G (offset_um + mains_um(t)) + noise
+// (after the sensor's bandwidth: they arise in its electronics).
 //
 // Every part is optional (bits 0 = ideal converter, bandwidth 0 = none).
 // Float, libm-free and seeded, so the host simulator and the emulated boards
@@ -16,6 +22,7 @@
 #include <cstdint>
 
 #include "piezoloop/det_math.hpp"
+#include "piezoloop/mains_pickup.hpp"
 #include "piezoloop/plant.hpp"
 #include "piezoloop/status.hpp"
 
@@ -40,6 +47,9 @@ struct SensorConfig {
     float bandwidth_Hz = 0.0f;    // first-order, 0: none
     float noise_rms = 0.0f;       // in sensor units, added before the ADC
     uint32_t seed = 1;            // noise generator seed (non-zero)
+    float offset_um = 0.0f;       // reading's offset, in µm of displacement
+    float gain_error = 0.0f;      // relative: 0.02 reads 2 % more (gain * 1.02)
+    MainsConfig mains{};          // pickup on the reading, in µm (off: count 0)
 };
 
 struct StageConfig {
@@ -194,17 +204,31 @@ public:
             return in_group("sensor", s);
         if (!is_finite(c.sensor.gain) || c.sensor.gain == 0.0f)
             return in_group("sensor", error("gain", "must be finite and non-zero"));
+        if (!is_finite(c.sensor.offset_um) || c.sensor.offset_um < -1e3f || c.sensor.offset_um > 1e3f)
+            return in_group("sensor", error("offset_um", "must be finite and in [-1000, 1000] um"));
+        if (!is_finite(c.sensor.gain_error) || c.sensor.gain_error < -0.5f || c.sensor.gain_error > 0.5f)
+            return in_group("sensor", error("gain_error", "must be finite and in [-0.5, 0.5]"));
+        MainsPickup mains;
+        if (const Status s = mains.configure(c.sensor.mains, c.rate_Hz); !s.ok()) {
+            Status m = in_group("sensor", s);
+            m.field = s.field[0] == 'f' ? "mains.frequency_Hz" : (s.field[0] == 'c' ? "mains.count" : "mains.amplitudes_um");
+            return m;
+        }
         if (!is_finite(c.sensor.noise_rms) || c.sensor.noise_rms < 0.0f)
             return in_group("sensor", error("noise_rms", "must be finite and >= 0"));
         HammersteinPlant plant;
-        if (const Status s = plant.configure(c.plant); !s.ok()) return in_group("plant", s);
+        if (const Status s = plant.configure(c.plant, c.rate_Hz); !s.ok()) return in_group("plant", s);
         config_ = c;
         amp_unity_ = a.gain == 1.0f;
         // The DAC's output never leaves [dac.min, dac.max] (NaN reads as
         // min): when that lies within the amplifier's input range, its clamp
         // changes nothing and is skipped.
         amp_input_clamp_ = !(c.dac.min >= a.input_min_V && c.dac.max <= a.input_max_V);
-        sensor_unity_ = c.sensor.gain == 1.0f;
+        // The sensor's actual gain; exactly `gain` without a gain error.
+        sensor_gain_ = c.sensor.gain * (1.0f + c.sensor.gain_error);
+        sensor_unity_ = sensor_gain_ == 1.0f;
+        sensor_extra_ = c.sensor.offset_um != 0.0f || mains.enabled();
+        mains_ = mains;
         dac_ = dac;
         adc_ = adc;
         amp_lag_ = amp_lag;
@@ -219,6 +243,7 @@ public:
         sensor_lag_.reset();
         plant_.reset();
         noise_.seed(config_.sensor.seed);
+        mains_.reset();
         v_piezo_V_ = x_um_ = 0.0f;
     }
 
@@ -233,7 +258,8 @@ public:
         v = amp_lag_.apply(amp_unity_ ? v : a.gain * v);
         v_piezo_V_ = clamp(v, a.output_min_V, a.output_max_V);
         x_um_ = plant_.step(v_piezo_V_);
-        float s = sensor_lag_.apply(sensor_unity_ ? x_um_ : config_.sensor.gain * x_um_);
+        float s = sensor_lag_.apply(sensor_unity_ ? x_um_ : sensor_gain_ * x_um_);
+        if (sensor_extra_) s = s + sensor_gain_ * (config_.sensor.offset_um + mains_.next_um());
         if (config_.sensor.noise_rms > 0.0f) s = s + config_.sensor.noise_rms * noise_.next_unit();
         return adc_.apply(s);
     }
@@ -250,6 +276,9 @@ private:
     FirstOrderLag amp_lag_{}, sensor_lag_{};
     HammersteinPlant plant_{};
     SeededNoise noise_{};
+    MainsPickup mains_{};
+    float sensor_gain_ = 1.0f;                     // gain (1 + gain_error)
+    bool sensor_extra_ = false;                    // an offset or mains pickup
     float v_piezo_V_ = 0.0f;
     float x_um_ = 0.0f;
     bool amp_unity_ = true, sensor_unity_ = true;  // gains of exactly 1

@@ -109,6 +109,8 @@ void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& 
     st.sensor = p.sensor;
     st.adc = p.adc;
     st.plant = hysteresis_config(h);
+    st.plant.creep = p.creep;
+    st.plant.drift_um_per_s = p.drift_um_per_s;
     DoubleStageConfig d{};
     d.rate_Hz = s.rate_Hz;
     d.substeps = substeps;
@@ -120,6 +122,8 @@ void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& 
     d.linear_gain_um_per_V = h.gain_um_per_V;
     d.sensor = p.sensor;
     d.adc = p.adc;
+    d.creep = p.creep;
+    d.drift_um_per_s = p.drift_um_per_s;
     if (p.dynamics) {
         const std::string where = p.dynamics->path.empty() ? "plant.dynamics" : p.dynamics->path;
         const bool advance = p.discretisation != "tustin";

@@ -43,8 +43,26 @@ AmplifierConfig parse_amplifier(const Field& f) {
     return a;
 }
 
+// Sensor pickup of the mains (docs/models.md): {"frequency_Hz": 50,
+// "amplitudes_um": [fundamental, 2nd, ...]}.
+MainsConfig parse_mains(const Field& f) {
+    f.only({"frequency_Hz", "amplitudes_um", "note"});
+    MainsConfig m{};
+    m.frequency_Hz = f32(f["frequency_Hz"].number_in(1.0, 1000.0));
+    const Field a = f["amplitudes_um"];
+    const std::vector<double> amps = a.numbers();
+    if (amps.empty() || amps.size() > static_cast<size_t>(kMaxMainsHarmonics))
+        a.fail("must hold 1 to 8 amplitudes (fundamental, 2nd, 3rd, ... harmonic)");
+    for (size_t k = 0; k < amps.size(); ++k) {
+        if (!(amps[k] >= 0.0 && amps[k] <= 1000.0)) a.at(k).fail("must be finite and in [0, 1000] um");
+        m.amplitudes_um[k] = f32(amps[k]);
+    }
+    m.count = static_cast<int>(amps.size());
+    return m;
+}
+
 SensorConfig parse_sensor(const Field& f) {
-    f.only({"gain_per_um", "bandwidth_Hz", "noise_rms", "seed"});
+    f.only({"gain_per_um", "bandwidth_Hz", "noise_rms", "seed", "offset_um", "gain_error", "mains"});
     SensorConfig s{};
     s.gain = f32(f["gain_per_um"].number());
     if (s.gain == 0.0f) f["gain_per_um"].fail("must be non-zero");
@@ -53,7 +71,23 @@ SensorConfig parse_sensor(const Field& f) {
     s.noise_rms = f32(f.number("noise_rms", 0.0));
     if (s.noise_rms < 0.0f) f["noise_rms"].fail("must be >= 0");
     if (const auto seed = f.get("seed")) s.seed = static_cast<uint32_t>(seed->integer(1, 2147483647));
+    if (const auto o = f.get("offset_um")) s.offset_um = f32(o->number_in(-1000.0, 1000.0));
+    if (const auto g = f.get("gain_error")) s.gain_error = f32(g->number_in(-0.5, 0.5));
+    if (const auto m = f.get("mains")) s.mains = parse_mains(*m);
     return s;
+}
+
+// Logarithmic creep (docs/models.md, 'Creep'): {"percent_per_decade": p,
+// "from_s": t0, "to_s": t1}, t1 = t0 * 10^K.
+CreepConfig parse_creep(const Field& f) {
+    f.only({"percent_per_decade", "from_s", "to_s", "note"});
+    CreepConfig c{};
+    c.percent_per_decade = f32(f["percent_per_decade"].number_in(0.0, 20.0));
+    c.from_s = f32(f["from_s"].number_in(1e-4, 1e4));
+    c.to_s = f32(f["to_s"].number());
+    CreepLags lags;
+    if (const Status st = creep_lags(c, lags); !st.ok()) f[st.field].fail(st.message);
+    return c;
 }
 
 PiModel scaled(PiModel m, double out_gain) {
@@ -139,7 +173,7 @@ HysteresisSpec parse_hysteresis(const Field& f) {
 namespace {
 
 PlantSpec parse_plant(const Field& f, const std::filesystem::path& base) {
-    f.only({"dac", "amplifier", "hysteresis", "dynamics", "sensor", "adc", "note"});
+    f.only({"dac", "amplifier", "hysteresis", "dynamics", "sensor", "adc", "creep", "drift_um_per_s", "note"});
     PlantSpec p;
     p.dac = parse_converter(f["dac"]);
     p.amplifier = parse_amplifier(f["amplifier"]);
@@ -155,6 +189,8 @@ PlantSpec parse_plant(const Field& f, const std::filesystem::path& base) {
     }
     p.sensor = parse_sensor(f["sensor"]);
     p.adc = parse_converter(f["adc"]);
+    if (const auto c = f.get("creep")) p.creep = parse_creep(*c);
+    if (const auto d = f.get("drift_um_per_s")) p.drift_um_per_s = f32(d->number_in(-10.0, 10.0));
     return p;
 }
 
@@ -407,6 +443,13 @@ Scenario parse_scenario(const nlohmann::json& j, const std::filesystem::path& ba
         top["plant"]["amplifier"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
     if (s.plant.sensor.bandwidth_Hz >= 0.5f * s.setup.rate_Hz)
         top["plant"]["sensor"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
+    if (s.plant.sensor.mains.count > 0 &&
+        !(static_cast<double>(s.plant.sensor.mains.frequency_Hz) * s.plant.sensor.mains.count < 0.5 * s.rate_Hz))
+        top["plant"]["sensor"]["mains"]["amplitudes_um"].fail("every harmonic must lie below rate / 2");
+    if (s.plant.creep.percent_per_decade > 0.0f && !(s.rate_Hz * s.plant.creep.from_s >= 2.0))
+        top["plant"]["creep"]["from_s"].fail("must be at least 2 samples (2 / rate)");
+    if (s.plant.creep.percent_per_decade > 0.0f && !(s.rate_Hz * s.plant.creep.to_s <= 4.0e9))
+        top["plant"]["creep"]["to_s"].fail("must be below 4e9 samples (4e9 / rate)");
 
     const Field ref = top["reference"];
     ref.only({"nominal_um_per_V", "offset"});

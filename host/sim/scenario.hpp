@@ -54,8 +54,10 @@ struct PlantSpec {
     HysteresisSpec hysteresis{};
     std::optional<LinearSpec> dynamics;  // continuous, normalised to unit DC gain if asked
     std::string discretisation = "zoh";  // float fidelity: zoh | tustin | matched
-    SensorConfig sensor{};
+    SensorConfig sensor{};               // with offset, gain error, mains pickup
     ConverterConfig adc{};
+    CreepConfig creep{};                 // on the hysteresis output (off: 0 % per decade)
+    float drift_um_per_s = 0.0f;         // thermal drift of the displacement
 };
 
 struct DahlIdentifySpec {

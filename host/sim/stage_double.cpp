@@ -61,8 +61,21 @@ void DoubleStage::configure(const DoubleStageConfig& c) {
         case HysteresisKind::kNone:
             break;
     }
+    if (const Status s = creep_lags(c.creep, creep_); !s.ok()) fail("plant.creep", s);
+    {
+        MainsPickup probe;
+        if (const Status s = probe.configure(c.sensor.mains, static_cast<float>(c.rate_Hz)); !s.ok())
+            fail("sensor.mains", s);
+    }
+    if (!std::isfinite(c.drift_um_per_s)) throw std::invalid_argument("double stage: plant.drift_um_per_s: must be finite");
     c_ = c;
     const double h = 1.0 / (c.rate_Hz * c.substeps);
+    creep_decay_.assign(static_cast<size_t>(creep_.count), 0.0);
+    for (int k = 0; k < creep_.count; ++k)
+        creep_decay_[static_cast<size_t>(k)] = std::exp(-h / creep_.tau_s[static_cast<size_t>(k)]);
+    creep_state_.assign(static_cast<size_t>(creep_.count), 0.0);
+    creep_scale_ = static_cast<double>(c.creep.percent_per_decade) / 100.0;
+    sensor_gain_ = static_cast<double>(c.sensor.gain) * (1.0 + static_cast<double>(c.sensor.gain_error));
     if (c.amplifier.bandwidth_Hz > 0.0f) {
         const double w = 2.0 * M_PI * c.amplifier.bandwidth_Hz;
         amp_decay_half_ = std::exp(-0.5 * w * h);
@@ -135,6 +148,8 @@ void DoubleStage::reset() {
     noise_.seed(c_.sensor.seed);
     v_amp_ = v_piezo_ = x_um_ = 0.0;
     x_.setZero();
+    std::fill(creep_state_.begin(), creep_state_.end(), 0.0);
+    ticks_ = 0;
 }
 
 double DoubleStage::hysteresis(double v) {
@@ -158,15 +173,33 @@ float DoubleStage::step(float u_V) {
         v_amp_ = target + (v_amp_ - target) * amp_decay_full_;
         v_piezo_ = std::clamp(v_mid, lo, hi);
         s = hysteresis(v_piezo_);
+        if (creep_.count > 0) {
+            // Each lag solved exactly for s held over the sub-step; the
+            // creep they add is that at the sub-step's end.
+            double creep = 0.0;
+            for (size_t i = 0; i < creep_state_.size(); ++i) {
+                creep_state_[i] = s + (creep_state_[i] - s) * creep_decay_[i];
+                creep += creep_.weight[i] * creep_state_[i];
+            }
+            s += creep_scale_ * creep;
+        }
         if (has_states_) {
             x_next_.noalias() = ad_ * x_;
             x_next_ += bd_ * s;
             x_.swap(x_next_);
         }
     }
-    x_um_ = has_states_ ? c_disp_.dot(x_) + d_disp_ * s : s;
-    const double sensed = has_states_ ? c_out_.dot(x_) + d_out_ * s : s;
-    const double reading = static_cast<double>(c_.sensor.gain) * sensed;
+    const double t_s = static_cast<double>(ticks_) / c_.rate_Hz;  // this tick's start, as the float stage
+    ++ticks_;
+    const double drift = c_.drift_um_per_s * t_s;  // after the sensor lag here: a ramp lags it by its tau, < 1 pm
+    x_um_ = (has_states_ ? c_disp_.dot(x_) + d_disp_ * s : s) + drift;
+    const double sensed = (has_states_ ? c_out_.dot(x_) + d_out_ * s : s) + drift;
+    double pickup = static_cast<double>(c_.sensor.offset_um);
+    const MainsConfig& mains = c_.sensor.mains;
+    for (int k = 1; k <= mains.count; ++k)
+        pickup += static_cast<double>(mains.amplitudes_um[static_cast<size_t>(k - 1)]) *
+                  std::sin(2.0 * M_PI * k * static_cast<double>(mains.frequency_Hz) * t_s);
+    const double reading = sensor_gain_ * (sensed + pickup);
     float out = static_cast<float>(reading);
     if (c_.sensor.noise_rms > 0.0f) out = out + c_.sensor.noise_rms * noise_.next_unit();
     return adc_.apply(out);

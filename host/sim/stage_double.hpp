@@ -22,8 +22,15 @@
 //    part is holding the hysteresis output over a sub-step; it vanishes as
 //    substeps grows, and is exact when the amplifier has no bandwidth limit
 //    (the piezo voltage is then constant over the tick).
-//  - Sensor: sampled at the end of the tick, noise from the same seeded
-//    generator as the float stage, then the ADC.
+//  - Creep: the float stage's lags (common/piezoloop/creep.hpp, the same
+//    time constants and weights) as continuous first-order lags on the
+//    hysteresis output, solved exactly for it held over each sub-step.
+//  - Drift: drift * t, t = (tick index since reset) / rate, as the float
+//    stage.
+//  - Sensor: sampled at the end of the tick, gain (1 + gain_error), then
+//    offset and mains pickup (std::sin at the float stage's sample times,
+//    the same phase 0 at reset) through that gain, noise from the same
+//    seeded generator as the float stage, then the ADC.
 // Timing is that of the float stage and of the emulated boards: step(u)
 // applies u for one tick and returns the reading latched at its end.
 #pragma once
@@ -62,6 +69,8 @@ struct DoubleStageConfig {
     std::optional<design::Ss> dynamics;  // continuous, µm -> µm; none: static
     SensorConfig sensor{};        // bandwidth_Hz: continuous first-order lag
     ConverterConfig adc{};
+    CreepConfig creep{};
+    double drift_um_per_s = 0.0;
 };
 
 class DoubleStage {
@@ -86,6 +95,11 @@ private:
     double amp_decay_full_ = 0.0;  // e^{-h/tau}
     double v_amp_ = 0.0;           // amplifier lag state (before the output clamp)
     double v_piezo_ = 0.0, x_um_ = 0.0;
+    CreepLags creep_{};
+    std::vector<double> creep_decay_, creep_state_;  // e^{-h/tau_k}, lag outputs
+    double creep_scale_ = 0.0;                        // p / 100
+    double sensor_gain_ = 1.0;                        // gain (1 + gain_error)
+    uint64_t ticks_ = 0;                              // since reset
     // Sub-step ZOH model of dynamics + sensor lag.
     Eigen::MatrixXd ad_;
     Eigen::VectorXd bd_;

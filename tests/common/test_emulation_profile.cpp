@@ -44,6 +44,13 @@ EmulationProfile sample_profile() {
     s.sensor.noise_rms = 0.002f;
     s.sensor.seed = 12345;
     s.adc = ConverterConfig{18, -10.0f, 10.0f};
+    s.sensor.offset_um = 0.3f;
+    s.sensor.gain_error = -0.015f;
+    s.sensor.mains.frequency_Hz = 60.0f;
+    s.sensor.mains.count = 3;
+    s.sensor.mains.amplitudes_um = {0.005f, 0.003f, 0.002f};
+    s.plant.creep = {2.0f, 0.01f, 100.0f};
+    s.plant.drift_um_per_s = 0.05f;
     return p;
 }
 
@@ -106,8 +113,11 @@ TEST(EmulationProfile, LayoutAtDocumentedOffsets) {
     // Body size summed from the header's field list: rate + 2 full scales
     // (12), stage rate (4), dac (12), amplifier 6 f32 (24), plant: kind (1),
     // pi 3 f32 + count + 2 x 16 f32 (141), dahl 6 f32 (24), linear gain (4),
-    // sections (1), 6 x 5 f64 (240), sensor (16), adc (12).
-    constexpr std::size_t kSum = 12 + 4 + 12 + 24 + 1 + (12 + 1 + 128) + 24 + 4 + 1 + 240 + 16 + 12;
+    // sections (1), 6 x 5 f64 (240), sensor (16), adc (12); sensor offset,
+    // gain error, mains frequency, count, 8 amplitudes (45); creep 3 f32
+    // and drift (16).
+    constexpr std::size_t kSum =
+        12 + 4 + 12 + 24 + 1 + (12 + 1 + 128) + 24 + 4 + 1 + 240 + 16 + 12 + (12 + 1 + 32) + 16;
     static_assert(kSum == kEmulationProfileBodyBytes);
     const EmulationProfile p = sample_profile();
     const auto b = encode(p);
@@ -115,7 +125,7 @@ TEST(EmulationProfile, LayoutAtDocumentedOffsets) {
     EXPECT_EQ(b[1], 'Z');
     EXPECT_EQ(b[2], 'E');
     EXPECT_EQ(b[3], 'M');
-    EXPECT_EQ(b[4] | b[5] << 8, 1);
+    EXPECT_EQ(b[4] | b[5] << 8, 2);
     EXPECT_EQ(b[6] | b[7] << 8, 0);
     EXPECT_EQ(le32(b, 8), kSum);
     EXPECT_EQ(le32(b, 16), 50000u);
@@ -123,11 +133,22 @@ TEST(EmulationProfile, LayoutAtDocumentedOffsets) {
     EXPECT_EQ(le32(b, 28), std::bit_cast<uint32_t>(50000.0f));  // stage.rate_Hz
     EXPECT_EQ(le32(b, 32), 16u);                                // dac.bits
     EXPECT_EQ(b[16 + 52], static_cast<uint8_t>(HysteresisKind::kPi));
-    // The last field: adc.max.
-    EXPECT_EQ(le32(b, b.size() - 4), std::bit_cast<uint32_t>(10.0f));
-    EXPECT_EQ(le32(b, b.size() - 12), 18u);  // adc.bits
-    // The sensor seed, 16 + 12 bytes from the end.
-    EXPECT_EQ(le32(b, b.size() - 16), 12345u);
+    // The last fields: drift, creep to_s, from_s, percent_per_decade.
+    EXPECT_EQ(le32(b, b.size() - 4), std::bit_cast<uint32_t>(0.05f));
+    EXPECT_EQ(le32(b, b.size() - 8), std::bit_cast<uint32_t>(100.0f));
+    EXPECT_EQ(le32(b, b.size() - 16), std::bit_cast<uint32_t>(2.0f));
+    // Before them the mains: 8 amplitudes (the 4th to 8th are 0), the count.
+    EXPECT_EQ(le32(b, b.size() - 48), std::bit_cast<uint32_t>(0.005f));
+    EXPECT_EQ(le32(b, b.size() - 36), 0u);
+    EXPECT_EQ(b[b.size() - 49], 3);
+    EXPECT_EQ(le32(b, b.size() - 53), std::bit_cast<uint32_t>(60.0f));
+    EXPECT_EQ(le32(b, b.size() - 57), std::bit_cast<uint32_t>(-0.015f));
+    EXPECT_EQ(le32(b, b.size() - 61), std::bit_cast<uint32_t>(0.3f));
+    // Then adc.max, adc.bits and the sensor seed as in version 1.
+    const std::size_t v1_end = b.size() - 61;
+    EXPECT_EQ(le32(b, v1_end - 4), std::bit_cast<uint32_t>(10.0f));
+    EXPECT_EQ(le32(b, v1_end - 12), 18u);  // adc.bits
+    EXPECT_EQ(le32(b, v1_end - 16), 12345u);
 }
 
 TEST(EmulationProfile, ReferenceStageIsValidAndTheAddressIsOutsideTheImages) {
@@ -178,6 +199,14 @@ TEST(EmulationProfile, EveryValueRejectionNamesItsFieldAndLeavesOutUntouched) {
         {"plant pi thresholds", [](EmulationProfile& p) { p.stage.plant.pi.thresholds[1] = -1.0f; }, "plant", "thresholds"},
         {"plant dahl", [](EmulationProfile& p) { p.stage.plant.hysteresis = HysteresisKind::kDahl; p.stage.plant.dahl.alpha2 = 0.0f; }, "plant", nullptr},
         {"plant linear gain", [](EmulationProfile& p) { p.stage.plant.hysteresis = HysteresisKind::kNone; p.stage.plant.linear_gain_um_per_V = s_nan; }, "plant", "linear_gain_um_per_V"},
+        {"sensor offset NaN", [](EmulationProfile& p) { p.stage.sensor.offset_um = s_nan; }, "sensor", "offset_um"},
+        {"sensor gain error", [](EmulationProfile& p) { p.stage.sensor.gain_error = 0.75f; }, "sensor", "gain_error"},
+        {"mains count 255", [](EmulationProfile& p) { p.stage.sensor.mains.count = 300; }, "sensor", "mains.count"},
+        {"mains amplitude < 0", [](EmulationProfile& p) { p.stage.sensor.mains.amplitudes_um[2] = -1.0f; }, "sensor", "mains.amplitudes_um"},
+        {"mains above Nyquist", [](EmulationProfile& p) { p.stage.sensor.mains.frequency_Hz = 9000.0f; }, "sensor", "mains.frequency_Hz"},
+        {"creep to_s", [](EmulationProfile& p) { p.stage.plant.creep.to_s = 30.0f; }, "plant", "creep.to_s"},
+        {"creep NaN", [](EmulationProfile& p) { p.stage.plant.creep.percent_per_decade = s_nan; }, "plant", "creep.percent_per_decade"},
+        {"drift inf", [](EmulationProfile& p) { p.stage.plant.drift_um_per_s = std::numeric_limits<float>::infinity(); }, "plant", "drift_um_per_s"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.name);
@@ -223,7 +252,7 @@ TEST(EmulationProfile, EveryFramingRejectionNamesTheHeaderField) {
     }
     {
         auto b = good;
-        b[4] = 2;  // version
+        b[4] = 1;  // version 1: the layout before the real-stage effects
         expect(b, "version");
         EXPECT_TRUE(profile_present(b));
     }
@@ -234,7 +263,7 @@ TEST(EmulationProfile, EveryFramingRejectionNamesTheHeaderField) {
     }
     {
         auto b = good;
-        put32(b, 8, kEmulationProfileBodyBytes + 4);  // length not the v1 layout
+        put32(b, 8, kEmulationProfileBodyBytes + 4);  // length not the v2 layout
         expect(b, "length");
     }
     // Body cut short of the declared length.

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "piezoloop/reference_stage.hpp"
@@ -109,4 +110,183 @@ TEST(StageModel, AmplifierSaturatesAndConvertersQuantise) {
     const Status s = stage.configure(bad);
     EXPECT_STREQ(s.group, "amplifier");
     EXPECT_STREQ(s.field, "output_max_V");
+}
+
+namespace {
+
+// A chain with every part on: DAC, amplifier lag and clamps, PI stage with a
+// resonance, sensor lag and noise, ADC.
+StageConfig full_chain() {
+    StageConfig c;
+    c.rate_Hz = 20000.0f;
+    c.dac = {16, -1.0f, 11.0f};
+    c.amplifier = {10.0f, -1.0f, 11.0f, 0.0f, 110.0f, 3000.0f};
+    c.plant = reference::plant();
+    c.sensor = {0.4f, 5000.0f, 0.002f, 3};
+    c.adc = {16, 0.0f, 10.0f};
+    return c;
+}
+
+float command(int k) { return static_cast<float>(5.0 + 4.5 * std::sin(k * 0.0021) + 0.3 * std::sin(k * 0.31)); }
+
+}  // namespace
+
+TEST(StageModel, WithoutTheRealStageEffectsTheChainIsThePartsInOrder) {
+    // Reference: the signal chain written out from its parts, as it was
+    // before offset, gain error, mains, creep and drift existed. The stage
+    // with those fields at their defaults gives the same bits.
+    const StageConfig c = full_chain();
+    StageModel stage;
+    ASSERT_TRUE(stage.configure(c).ok());
+    Converter dac, adc;
+    FirstOrderLag amp, sens;
+    HammersteinPlant plant;
+    SeededNoise noise;
+    ASSERT_TRUE(dac.configure(c.dac).ok() && adc.configure(c.adc).ok());
+    ASSERT_TRUE(amp.configure(c.amplifier.bandwidth_Hz, c.rate_Hz).ok());
+    ASSERT_TRUE(sens.configure(c.sensor.bandwidth_Hz, c.rate_Hz).ok());
+    ASSERT_TRUE(plant.configure(c.plant).ok());
+    amp.reset();
+    sens.reset();
+    noise.seed(c.sensor.seed);
+    for (int k = 0; k < 20000; ++k) {
+        const float u = command(k);
+        float v = dac.apply(u);
+        v = v < -1.0f ? -1.0f : (v > 11.0f ? 11.0f : v);
+        v = amp.apply(10.0f * v);
+        v = v < 0.0f ? 0.0f : (v > 110.0f ? 110.0f : v);
+        const float x = plant.step(v);
+        float s = sens.apply(0.4f * x);
+        s = s + 0.002f * noise.next_unit();
+        ASSERT_EQ(stage.step(u), adc.apply(s)) << k;
+    }
+}
+
+TEST(StageModel, OffsetAndGainErrorReadThroughTheActualGain) {
+    // Ideal converters, no lags: reading = 0.4 (1 + 0.01) (x + 0.3).
+    StageConfig c;
+    c.rate_Hz = 20000.0f;
+    c.plant.linear_gain_um_per_V = 1.5f;
+    c.sensor = {0.4f, 0.0f, 0.0f, 1};
+    c.sensor.offset_um = 0.3f;
+    c.sensor.gain_error = 0.01f;
+    StageModel stage;
+    ASSERT_TRUE(stage.configure(c).ok());
+    for (int k = 0; k < 2000; ++k) {
+        const float u = command(k);
+        const float y = stage.step(u);
+        const double x = stage.displacement_um();
+        EXPECT_EQ(stage.displacement_um(), 1.5f * u);  // the true position has neither
+        const double expect = 0.4 * 1.01 * (x + 0.3);
+        // Float: G = 0.4f * 1.01f (two roundings), G x and G 0.3 and their
+        // sum (three more), the inputs' own rounding (0.4f, 0.3f, 0.01f: 3e-8
+        // relative): 8 half-ulps of a reading up to 6.3 is 3e-6.
+        EXPECT_NEAR(y, expect, 3e-6) << k;
+    }
+}
+
+TEST(StageModel, MainsPickupIsOnTheReadingOnly) {
+    StageConfig c;
+    c.rate_Hz = 20000.0f;
+    c.plant.linear_gain_um_per_V = 1.5f;
+    c.sensor = {0.4f, 0.0f, 0.0f, 1};
+    c.sensor.gain_error = 0.02f;
+    c.sensor.mains.frequency_Hz = 50.0f;
+    c.sensor.mains.count = 2;
+    c.sensor.mains.amplitudes_um = {0.004f, 0.001f};
+    StageModel stage;
+    ASSERT_TRUE(stage.configure(c).ok());
+    const double g = 0.4 * 1.02;
+    double worst = 0.0;
+    for (int n = 0; n < 20000; ++n) {
+        const float y = stage.step(5.0f);
+        ASSERT_EQ(stage.displacement_um(), 7.5f);
+        const double t = n / 20000.0;
+        const double mains = 0.004 * std::sin(2.0 * M_PI * 50.0 * t) + 0.001 * std::sin(2.0 * M_PI * 100.0 * t);
+        worst = std::max(worst, std::fabs(y - g * (7.5 + mains)));
+    }
+    // Sine table and phase increment (test_mains_pickup.cpp: < 1e-10 µm
+    // here), then the reading's float rounding: a few ulp of 3.06 (2.4e-7).
+    EXPECT_LT(worst, 1e-6);
+}
+
+TEST(StageModel, DriftIsARampOfTheTruePosition) {
+    StageConfig c;
+    c.rate_Hz = 20000.0f;
+    c.plant.linear_gain_um_per_V = 1.5f;
+    c.plant.drift_um_per_s = 0.05f;
+    StageModel stage;
+    ASSERT_TRUE(stage.configure(c).ok());
+    const uint32_t n_total = 1u << 21;  // 105 s
+    for (uint32_t n = 0; n < n_total; ++n) {
+        const float y = stage.step(2.0f);
+        if (n % 4099 != 0 && n != n_total - 1) continue;
+        // 3 µm + 0.05 µm/s * n / 20 kHz: drift per sample and n are exact
+        // to float rounding (n < 2^24), so one rounding of the per-sample
+        // drift (relative 6e-8 of up to 5.2 µm) and of each product and
+        // sum: < 1e-6 µm.
+        const double expect = 3.0 + 0.05 * n / 20000.0;
+        ASSERT_NEAR(y, expect, 1e-6) << n;
+    }
+    stage.reset();
+    EXPECT_EQ(stage.step(2.0f), 3.0f);  // t = 0 again
+}
+
+TEST(StageModel, CreepFollowsTheHysteresisOutput) {
+    // The plant's creep is the creep bank on the hysteresis output: with no
+    // dynamics the displacement is h + the bank's creep, bit for bit.
+    StageConfig c;
+    c.rate_Hz = 10000.0f;
+    c.plant.linear_gain_um_per_V = 1.5f;
+    c.plant.creep = {2.5f, 0.01f, 10.0f};
+    StageModel stage;
+    ASSERT_TRUE(stage.configure(c).ok());
+    CreepBank bank;
+    ASSERT_TRUE(bank.configure(c.plant.creep, c.rate_Hz).ok());
+    for (int k = 0; k < 50000; ++k) {
+        const float u = command(k);
+        ASSERT_EQ(stage.step(u), bank.apply(1.5f * u)) << k;
+    }
+}
+
+TEST(StageModel, RealStageEffectsRefuseBadValuesByName) {
+    struct Bad {
+        void (*edit)(StageConfig&);
+        const char* group;
+        const char* field;
+        int index;
+    };
+    const Bad bad[] = {
+        {[](StageConfig& c) { c.sensor.offset_um = std::numeric_limits<float>::quiet_NaN(); }, "sensor", "offset_um", -1},
+        {[](StageConfig& c) { c.sensor.offset_um = 2000.0f; }, "sensor", "offset_um", -1},
+        {[](StageConfig& c) { c.sensor.gain_error = 0.9f; }, "sensor", "gain_error", -1},
+        {[](StageConfig& c) { c.sensor.mains.count = 2; c.sensor.mains.amplitudes_um[1] = -1.0f; }, "sensor",
+         "mains.amplitudes_um", 1},
+        {[](StageConfig& c) { c.sensor.mains.count = 9; }, "sensor", "mains.count", -1},
+        {[](StageConfig& c) { c.sensor.mains.count = 1; c.sensor.mains.frequency_Hz = 20000.0f; }, "sensor",
+         "mains.frequency_Hz", -1},
+        {[](StageConfig& c) { c.plant.creep = {2.0f, 0.01f, 30.0f}; }, "plant", "creep.to_s", -1},
+        {[](StageConfig& c) { c.plant.creep = {-2.0f, 0.01f, 10.0f}; }, "plant", "creep.percent_per_decade", -1},
+        {[](StageConfig& c) { c.plant.creep = {2.0f, 1e-5f, 10.0f}; }, "plant", "creep.from_s", -1},
+        {[](StageConfig& c) { c.plant.drift_um_per_s = 50.0f; }, "plant", "drift_um_per_s", -1},
+    };
+    for (const Bad& b : bad) {
+        StageConfig c = full_chain();
+        b.edit(c);
+        StageModel stage;
+        const Status s = stage.configure(c);
+        ASSERT_FALSE(s.ok()) << b.field;
+        EXPECT_STREQ(s.group, b.group) << b.field;
+        EXPECT_STREQ(s.field, b.field);
+        EXPECT_EQ(s.index, b.index) << b.field;
+    }
+    // The plant alone has no rate: creep or drift without one is refused.
+    PlantConfig p{};
+    p.drift_um_per_s = 0.1f;
+    HammersteinPlant plant;
+    EXPECT_STREQ(plant.configure(p).field, "drift_um_per_s");
+    p.drift_um_per_s = 0.0f;
+    p.creep = {2.0f, 0.01f, 10.0f};
+    EXPECT_STREQ(plant.configure(p).field, "creep");
+    EXPECT_TRUE(plant.configure(p, 10000.0f).ok());
 }

@@ -15,6 +15,9 @@ qemu-m3 (Q31 core).
 - measure loops, two amplitudes: the first (from rest on both) the
   simulator's exactly; the second, which the board starts after a pause at
   0 V, within 0.5 % of range of the simulator's (its noise samples differ).
+- measure step on configs/stages/drifting_stage.json (sensor offset, gain
+  error, mains pickup, creep and drift, all in the emulation profile): the
+  simulator's log hash.
 - Hostile requests (amplitude beyond the limits, --to-hz above Nyquist,
   --periods 0, NaN, a closed loop without a controller) exit 2 and nothing
   moves: the loop stays disarmed, no excitation tick runs.
@@ -136,6 +139,23 @@ try:
         # the same within a few noise sigmas of the range.
         diff = abs(bl[1]["hysteresis_pct"] - sl[1]["hysteresis_pct"])
         check(diff < 0.5, f"loops: the second amplitude's hysteresis as the simulator's ({diff:.2e} % apart)")
+
+    # A stage with every real-stage effect (sensor offset, gain error, mains
+    # pickup, creep, drift: configs/stages/drifting_stage.json) carried to
+    # the board by its emulation profile: a step, board = simulator, long
+    # enough (0.25 s) for the mains, the first creep decades and the drift.
+    emulators.stop(emulators.running[0])
+    real = os.path.join(configs, "stages", "drifting_stage.json")
+    _, d, _ = emulators.start("--board", board, "--scenario", real, "--image", image)
+    r = run(*d, "set", "--scenario", real, "--case", "open_loop", "--frequency-hz", "10")
+    check(r.returncode == 0, "set --scenario: the drifting stage's limits on the board", r.stderr)
+    real_step = ["--step-v", "4", "--bias-v", "3", "--duration-s", "0.25"]
+    r = run(*d, "measure", "step", *real_step, "--restart-stage", "--out", board_json)
+    s = run("measure", "step", "--scenario", real, "--sample", sample, *real_step, "--out", sim_json)
+    ok = r.returncode == 0 and s.returncode == 0
+    check(ok and load(board_json)["log_hash"] == load(sim_json)["log_hash"],
+          "step with offset, gain error, mains, creep and drift: the board's log hash is the simulator's",
+          r.stderr + s.stderr)
 finally:
     emulators.stop_all()
     shutil.rmtree(tmp, ignore_errors=True)

@@ -14,12 +14,14 @@
 #include <nlohmann/json.hpp>
 
 #include "lti/lti_convert.hpp"
+#include "piezoloop/emulation_profile.hpp"
 #include "piezoloop/reference_stage.hpp"
 #include "sim/build_case.hpp"
 #include "sim/metrics.hpp"
 #include "sim/scenario.hpp"
 #include "sim/stage_double.hpp"
 #include "sim/window_metrics.hpp"
+#include "status_text.hpp"
 
 using namespace piezoloop;
 using namespace piezoloop::sim;
@@ -235,4 +237,172 @@ TEST(SimScenario, StaticStageIsTheSameInBothFidelities) {
     }
     // Only where the two sums round to different sides of an ADC step.
     EXPECT_LT(differ, 50);
+}
+
+namespace {
+
+// stiff_stack.json with every real-stage effect given.
+nlohmann::json with_real_stage_effects() {
+    nlohmann::json j = nlohmann::json::parse(std::ifstream(kConfigs + "stages/stiff_stack.json"));
+    j["plant"]["sensor"]["offset_um"] = 0.3;
+    j["plant"]["sensor"]["gain_error"] = 0.01;
+    j["plant"]["sensor"]["mains"] = {{"frequency_Hz", 50}, {"amplitudes_um", {0.004, 0.002, 0.001}}};
+    j["plant"]["creep"] = {{"percent_per_decade", 2}, {"from_s", 0.01}, {"to_s", 100}};
+    j["plant"]["drift_um_per_s"] = 0.05;
+    return j;
+}
+
+}  // namespace
+
+// plant.sensor.offset_um, gain_error, mains; plant.creep, drift_um_per_s:
+// read into the stage of both fidelities; without them the stage is the
+// defaults (docs/models.md, configs/scenarios.md).
+TEST(SimScenario, RealStageEffectsAreReadIntoTheStage) {
+    const Scenario s = parse_scenario(with_real_stage_effects(), kConfigs + "stages");
+    LoopModel m;
+    build_stage(s, nullptr, 10, m);
+    const SensorConfig& sf = m.stage.sensor;
+    EXPECT_EQ(sf.offset_um, 0.3f);
+    EXPECT_EQ(sf.gain_error, 0.01f);
+    EXPECT_EQ(sf.mains.frequency_Hz, 50.0f);
+    ASSERT_EQ(sf.mains.count, 3);
+    EXPECT_EQ(sf.mains.amplitudes_um[2], 0.001f);
+    EXPECT_EQ(m.stage.plant.creep, (CreepConfig{2.0f, 0.01f, 100.0f}));
+    EXPECT_EQ(m.stage.plant.drift_um_per_s, 0.05f);
+    EXPECT_EQ(m.stage_double.sensor.mains, sf.mains);
+    EXPECT_EQ(m.stage_double.creep, m.stage.plant.creep);
+    EXPECT_EQ(m.stage_double.drift_um_per_s, static_cast<double>(0.05f));
+    StageModel stage;
+    EXPECT_TRUE(stage.configure(m.stage).ok());
+
+    const Scenario plain = load_scenario(kConfigs + "stages/stiff_stack.json");
+    LoopModel p;
+    build_stage(plain, nullptr, 10, p);
+    EXPECT_EQ(p.stage.sensor.offset_um, 0.0f);
+    EXPECT_EQ(p.stage.sensor.gain_error, 0.0f);
+    EXPECT_EQ(p.stage.sensor.mains.count, 0);
+    EXPECT_EQ(p.stage.plant.creep.percent_per_decade, 0.0f);
+    EXPECT_EQ(p.stage.plant.drift_um_per_s, 0.0f);
+}
+
+TEST(SimScenario, RealStageEffectsRefuseBadValuesNamingTheField) {
+    struct Bad {
+        std::function<void(nlohmann::json&)> edit;
+        std::string expect;
+    };
+    const Bad bad[] = {
+        {[](auto& j) { j["plant"]["sensor"]["mains"]["amplitudes_um"][1] = -0.001; },
+         "plant.sensor.mains.amplitudes_um[1]: must be finite and in [0, 1000] um"},
+        {[](auto& j) { j["plant"]["sensor"]["mains"]["amplitudes_um"] = nlohmann::json::array(); },
+         "plant.sensor.mains.amplitudes_um: must hold 1 to 8 amplitudes"},
+        {[](auto& j) { j["plant"]["sensor"]["mains"]["frequency_Hz"] = 0; },
+         "plant.sensor.mains.frequency_Hz: must be in [1, 1000]"},
+        {[](auto& j) { j["loop"]["rate_Hz"] = 12500; j["plant"]["sensor"]["mains"]["frequency_Hz"] = 1000; j["plant"]["sensor"]["mains"]["amplitudes_um"] = {1, 1, 1, 1, 1, 1, 1, 1}; },
+         "plant.sensor.mains.amplitudes_um: every harmonic must lie below rate / 2"},
+        {[](auto& j) { j["plant"]["sensor"]["mains"]["phase"] = 1; }, "plant.sensor.mains.phase: unknown field"},
+        {[](auto& j) { j["plant"]["sensor"]["offset_um"] = 5000; }, "plant.sensor.offset_um: must be in [-1000, 1000]"},
+        {[](auto& j) { j["plant"]["sensor"]["gain_error"] = -0.7; }, "plant.sensor.gain_error: must be in [-0.5, 0.5]"},
+        {[](auto& j) { j["plant"]["creep"]["to_s"] = 50; }, "plant.creep.to_s: must be from_s * 10^K, K = 1..8"},
+        {[](auto& j) { j["plant"]["creep"]["percent_per_decade"] = 30; }, "plant.creep.percent_per_decade: must be in [0, 20]"},
+        {[](auto& j) { j["plant"]["creep"]["from_s"] = 0; }, "plant.creep.from_s: must be in [0.0001, 10000]"},
+        {[](auto& j) { j["plant"]["creep"]["from_s"] = 0.0001; j["plant"]["creep"]["to_s"] = 0.001; },
+         "plant.creep.from_s: must be at least 2 samples (2 / rate)"},
+        {[](auto& j) { j["plant"]["creep"].erase("to_s"); }, "plant.creep.to_s: required field is missing"},
+        {[](auto& j) { j["plant"]["drift_um_per_s"] = 11; }, "plant.drift_um_per_s: must be in [-10, 10]"},
+    };
+    for (const Bad& b : bad) {
+        nlohmann::json j = with_real_stage_effects();
+        b.edit(j);
+        const std::string e = error_of(j);
+        EXPECT_NE(e.find(b.expect), std::string::npos) << "got: " << e << "\nwanted: " << b.expect;
+    }
+    EXPECT_EQ(error_of(with_real_stage_effects()), "");
+}
+
+// The double fidelity carries the same effects: with no continuous part
+// and a static linear stage, its reading is the float stage's to float
+// rounding (the creep: continuous lags against the float bank's held ones,
+// at most 1 % of each lag's weight apart, test_creep.cpp).
+TEST(SimScenario, RealStageEffectsAreTheSameInBothFidelities) {
+    StageConfig f{};
+    f.rate_Hz = 20000.0f;
+    f.plant.linear_gain_um_per_V = 1.5f;
+    f.plant.creep = {2.0f, 0.001f, 0.1f};
+    f.plant.drift_um_per_s = 0.05f;
+    f.sensor = {0.4f, 0.0f, 0.0f, 1};
+    f.sensor.offset_um = 0.3f;
+    f.sensor.gain_error = 0.01f;
+    f.sensor.mains.count = 3;
+    f.sensor.mains.amplitudes_um = {0.004f, 0.002f, 0.001f};
+    DoubleStageConfig d;
+    d.rate_Hz = 20000.0;
+    d.substeps = 1;
+    d.linear_gain_um_per_V = 1.5;
+    d.creep = f.plant.creep;
+    d.drift_um_per_s = 0.05f;
+    d.sensor = f.sensor;
+    StageModel a;
+    ASSERT_TRUE(a.configure(f).ok());
+    DoubleStage b;
+    b.configure(d);
+    double worst = 0.0;
+    for (int k = 0; k < 40000; ++k) {
+        const float y_a = a.step(6.0f), y_b = b.step(6.0f);
+        worst = std::max(worst, std::fabs(static_cast<double>(y_a) - y_b));
+    }
+    // Creep of a 9 µm step: 1 % of (p/100) sum w = 0.02 * 3.18 * 9 µm * 0.01
+    // = 5.7e-3 µm at most, times the sensor gain 0.404: 2.3e-3.
+    EXPECT_LT(worst, 2.3e-3);
+    // After 2 s (20 of the slowest lag's tau) the lags have settled: the two
+    // agree to float rounding of the reading (a few ulp of 4), drift and
+    // mains included.
+    for (int k = 0; k < 2000; ++k) {
+        const float y_a = a.step(6.0f), y_b = b.step(6.0f);
+        EXPECT_NEAR(y_a, y_b, 2e-6) << k;
+    }
+}
+
+// The made-up stages of configs/stages/ load, their one case builds, and
+// their stage fits an emulated board's profile; the three with real-stage
+// effects carry what their README says.
+TEST(SimScenario, MadeUpStagesLoadAndFitTheEmulatedBoards) {
+    for (const char* name : {"stiff_stack", "soft_bender", "rhp_zero", "stiff_stack_unipolar", "drifting_stage",
+                             "strong_hysteresis"}) {
+        SCOPED_TRACE(name);
+        const Scenario s = load_scenario(kConfigs + "stages/" + name + ".json");
+        ASSERT_EQ(s.cases.size(), 1u);
+        BuildOptions o;
+        o.reference_frequency_Hz = 10.0;
+        o.check_realisation = false;
+        EXPECT_NO_THROW(build_case(s, s.find_case("open_loop"), o));
+        LoopModel m;
+        build_stage(s, nullptr, 10, m);
+        EmulationProfile p;
+        p.loop_rate_Hz = static_cast<uint32_t>(s.rate_Hz);
+        p.position_full_scale_um = s.setup.position.full_scale;
+        p.voltage_full_scale_V = s.setup.voltage.full_scale;
+        p.stage = m.stage;
+        EXPECT_TRUE(validate(p).ok()) << describe(validate(p));
+    }
+    const Scenario u = load_scenario(kConfigs + "stages/stiff_stack_unipolar.json");
+    EXPECT_EQ(u.limits.u_min_V, 0.0f);
+    EXPECT_EQ(u.limits.u_max_V, 10.0f);
+    EXPECT_EQ(u.plant.amplifier.input_min_V, -1.0f);
+    EXPECT_EQ(u.plant.amplifier.input_max_V, 11.0f);
+    EXPECT_EQ(u.plant.adc.min, 0.0f);
+    EXPECT_EQ(u.plant.sensor.gain, 0.4f);
+    const Scenario d = load_scenario(kConfigs + "stages/drifting_stage.json");
+    EXPECT_EQ(d.plant.creep, (CreepConfig{2.0f, 0.01f, 100.0f}));
+    EXPECT_EQ(d.plant.sensor.mains.count, 3);
+    EXPECT_NE(d.plant.drift_um_per_s, 0.0f);
+    EXPECT_NE(d.plant.sensor.offset_um, 0.0f);
+    EXPECT_NE(d.plant.sensor.gain_error, 0.0f);
+    // Strong hysteresis: the loading slope about mid-span (75 V) is 4 times
+    // the slope after a reversal (p0).
+    const Scenario h = load_scenario(kConfigs + "stages/strong_hysteresis.json");
+    const PiModel& pi = h.plant.hysteresis.pi;
+    double slope = pi.p0;
+    for (int j = 0; j < pi.count; ++j)
+        if (pi.thresholds[static_cast<size_t>(j)] < 75.0f) slope += pi.weights[static_cast<size_t>(j)];
+    EXPECT_NEAR(slope / pi.p0, 4.0, 0.01);
 }
