@@ -160,6 +160,7 @@ void measure_hysteresis(StageAccess& stage, Commissioning& c, const measure::Mea
         design::PiFitOptions o;
         o.operators = 8;
         o.monotone = true;
+        o.fit_offset = true;  // a sensor reads with an offset; the plays cannot take it up
         o.first_fitted = static_cast<std::size_t>(c.loops.plan.cycle_ticks);  // the jump to the base rings
         // Thresholds below half the loop: each play then turns in the fitted cycle.
         for (int j = 1; j <= o.operators; ++j) o.thresholds.push_back(0.5 * loop_V * j / (o.operators + 1));
@@ -168,8 +169,9 @@ void measure_hysteresis(StageAccess& stage, Commissioning& c, const measure::Mea
         c.hysteresis = fit;
         c.slope_spread = fit.slopes.back() / fit.slopes.front();
         c.hysteresis_note = "PI model, 8 operators: RMS error " + num(fit.rms_error) + " um (" +
-                            num(fit.nrmse_percent) + " %), max " + num(fit.max_error) + " um; loading-curve slope " +
-                            num(fit.slopes.front()) + " .. " + num(fit.slopes.back()) + " um/V";
+                            num(fit.nrmse_percent) + " %), max " + num(fit.max_error) + " um; offset " +
+                            num(fit.offset) + " um; loading-curve slope " + num(fit.slopes.front()) + " .. " +
+                            num(fit.slopes.back()) + " um/V";
     } catch (const std::invalid_argument& e) {
         c.hysteresis_note = std::string("no PI model: ") + e.what();
     }
@@ -394,7 +396,10 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         q.closed = false;
         q.step = frac * span;
         q.from = mid;
-        q.duration_s = 0.05;
+        // Held as long first: a jump to mid-span rings a lightly damped
+        // mode (ζ 0.01 at 600 Hz decays over 25 ms), which must be gone
+        // from the samples the noise is taken from.
+        q.duration_s = 0.2;
         const measure::StepRun run = stage.step(q);
         c.safety.push_back(check_safety_step(run, q.step, mid, b.closed_range, c.safety.empty() ? nullptr : &c.safety.back()));
         say(c, "safety step " + num(q.step) + " V: " + num(c.safety.back().dy_um) + " um (" +
@@ -433,7 +438,10 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     c.identified.bounds = b;
     c.identified.model = fit.model;
     c.identified.gain_um_per_V = c.gain_um_per_V;
-    if (c.hysteresis) c.identified.hysteresis = c.hysteresis->model;
+    if (c.hysteresis) {
+        c.identified.hysteresis = c.hysteresis->model;
+        c.identified.offset_um = c.hysteresis->offset;
+    }
     c.identified.noise_um = c.safety.front().noise_um;
     SimStage identified(sim::parse_scenario(identified_scenario_json(c.identified, std::nullopt), "."),
                         loop.q31 ? sim::SampleType::kQ31 : sim::SampleType::kFloat);
@@ -478,6 +486,8 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     if (c.hysteresis) {
         PiModel inverse{};
         if (invert_pi(c.hysteresis->model, inverse).ok()) {
+            // The model's output offset taken off the reference first.
+            inverse.input_offset = static_cast<float>(-c.hysteresis->offset * inverse.input_gain);
             for (std::size_t i = 0, n = c.candidates.size(); i < n; ++i) {
                 if (!c.candidates[i].passes) continue;
                 for (const bool series : {false, true}) {
@@ -519,9 +529,17 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         k.predicted = identified.track(k.loaded(), check);
         say(c, k.name + ": predicted e_max " + num(k.predicted->e_max_pct) + " % on a 10 Hz triangle over " +
                    num(check.range_um) + " um");
-        if (c.chosen < 0 || k.predicted->e_max_pct < c.candidates[static_cast<std::size_t>(c.chosen)].predicted->e_max_pct)
-            c.chosen = static_cast<int>(i);
     }
+    // The first in the list (the simpler: a candidate comes before its
+    // feedforward and pre-filter variants) among those within
+    // kPredictionTie of the best prediction: predictions closer than that
+    // differ by the measurement's noise, and the choice should not.
+    double best = INFINITY;
+    for (const Candidate& k : c.candidates)
+        if (k.predicted) best = std::min(best, k.predicted->e_max_pct);
+    for (std::size_t i = 0; i < c.candidates.size() && c.chosen < 0; ++i)
+        if (c.candidates[i].predicted && c.candidates[i].predicted->e_max_pct <= (1.0 + kPredictionTie) * best)
+            c.chosen = static_cast<int>(i);
     if (c.chosen < 0) return c;
 
     // 8. Verification on the stage, each triangle beside its prediction: the

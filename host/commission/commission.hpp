@@ -1,5 +1,5 @@
-// Commissioning a stage the tool has not seen (issue 17, docs/commissioning.md):
-// from measurements alone to a checked, verified controller, on a board
+// Commissioning a stage the tool has not seen (docs/commissioning.md): from
+// measurements alone to a checked, verified controller, on a board
 // (link/board_stage) or the simulator (commission/sim_stage), through the
 // same steps (commission/stage_access.hpp):
 //
@@ -7,46 +7,55 @@
 //      from mid-span; each must move the stage (|Δy| above 5x the noise),
 //      off the sensor's rails (ten samples at one extreme value at or beyond
 //      the range the sensor reads), with the gain of the previous step within
-//      ±50 % (same sign); the gain estimate g0 (µm/V) checks the range. The
-//      displacement at mid-span is the centre of every triangle after.
-//   2. frequency response: open loop about mid-span, 5 % of the span; and
-//      hysteresis: an open-loop triangle about mid-span over what the range
-//      needs (1.2x at the safety gain; 0.7x again while the sensor sits at a
-//      rail), 5 Hz, two smooth (1 - cos)
-//      cycles, a PI model fitted to the second (the first runs the plays:
-//      the jump to its base rings the stage's modes; ident/pi_fit, 8
-//      operators, monotone so that it has an analytic inverse).
-//   3. model: continuous fits of order 2, 4, 6, 8 (zeros two fewer: a stage
-//      rolls off beyond the band; one tick of delay taken out); the lowest whose RMS relative error on the lines
-//      with SNR >= 20 dB is below 10 % (the hysteresis bends a stage's
-//      response by several %), else the best. The identified stage
-//      (commission/identified_stage) is the PI hysteresis followed by its
-//      dynamics (without a PI fit: the largest safety step's static gain).
-//   4. candidates on the fitted model normalised to unit DC gain: robust,
+//      ±50 % (same sign).
+//   2. hysteresis and travel: an open-loop loop over the whole command span
+//      (the large signal), 5 Hz, two smooth (1 - cos) cycles; its measured
+//      cycle's extremes within what the sensor reads are the reach, which
+//      the range must fit with kReachMargin free at each end, and whose
+//      middle centres every triangle after. A PI model with an output offset
+//      is fitted to the second cycle (the first runs the plays: the jump to
+//      its base rings the stage's modes; ident/pi_fit, 8 operators,
+//      monotone so that it has an analytic inverse). A loop that reaches a
+//      rail or trips is repeated about mid-span at 0.7x for the fit.
+//   3. frequency response: open loop about mid-span, 5 % of the span, at
+//      most 1000 lines.
+//   4. model: continuous fits of order 2, 4, 6, 8 (zeros two fewer: a stage
+//      rolls off beyond the band; one tick of delay taken out); the lowest
+//      whose RMS relative error on the lines with SNR >= 20 dB is below
+//      10 % (the hysteresis bends a stage's response by several %), else the
+//      best. The identified stage (commission/identified_stage) is the PI
+//      hysteresis and its offset followed by the dynamics (without a PI
+//      fit: the largest safety step's static gain).
+//   5. candidates on the fitted model normalised to unit DC gain: robust,
 //      mixed-sensitivity H∞ (plant reduced to 6 states if larger, W1 =
-//      (s/1.6 + ω_b)/(s + 1e-3 ω_b) at the target bandwidth, W2 = 0.5), the
-//      same with the fit's error on the measured lines as the uncertainty
-//      weight W3 on T (commission/uncertainty_weight), and classic, PI +
-//      notches (synth/pi_notch) at the target bandwidth.
-//   5. each checked on the measured response (analysis/measured_loop):
+//      (s/1.6 + ω_b)/(s + 1e-3 ω_b) at the target bandwidth, W2 = 0.5; again
+//      at 0.7x and 0.5x the target when refused), the same with the fit's
+//      error on the measured lines as the uncertainty weight W3 on T
+//      (commission/uncertainty_weight), and classic, PI + notches
+//      (synth/pi_notch) at the target bandwidth.
+//   6. each checked on the measured response (analysis/measured_loop):
 //      PM >= 45°, GM >= 6 dB, max|S| <= 2; a candidate that fails is never
 //      loaded. When none passes at the automatic target bandwidth, it is
 //      halved (twice at most).
-//   6. each passing candidate's tracking of a 10 Hz triangle over half the
-//      range is predicted on the identified stage, alone, with the PI
-//      model's inverse as feedforward on the reference, and with that and a
-//      reference pre-filter (a notch at each lightly damped mode of the fit
-//      in the measured band, ζ < 0.2, the two lowest: the mode's poles as
-//      zeros, the same frequency at ζ 0.7 as poles, unit DC gain); the lowest
-//      e_max is chosen.
-//   7. verification on the stage: the chosen controller loaded, a triangle
+//   7. each passing candidate's tracking of a 10 Hz triangle over half the
+//      range is predicted on the identified stage (each from the same state
+//      at rest), alone, with the PI model's inverse as feedforward on the
+//      reference, and with that and a reference pre-filter (a notch at each
+//      lightly damped mode of the fit in the measured band, ζ < 0.2, the two
+//      lowest); with strong hysteresis (kStrongHysteresisSpread) also with
+//      the inverse in series after the feedback. The lowest e_max is chosen
+//      (within kPredictionTie, the one listed first).
+//   8. verification on the stage: the chosen controller loaded, a triangle
 //      over half the range at 10 Hz (the check), the closed loop's frequency
 //      response (d at the command, 2 % of the span; its T gives the achieved
 //      bandwidth), then triangles over the whole range at 1 Hz, 10 Hz and a
-//      tenth of the achieved bandwidth, each beside its prediction. A run
-//      worse than twice its prediction plus 2 % of its range, or one that
-//      trips, fails the verification: the loop does not behave as designed,
-//      and is not kept.
+//      tenth of the achieved bandwidth, each beside its prediction, which
+//      runs the same sequence on the identified stage (both carry on from
+//      run to run, as a board's stage does). A run worse than twice its
+//      prediction plus 2 % of its range, or one that trips, fails the
+//      verification, with the reason the record shows
+//      (commission/tracking_diagnosis): the loop does not behave as
+//      designed, and is not kept.
 #pragma once
 
 #include <functional>
@@ -78,6 +87,10 @@ inline constexpr double kStrongHysteresisSpread = 2.0;
 // The triangles stay this fraction of the measured reach inside each of its
 // ends (the loop's corners and the controller's overshoot need room).
 inline constexpr double kReachMargin = 0.02;
+
+// Predictions within this fraction of the best one are a tie, which the
+// candidate listed first wins (commission.cpp, step 7).
+inline constexpr double kPredictionTie = 0.05;
 
 struct CommissionRequest {
     double range_um = 0.0;             // the travel the loop must hold

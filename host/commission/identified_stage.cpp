@@ -50,7 +50,7 @@ nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::op
                    {{"gain", 1.0}, {"input_min_V", u_min}, {"input_max_V", u_max}, {"output_min_V", u_min}, {"output_max_V", u_max}}},
                   {"hysteresis", hysteresis},
                   {"dynamics", {{"model", design::to_json(unit)}, {"normalise_dc", false}, {"discretisation", "zoh"}}},
-                  {"sensor", {{"gain_per_um", 1.0}, {"noise_rms", st.noise_um}, {"seed", 1}}},
+                  {"sensor", {{"gain_per_um", 1.0}, {"noise_rms", st.noise_um}, {"seed", 1}, {"offset_um", st.offset_um}}},
                   {"adc", {{"bits", 0}, {"min", st.bounds.closed_range.min_um}, {"max", st.bounds.closed_range.max_um}}}};
     j["reference"] = {{"nominal_um_per_V", std::fabs(g)}, {"offset", "unipolar"}};
     // A scenario holds at least one case: the stage driven open loop at its DC gain.
@@ -66,6 +66,8 @@ nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::op
             const auto [r, w] = lists(*controller->feedforward);
             k["feedforward"] = {{"kind", "pi_compensator"}, {"thresholds_um", r}, {"weights_V_per_um", w},
                                 {"p0_V_per_um", controller->feedforward->p0}};
+            if (controller->feedforward->input_offset != 0.0f)
+                k["feedforward"]["input_offset_um"] = controller->feedforward->input_offset;
             if (controller->series) k["feedforward"]["placement"] = "series";
         }
         j["cases"].push_back({{"name", "commissioned"},

@@ -27,6 +27,7 @@ struct IdentifiedStage {
     measure::MeasureBounds bounds;
     design::Zpk model;            // continuous, u (V) -> y (µm), one tick of delay left out
     std::optional<PiModel> hysteresis;  // plain PI model, u (V) -> y (µm)
+    double offset_um = 0.0;       // added to the PI model's output (its plays at rest): the reading's offset
     double gain_um_per_V = 0.0;   // static gain without a hysteresis
     double noise_um = 0.0;        // the sensor's RMS noise at rest
 };

@@ -212,7 +212,7 @@ FeedforwardSpec parse_feedforward(const Field& f) {
     } else if (s.kind == "pi_compensator") {
         // A compensator given directly, r (µm) -> u (V); in series, after a
         // feedback whose output is in µm.
-        f.only({"kind", "thresholds_um", "weights_V_per_um", "p0_V_per_um", "placement"});
+        f.only({"kind", "thresholds_um", "weights_V_per_um", "p0_V_per_um", "input_offset_um", "placement"});
         if (const auto p = f.get("placement")) s.placement = p->choice({"feedforward", "series"});
         const std::vector<double> r = f["thresholds_um"].numbers();
         const std::vector<double> p = f["weights_V_per_um"].numbers();
@@ -221,6 +221,8 @@ FeedforwardSpec parse_feedforward(const Field& f) {
         std::vector<float> rf(r.begin(), r.end()), pf(p.begin(), p.end());
         const float p0 = f32(f["p0_V_per_um"].number());
         f.check(pi_model_from_lists(rf.data(), pf.data(), static_cast<int>(rf.size()), &p0, s.pi));
+        // Added to r before the operators (a model's output offset taken off).
+        if (const auto o = f.get("input_offset_um")) s.pi.input_offset = f32(o->number_in(-1e4, 1e4));
     } else {
         f.only({"kind", "params", "identify"});
         const auto params = f.get("params");
