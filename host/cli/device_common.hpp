@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "exit_codes.hpp"
 #include "link/client.hpp"
 #include "sim/build_case.hpp"
 #include "sim/experiments.hpp"
@@ -88,6 +89,21 @@ private:
     void (*int_)(int);
     void (*term_)(int);
 };
+
+// Runs a board session f() under StopSignals: when Ctrl-C (or SIGTERM) ended
+// it early, whatever the session threw once the board was left clean
+// becomes LostData (exit 4: an interrupted run whose data is incomplete,
+// as `record`), naming what was interrupted.
+template <class F>
+auto interruptible(const char* what, F&& f) -> decltype(f()) {
+    try {
+        return f();
+    } catch (const std::exception& e) {
+        if (!StopSignals::requested()) throw;
+        throw LostData(std::string(what) + " interrupted (Ctrl-C or SIGTERM) before the end, nothing written: " +
+                       e.what());
+    }
+}
 
 // A progress bar on stderr when it is a terminal.
 class ProgressBar {

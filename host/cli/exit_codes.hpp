@@ -15,6 +15,7 @@
 #include <exception>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace piezoloop::cli {
 
@@ -44,5 +45,12 @@ int run_app(CLI::App& app, int argc, char** argv);
 // Every floating-point option of app and its subcommands (found by CLI11's
 // type name FLOAT) refuses NaN and +-inf: "--name: must be a finite number".
 void require_finite_numbers(CLI::App& app);
+
+// A comma-separated list of numbers (a,b,c) as one option, read by
+// parse_number_list (option_checks.hpp): an empty item ("1,,2"), text or a
+// non-finite number is refused naming the option and the item (CLI11's
+// delimiter would drop the empty item silently).
+template <class T>
+CLI::Option* add_number_list(CLI::App* cmd, const std::string& name, std::vector<T>& out, const std::string& help);
 
 }  // namespace piezoloop::cli
