@@ -242,16 +242,12 @@ void add_storage(CLI::App& app) {
 // ---- wave -----------------------------------------------------------------------
 
 void add_wave_options(CLI::App* cmd, WaveRequest& w, bool required) {
-    auto* t = cmd->add_option("--trajectory", w.trajectory, "reference waveform")
-                  ->check(CLI::IsMember({"triangle", "sine", "square", "raster"}));
-    auto* f = cmd->add_option("--frequency-hz", w.frequency_Hz, "reference frequency")->check(CLI::Range(1e-4, 5e5));
-    auto* a = cmd->add_option("--amplitude-um", w.amplitude_um, "reference range, peak-to-peak (um)")
-                  ->check(CLI::Range(1e-6, 1e3));
+    // Checked by check_wave_request (device_common), as the Python module's.
+    cmd->add_option("--trajectory", w.trajectory, "reference waveform: triangle | sine | square | raster");
+    cmd->add_option("--frequency-hz", w.frequency_Hz, "reference frequency, 1e-4 to 5e5 Hz");
+    auto* a = cmd->add_option("--amplitude-um", w.amplitude_um, "reference range, peak-to-peak, 1e-6 to 1e3 um");
     if (required) a->required();
-    (void)t;
-    (void)f;
-    cmd->add_option("--offset", w.offset, "unipolar: from 0 up; bipolar: centred on 0 (default: the scenario's, else unipolar)")
-        ->check(CLI::IsMember({"unipolar", "bipolar"}));
+    cmd->add_option("--offset", w.offset, "unipolar: from 0 up; bipolar: centred on 0 (default: the scenario's, else unipolar)");
     cmd->add_option("--scenario", w.scenario, "take the offset convention from this scenario (as `piezoloop sim`)")
         ->check(CLI::ExistingFile);
     cmd->add_option("--cycles", w.cycles, "periods to run, 0 = forever");
@@ -270,6 +266,7 @@ void add_wave(CLI::App& app) {
     cmd->add_flag("--stop", a->stop, "stop the running wave (the setpoint holds)");
     cmd->callback([a] {
         guarded([&] {
+            if (!a->stop) check_wave_request(a->w);  // before the board is contacted
             Client c = open_device();
             if (a->stop) {
                 c.stop_wave();
@@ -335,6 +332,7 @@ void add_stream(CLI::App& app) {
                 throw std::invalid_argument("give either --file or a generated wave (--trajectory ... --amplitude-um A --duration-s D)");
             if (a->file.empty() && !(a->duration_s > 0.0)) throw std::invalid_argument("--duration-s: required with a generated wave");
             (void)options::stream_prefill(a->prefill, 0, 0);  // refused before the board is contacted
+            if (a->file.empty()) check_wave_request(a->w);
             std::vector<float> sp;
             if (!a->file.empty()) sp = hostlink::read_setpoints_csv(a->file, a->column);
             Client c = open_device(5000);
@@ -423,19 +421,18 @@ void add_record(CLI::App& app) {
     cmd->add_option("--plot", a->plot, "draw r, y, e and u to a PNG (tools/plot_sim.py)");
     cmd->add_option("--stall-s", a->stall_s, "give up when no frames arrive for this long, 0.1 to 3600 s");
     WaveRequest& w = a->w;
-    auto* t = cmd->add_option("--trajectory", w.trajectory, "set this reference wave first (as `wave --no-start`)")
-                  ->check(CLI::IsMember({"triangle", "sine", "square", "raster"}));
-    cmd->add_option("--frequency-hz", w.frequency_Hz, "reference frequency")->check(CLI::Range(1e-4, 5e5));
-    auto* amp = cmd->add_option("--amplitude-um", w.amplitude_um, "reference range, peak-to-peak (um)")
-                    ->check(CLI::Range(1e-6, 1e3));
-    cmd->add_option("--offset", w.offset, "unipolar | bipolar (default: the scenario's, else unipolar)")
-        ->check(CLI::IsMember({"unipolar", "bipolar"}));
+    // Checked by check_wave_request (device_common), as the Python module's.
+    auto* t = cmd->add_option("--trajectory", w.trajectory,
+                              "set this reference wave first (as `wave --no-start`): triangle | sine | square | raster");
+    cmd->add_option("--frequency-hz", w.frequency_Hz, "reference frequency, 1e-4 to 5e5 Hz");
+    auto* amp = cmd->add_option("--amplitude-um", w.amplitude_um, "reference range, peak-to-peak, 1e-6 to 1e3 um");
+    cmd->add_option("--offset", w.offset, "unipolar | bipolar (default: the scenario's, else unipolar)");
     cmd->add_option("--scenario", w.scenario, "take the offset convention from this scenario")->check(CLI::ExistingFile);
     cmd->add_option("--cycles", w.cycles, "periods the wave runs, 0 = forever");
     cmd->callback([a, t, amp] {
         guarded([&] {
             a->wave_given = t->count() > 0 || amp->count() > 0;
-            if (a->wave_given && !(a->w.amplitude_um > 0.0)) throw std::invalid_argument("--amplitude-um: required with --trajectory");
+            if (a->wave_given) check_wave_request(a->w);  // before the board is contacted
             return run_record(*a);
         });
     });

@@ -73,6 +73,11 @@ struct WaveRequest {
     std::string scenario;        // optional: its offset convention
     uint32_t cycles = 0;
 };
+// The request's trajectory, frequency (1e-4 to 5e5 Hz), amplitude (1e-6 to
+// 1e3 um) and offset, named as the command line's options (the Python
+// module's wave and record call it through wave_params too).
+void check_wave_request(const WaveRequest& w);
+// The trajectory group of a checked request.
 link::TrajectoryParams wave_params(const WaveRequest& w, double rate_Hz);
 
 // While one exists, SIGINT (Ctrl-C) and SIGTERM only set requested(): a

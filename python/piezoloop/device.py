@@ -138,7 +138,6 @@ class Device:
         saying why, with what arrived as its .recording."""
         wave = None
         if trajectory is not None or amplitude_um is not None:
-            self._check_wave(trajectory or "triangle", amplitude_um)
             wave = self._wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles)
         r = self._dev.record(names("signals", signals), number("duration_s", duration_s),
                              whole("decimation", decimation), bool(start_wave), bool(restart_stage), wave,
@@ -163,7 +162,6 @@ class Device:
         convention, cycles 0 = forever. It runs on when this session ends
         (stop() stops it). arm: arm the loop at the wave's first tick (it must
         be disarmed). Returns {"trajectory", "wave_running", "armed"}."""
-        self._check_wave(trajectory, amplitude_um)
         return self._dev.wave(self._wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles),
                               bool(arm))
 
@@ -187,18 +185,12 @@ class Device:
         return self._dev.stream(sp.tolist(), None if prefill is None else whole("prefill", prefill))
 
     @staticmethod
-    def _check_wave(trajectory, amplitude_um) -> None:
-        if trajectory not in ("triangle", "sine", "square", "raster"):
-            raise ValueError(f"trajectory: {trajectory!r} is not one of triangle, sine, square, raster")
-        if not (amplitude_um and amplitude_um > 0):
-            raise ValueError("amplitude_um: required (> 0)")
-
-    @staticmethod
     def _wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles):
+        """Checked in C++ (check_wave_request, as the command line's options)."""
         wave = _piezoloop.WaveRequest()
         wave.trajectory = trajectory or "triangle"
-        wave.frequency_Hz = float(frequency_hz)
-        wave.amplitude_um = float(amplitude_um)
+        wave.frequency_Hz = number("frequency_hz", frequency_hz)
+        wave.amplitude_um = 0.0 if amplitude_um is None else number("amplitude_um", amplitude_um)
         wave.offset = offset or ""
         wave.scenario = os.fspath(scenario) if scenario else ""
         wave.cycles = whole("cycles", cycles)

@@ -98,6 +98,20 @@ def test_record_signals_as_a_list(board):
         board.record(0.01, "r", decimation=2.5)
 
 
+def test_wave_checked_as_the_cli(board):
+    with pytest.raises(ValueError, match=r"--frequency-hz: must be in \[0.0001, 500000\] Hz \(got nan\)"):
+        board.wave("sine", math.nan, 4.0)
+    with pytest.raises(ValueError, match=r"--amplitude-um: must be in \[1e-06, 1000\] um \(got -4\)"):
+        board.wave("sine", 5.0, -4.0)
+    with pytest.raises(ValueError, match=r"--trajectory: must be triangle, sine, square or raster"):
+        board.record(0.01, trajectory="zigzag", amplitude_um=4.0)
+    with pytest.raises(ValueError, match=r"--amplitude-um: required"):
+        board.record(0.01, trajectory="sine")
+    with pytest.raises(ValueError, match=r"--offset: must be unipolar or bipolar"):
+        board.wave("sine", 5.0, 4.0, offset="centred")
+    assert board.status()["status"]["wave_running"] is False
+
+
 def test_stream_checked_before_sending(board):
     board.stop()
     sp = np.full(50, 1.0)
