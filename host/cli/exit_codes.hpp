@@ -6,7 +6,8 @@
 // "error: ..." on stderr and the code:
 //   std::invalid_argument and CLI11's option errors  -> 2
 //   hostlink::LinkError (transport, device refusals) -> 3
-//   LostData                                         -> 4
+//   LostData (an incomplete record; a board session
+//   interrupted by Ctrl-C, device_common's interruptible) -> 4
 //   anything else (a file not writable, a plot that failed, a bug) -> 1
 #pragma once
 
