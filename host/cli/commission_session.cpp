@@ -58,11 +58,11 @@ private:
             const measure::MeasureBounds b = s_->bounds();
             throw std::invalid_argument(source_ + ": commissioning cannot measure this stage's " + what + " with its " +
                                         fmt(b.rate_Hz) + " Hz loop and " + fmt(b.limits.u_min_V) + " .. " + fmt(b.limits.u_max_V) +
-                                        " V command limits (the measurement plan refused: " + e.what() +
-                                        "); commission chooses that measurement from the loop rate and the limits, "
-                                        "so change those of the " +
-                                        (source_ == "--scenario" ? "scenario (loop.rate_Hz, loop.limits)" : "board") +
-                                        ")");
+                                        " V command limits (its plan refused: " + e.what() +
+                                        "). Commission chooses that measurement from the loop rate and the "
+                                        "limits: change " +
+                                        (source_ == "--scenario" ? "the scenario's loop.rate_Hz or loop.limits"
+                                                                 : "the board's loop rate or limits"));
         }
     }
 
