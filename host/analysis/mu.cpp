@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <sstream>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -396,9 +397,29 @@ MuPeak refine_peak(const std::function<double(double)>& f, double lo, double hi,
     return best;
 }
 
+// The μ test covers a stable N (docs/mu.md): every weight must be stable,
+// since its own poles enter N whatever the loop does (the loop's are
+// checked from the closed loop's eigenvalues; the model reader refuses
+// improper models). Refused naming the weight.
+void require_stable_weight(const Zpk& z, const char* name) {
+    const bool discrete = is_discrete(z.ts);
+    for (const cplx& p : z.poles)
+        if (discrete ? !(std::abs(p) < 1.0) : !(p.real() < 0.0)) {
+            std::ostringstream t;
+            t << name << ": unstable weight (pole " << p.real() << (p.imag() < 0 ? " - " : " + ") << std::abs(p.imag())
+              << "j" << (discrete ? ", |z| >= 1" : ", Re >= 0")
+              << "): the mu test holds for a stable interconnection only, so every weight must be stable (docs/mu.md)";
+            throw std::invalid_argument(t.str());
+        }
+}
+
 }  // namespace
 
 MuLoopResult mu_loop(const MuLoopModels& mdl) {
+    require_stable_weight(mdl.hm, "hm");
+    require_stable_weight(mdl.w1, "w1");
+    if (mdl.has_w3) require_stable_weight(mdl.w3, "w3");
+    if (mdl.has_w2) require_stable_weight(mdl.w2, "w2");
     const double ts = mdl.plant.ts;
     for (const auto& [model, name] : {std::pair{&mdl.controller, "controller"}, std::pair{&mdl.hm, "hm"},
                                       std::pair{&mdl.w1, "w1"}, std::pair{&mdl.w3, "w3"}, std::pair{&mdl.w2, "w2"}}) {

@@ -18,6 +18,7 @@
 #include <iostream>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -29,6 +30,7 @@
 #include "commands.hpp"
 #include "lti/c2d.hpp"
 #include "lti/model_json.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::cli {
 namespace {
@@ -40,7 +42,7 @@ constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 struct MuArgs {
     std::string plant, controller, hm, w1, w3, w2, csv;
-    double ts = 0.0;
+    std::optional<double> ts;  // given: discretise by Tustin
     bool table = false;
 };
 
@@ -61,14 +63,18 @@ Zpk load(const std::string& file, double ts, const char* option) {
 }
 
 void run_mu(const MuArgs& a) {
-    if (!(a.ts >= 0.0) || !std::isfinite(a.ts)) throw std::invalid_argument("ts: must be finite and > 0");
+    // Piezo loops sample at 1 Hz to 1 GHz; far outside, Tustin's poles
+    // (1 + pT/2) / (1 - pT/2) round to 1 (T = 1e-30) or fold every mode
+    // onto Nyquist, and the figures mean nothing.
+    if (a.ts) options::require_in("--ts", *a.ts, 1e-9, 1.0, "s");
+    const double ts = a.ts.value_or(0.0);
     MuLoopModels m;
-    m.plant = load(a.plant, a.ts, "plant");
-    m.controller = load(a.controller, a.ts, "controller");
-    m.hm = load(a.hm, a.ts, "hm");
-    m.w1 = load(a.w1, a.ts, "w1");
-    if (!a.w3.empty()) { m.w3 = load(a.w3, a.ts, "w3"); m.has_w3 = true; }
-    if (!a.w2.empty()) { m.w2 = load(a.w2, a.ts, "w2"); m.has_w2 = true; }
+    m.plant = load(a.plant, ts, "plant");
+    m.controller = load(a.controller, ts, "controller");
+    m.hm = load(a.hm, ts, "hm");
+    m.w1 = load(a.w1, ts, "w1");
+    if (!a.w3.empty()) { m.w3 = load(a.w3, ts, "w3"); m.has_w3 = true; }
+    if (!a.w2.empty()) { m.w2 = load(a.w2, ts, "w2"); m.has_w2 = true; }
     MuReport rep = mu_report(m);
     const MuLoopResult& r = rep.result;
     json& out = rep.json;
@@ -109,8 +115,7 @@ void add_analyze_mu(CLI::App& app) {
     mu->add_option("--w1", a->w1, "performance weight on the error e (JSON), e.g. H_e")->required();
     mu->add_option("--w3", a->w3, "performance weight on the output y (JSON), e.g. H_y");
     mu->add_option("--w2", a->w2, "performance weight on the control u (JSON)");
-    mu->add_option("--ts", a->ts, "discretise every continuous model by Tustin at this sample period (s)")
-        ->check(CLI::PositiveNumber);
+    mu->add_option("--ts", a->ts, "discretise every continuous model by Tustin at this sample period, 1e-9 to 1 s");
     mu->add_option("--csv", a->csv, "write rs, np, rp bounds and the D scaling over the grid to this CSV");
     mu->add_flag("--table", a->table, "print a table instead of JSON");
     mu->callback([a] { guarded([&] { run_mu(*a); }); });

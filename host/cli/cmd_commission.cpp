@@ -40,8 +40,10 @@ int run_commission(CommissionArgs a) {
         board.emplace(open_device());
         stop_signals.emplace();
     }
-    const nlohmann::json out = run_commission_session(board ? &*board : nullptr, a.session, say,
-                                                      [] { return StopSignals::requested(); });
+    const nlohmann::json out = interruptible("commission", [&] {
+        return run_commission_session(board ? &*board : nullptr, a.session, say,
+                                      [] { return StopSignals::requested(); });
+    });
     std::cout << out.dump(1) << "\n";
     return out["verified"].get<bool>() ? kExitOk : kExitFailure;
 }

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 #include "link/csv_log.hpp"
 #include "link/params_json.hpp"
 #include "link/record_session.hpp"
+#include "options/option_checks.hpp"
 #include "piezoloop/trajectory.hpp"
 #include "sim/plotting.hpp"
 #include "status_text.hpp"
@@ -240,16 +242,12 @@ void add_storage(CLI::App& app) {
 // ---- wave -----------------------------------------------------------------------
 
 void add_wave_options(CLI::App* cmd, WaveRequest& w, bool required) {
-    auto* t = cmd->add_option("--trajectory", w.trajectory, "reference waveform")
-                  ->check(CLI::IsMember({"triangle", "sine", "square", "raster"}));
-    auto* f = cmd->add_option("--frequency-hz", w.frequency_Hz, "reference frequency")->check(CLI::Range(1e-4, 5e5));
-    auto* a = cmd->add_option("--amplitude-um", w.amplitude_um, "reference range, peak-to-peak (um)")
-                  ->check(CLI::Range(1e-6, 1e3));
+    // Checked by check_wave_request (device_common), as the Python module's.
+    cmd->add_option("--trajectory", w.trajectory, "reference waveform: triangle | sine | square | raster");
+    cmd->add_option("--frequency-hz", w.frequency_Hz, "reference frequency, 1e-4 to 5e5 Hz");
+    auto* a = cmd->add_option("--amplitude-um", w.amplitude_um, "reference range, peak-to-peak, 1e-6 to 1e3 um");
     if (required) a->required();
-    (void)t;
-    (void)f;
-    cmd->add_option("--offset", w.offset, "unipolar: from 0 up; bipolar: centred on 0 (default: the scenario's, else unipolar)")
-        ->check(CLI::IsMember({"unipolar", "bipolar"}));
+    cmd->add_option("--offset", w.offset, "unipolar: from 0 up; bipolar: centred on 0 (default: the scenario's, else unipolar)");
     cmd->add_option("--scenario", w.scenario, "take the offset convention from this scenario (as `piezoloop sim`)")
         ->check(CLI::ExistingFile);
     cmd->add_option("--cycles", w.cycles, "periods to run, 0 = forever");
@@ -268,6 +266,7 @@ void add_wave(CLI::App& app) {
     cmd->add_flag("--stop", a->stop, "stop the running wave (the setpoint holds)");
     cmd->callback([a] {
         guarded([&] {
+            if (!a->stop) check_wave_request(a->w);  // before the board is contacted
             Client c = open_device();
             if (a->stop) {
                 c.stop_wave();
@@ -315,7 +314,7 @@ void add_stream(CLI::App& app) {
         std::string file, column;
         WaveRequest w;
         double duration_s = 0.0;
-        int prefill = -1;
+        std::optional<double> prefill;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand(
@@ -325,21 +324,21 @@ void add_stream(CLI::App& app) {
     cmd->add_option("--column", a->column, "CSV column to stream");
     add_wave_options(cmd, a->w, false);
     cmd->add_option("--duration-s", a->duration_s, "length of a generated stream")->check(CLI::Range(1e-6, 1e5));
-    cmd->add_option("--prefill", a->prefill, "setpoints buffered before the tick consumes (default: the FIFO, or all)")
-        ->check(CLI::Range(0, 32768));
+    cmd->add_option("--prefill", a->prefill,
+                    "setpoints buffered before the tick consumes, 0 to 32768 (default: the FIFO, or all)");
     cmd->callback([a] {
         guarded([&] {
             if (a->file.empty() == !(a->w.amplitude_um > 0.0))
                 throw std::invalid_argument("give either --file or a generated wave (--trajectory ... --amplitude-um A --duration-s D)");
             if (a->file.empty() && !(a->duration_s > 0.0)) throw std::invalid_argument("--duration-s: required with a generated wave");
+            (void)options::stream_prefill(a->prefill, 0, 0);  // refused before the board is contacted
+            if (a->file.empty()) check_wave_request(a->w);
             std::vector<float> sp;
             if (!a->file.empty()) sp = hostlink::read_setpoints_csv(a->file, a->column);
             Client c = open_device(5000);
             const double rate = c.info().loop_rate_Hz;
             if (sp.empty()) sp = generate_setpoints(wave_params(a->w, rate), rate, a->duration_s);
-            const std::size_t cap = c.info().setpoint_capacity;
-            const uint16_t prefill = static_cast<uint16_t>(
-                a->prefill >= 0 ? std::min<std::size_t>(static_cast<std::size_t>(a->prefill), cap) : std::min(cap, sp.size()));
+            const uint16_t prefill = options::stream_prefill(a->prefill, c.info().setpoint_capacity, sp.size());
             ProgressBar bar("stream");
             const hostlink::StreamResult r = c.stream(sp, prefill, [&](double f) { bar.update(f); });
             bar.done();
@@ -378,6 +377,7 @@ int run_record(const RecordArgs& a) {
     auto has = [&](uint8_t id) { return std::find(o.signals.begin(), o.signals.end(), id) != o.signals.end(); };
     if (!a.plot.empty() && !(has(0) && has(1) && has(3))) throw std::invalid_argument("--plot: needs the signals r, y and u");
     if (a.restart_stage && !a.start_wave) throw std::invalid_argument("--restart-stage: only with --start-wave");
+    options::check_record_options(a.duration_s, a.decimation, a.stall_s);
     o.duration_s = a.duration_s;
     o.decimation = a.decimation;
     o.start_wave = a.start_wave;
@@ -411,29 +411,28 @@ void add_record(CLI::App& app) {
         "record", "Record signals from the board to CSV; summary JSON with loss counts, metrics, log hash "
                   "(needs --device)");
     cmd->add_option("--signals", a->signals, "comma-separated: r, y, e, u, u_ff, u_fb, u_rc (default r,y,e,u)");
-    cmd->add_option("--duration-s", a->duration_s, "device time to record")->required()->check(CLI::Range(1e-6, 1e5));
-    cmd->add_option("--decimation", a->decimation, "keep every N-th tick")->check(CLI::Range(1, 1 << 24));
+    cmd->add_option("--duration-s", a->duration_s, "device time to record, 1e-6 to 1e5 s")->required();
+    cmd->add_option("--decimation", a->decimation, "keep every N-th tick, 1 to 2^24");
     cmd->add_flag("--start-wave", a->start_wave,
                   "start the trajectory with the recorder (and the loop, if disarmed) at the same tick");
     cmd->add_flag("--restart-stage", a->restart_stage,
                   "with --start-wave: emulated stage and loop from rest (a record equal to `piezoloop sim`)");
     cmd->add_option("--out", a->out, "CSV file: t_s and one column per signal with its unit");
     cmd->add_option("--plot", a->plot, "draw r, y, e and u to a PNG (tools/plot_sim.py)");
-    cmd->add_option("--stall-s", a->stall_s, "give up when no frames arrive for this long")->check(CLI::Range(0.1, 3600.0));
+    cmd->add_option("--stall-s", a->stall_s, "give up when no frames arrive for this long, 0.1 to 3600 s");
     WaveRequest& w = a->w;
-    auto* t = cmd->add_option("--trajectory", w.trajectory, "set this reference wave first (as `wave --no-start`)")
-                  ->check(CLI::IsMember({"triangle", "sine", "square", "raster"}));
-    cmd->add_option("--frequency-hz", w.frequency_Hz, "reference frequency")->check(CLI::Range(1e-4, 5e5));
-    auto* amp = cmd->add_option("--amplitude-um", w.amplitude_um, "reference range, peak-to-peak (um)")
-                    ->check(CLI::Range(1e-6, 1e3));
-    cmd->add_option("--offset", w.offset, "unipolar | bipolar (default: the scenario's, else unipolar)")
-        ->check(CLI::IsMember({"unipolar", "bipolar"}));
+    // Checked by check_wave_request (device_common), as the Python module's.
+    auto* t = cmd->add_option("--trajectory", w.trajectory,
+                              "set this reference wave first (as `wave --no-start`): triangle | sine | square | raster");
+    cmd->add_option("--frequency-hz", w.frequency_Hz, "reference frequency, 1e-4 to 5e5 Hz");
+    auto* amp = cmd->add_option("--amplitude-um", w.amplitude_um, "reference range, peak-to-peak, 1e-6 to 1e3 um");
+    cmd->add_option("--offset", w.offset, "unipolar | bipolar (default: the scenario's, else unipolar)");
     cmd->add_option("--scenario", w.scenario, "take the offset convention from this scenario")->check(CLI::ExistingFile);
     cmd->add_option("--cycles", w.cycles, "periods the wave runs, 0 = forever");
     cmd->callback([a, t, amp] {
         guarded([&] {
             a->wave_given = t->count() > 0 || amp->count() > 0;
-            if (a->wave_given && !(a->w.amplitude_um > 0.0)) throw std::invalid_argument("--amplitude-um: required with --trajectory");
+            if (a->wave_given) check_wave_request(a->w);  // before the board is contacted
             return run_record(*a);
         });
     });

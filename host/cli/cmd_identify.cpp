@@ -288,8 +288,7 @@ void add_pi(CLI::App* parent) {
         ->check(CLI::IsMember({"uniform", "shan"}))
         ->capture_default_str();
     cmd->add_option("--rho", a->options.rho, "threshold spacing of the shan grid")->check(CLI::PositiveNumber);
-    cmd->add_option("--thresholds", a->options.thresholds, "explicit thresholds r1,r2,... (> 0, ascending)")
-        ->delimiter(',');
+    add_number_list(cmd, "--thresholds", a->options.thresholds, "explicit thresholds r1,r2,... (> 0, ascending)");
     cmd->add_flag("--monotone", a->options.monotone,
                   "constrain the loading-curve slopes P_j >= min-slope (invertible result)");
     cmd->add_option("--min-slope", a->options.min_slope,
@@ -387,8 +386,7 @@ void add_dahl(CLI::App* parent) {
         "beta*gamma_a is identifiable)");
     add_data_options(cmd, a->data, "v", "x");
     cmd->add_option("--gamma-a", a->gamma_a, "gamma_a, held during the fit")->capture_default_str();
-    cmd->add_option("--start", a->start, "starting point alpha1,alpha2,beta1,beta2,ga (default: grid search)")
-        ->delimiter(',');
+    add_number_list(cmd, "--start", a->start, "starting point alpha1,alpha2,beta1,beta2,ga (default: grid search)");
     cmd->add_option("--max-evaluations", a->max_evaluations, "model simulations per LM run")
         ->check(CLI::Range(10, 1000000))
         ->capture_default_str();

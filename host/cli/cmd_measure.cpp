@@ -115,7 +115,7 @@ int run_frf(const FrfArgs& a) {
         o.restart_stage = a.restart_stage;
         o.progress = [&](double f) { bar.update(f); };
         o.stop_requested = [] { return StopSignals::requested(); };
-        hostlink::DeviceFrfRun d = hostlink::run_frf_device(c, r, o);
+        hostlink::DeviceFrfRun d = interruptible("measure frf", [&] { return hostlink::run_frf_device(c, r, o); });
         bar.done();
         run = std::move(d.run);
         src.source = {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}};

@@ -131,7 +131,9 @@ int run_step(const StepArgs& a) {
         throw std::invalid_argument("--case: closed loop needs the case whose controller closes it");
     (void)measure::plan_step(t.bounds, r);  // refuses before anything runs (and before --out is touched)
     Progress p("measure step");
-    const measure::StepRun run = t.board ? hostlink::run_step_device(*t.board, r, p.board_options(a.restart_stage))
+    const measure::StepRun run = t.board ? interruptible("measure step", [&] {
+        return hostlink::run_step_device(*t.board, r, p.board_options(a.restart_stage));
+    })
                                          : measure::run_step_sim(*t.scenario, t.case_spec, r, p.sim_progress());
     p.bar.done();
     const measure::StepFigures& f = run.figures;
@@ -192,7 +194,9 @@ int run_loops(const LoopsArgs& a) {
         measure::loops_request(a.amplitudes_V, a.base_V, a.frequency_Hz, a.cycles, a.shape, t.bounds);
     (void)measure::plan_loops(t.bounds, r);  // refuses before anything runs
     Progress p("measure loops");
-    const measure::LoopsRun run = t.board ? hostlink::run_loops_device(*t.board, r, p.board_options(a.restart_stage))
+    const measure::LoopsRun run = t.board ? interruptible("measure loops", [&] {
+        return hostlink::run_loops_device(*t.board, r, p.board_options(a.restart_stage));
+    })
                                           : measure::run_loops_sim(*t.scenario, t.case_spec, r, p.sim_progress());
     p.bar.done();
     std::ofstream csv(a.out);
@@ -219,9 +223,8 @@ void add_loops(CLI::App* measure) {
                  "and the hysteresis of each (docs/measurement.md)");
     add_source_options(cmd, a->scenario, a->sample, a->restart_stage);
     cmd->add_option("--case", a->case_name, "case: its hysteresis override and sample type");
-    cmd->add_option("--amplitudes-v", a->amplitudes_V, "peak-to-peak command of each loop above the base, V (a,b,...)")
-        ->required()
-        ->delimiter(',');
+    add_number_list(cmd, "--amplitudes-v", a->amplitudes_V, "peak-to-peak command of each loop above the base, V (a,b,...)")
+        ->required();
     cmd->add_option("--bias-v", a->base_V, "command the loops start from and return to (default max(0, lower limit))");
     cmd->add_option("--frequency-hz", a->frequency_Hz, "cycles per second")->capture_default_str();
     cmd->add_option("--cycles", a->cycles, "cycles per amplitude; the last is measured")->capture_default_str();

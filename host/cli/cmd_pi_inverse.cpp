@@ -62,10 +62,8 @@ void add_pi_inverse(CLI::App& app) {
         "pi-inverse",
         "Analytic inverse of a Prandtl-Ishlinskii model (Janaideh2016). Without --p0 the first "
         "operator is the linear term (thresholds starting above zero are shifted down by r1).");
-    cmd->add_option("--thresholds", args->thresholds, "play thresholds r1,r2,... (ascending, >= 0)")
-        ->required()->delimiter(',');
-    cmd->add_option("--weights", args->weights, "weights p1,p2,... (one per threshold)")
-        ->required()->delimiter(',');
+    add_number_list(cmd, "--thresholds", args->thresholds, "play thresholds r1,r2,... (ascending, >= 0)")->required();
+    add_number_list(cmd, "--weights", args->weights, "weights p1,p2,... (one per threshold)")->required();
     cmd->add_option("--p0", args->p0, "weight of the linear term")
         ->each([args](const std::string&) { args->has_p0 = true; });
     cmd->callback([args] { guarded([&] { return run(*args); }); });

@@ -272,25 +272,22 @@ void add_sim(CLI::App& app) {
     cmd->add_option("--scenario", a->scenario, "scenario file (configs/*.json)")->required()->check(CLI::ExistingFile);
     cmd->add_option("--case", a->case_name, "controller case of the scenario (see --list)");
     cmd->add_flag("--list", a->list, "list the scenario's cases and experiments");
-    cmd->add_option("--trajectory", a->trajectory, "reference waveform")->check(CLI::IsMember({"triangle", "sine"}));
-    cmd->add_option("--frequency-hz", a->frequency_Hz, "reference frequency")->check(CLI::Range(1e-4, 5e5));
-    cmd->add_option("--amplitude-um", a->amplitude_um, "reference range, peak-to-peak (um)")
-        ->check(CLI::Range(1e-6, 1e3));
+    // The ranges and choices are checked by sim::check_sim_request, as the
+    // Python module's piezoloop.sim checks them.
+    cmd->add_option("--trajectory", a->trajectory, "reference waveform: triangle | sine");
+    cmd->add_option("--frequency-hz", a->frequency_Hz, "reference frequency, 1e-4 to 5e5 Hz");
+    cmd->add_option("--amplitude-um", a->amplitude_um, "reference range, peak-to-peak, 1e-6 to 1e3 um");
     cmd->add_option("--amplitude-v", a->amplitude_V,
-                    "reference range as peak-to-peak piezo voltage (V), converted at the stage's mean slope")
-        ->check(CLI::Range(1e-6, 1e4));
-    cmd->add_option("--offset", a->offset, "unipolar: from 0 up; bipolar: centred on 0 (default: the scenario's)")
-        ->check(CLI::IsMember({"unipolar", "bipolar"}));
-    cmd->add_option("--duration-s", a->duration_s, "simulated time (default two periods; the last full period is measured)")
-        ->check(CLI::Range(1e-6, 1e4));
-    cmd->add_option("--fidelity", a->fidelity, "float: the boards' stage model; double: continuous sub-steps")
-        ->check(CLI::IsMember({"float", "double"}));
-    cmd->add_option("--substeps", a->substeps, "double fidelity: sub-steps per tick")->check(CLI::Range(1, 10000));
-    cmd->add_option("--sample", a->sample, "core sample type (default: the case's)")
-        ->check(CLI::IsMember({"float", "q31"}));
+                    "reference range as peak-to-peak piezo voltage, 1e-6 to 1e4 V, converted at the stage's mean "
+                    "slope");
+    cmd->add_option("--offset", a->offset, "unipolar: from 0 up; bipolar: centred on 0 (default: the scenario's)");
+    cmd->add_option("--duration-s", a->duration_s,
+                    "simulated time, 1e-6 to 1e4 s (default two periods; the last full period is measured)");
+    cmd->add_option("--fidelity", a->fidelity, "float: the boards' stage model; double: continuous sub-steps");
+    cmd->add_option("--substeps", a->substeps, "double fidelity: sub-steps per tick, 1 to 10000");
+    cmd->add_option("--sample", a->sample, "core sample type: float | q31 (default: the case's)");
     cmd->add_option("--out", a->out_csv, "write the log as CSV");
-    cmd->add_option("--log-every", a->log_every, "log every N-th tick (default: at most 200000 rows)")
-        ->check(CLI::Range(1, 1 << 30));
+    cmd->add_option("--log-every", a->log_every, "log every N-th tick, 1 to 2^30 (default: at most 200000 rows)");
     cmd->add_option("--plot", a->plot, "draw r, y, e and the loop to a PNG (tools/plot_sim.py)");
     cmd->add_option("--dump-model", a->dump_model,
                     "write the run's core parameters as raw bytes (for tests/host/sim/sim_hash_probe, float fidelity)");

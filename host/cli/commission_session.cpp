@@ -24,6 +24,52 @@ using nlohmann::json;
 
 std::string fmt(double v, int digits = 4) { return format::significant(v, digits); }
 
+// The stage as commissioning sees it, with the measurement plans' refusals
+// put in its own words: the plans name `measure`'s options (--duration-s,
+// --from-hz, ...), which commission chooses itself from the loop rate and
+// the limits; what the user can change is the stage (`source_option`: the
+// scenario's loop, or the board's).
+class CommissionedStage : public commission::StageAccess {
+public:
+    CommissionedStage(std::unique_ptr<commission::StageAccess> s, std::string source_option)
+        : s_(std::move(s)), source_(std::move(source_option)) {}
+    std::string describe() const override { return s_->describe(); }
+    commission::LoopFacts loop() override { return s_->loop(); }
+    measure::MeasureBounds bounds() override { return s_->bounds(); }
+    measure::StepRun step(const measure::StepRequest& r) override {
+        return planned("step response", [&] { return s_->step(r); });
+    }
+    measure::FrfRun frf(const measure::FrfRequest& r) override {
+        return planned("frequency response", [&] { return s_->frf(r); });
+    }
+    measure::LoopsRun loops(const measure::LoopsRequest& r) override {
+        return planned("hysteresis loops", [&] { return s_->loops(r); });
+    }
+    commission::TrackingRun track(const commission::Controller& k, const commission::TrackRequest& t) override {
+        return s_->track(k, t);
+    }
+
+private:
+    template <class F>
+    auto planned(const char* what, F&& f) -> decltype(f()) {
+        try {
+            return f();
+        } catch (const std::invalid_argument& e) {
+            const measure::MeasureBounds b = s_->bounds();
+            throw std::invalid_argument(source_ + ": commissioning cannot measure this stage's " + what + " with its " +
+                                        fmt(b.rate_Hz) + " Hz loop and " + fmt(b.limits.u_min_V) + " .. " + fmt(b.limits.u_max_V) +
+                                        " V command limits (its plan refused: " + e.what() +
+                                        "). Commission chooses that measurement from the loop rate and the "
+                                        "limits: change " +
+                                        (source_ == "--scenario" ? "the scenario's loop.rate_Hz or loop.limits"
+                                                                 : "the board's loop rate or limits"));
+        }
+    }
+
+    std::unique_ptr<commission::StageAccess> s_;
+    std::string source_;
+};
+
 json tracking_json(const commission::TrackingRun& t) {
     return {{"e_max_pct", t.e_max_pct}, {"e_rms_pct", t.e_rms_pct}, {"e_max_um", t.e_max_um},
             {"hysteresis_pct", t.hysteresis_pct}, {"trip", t.trip}};
@@ -125,12 +171,12 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
         recorder = board->get<link::RecorderParams>();
         hostlink::MeasureOptions o;
         o.stop_requested = stop_requested;
-        stage = std::make_unique<hostlink::BoardStage>(*board, o);
+        stage = std::make_unique<CommissionedStage>(std::make_unique<hostlink::BoardStage>(*board, o), "--device");
         source = {{"kind", "board"}, {"device", board->address()}, {"board", board->info().board.data()}};
     } else {
         const sim::Scenario s = sim::load_scenario(a.scenario);
         source = {{"kind", "simulator"}, {"scenario", s.name}, {"case", ""}};
-        stage = std::make_unique<commission::SimStage>(s);
+        stage = std::make_unique<CommissionedStage>(std::make_unique<commission::SimStage>(s), "--scenario");
     }
     commission::Commissioning c;
     try {

@@ -10,6 +10,7 @@
 
 #include "link/params_json.hpp"
 #include "link/usb_transport.hpp"
+#include "options/option_checks.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::cli {
@@ -115,8 +116,19 @@ link::LimitsParams clip_to_hard_limits(const link::LimitsParams& l, const link::
     return out;
 }
 
+void check_wave_request(const WaveRequest& w) {
+    if (w.trajectory != "triangle" && w.trajectory != "sine" && w.trajectory != "square" && w.trajectory != "raster")
+        throw std::invalid_argument("--trajectory: must be triangle, sine, square or raster (got " + w.trajectory +
+                                    "; steps and table waves are set with `set trajectory --json`)");
+    options::require_in("--frequency-hz", w.frequency_Hz, 1e-4, 5e5, "Hz");
+    if (w.amplitude_um == 0.0) throw std::invalid_argument("--amplitude-um: required, the peak-to-peak range (> 0)");
+    options::require_in("--amplitude-um", w.amplitude_um, 1e-6, 1e3, "um");
+    if (!w.offset.empty() && w.offset != "unipolar" && w.offset != "bipolar")
+        throw std::invalid_argument("--offset: must be unipolar or bipolar (got " + w.offset + ")");
+}
+
 link::TrajectoryParams wave_params(const WaveRequest& w, double rate_Hz) {
-    if (!(w.amplitude_um > 0.0)) throw std::invalid_argument("--amplitude-um: required, the peak-to-peak range (> 0)");
+    check_wave_request(w);
     std::string offset = w.offset;
     if (offset.empty() && !w.scenario.empty()) offset = sim::load_scenario(w.scenario).offset;
     if (offset.empty()) offset = "unipolar";

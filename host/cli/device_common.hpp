@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "exit_codes.hpp"
 #include "link/client.hpp"
 #include "sim/build_case.hpp"
 #include "sim/experiments.hpp"
@@ -72,6 +73,11 @@ struct WaveRequest {
     std::string scenario;        // optional: its offset convention
     uint32_t cycles = 0;
 };
+// The request's trajectory, frequency (1e-4 to 5e5 Hz), amplitude (1e-6 to
+// 1e3 um) and offset, named as the command line's options (the Python
+// module's wave and record call it through wave_params too).
+void check_wave_request(const WaveRequest& w);
+// The trajectory group of a checked request.
 link::TrajectoryParams wave_params(const WaveRequest& w, double rate_Hz);
 
 // While one exists, SIGINT (Ctrl-C) and SIGTERM only set requested(): a
@@ -88,6 +94,21 @@ private:
     void (*int_)(int);
     void (*term_)(int);
 };
+
+// Runs a board session f() under StopSignals: when Ctrl-C (or SIGTERM) ended
+// it early, whatever the session threw once the board was left clean
+// becomes LostData (exit 4: an interrupted run whose data is incomplete,
+// as `record`), naming what was interrupted.
+template <class F>
+auto interruptible(const char* what, F&& f) -> decltype(f()) {
+    try {
+        return f();
+    } catch (const std::exception& e) {
+        if (!StopSignals::requested()) throw;
+        throw LostData(std::string(what) + " interrupted (Ctrl-C or SIGTERM) before the end, nothing written: " +
+                       e.what());
+    }
+}
 
 // A progress bar on stderr when it is a terminal.
 class ProgressBar {

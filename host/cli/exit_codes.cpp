@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "link/transport.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::cli {
 
@@ -57,5 +58,16 @@ void require_finite_numbers(CLI::App& app) {
     }
     for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) require_finite_numbers(*sub);
 }
+
+template <class T>
+CLI::Option* add_number_list(CLI::App* cmd, const std::string& name, std::vector<T>& out, const std::string& help) {
+    return cmd
+        ->add_option_function<std::string>(
+            name, [&out, name](const std::string& text) { out = options::parse_number_list<T>(name, text); }, help)
+        ->type_name("LIST");
+}
+
+template CLI::Option* add_number_list<double>(CLI::App*, const std::string&, std::vector<double>&, const std::string&);
+template CLI::Option* add_number_list<float>(CLI::App*, const std::string&, std::vector<float>&, const std::string&);
 
 }  // namespace piezoloop::cli

@@ -6,7 +6,8 @@
 // "error: ..." on stderr and the code:
 //   std::invalid_argument and CLI11's option errors  -> 2
 //   hostlink::LinkError (transport, device refusals) -> 3
-//   LostData                                         -> 4
+//   LostData (an incomplete record; a board session
+//   interrupted by Ctrl-C, device_common's interruptible) -> 4
 //   anything else (a file not writable, a plot that failed, a bug) -> 1
 #pragma once
 
@@ -15,6 +16,7 @@
 #include <exception>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace piezoloop::cli {
 
@@ -44,5 +46,12 @@ int run_app(CLI::App& app, int argc, char** argv);
 // Every floating-point option of app and its subcommands (found by CLI11's
 // type name FLOAT) refuses NaN and +-inf: "--name: must be a finite number".
 void require_finite_numbers(CLI::App& app);
+
+// A comma-separated list of numbers (a,b,c) as one option, read by
+// parse_number_list (option_checks.hpp): an empty item ("1,,2"), text or a
+// non-finite number is refused naming the option and the item (CLI11's
+// delimiter would drop the empty item silently).
+template <class T>
+CLI::Option* add_number_list(CLI::App* cmd, const std::string& name, std::vector<T>& out, const std::string& help);
 
 }  // namespace piezoloop::cli

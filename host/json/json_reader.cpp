@@ -148,7 +148,9 @@ Field Field::operator[](const char* key) const {
 std::optional<Field> Field::get(const char* key) const {
     if (!j_->is_object()) fail(std::string("must be an object, not ") + type_name(*j_));
     const auto it = j_->find(key);
-    if (it == j_->end() || it->is_null()) return std::nullopt;
+    if (it == j_->end()) return std::nullopt;
+    // null is no value: an optional field is left out for its default.
+    if (it->is_null()) Field(*it, child_path(key)).fail("must not be null (leave the field out for its default)");
     return Field(*it, child_path(key));
 }
 

@@ -65,7 +65,7 @@ public:
     bool is_number() const { return j_->is_number(); }
     bool has(const char* key) const { return j_->is_object() && j_->contains(key); }
     Field operator[](const char* key) const;         // required member of an object
-    std::optional<Field> get(const char* key) const;  // optional member (null counts as absent)
+    std::optional<Field> get(const char* key) const;  // optional member (null refused: leave it out)
     Field at(size_t i) const;                        // element of an array
     size_t size() const;                             // array length (must be an array)
     size_t size(size_t max) const;                   // ... at most max, else "at most N elements"

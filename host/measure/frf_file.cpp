@@ -2,9 +2,12 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
+
+#include "format/number.hpp"
 
 namespace piezoloop::measure {
 
@@ -34,23 +37,49 @@ FrfData load_frf_file(const std::string& path) {
     };
     const json f = array_of("frequency_Hz"), r = array_of("response");
     if (f.size() != r.size()) bad(path, "response", "must have one [re, im] pair per frequency");
+    if (!j.contains("excitation") || !j["excitation"].is_object() || !j["excitation"].contains("rate_Hz") ||
+        !j["excitation"]["rate_Hz"].is_number())
+        bad(path, "excitation.rate_Hz", "missing: the loop rate the response was measured at");
     FrfData d;
+    d.rate_Hz = j["excitation"]["rate_Hz"].get<double>();
+    if (!(d.rate_Hz > 0.0) || !std::isfinite(d.rate_Hz)) bad(path, "excitation.rate_Hz", "must be > 0");
+    // Each line once, between 0 and Nyquist: a line measured twice with two
+    // responses has no single value to fit.
+    std::map<double, std::size_t> seen;
     for (std::size_t i = 0; i < f.size(); ++i) {
-        if (!f[i].is_number()) bad(path, "frequency_Hz[" + std::to_string(i) + "]", "must be a number");
+        const std::string fi = "frequency_Hz[" + std::to_string(i) + "]";
+        if (!f[i].is_number()) bad(path, fi, "must be a number");
+        const double f_Hz = f[i].get<double>();
+        if (!(f_Hz > 0.0 && f_Hz <= d.rate_Hz / 2.0))
+            bad(path, fi, "must be in (0, " + format::significant(d.rate_Hz / 2.0) + "] Hz, the Nyquist frequency of "
+                          "excitation.rate_Hz (got " + format::significant(f_Hz) + ")");
+        if (const auto [it, fresh] = seen.emplace(f_Hz, i); !fresh)
+            bad(path, fi, format::significant(f_Hz, 10) + " Hz is frequency_Hz[" + std::to_string(it->second) +
+                              "] again: each line once");
+        const std::string ri = "response[" + std::to_string(i) + "]";
         if (!r[i].is_array() || r[i].size() != 2 || !r[i][0].is_number() || !r[i][1].is_number())
-            bad(path, "response[" + std::to_string(i) + "]", "must be [re, im]");
-        d.f_Hz.push_back(f[i].get<double>());
-        d.response.emplace_back(r[i][0].get<double>(), r[i][1].get<double>());
+            bad(path, ri, "must be [re, im]");
+        const design::cplx g(r[i][0].get<double>(), r[i][1].get<double>());
+        if (!std::isfinite(g.real()) || !std::isfinite(g.imag())) bad(path, ri, "must be finite");
+        d.f_Hz.push_back(f_Hz);
+        d.response.push_back(g);
     }
     if (j.contains("std_db")) {
         const json s = array_of("std_db");
         if (s.size() != f.size()) bad(path, "std_db", "must have one entry per frequency");
-        for (const json& x : s) d.std_db.push_back(x.is_number() ? x.get<double>() : std::nan(""));
+        for (std::size_t i = 0; i < s.size(); ++i) {
+            // null: unknown (a single period has no spread).
+            if (s[i].is_null()) {
+                d.std_db.push_back(std::nan(""));
+                continue;
+            }
+            const double x = s[i].is_number() ? s[i].get<double>() : -1.0;
+            if (!(x >= 0.0) || !std::isfinite(x))
+                bad(path, "std_db[" + std::to_string(i) + "]",
+                    "must be a finite number >= 0 dB (one standard deviation of |G|) or null (unknown)");
+            d.std_db.push_back(x);
+        }
     }
-    if (!j.contains("excitation") || !j["excitation"].contains("rate_Hz") || !j["excitation"]["rate_Hz"].is_number())
-        bad(path, "excitation.rate_Hz", "missing: the loop rate the response was measured at");
-    d.rate_Hz = j["excitation"]["rate_Hz"].get<double>();
-    if (!(d.rate_Hz > 0.0) || !std::isfinite(d.rate_Hz)) bad(path, "excitation.rate_Hz", "must be > 0");
     return d;
 }
 

@@ -7,13 +7,35 @@
 #include <stdexcept>
 
 #include "format/number.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::sim {
+
+void check_sim_request(const SimCaseRequest& a) {
+    if (a.trajectory != "triangle" && a.trajectory != "sine")
+        throw std::invalid_argument("--trajectory: must be triangle or sine (got " + a.trajectory + ")");
+    if (a.fidelity != "float" && a.fidelity != "double")
+        throw std::invalid_argument("--fidelity: must be float or double (got " + a.fidelity + ")");
+    if (!a.sample.empty() && a.sample != "float" && a.sample != "q31")
+        throw std::invalid_argument("--sample: must be float or q31 (got " + a.sample + ")");
+    if (!a.offset.empty() && a.offset != "unipolar" && a.offset != "bipolar")
+        throw std::invalid_argument("--offset: must be unipolar or bipolar (got " + a.offset + ")");
+    options::require_in("--frequency-hz", a.frequency_Hz, 1e-4, 5e5, "Hz");
+    if (a.amplitude_um != 0.0) options::require_in("--amplitude-um", a.amplitude_um, 1e-6, 1e3, "um");
+    if (a.amplitude_V != 0.0) options::require_in("--amplitude-v", a.amplitude_V, 1e-6, 1e4, "V");
+    if ((a.amplitude_um > 0.0) == (a.amplitude_V > 0.0))
+        throw std::invalid_argument("give exactly one of --amplitude-um and --amplitude-v");
+    if (a.duration_s != 0.0) options::require_in("--duration-s", a.duration_s, 1e-6, 1e4, "s");
+    options::require_in("--substeps", a.substeps, 1, 10000);
+    // 0: the default (at most 200000 rows).
+    if (a.log_every != 0) options::require_in("--log-every", a.log_every, 1, 1 << 30);
+}
 
 SimCasePlan plan_sim_case(const Scenario& s, const SimCaseRequest& a) {
     if (a.case_name.empty()) throw std::invalid_argument("--case: required (see --list)");
     SimCasePlan p;
     p.case_spec = s.find_case(a.case_name);
+    check_sim_request(a);
     CaseSpec& c = p.case_spec;
     if (a.sample == "q31") c.sample = SampleType::kQ31;
     if (a.sample == "float") c.sample = SampleType::kFloat;
@@ -21,8 +43,6 @@ SimCasePlan plan_sim_case(const Scenario& s, const SimCaseRequest& a) {
     TrajectoryRequest& t = p.trajectory;
     t.waveform = a.trajectory == "sine" ? Waveform::kSine : Waveform::kTriangle;
     t.frequency_Hz = a.frequency_Hz;
-    if ((a.amplitude_um > 0.0) == (a.amplitude_V > 0.0))
-        throw std::invalid_argument("give exactly one of --amplitude-um and --amplitude-v");
     t.range_um = a.amplitude_um > 0.0 ? a.amplitude_um : a.amplitude_V * s.nominal_um_per_V;
     t.unipolar = (a.offset.empty() ? s.offset : a.offset) == "unipolar";
     const double period_s = 1.0 / a.frequency_Hz;

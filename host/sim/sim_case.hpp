@@ -37,7 +37,11 @@ struct SimCasePlan {
     RunOptions options;
 };
 
-// Checks the request (std::invalid_argument naming the option) and builds
+// The request's ranges and choices, as the command line's options name them
+// (std::invalid_argument "--substeps: must be in [1, 10000] (got 0)").
+void check_sim_request(const SimCaseRequest& r);
+
+// Checks the request (check_sim_request) and builds
 // the case and the run options; the caller runs sim::run_loop(built.model,
 // options), possibly after changing them (the CLI's --board-case).
 SimCasePlan plan_sim_case(const Scenario& s, const SimCaseRequest& r);

@@ -340,7 +340,14 @@ HinfSynthesis hinfsyn(const GeneralisedPlant& plant, const HinfOptions& o) {
     GammaTest last;
     auto feasible = [&](double g) {
         ++r.iterations;
-        last = test_gamma(n, g, o.riccati);
+        try {
+            last = test_gamma(n, g, o.riccati);
+        } catch (const std::invalid_argument& e) {
+            // The plant was checked; a non-finite Hamiltonian here is γ
+            // beyond what double precision holds (1 / γ² overflowing).
+            last = GammaTest{};
+            last.why = e.what();
+        }
         return last.ok;
     };
     double hi = 0.0;
@@ -359,18 +366,28 @@ HinfSynthesis hinfsyn(const GeneralisedPlant& plant, const HinfOptions& o) {
         }
         hi = g;
     }
-    // A feasible γ_min ends the search there; a zero lower end is found by decades.
+    // A feasible γ_min ends the search there; a zero lower end is found by
+    // decades, down to 1e-12 of the first feasible γ. A problem still
+    // feasible there has the optimum γ = 0 as far as double precision
+    // tells (the closed loop can be made all but identically zero: the
+    // achieved norm is then rounding, ~1e-16 of the plant's scale): the
+    // controller is the γ-suboptimal one at that floor, gamma_lower 0.
     if (lo > 0.0 && feasible(lo)) {
         hi = lo;
     } else if (lo < hi * 1e-15 || lo == 0.0) {
+        bool feasible_to_floor = true;
         double g = hi / 10.0;
-        while (g > hi * 1e-15 && feasible(g)) {
+        for (int decade = 1; decade <= 12; ++decade, g /= 10.0) {
+            if (!feasible(g)) {
+                lo = std::max(lo, g);
+                feasible_to_floor = false;
+                break;
+            }
             hi = g;
-            g /= 10.0;
         }
-        lo = std::max(lo, g);
+        if (feasible_to_floor) lo = std::min(lo, hi);  // 0 unless γ_min says otherwise
     }
-    while (hi / lo - 1.0 > o.rel_tol) {
+    while (lo > 0.0 && hi / lo - 1.0 > o.rel_tol) {
         const double mid = std::sqrt(lo * hi);
         if (feasible(mid)) hi = mid;
         else lo = mid;

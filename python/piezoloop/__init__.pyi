@@ -2,7 +2,7 @@
 # names: _um micrometres, _V volts, _s seconds, _hz hertz.
 import os
 from dataclasses import dataclass
-from typing import Callable, Dict, Optional, Union
+from typing import Callable, Dict, Optional, Sequence, Union
 
 import numpy as np
 
@@ -105,7 +105,7 @@ class Device:
     def save(self) -> None: ...
     def load(self) -> None: ...
     def forget(self) -> None: ...
-    def record(self, duration_s: float, signals: str = "r,y,e,u", *, start_wave: bool = False,
+    def record(self, duration_s: float, signals: Union[str, Sequence[str]] = "r,y,e,u", *, start_wave: bool = False,
                restart_stage: bool = False, trajectory: Optional[str] = None, frequency_hz: float = 10.0,
                amplitude_um: Optional[float] = None, offset: Optional[str] = None,
                scenario: Optional[PathLike] = None, cycles: int = 0, decimation: int = 1,

@@ -11,6 +11,7 @@ import os
 from typing import Callable, Optional, Sequence, Union
 
 from . import _piezoloop
+from ._args import whole
 
 Model = Union[dict, str, os.PathLike]
 
@@ -124,8 +125,8 @@ def musyn(plant: Model, w1: Model, hm: Model, *, w2: Optional[Model] = None, w3:
     controller, controller (zpk, e -> u) and controller_ss. ValueError for
     bad input (naming the model or option), RuntimeError for no solution."""
     opt = lambda m: None if m is None else _model_args(m)
-    return _piezoloop.musyn(_model_args(plant), _model_args(w1), _model_args(hm), opt(w2), opt(w3), int(iterations),
-                            int(d_order), float(gamma_tol), float(backoff), on_iteration)
+    return _piezoloop.musyn(_model_args(plant), _model_args(w1), _model_args(hm), opt(w2), opt(w3), whole("iterations", iterations),
+                            whole("d_order", d_order), float(gamma_tol), float(backoff), on_iteration)
 
 
 def analyze_mu(plant: Model, controller: Model, hm: Model, w1: Model, *, w3: Optional[Model] = None,
@@ -156,7 +157,7 @@ def reduce(model: Model, order: int) -> dict:
     reduce`: model (zeros/poles/gain), order, original_order, hsv (the Hankel
     singular values, descending) and error_bound (2 x the discarded ones, a
     bound on the H-inf error)."""
-    return _piezoloop.reduce(_model_args(model), int(order))
+    return _piezoloop.reduce(_model_args(model), whole("order", order))
 
 
 __all__ = ["c2d", "analyze_loop", "mixsyn", "hinf", "musyn", "analyze_mu", "pi_notch", "reduce"]

@@ -9,6 +9,7 @@ from typing import Callable, Dict, Optional, Sequence
 import numpy as np
 
 from . import _piezoloop
+from ._args import finite_json, names, number, whole
 from .commission import check_commission
 from .measure import (FrequencyResponse, Loops, StepResponse, check_request, check_shape, check_step,
                       loops_from_result, response_from_report, step_from_report)
@@ -47,7 +48,10 @@ class Device:
     def __init__(self, address: str, timeout_s: float = 3.0):
         if not isinstance(address, str) or not address:
             raise ValueError("address: e.g. 'tcp:127.0.0.1:4000', 'usb', 'usb:SERIAL' or 'serial:/dev/ttyACM0'")
-        self._dev = _piezoloop.Device(address, int(timeout_s * 1000))
+        timeout_s = number("timeout_s", timeout_s)
+        if not 1e-3 <= timeout_s <= 3600:
+            raise ValueError(f"timeout_s: must be in [0.001, 3600] s (got {timeout_s})")
+        self._dev = _piezoloop.Device(address, round(timeout_s * 1000))
 
     def __enter__(self) -> "Device":
         return self
@@ -76,7 +80,10 @@ class Device:
         """Merge `fields` (schema names; nested groups as dicts) onto the
         board's group and send it; returns the group read back. An unknown
         field raises ValueError, a value the board refuses DeviceError, both
-        naming the field; the board's group is then unchanged."""
+        naming the field; the board's group is then unchanged. None is no
+        value (leave the field out), NaN no JSON number: both raise
+        ValueError naming the field."""
+        finite_json(group, fields)
         return self._dev.set(group, json.dumps(fields))
 
     def set_scenario(self, scenario: str | os.PathLike, case: str, frequency_hz: float = 0.0) -> dict:
@@ -114,13 +121,13 @@ class Device:
         Only while disarmed."""
         self._dev.forget()
 
-    def record(self, duration_s: float, signals: str = "r,y,e,u", *, start_wave: bool = False,
+    def record(self, duration_s: float, signals: str | Sequence[str] = "r,y,e,u", *, start_wave: bool = False,
                restart_stage: bool = False, trajectory: Optional[str] = None, frequency_hz: float = 10.0,
                amplitude_um: Optional[float] = None, offset: Optional[str] = None,
                scenario: Optional[str | os.PathLike] = None, cycles: int = 0, decimation: int = 1,
                stall_s: float = 5.0, out_csv: Optional[str | os.PathLike] = None) -> Recording:
         """Record `signals` for duration_s seconds of device time, as
-        `piezoloop record`. With trajectory ("triangle", "sine", "square",
+        `piezoloop record`: "r,y,u" or ["r", "y", "u"]. With trajectory ("triangle", "sine", "square",
         "raster") and amplitude_um (peak-to-peak, um) the reference wave is
         set first; offset "unipolar"/"bipolar" or the scenario's convention.
         start_wave starts it with the recorder (arming the loop);
@@ -131,12 +138,10 @@ class Device:
         saying why, with what arrived as its .recording."""
         wave = None
         if trajectory is not None or amplitude_um is not None:
-            self._check_wave(trajectory or "triangle", amplitude_um)
             wave = self._wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles)
-        if not duration_s > 0:
-            raise ValueError("duration_s: must be > 0")
-        r = self._dev.record(signals, float(duration_s), int(decimation), bool(start_wave), bool(restart_stage),
-                             wave, float(stall_s), os.fspath(out_csv) if out_csv else "")
+        r = self._dev.record(names("signals", signals), number("duration_s", duration_s),
+                             whole("decimation", decimation), bool(start_wave), bool(restart_stage), wave,
+                             number("stall_s", stall_s), os.fspath(out_csv) if out_csv else "")
         s = r["summary"]
         rec = Recording(signals=r["signals"], summary=s, log_hash=s.get("log_hash", ""),
                         lost_blocks=int(s["lost_blocks"]))
@@ -157,7 +162,6 @@ class Device:
         convention, cycles 0 = forever. It runs on when this session ends
         (stop() stops it). arm: arm the loop at the wave's first tick (it must
         be disarmed). Returns {"trajectory", "wave_running", "armed"}."""
-        self._check_wave(trajectory, amplitude_um)
         return self._dev.wave(self._wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles),
                               bool(arm))
 
@@ -173,27 +177,23 @@ class Device:
         Every value is checked (finite, within +-1e6 um) before the stream
         starts. Ctrl-C closes the stream on the board (the setpoint holds, the
         loop stays as it was) and raises KeyboardInterrupt."""
-        sp = np.asarray(setpoints_um, dtype=np.float32).ravel()
+        sp = np.asarray(setpoints_um, dtype=np.float32)
+        if sp.ndim != 1:
+            raise ValueError(f"setpoints_um: a 1-D sequence, one setpoint per tick (got shape {sp.shape})")
         if sp.size == 0:
             raise ValueError("setpoints_um: at least one setpoint")
-        return self._dev.stream(sp.tolist(), -1 if prefill is None else int(prefill))
-
-    @staticmethod
-    def _check_wave(trajectory, amplitude_um) -> None:
-        if trajectory not in ("triangle", "sine", "square", "raster"):
-            raise ValueError(f"trajectory: {trajectory!r} is not one of triangle, sine, square, raster")
-        if not (amplitude_um and amplitude_um > 0):
-            raise ValueError("amplitude_um: required (> 0)")
+        return self._dev.stream(sp.tolist(), None if prefill is None else whole("prefill", prefill))
 
     @staticmethod
     def _wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles):
+        """Checked in C++ (check_wave_request, as the command line's options)."""
         wave = _piezoloop.WaveRequest()
         wave.trajectory = trajectory or "triangle"
-        wave.frequency_Hz = float(frequency_hz)
-        wave.amplitude_um = float(amplitude_um)
+        wave.frequency_Hz = number("frequency_hz", frequency_hz)
+        wave.amplitude_um = 0.0 if amplitude_um is None else number("amplitude_um", amplitude_um)
         wave.offset = offset or ""
         wave.scenario = os.fspath(scenario) if scenario else ""
-        wave.cycles = int(cycles)
+        wave.cycles = whole("cycles", cycles)
         return wave
 
 
@@ -211,7 +211,8 @@ class Device:
         raises KeyboardInterrupt."""
         check_request(from_hz, to_hz, amplitude_v, mode, signal)
         report = self._dev.measure_frf(float(from_hz), float(to_hz), float(amplitude_v), float(bias_v), mode, signal,
-                                       int(periods), int(transient_periods), bool(restart_stage))
+                                       whole("periods", periods), whole("transient_periods", transient_periods),
+                                       bool(restart_stage))
         return response_from_report(report)
 
     def measure_step(self, *, step_um: Optional[float] = None, step_v: Optional[float] = None,
@@ -235,7 +236,7 @@ class Device:
         measure loops` (the controller groups set to none and put back)."""
         check_shape(shape)
         r = self._dev.measure_loops([float(a) for a in amplitudes_v], None if bias_v is None else float(bias_v),
-                                    float(frequency_hz), int(cycles), shape, bool(restart_stage))
+                                    float(frequency_hz), whole("cycles", cycles), shape, bool(restart_stage))
         return loops_from_result(r)
 
     def commission(self, range_um: float, out: str | os.PathLike, *, target_bandwidth_hz: Optional[float] = None,

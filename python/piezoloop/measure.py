@@ -16,6 +16,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from . import _piezoloop
+from ._args import whole
 
 SIGNALS = ("multisine", "sweep", "prbs")
 
@@ -90,8 +91,8 @@ def measure_frf(scenario: str | os.PathLike, from_hz: float, to_hz: float, ampli
     if sample not in (None, "float", "q31"):
         raise ValueError(f"sample: {sample!r} is not one of float, q31")
     report = _piezoloop.measure_frf(os.fspath(scenario), case or "", sample or "", float(from_hz), float(to_hz),
-                                    float(amplitude_v), float(bias_v), mode, signal, int(periods),
-                                    int(transient_periods))
+                                    float(amplitude_v), float(bias_v), mode, signal, whole("periods", periods),
+                                    whole("transient_periods", transient_periods))
     return response_from_report(report)
 
 
@@ -205,5 +206,5 @@ def measure_loops(scenario: str | os.PathLike, amplitudes_v: Sequence[float], *,
     if sample not in (None, "float", "q31"):
         raise ValueError(f"sample: {sample!r} is not one of float, q31")
     r = _piezoloop.measure_loops(os.fspath(scenario), case or "", sample or "", [float(a) for a in amplitudes_v],
-                                 _opt(bias_v), float(frequency_hz), int(cycles), shape)
+                                 _opt(bias_v), float(frequency_hz), whole("cycles", cycles), shape)
     return loops_from_result(r)

@@ -8,6 +8,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from . import _piezoloop
+from ._args import number, whole
 
 
 @dataclass
@@ -24,12 +25,6 @@ class SimRun:
     signals: Dict[str, np.ndarray]
     metrics: dict
     log_hash: str = field(default="")
-
-
-def _choice(name: str, value: str, allowed) -> str:
-    if value not in allowed:
-        raise ValueError(f"{name}: {value!r} is not one of {', '.join(allowed)}")
-    return value
 
 
 def sim(scenario: str | os.PathLike, case: str, trajectory: str = "triangle", frequency_hz: float = 10.0,
@@ -49,19 +44,11 @@ def sim(scenario: str | os.PathLike, case: str, trajectory: str = "triangle", fr
     every N-th tick in `signals` (0: at most 200000 rows, as the CLI's --out).
     The GIL is released while the loop runs.
     """
-    _choice("trajectory", trajectory, ("triangle", "sine"))
-    _choice("fidelity", fidelity, ("float", "double"))
-    if sample is not None:
-        _choice("sample", sample, ("float", "q31"))
-    if offset is not None:
-        _choice("offset", offset, ("unipolar", "bipolar"))
-    if (amplitude_um is not None and amplitude_um > 0) == (amplitude_v is not None and amplitude_v > 0):
-        raise ValueError("give exactly one of amplitude_um and amplitude_v (> 0)")
-    if not 1e-4 <= frequency_hz <= 5e5:
-        raise ValueError(f"frequency_hz: {frequency_hz} is outside [1e-4, 5e5]")
-    if duration_s is not None and not 1e-6 <= duration_s <= 1e4:
-        raise ValueError(f"duration_s: {duration_s} is outside [1e-6, 1e4]")
-    r = _piezoloop.sim(os.fspath(scenario), case, trajectory, float(frequency_hz), float(amplitude_um or 0.0),
-                       float(amplitude_v or 0.0), offset or "", float(duration_s or 0.0), sample or "", fidelity,
-                       int(substeps), True, int(log_every))
+    # The ranges and choices are checked in C++ (sim::check_sim_request), as
+    # `piezoloop sim` checks them.
+    opt = lambda name, v: 0.0 if v is None else number(name, v)
+    r = _piezoloop.sim(os.fspath(scenario), case, trajectory, number("frequency_hz", frequency_hz),
+                       opt("amplitude_um", amplitude_um), opt("amplitude_v", amplitude_v), offset or "",
+                       opt("duration_s", duration_s), sample or "", fidelity, whole("substeps", substeps), True,
+                       whole("log_every", log_every))
     return SimRun(signals=r["signals"], metrics=r["metrics"], log_hash=r["metrics"]["log_hash"])

@@ -21,6 +21,7 @@
 #include "link/params_json.hpp"
 #include "link/record_session.hpp"
 #include "link/transport.hpp"
+#include "options/option_checks.hpp"
 #include "piezoloop/params/groups.hpp"
 
 namespace piezoloop::py {
@@ -139,14 +140,15 @@ public:
         (client().*f)();
     }
 
-    pyb::dict record(const std::string& signals, double duration_s, uint32_t decimation, bool start_wave,
+    pyb::dict record(const std::string& signals, double duration_s, double decimation, bool start_wave,
                      bool restart_stage, std::optional<cli::WaveRequest> wave, double stall_s,
                      const std::string& out_csv) {
         hostlink::RecordOptions o;
         o.signals = hostlink::parse_signal_list(signals);
         if (restart_stage && !start_wave) throw std::invalid_argument("restart_stage: only with start_wave");
+        options::check_record_options(duration_s, decimation, stall_s);
         o.duration_s = duration_s;
-        o.decimation = decimation;
+        o.decimation = static_cast<uint32_t>(decimation);
         o.start_wave = start_wave;
         o.restart_stage = restart_stage;
         o.stall_s = stall_s;
@@ -287,18 +289,16 @@ public:
     // `piezoloop stream`: every setpoint consumed by the tick, the stream
     // drained. Ctrl-C closes the stream on the board (the setpoint holds its
     // last value, the loop stays as it was), then KeyboardInterrupt.
-    pyb::object stream(const std::vector<float>& setpoints_um, int prefill) {
+    pyb::object stream(const std::vector<float>& setpoints_um, std::optional<double> prefill) {
         struct Interrupted {};
         Interrupt ctrl_c;
         const std::function<bool()> poll = ctrl_c.poll();
         json out;
+        (void)options::stream_prefill(prefill, 0, 0);  // refused before the board is contacted
         try {
             pyb::gil_scoped_release release;
             Client& c = client();
-            const std::size_t cap = c.info().setpoint_capacity;
-            const uint16_t pre = static_cast<uint16_t>(
-                prefill >= 0 ? std::min<std::size_t>(static_cast<std::size_t>(prefill), cap)
-                             : std::min(cap, setpoints_um.size()));
+            const uint16_t pre = options::stream_prefill(prefill, c.info().setpoint_capacity, setpoints_um.size());
             const hostlink::StreamResult r = c.stream(setpoints_um, pre, [&](double) {
                 if (poll()) throw Interrupted{};
             });

@@ -117,5 +117,35 @@ with open(discrete, "w") as f:
     json.dump({"num": [1], "den": [1, -0.5], "ts": 1e-4}, f)
 refused(["--plant", discrete] + LOOP[2:], "controller")
 
+
+# ---- What the mu test does not cover is refused, not answered: it holds
+# for a stable interconnection N (docs/mu.md), so an unstable weight (its
+# pole enters N whatever the loop does: a weight 0.05/(1 - s/300) made
+# robustly_stable: true), an improper one (the model reader's refusal) and
+# a sample period far outside any loop's (1e-30 s: every Tustin
+# pole rounds to z = 1; 10 s: every mode folds onto a 0.05 Hz Nyquist).
+def model_file(name, text):
+    path = os.path.join(tmp, name)
+    with open(path, "w") as f:
+        json.dump(text, f)
+    return path
+
+
+unstable_hm = model_file("unstable_hm.json", {"num": [0.05], "den": [-1 / 300, 1]})
+refused(["--plant", model("G"), "--controller", model("K"), "--hm", unstable_hm, "--w1", model("He")],
+        "hm: unstable weight")
+unstable_w3 = model_file("unstable_w3.json", {"num": [0.1], "den": [1, -20, 1e4]})  # poles 10 +- 99.5j
+refused(LOOP + ["--w3", unstable_w3], "w3: unstable weight")
+integrator_w1 = model_file("integrator_w1.json", {"num": [100], "den": [1, 0]})
+refused(LOOP[:6] + ["--w1", integrator_w1], "w1: unstable weight")
+improper_w2 = model_file("improper_w2.json", {"num": [1e-3, 1], "den": [1]})
+refused(LOOP + ["--w2", improper_w2], "improper model", prefix="")
+for ts in ("1e-30", "1e-12", "10", "0"):
+    refused(LOOP + ["--ts", ts], "--ts: must be in [1e-09, 1] s", prefix="error: ")
+# A stable loop with stable weights still passes, and --ts at the ends of
+# the range is taken.
+r = run(*LOOP, "--ts", "1e-6")
+check(r.returncode == 0 and json.loads(r.stdout)["nominally_stable"] is True, f"--ts 1e-6: {r.stderr[-300:]}")
+
 print(f"{checks - failures} passed, {failures} failed")
 sys.exit(1 if failures else 0)

@@ -115,5 +115,83 @@ r = run("identify", "rls", "--data", bom, "--na", "1", "--nb", "1")
 check("identify rls reads a CSV with a byte-order mark", r.returncode == 0 and '"fit"' in r.stdout,
       f"exit {r.returncode}, stderr {r.stderr[-300:]!r}")
 
+
+# null where a number (or any value) is required: refused naming the field,
+# never read as "absent" (the default): a scenario's sensor noise and seed,
+# (a board group's field too: python/tests/test_arguments.py, on a board).
+for field in ("sensor.noise_rms", "sensor.seed", "sensor.bandwidth_Hz"):
+    doc = json.loads(good)
+    doc["plant"]["sensor"][field.split(".")[1]] = None
+    refused(f"sim: {field} null", ["sim", "--scenario", scenario(f"null_{field}.json", json.dumps(doc)), "--case",
+                                   case, "--amplitude-um", "10"], field, "must not be null")
+
+# Lists of numbers: an empty item is refused naming the option and the item
+# (CLI11's delimiter dropped it: "1,,2" ran two loops), as text is.
+refused("measure loops: empty amplitude", ["measure", "loops", "--scenario", os.path.join(configs, "ahmad2020.json"),
+                                          "--amplitudes-v", "1,,2", "--out", os.path.join(tmp, "l.csv")],
+        "--amplitudes-v", "item 2", "empty")
+refused("measure loops: trailing comma", ["measure", "loops", "--scenario", os.path.join(configs, "ahmad2020.json"),
+                                         "--amplitudes-v", "3,", "--out", os.path.join(tmp, "l.csv")],
+        "--amplitudes-v", "item 2", "empty")
+refused("pi-inverse: empty weight", ["pi-inverse", "--thresholds", "0,1,2", "--weights", "1,,0.5"], "--weights",
+        "item 2")
+refused("pi-inverse: text threshold", ["pi-inverse", "--thresholds", "0,one", "--weights", "1,0.5"], "--thresholds",
+        "not a number")
+refused("identify pi: nan threshold", ["identify", "pi", "--data", bom, "--thresholds", "0.5,nan"], "--thresholds",
+        "finite")
+r = run("pi-inverse", "--thresholds", "0,1.5", "--weights", "1,0.25")
+check("pi-inverse: a clean list is read", r.returncode == 0 and '"weights"' in r.stdout, r.stderr[-300:])
+
+# identify tf: the measured response a fit reads. Every line once (a line
+# twice with two responses has no single value to fit), finite, between 0
+# and Nyquist; std_db a spread (>= 0 dB) or null (unknown).
+rate = 20000.0
+freqs = [50.0 * 1.3 ** k for k in range(20)]  # 50 Hz .. 7.3 kHz
+resp = []
+for fk in freqs:
+    g = 2.0 / complex(1.0, fk / 800.0)  # 2 um/V, pole at 800 Hz
+    resp.append([g.real, g.imag])
+frf = {"frequency_Hz": freqs, "response": resp, "std_db": [0.05] * len(freqs), "excitation": {"rate_Hz": rate}}
+
+
+def frf_file(name, **changes):
+    doc = json.loads(json.dumps(frf))
+    for key, (i, v) in changes.items():
+        doc[key][i] = v
+    return write(name, json.dumps(doc))
+
+
+r = run("identify", "tf", "--frf", frf_file("frf_ok.json"), "--order", "1/0")
+check("identify tf: the clean response fits", r.returncode == 0 and '"model"' in r.stdout, r.stderr[-300:])
+refused("identify tf: a line twice, two responses",
+        ["identify", "tf", "--frf", frf_file("frf_dup.json", frequency_Hz=(7, freqs[3])), "--order", "1/0"],
+        "frequency_Hz[7]", "frequency_Hz[3] again")
+refused("identify tf: negative std_db",
+        ["identify", "tf", "--frf", frf_file("frf_neg.json", std_db=(4, -0.2)), "--order", "1/0"],
+        "std_db[4]", ">= 0")
+refused("identify tf: std_db text",
+        ["identify", "tf", "--frf", frf_file("frf_text.json", std_db=(2, "low")), "--order", "1/0"], "std_db[2]")
+refused("identify tf: a line above Nyquist",
+        ["identify", "tf", "--frf", frf_file("frf_nyq.json", frequency_Hz=(19, 0.6 * rate)), "--order", "1/0"],
+        "frequency_Hz[19]", "Nyquist")
+refused("identify tf: a negative line",
+        ["identify", "tf", "--frf", frf_file("frf_negf.json", frequency_Hz=(0, -50.0)), "--order", "1/0"],
+        "frequency_Hz[0]")
+r = run("identify", "tf", "--frf", frf_file("frf_null.json", std_db=(5, None)), "--order", "1/0")
+check("identify tf: a null std_db (one period) is read", r.returncode == 0, r.stderr[-300:])
+
+# commission --scenario on a 100 Hz loop: its own step measurement cannot
+# run there; the refusal names what the user can change (the scenario's
+# loop), not `measure step`'s --duration-s, which commission does not have.
+slow = json.load(open(os.path.join(configs, "ahmad2020.json")))
+slow["loop"]["rate_Hz"] = 100
+slow["experiments"] = []
+slow["cases"] = [c for c in slow["cases"] if c["name"] == "open_loop"]
+r = run("commission", "--scenario", scenario("slow_loop.json", json.dumps(slow)), "--range-um", "10", "--out",
+        os.path.join(tmp, "commission"))
+check("commission at 100 Hz names the scenario's loop", r.returncode == 2 and r.stdout == "" and
+      "error: --scenario:" in r.stderr and "loop.rate_Hz" in r.stderr and "100 Hz loop" in r.stderr,
+      f"exit {r.returncode}, stderr {r.stderr[-400:]!r}")
+
 print(f"hostile input: {passed} passed, {failed} failed")
 sys.exit(1 if failed else 0)

@@ -6,7 +6,8 @@ against an emulated board, a long `record --out F` is cut short three ways,
   the board freezes (SIGSTOP of QEMU; the log stalls after --stall-s),
   the user presses Ctrl-C (SIGINT to `piezoloop record`),
 
-and each time the command exits 4 (lost data), its summary says
+and each time the command exits 4 (lost data), as a `measure` or
+`commission` interrupted by Ctrl-C does, its summary says
 "complete": false and why, and F holds the frames that arrived under a
 "# incomplete: ..." first line, replacing an older file at F (never left
 looking current), with no temporary file left behind. After Ctrl-C the
@@ -117,6 +118,33 @@ try:
     st = subprocess.run([exe, "--device", dev, "status"], capture_output=True, text=True, timeout=60)
     state = json.loads(st.stdout)["status"]["recorder_state"] if st.returncode == 0 else None
     check(state in ("idle", "done"), "Ctrl-C: the board's recorder is stopped", f"recorder_state {state}")
+
+    # Ctrl-C during a measurement or a commissioning on the board: the same
+    # policy as record's, exit 4 (an interrupted run whose data is
+    # incomplete), the board left with no excitation running and disarmed.
+    out_dir = os.path.join(tmp, "commission")
+    subprocess.run([exe, "--device", dev, "set", "--scenario", scenario, "--case", "open_loop"], capture_output=True,
+                   text=True, timeout=60, check=True)  # the limits the measurements need
+    for what, args in (("measure frf", ["measure", "frf", "--from-hz", "1", "--to-hz", "50", "--amplitude-v", "0.2",
+                                        "--periods", "40", "--out", os.path.join(tmp, "frf.json")]),
+                       ("measure loops", ["measure", "loops", "--amplitudes-v", "1,2", "--frequency-hz", "0.2",
+                                          "--cycles", "3", "--out", os.path.join(tmp, "loops.csv")]),
+                       ("commission", ["commission", "--range-um", "10", "--out", out_dir])):
+        p = subprocess.Popen([exe, "--device", dev, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True)
+        time.sleep(3.0)
+        p.send_signal(signal.SIGINT)
+        try:
+            _, stderr = p.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            _, stderr = p.communicate()
+        check(p.returncode == 4 and "interrupted" in stderr, f"Ctrl-C in {what}: exit 4, says interrupted",
+              f"exit {p.returncode}, stderr {stderr[-300:]!r}")
+        st = subprocess.run([exe, "--device", dev, "status"], capture_output=True, text=True, timeout=60)
+        s = json.loads(st.stdout)["status"] if st.returncode == 0 else {}
+        check(s.get("excitation", {}).get("running") is False and s.get("armed") is False,
+              f"Ctrl-C in {what}: no excitation running, disarmed", json.dumps(s)[:300])
 
     # The board freezes: the log stalls.
     out = os.path.join(tmp, "frozen.csv")

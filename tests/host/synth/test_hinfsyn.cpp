@@ -109,6 +109,52 @@ TEST(Hinfsyn, GeneralD11) {
     EXPECT_GE(r.gamma, r.gamma_opt * (1 - 1e-5));
 }
 
+// Optimum γ = 0: the SISO example of Octave's and python-control's hinfsyn
+// tests, x' = -x + w + u, z = x + u, y = x + w. With D12 = D21 = 1 both
+// Riccati equations have Q = 0 and stable A - B2 C1, A - B1 C2, so X∞ =
+// Y∞ = 0 at every γ > 0 and the central controller is A - B2 C1 - B1 C2,
+// B1, -C1: K = -1/(s + 3). Worked out by hand: with the controller state ξ,
+// z = x - ξ and (x - ξ)' = -2 (x - ξ), so from rest z is identically zero
+// (the published optimum). And a fresh one: x' = -2x + w + 3u,
+// z = 0.5x + u, y = x + w: K = -0.5/(s + 4.5), (x - ξ)' = -3 (x - ξ).
+// The search ends at its floor (1e-12 of the first feasible γ, 1) with
+// gamma_lower 0; the achieved norm is rounding: below 1e-12 (it is ~3e-16).
+// The controller's coefficients to 1e-9 (exact in exact arithmetic; the
+// normalisation's powers of two are exact too).
+GeneralisedPlant zero_optimum(double a, double b2, double c1) {
+    GeneralisedPlant p;
+    p.n_w = p.n_u = p.n_z = p.n_y = 1;
+    p.sys.A = Eigen::MatrixXd::Constant(1, 1, a);
+    p.sys.B.resize(1, 2);
+    p.sys.B << 1, b2;
+    p.sys.C.resize(2, 1);
+    p.sys.C << c1, 1;
+    p.sys.D.resize(2, 2);
+    p.sys.D << 0, 1,  //
+        1, 0;
+    return p;
+}
+
+TEST(Hinfsyn, ZeroOptimumFound) {
+    struct Case {
+        double a, b2, c1;
+        double k_pole, k_gain;  // K = k_gain / (s - k_pole)
+    };
+    for (const Case& c : {Case{-1.0, 1.0, 1.0, -3.0, -1.0}, Case{-2.0, 3.0, 0.5, -4.5, -0.5}}) {
+        const HinfSynthesis r = hinfsyn(zero_optimum(c.a, c.b2, c.c1));
+        ASSERT_TRUE(r.stable);
+        EXPECT_EQ(r.gamma_lower, 0.0);
+        EXPECT_LE(r.gamma_opt, 1e-12 * (1 + 1e-9));  // twelve divisions by 10 of 1
+        EXPECT_LE(r.gamma, 1e-12);
+        const HinfResult h = hinf_norm(to_siso(r.closed_loop, 0, 0));
+        EXPECT_LE(h.norm, 1e-12);
+        ASSERT_EQ(r.controller.A.rows(), 1);
+        EXPECT_NEAR(r.controller.A(0, 0), c.k_pole, 1e-9 * std::fabs(c.k_pole));
+        EXPECT_NEAR(r.controller.B(0, 0) * r.controller.C(0, 0), c.k_gain, 1e-9 * std::fabs(c.k_gain));
+        EXPECT_NEAR(r.controller.D(0, 0), 0.0, 1e-12);
+    }
+}
+
 TEST(Hinfsyn, NamedFailures) {
     GeneralisedPlant p = first_order();
     p.sys.D(1, 2) = 0.0;  // u no longer reaches z
