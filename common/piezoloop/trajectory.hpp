@@ -296,6 +296,8 @@ public:
     }
     // Samples after which the phase repeats exactly (the denominator).
     constexpr uint32_t exact_period_samples() const { return step_.den; }
+    // The first output after configure() or restart(): the value at the start phase.
+    constexpr T start_value() const { return value_at(start_); }
     // Last accepted configuration (its table span is empty: the values live here).
     constexpr const TrajectoryConfig& config() const { return cfg_; }
 
