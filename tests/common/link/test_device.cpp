@@ -720,6 +720,33 @@ TYPED_TEST(LinkStartWaveFlags, AllFlagsTakeEffectAtTheSameTick) {
     EXPECT_NE(ref->last().u, sample_zero<T>());
 }
 
+// The wave's approach starts where the stage is: after a restart at 0 (the
+// restarted stage's next reading), without one at the stage's last reading.
+TYPED_TEST(LinkStartWaveFlags, TheApproachStartsWhereTheRestartedStageIs) {
+    using T = TypeParam;
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(this->wave()).type(), MsgType::kAck);
+    const SignalScale pos = reference::setup().position;
+    const TrajectoryParams tp = this->wave();
+    TrajectoryGenerator<T> gen(pos);
+    ASSERT_TRUE(gen.configure(params::trajectory_config(tp, reference::setup().rate_Hz)).ok());
+    for (const bool restart : {false, true}) {
+        r_.pipeline->stop_wave();
+        r_.pipeline->disarm();
+        for (int k = 0; k < 3; ++k) r_.pipeline->tick(pos.to_sample<T>(3.0f));  // the stage reads 3 um
+        ASSERT_FALSE(r_.pipeline->wave_running());
+        const uint8_t flags = StartWave::kArmLoop | (restart ? StartWave::kRestartStage : 0);
+        ASSERT_EQ(r_.request(StartWave{flags}).type(), MsgType::kAck);
+        Approach<T> ref(pos, reference::setup().rate_Hz);
+        ASSERT_TRUE(ref.begin(restart ? sample_zero<T>() : pos.to_sample<T>(3.0f), gen.start_value()));
+        for (int k = 0; k < 50; ++k) {
+            r_.pipeline->tick(sample_zero<T>());
+            ASSERT_EQ(r_.pipeline->last().r, ref.step()) << (restart ? "restarted" : "not restarted") << ", tick " << k;
+        }
+    }
+}
+
 TYPED_TEST(LinkStartWaveFlags, UnknownBitsAreMalformed) {
     auto& r_ = this->rig;
     this->configure_reference();
