@@ -110,9 +110,8 @@ RunResult run_loop(const LoopModel& model, const RunOptions& options);
 uint64_t approach_ticks(const LoopModel& model, const RunOptions& options);
 // Puts the approach in front of a planned run: the run, its window and its
 // log (unless it starts at tick 0) move on by the approach's ticks, so they
-// cover the same periods of the wave as without one (the scenario reports'
-// experiments; `piezoloop sim --duration-s` and a board's record count the
-// approach in their length).
+// cover the same periods of the wave as without one (`piezoloop sim`, the
+// scenario reports' experiments; a board's record does the same).
 void make_room_for_approach(const LoopModel& model, RunOptions& options);
 
 }  // namespace piezoloop::sim

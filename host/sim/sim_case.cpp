@@ -43,9 +43,9 @@ SimCasePlan plan_sim_case(const Scenario& s, const SimCaseRequest& a) {
         o.log_every = a.log_every > 0 ? static_cast<uint64_t>(a.log_every) : std::max<uint64_t>(1, o.ticks / 200000);
     }
     o.fidelity = a.fidelity == "double" ? Fidelity::kDouble : Fidelity::kFloat;
-    // The run's length includes the wave's approach, as a board's record
-    // of the same length does (board = simulator).
-    o.approach_ticks = approach_ticks(p.built.model, o);
+    // The wave's approach goes in front of --duration-s, as a board's
+    // record of the same length does (board = simulator).
+    make_room_for_approach(p.built.model, o);
     return p;
 }
 

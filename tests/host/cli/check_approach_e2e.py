@@ -8,7 +8,8 @@ the stage rests at 0.
 
 must equal `piezoloop sim` bit for bit (r, y, e, u, the log hash), and its
 r must be the approach (common/piezoloop/approach.hpp), then the wave:
-- the simulator's approach_ticks > 0: the ticks before the wave's first point;
+- approach_ticks > 0 (the ticks before the wave's first point; the record
+  and the simulator both put them in front of the 0.1 s of the wave);
 - no jump: no step of r beyond v_max / rate, v_max = 10 position full scales
   per second (hello's position_full_scale_um), and the peak step within 10 %
   of it (N is the shortest move within the bound);
@@ -64,8 +65,10 @@ try:
     r = run(*d, "record", "--signals", "r,y,e,u", "--duration-s", str(seconds), *wave, "--scenario", scenario,
             "--start-wave", "--restart-stage", "--out", rec_csv)
     rj = json.loads(r.stdout) if r.stdout.strip() else {}
-    check(r.returncode == 0 and rj.get("frames") == frames and rj.get("lost_blocks") == 0,
-          f"record: {frames} frames, nothing lost", r.stderr)
+    na = rj.get("approach_ticks", 0)  # ticks before the wave's first point: N - 1
+    check(r.returncode == 0 and rj.get("frames") == frames + na and rj.get("lost_blocks") == 0,
+          f"record: the approach ({na} ticks) and {frames} frames of the wave, nothing lost", r.stderr)
+    frames += na
     s = run("sim", "--scenario", scenario, "--case", "ff_fb", *wave, "--duration-s", str(seconds), "--out", sim_csv)
     sj = json.loads(s.stdout) if s.returncode == 0 else {}
     check(s.returncode == 0, "piezoloop sim ran", s.stderr)
@@ -77,7 +80,8 @@ try:
     check(rj.get("log_hash") == sj.get("log_hash"), "record log_hash equals the simulator's",
           f"{rj.get('log_hash')} vs {sj.get('log_hash')}")
 
-    na = sj.get("approach_ticks", 0)  # ticks before the wave's first point: N - 1
+    check(sj.get("approach_ticks") == na, "the simulator approaches for as many ticks",
+          f"{sj.get('approach_ticks')} vs {na}")
     big_n = na + 1
     r_um = [float(x["r_um"]) for x in rec]
     first = -0.5 * range_um
