@@ -419,7 +419,12 @@ TYPED_TEST(LinkDevice, WaveStartStop) {
     tp.frequency_Hz = 10.0f;
     EXPECT_EQ(r_.set(tp).type(), MsgType::kAck);
     EXPECT_EQ(r_.request(StartWave{}).type(), MsgType::kAck);
-    r_.tick(2500);  // a quarter period: r at the triangle's midpoint rising
+    // The triangle starts at -12 um, the stage reads 0: N - 1 ticks of
+    // approach (12 um at 500 um/s: N = 4500), then a quarter period: r at
+    // the triangle's midpoint rising.
+    const uint32_t n = r_.pipeline->approach_ticks(sample_zero<TypeParam>());
+    EXPECT_NEAR(n, 4500.0, 1.0);
+    r_.tick(n - 1 + 2500);
     EXPECT_TRUE(r_.pipeline->wave_running());
     const float r = reference::setup().position.to_physical(r_.pipeline->last().r);
     EXPECT_NEAR(r, 0.0f, 0.01f);  // triangle from -A at phase 0: 0 at 1/4 (one sample = 0.0048 µm)
