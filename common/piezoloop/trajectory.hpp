@@ -271,8 +271,10 @@ public:
         hold_ = value_at(start_);
     }
 
-    // Output at the current phase, then advance by one sample.
-    constexpr T step() {
+    // Output at the current phase, then advance by one sample. Always
+    // inlined: the tick calls it from two places (a wave, the end of its
+    // approach), and a call would cost its every tick.
+    [[gnu::always_inline]] constexpr T step() {
         if (done_) return hold_;
         const T out = value_at(phase());
         advance_acc(uint64_t{step_.inc} + carry());
