@@ -77,9 +77,12 @@ public:
         }
     }
 
-    // The next approach starts at its first sample (begin()). Main loop,
-    // while the tick does not read this one.
-    constexpr void request() { state_ = State::kPending; }
+    // The next approach, to `to`, starts at its first sample (begin()).
+    // Main loop, while the tick does not read this one.
+    constexpr void request(T to) {
+        to_ = to;
+        state_ = State::kPending;
+    }
     // Pending or moving: the tick asks for samples.
     constexpr bool active() const { return state_ != State::kIdle; }
     constexpr bool pending() const { return state_ == State::kPending; }
@@ -103,8 +106,10 @@ public:
         }
     }
 
-    // Starts the pending approach from `from` to `to`; false (and idle) if
-    // it takes no tick (N <= 1).
+    // Starts the requested approach from `from`; false (and idle) if it
+    // takes no tick (N <= 1).
+    constexpr bool begin(T from) { return begin(from, to_); }
+    // Starts an approach from `from` to `to`.
     constexpr bool begin(T from, T to) {
         const uint32_t n = ticks_for(from, to);
         if (n <= 1) {

@@ -216,7 +216,7 @@ public:
         if (c.sample_rate_Hz != setup_.rate_Hz)
             return in_group("trajectory", error("sample_rate_Hz", "must equal the loop rate"));
         if (const Status s = trajectory_.configure(c); !s.ok()) return in_group("trajectory", s);
-        approach_.request();
+        approach_.request(trajectory_.start_value());
         wave_running_.store(true, std::memory_order_release);
         return ok_status();
     }
@@ -446,7 +446,7 @@ private:
     // there is nothing to approach the wave starts on this tick.
     [[gnu::noinline]] T approach_sample(bool armed) {
         if (approach_.pending())
-            (void)approach_.begin(armed && was_armed_ ? setpoint_ : last_.y, trajectory_.start_value());
+            (void)approach_.begin(armed && was_armed_ ? setpoint_ : last_.y);
         if (approach_.moving()) return approach_.step();
         return trajectory_.step();
     }

@@ -272,8 +272,9 @@ public:
     }
 
     // Output at the current phase, then advance by one sample. Always
-    // inlined: the tick calls it from two places (a wave, the end of its
-    // approach), and a call would cost its every tick.
+    // inlined, with what it calls: the tick calls it from two places (a
+    // wave, the end of its approach), and GCC would otherwise make a call
+    // of it, paid on every tick.
     [[gnu::always_inline]] constexpr T step() {
         if (done_) return hold_;
         const T out = value_at(phase());
@@ -304,7 +305,7 @@ public:
     constexpr const TrajectoryConfig& config() const { return cfg_; }
 
     // Normalised shape w(phase) as Q31 raw (no state change).
-    constexpr int32_t shape_q31(uint32_t p) const {
+    [[gnu::always_inline]] constexpr int32_t shape_q31(uint32_t p) const {
         using trajectory_detail::apply_ramp;
         switch (cfg_.waveform) {
             case Waveform::kSine:
@@ -333,7 +334,7 @@ public:
     }
 
     // Output at a given phase (no state change).
-    constexpr T value_at(uint32_t p) const {
+    [[gnu::always_inline]] constexpr T value_at(uint32_t p) const {
         const int32_t w = shape_q31(p);
         if constexpr (kFloat) {
             return off_f_ + amp_f_ * (static_cast<float>(w) * 0x1p-31f);
@@ -347,7 +348,7 @@ private:
         return v > Q31::kMaxRaw ? Q31::kMaxRaw : (v < Q31::kMinRaw ? Q31::kMinRaw : static_cast<int32_t>(v));
     }
 
-    constexpr void advance_acc(uint64_t add) {
+    [[gnu::always_inline]] constexpr void advance_acc(uint64_t add) {
         const uint64_t s = uint64_t{acc_} + add;  // add < 2^31: at most one wrap
         acc_ = static_cast<uint32_t>(s);
         if ((s >> 32) != 0) {  // one full cycle since the start phase
@@ -357,7 +358,7 @@ private:
     }
 
     // Bresenham carry of the fractional phase increment.
-    constexpr uint32_t carry() {
+    [[gnu::always_inline]] constexpr uint32_t carry() {
         err_ += step_.rem;  // both < den < 2^31: no overflow
         if (err_ >= step_.den) { err_ -= step_.den; return 1u; }
         return 0u;
