@@ -1,6 +1,6 @@
 // The control pipeline: one tick of docs/architecture.md, "Data flow of one tick".
 //
-//   r    <- wave generator, or the held / streamed setpoint
+//   r    <- wave generator (after its approach), or the held / streamed setpoint
 //   r    <- reference pre-filter of r (biquad sections; none by default)
 //   u_ff <- inverse hysteresis of r (analytic PI inverse, a PI compensator
 //           such as Shan2012's fitted inverse, or Dahl feedforward)
@@ -17,6 +17,15 @@
 // excitation ran are counted. Without an excitation the tick pays one
 // well-predicted branch per phase and its arithmetic is unchanged (the log
 // hashes do not move).
+//
+// Approach (approach.hpp): a wave starts with a minimum-jerk move of r,
+// at most kApproachFullScalesPerSecond full scales per second, from the
+// reference the loop tracks (the held setpoint, when the loop was armed
+// before the wave's first tick) or else from the stage's latest reading,
+// to the wave's first value; the wave's clock starts when it ends. A
+// distance the speed bound allows within one tick (zero included) takes no
+// tick: the wave starts at once, with the arithmetic it always had. While
+// a wave runs the tick pays one well-predicted branch for it.
 //
 // Reference pre-filter (issue 17): up to two sections on the reference, so
 // that its corners and steps do not excite the stage's lightly damped modes
@@ -55,6 +64,7 @@
 #include <cstdint>
 #include <type_traits>
 
+#include "piezoloop/approach.hpp"
 #include "piezoloop/biquad.hpp"
 #include "piezoloop/dahl.hpp"
 #include "piezoloop/excitation.hpp"
@@ -133,7 +143,8 @@ public:
     explicit Pipeline(const PipelineSetup& setup)
         : setup_(setup),
           limiter_(setup.hard, setup.rate_Hz, setup.voltage),
-          trajectory_(setup.position) {}
+          trajectory_(setup.position),
+          approach_(setup.position, setup.rate_Hz) {}
 
     // Field-by-field check of a parameter set, without touching anything
     // (configures a scratch bank on the stack: host and main-loop use).
@@ -196,15 +207,29 @@ public:
     uint32_t rejected_setpoints() const { return rejected_setpoints_; }
 
     // The tick touches the generator only while a wave runs, so it is
-    // configured here only while none does.
+    // configured here only while none does. The wave's first tick starts
+    // its approach (approach.hpp), from the held setpoint if the loop is
+    // armed then and was armed the tick before, else from the stage's
+    // latest reading.
     Status start_wave(const TrajectoryConfig& c) {
         if (wave_running()) return in_group("trajectory", error("waveform", "a wave is running: stop it first"));
         if (c.sample_rate_Hz != setup_.rate_Hz)
             return in_group("trajectory", error("sample_rate_Hz", "must equal the loop rate"));
         if (const Status s = trajectory_.configure(c); !s.ok()) return in_group("trajectory", s);
+        approach_.request(trajectory_.start_value());
         wave_running_.store(true, std::memory_order_release);
         return ok_status();
     }
+    // Ticks the approach of a wave starting now would take from `from` (the
+    // stage's reading, or the held setpoint of an armed loop) to the
+    // configured wave's first value; 0 or 1: none. Main loop, after
+    // start_wave (or configure trajectory() first).
+    uint32_t approach_ticks(T from) const { return approach_.ticks_for(from, trajectory_.start_value()); }
+    bool approaching() const { return wave_running() && approach_.active(); }
+    // The stage was put back at rest (an emulated stage's restart): its next
+    // reading is zero, and an approach that starts now starts there. Only
+    // while the tick does not run (the device's masked section).
+    void stage_restarted() { last_.y = sample_zero<T>(); }
     // The setpoint holds the wave's last value.
     void stop_wave() { stop_request_.store(true, std::memory_order_release); }
     bool wave_running() const { return wave_running_.load(std::memory_order_acquire); }
@@ -350,7 +375,8 @@ private:
         if (pending && (!was_armed_ || !rc_changes_ || bank().rc.at_period_boundary())) swap_banks();
 
         if (wave) {
-            s.r = trajectory_.step();
+            if (approach_.active()) [[unlikely]] s.r = approach_sample(armed);
+            else s.r = trajectory_.step();
             // Load before exchanging: the read-modify-write (and its barriers)
             // only happens on the tick a stop was actually requested.
             if (trajectory_.done() ||
@@ -412,6 +438,17 @@ private:
             s.u = limiter_.apply(sample_zero<T>());
             exc_active_ = false;  // disarmed: the excitation is not applied
         }
+    }
+
+    // r while the approach is pending or moving: its first tick takes the
+    // start (the setpoint if the loop stays armed, else the last reading,
+    // which tick() and the board's phases both hold in last_.y here); when
+    // there is nothing to approach the wave starts on this tick.
+    [[gnu::noinline]] T approach_sample(bool armed) {
+        if (approach_.pending())
+            (void)approach_.begin(armed && was_armed_ ? setpoint_ : last_.y);
+        if (approach_.moving()) return approach_.step();
+        return trajectory_.step();
     }
 
     // The excitation's part of begin_phase: d of this tick, added to r here
@@ -605,6 +642,7 @@ private:
     OutputLimiter<T> limiter_;
     typename OutputLimiter<T>::Setting limits_next_{};  // for the pending swap
     Trajectory trajectory_;
+    Approach<T> approach_;  // read by the tick only while a wave runs
     RecorderType recorder_{};
     TickSignals<T> last_{};
     T setpoint_{};

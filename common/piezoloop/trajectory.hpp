@@ -271,8 +271,11 @@ public:
         hold_ = value_at(start_);
     }
 
-    // Output at the current phase, then advance by one sample.
-    constexpr T step() {
+    // Output at the current phase, then advance by one sample. Always
+    // inlined, with what it calls: the tick calls it from two places (a
+    // wave, the end of its approach), and GCC would otherwise make a call
+    // of it, paid on every tick.
+    [[gnu::always_inline]] constexpr T step() {
         if (done_) return hold_;
         const T out = value_at(phase());
         advance_acc(uint64_t{step_.inc} + carry());
@@ -296,11 +299,13 @@ public:
     }
     // Samples after which the phase repeats exactly (the denominator).
     constexpr uint32_t exact_period_samples() const { return step_.den; }
+    // The first output after configure() or restart(): the value at the start phase.
+    constexpr T start_value() const { return value_at(start_); }
     // Last accepted configuration (its table span is empty: the values live here).
     constexpr const TrajectoryConfig& config() const { return cfg_; }
 
     // Normalised shape w(phase) as Q31 raw (no state change).
-    constexpr int32_t shape_q31(uint32_t p) const {
+    [[gnu::always_inline]] constexpr int32_t shape_q31(uint32_t p) const {
         using trajectory_detail::apply_ramp;
         switch (cfg_.waveform) {
             case Waveform::kSine:
@@ -329,7 +334,7 @@ public:
     }
 
     // Output at a given phase (no state change).
-    constexpr T value_at(uint32_t p) const {
+    [[gnu::always_inline]] constexpr T value_at(uint32_t p) const {
         const int32_t w = shape_q31(p);
         if constexpr (kFloat) {
             return off_f_ + amp_f_ * (static_cast<float>(w) * 0x1p-31f);
@@ -343,7 +348,7 @@ private:
         return v > Q31::kMaxRaw ? Q31::kMaxRaw : (v < Q31::kMinRaw ? Q31::kMinRaw : static_cast<int32_t>(v));
     }
 
-    constexpr void advance_acc(uint64_t add) {
+    [[gnu::always_inline]] constexpr void advance_acc(uint64_t add) {
         const uint64_t s = uint64_t{acc_} + add;  // add < 2^31: at most one wrap
         acc_ = static_cast<uint32_t>(s);
         if ((s >> 32) != 0) {  // one full cycle since the start phase
@@ -353,7 +358,7 @@ private:
     }
 
     // Bresenham carry of the fractional phase increment.
-    constexpr uint32_t carry() {
+    [[gnu::always_inline]] constexpr uint32_t carry() {
         err_ += step_.rem;  // both < den < 2^31: no overflow
         if (err_ >= step_.den) { err_ -= step_.den; return 1u; }
         return 0u;

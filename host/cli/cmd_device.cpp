@@ -411,7 +411,10 @@ void add_record(CLI::App& app) {
         "record", "Record signals from the board to CSV; summary JSON with loss counts, metrics, log hash "
                   "(needs --device)");
     cmd->add_option("--signals", a->signals, "comma-separated: r, y, e, u, u_ff, u_fb, u_rc (default r,y,e,u)");
-    cmd->add_option("--duration-s", a->duration_s, "device time to record, 1e-6 to 1e5 s")->required();
+    cmd->add_option("--duration-s", a->duration_s,
+                    "device time to record, 1e-6 to 1e5 s (with --start-wave: after the wave's approach to its "
+                    "first point)")
+        ->required();
     cmd->add_option("--decimation", a->decimation, "keep every N-th tick, 1 to 2^24");
     cmd->add_flag("--start-wave", a->start_wave,
                   "start the trajectory with the recorder (and the loop, if disarmed) at the same tick");

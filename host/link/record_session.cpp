@@ -10,6 +10,8 @@
 #include "format/number.hpp"
 #include "link/csv_log.hpp"
 #include "link/params_json.hpp"
+#include "piezoloop/approach.hpp"
+#include "piezoloop/params/groups.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "sim/window_metrics.hpp"
 
@@ -34,6 +36,27 @@ link::RecorderParams recorder_params(const RecordOptions& o, const link::HelloRe
     rec.mode = RecordMode::kContinuous;
     rec.trigger = TriggerMode::kImmediate;
     return rec;
+}
+
+// The ticks a wave started now spends approaching its first point, as the
+// board computes them in its sample type (Pipeline::approach_ticks): from
+// the restarted stage's 0, else from the held setpoint of a loop that stays
+// armed (status r), else from the stage's reading (status y). Exact after a
+// restart; otherwise the reading may move by its noise before the wave's
+// first tick (a tick more or less).
+template <class T>
+uint64_t approach_ticks_as(const link::HelloReply& h, const link::TrajectoryParams& w, float from_um) {
+    const SignalScale pos{h.position_full_scale_um};
+    TrajectoryGenerator<T> gen(pos);
+    if (!gen.configure(params::trajectory_config(w, h.loop_rate_Hz)).ok()) return 0;
+    const uint32_t n = Approach<T>(pos, h.loop_rate_Hz).ticks_for(pos.to_sample<T>(from_um), gen.start_value());
+    return n <= 1 ? 0 : n - 1;
+}
+uint64_t approach_ticks(const link::HelloReply& h, const link::StatusReply& st, const link::TrajectoryParams& w,
+                        bool restart) {
+    const float from_um = restart ? 0.0f : (st.armed ? st.r_um : st.y_um);
+    return h.sample_format == link::SampleFormat::kQ31 ? approach_ticks_as<Q31>(h, w, from_um)
+                                                       : approach_ticks_as<float>(h, w, from_um);
 }
 
 // Collects log blocks until the last wanted tick arrives, the log stalls,
@@ -200,6 +223,9 @@ RecordResult record(Client& c, const RecordOptions& o) {
         uint8_t flags = wave_flag::kArmRecorder;
         if (!st.armed) flags |= wave_flag::kArm;
         if (o.restart_stage) flags |= wave_flag::kRestartStage;
+        r.approach_ticks = approach_ticks(h, st, r.wave, o.restart_stage);
+        r.expected_frames = static_cast<std::size_t>(
+            std::llround((o.duration_s * r.rate_Hz + static_cast<double>(r.approach_ticks)) / o.decimation));
         c.start_wave(flags);
     } else {
         c.recorder_arm();
@@ -262,6 +288,7 @@ nlohmann::json summary_json(const RecordResult& r) {
                 {"decimation", r.decimation},
                 {"frames", r.frames},
                 {"expected_frames", r.expected_frames},
+                {"approach_ticks", r.approach_ticks},
                 {"blocks", r.log.blocks},
                 {"lost_blocks", r.log.lost_blocks},
                 {"out_of_order", r.log.out_of_order},

@@ -65,6 +65,10 @@ struct RecordResult {
     std::vector<std::string> notes;
     bool wave_running = false;
     link::TrajectoryParams wave;
+    // Ticks of the started wave's approach before its first point
+    // (common/piezoloop/approach.hpp), added to the record's length so that
+    // it covers duration_s of the wave itself.
+    uint64_t approach_ticks = 0;
     std::optional<uint64_t> log_hash;       // needs r, y and u
     std::optional<RecordFigures> figures;   // needs r and y
     // The record in physical units: t_s and one column per signal.

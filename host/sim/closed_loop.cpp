@@ -68,7 +68,7 @@ RunResult run_with(const LoopModel& m, const RunOptions& o, Stage& stage) {
                 if (++tone_n % 4096 == 0) phasor /= std::abs(phasor);
             }
         }
-        if (o.period_ticks != 0) {
+        if (o.period_ticks != 0 && k >= o.approach_ticks) {
             const double e = static_cast<double>(v.r_um) - static_cast<double>(v.y_um);
             period_sq += e * e;
             if (++period_n == o.period_ticks) {
@@ -128,7 +128,32 @@ RunResult run_sample(const LoopModel& m, const RunOptions& o) {
     return run_with<T>(m, o, stage);
 }
 
+template <class T>
+uint64_t approach_ticks_in(const LoopModel& m, const RunOptions& o) {
+    TrajectoryGenerator<T> wave(m.setup.position);
+    TrajectoryConfig c = o.wave;
+    c.sample_rate_Hz = m.setup.rate_Hz;
+    if (!o.table.empty()) c.table = o.table;
+    if (const Status s = wave.configure(c); !s.ok()) reject("trajectory", s);
+    const uint32_t n = Approach<T>(m.setup.position, m.setup.rate_Hz)
+                           .ticks_for(m.setup.position.to_sample<T>(0.0f), wave.start_value());
+    return n <= 1 ? 0 : n - 1;  // samples 1 .. N-1 come before the wave's first
+}
+
 }  // namespace
+
+uint64_t approach_ticks(const LoopModel& model, const RunOptions& options) {
+    return model.sample == SampleType::kQ31 ? approach_ticks_in<Q31>(model, options)
+                                            : approach_ticks_in<float>(model, options);
+}
+
+void make_room_for_approach(const LoopModel& model, RunOptions& o) {
+    const uint64_t n = approach_ticks(model, o);
+    o.approach_ticks = n;
+    o.ticks += n;
+    o.window_start += n;
+    if (o.log_start != 0) o.log_start += n;
+}
 
 RunResult run_loop(const LoopModel& model, const RunOptions& options) {
     if (options.window_start >= options.ticks && options.ticks != 0)

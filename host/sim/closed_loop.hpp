@@ -66,6 +66,9 @@ struct RunOptions {
     double window_midpoint_um = 0.0;  // the reference's (max + min) / 2
     // Per-period RMS of e over the whole run (growth of an unstable loop).
     uint64_t period_ticks = 0;        // 0: none
+    // Ticks of the wave's approach (approach.hpp) before its first point:
+    // the per-period RMS counts from its end (approach_ticks()).
+    uint64_t approach_ticks = 0;
     Fidelity fidelity = Fidelity::kFloat;
     // Complex amplitude of r and y at this frequency over the window (0: off).
     double tone_Hz = 0.0;
@@ -105,5 +108,14 @@ struct RunResult {
 // Throws std::invalid_argument (naming the field) when the model or the
 // options are rejected by the core's validation.
 RunResult run_loop(const LoopModel& model, const RunOptions& options);
+
+// The ticks the core's approach takes from the stage at rest (y_0 = 0) to the
+// wave's first point in this model (0: the wave starts at once).
+uint64_t approach_ticks(const LoopModel& model, const RunOptions& options);
+// Puts the approach in front of a planned run: the run, its window and its
+// log (unless it starts at tick 0) move on by the approach's ticks, so they
+// cover the same periods of the wave as without one (`piezoloop sim`, the
+// scenario reports' experiments; a board's record does the same).
+void make_room_for_approach(const LoopModel& model, RunOptions& options);
 
 }  // namespace piezoloop::sim

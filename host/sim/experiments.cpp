@@ -193,6 +193,7 @@ ScenarioResult run_scenario(const Scenario& s, const ReproduceOptions& o) {
                 ro.fidelity = j.fidelity;
                 ro.tone_Hz = j.tone_Hz;
                 ro.hash = false;
+                make_room_for_approach(b.model, ro);
                 cell.run = run_loop(b.model, ro);
             } catch (const std::exception& e) {
                 cell.error = e.what();

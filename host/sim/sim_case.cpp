@@ -63,6 +63,9 @@ SimCasePlan plan_sim_case(const Scenario& s, const SimCaseRequest& a) {
         o.log_every = a.log_every > 0 ? static_cast<uint64_t>(a.log_every) : std::max<uint64_t>(1, o.ticks / 200000);
     }
     o.fidelity = a.fidelity == "double" ? Fidelity::kDouble : Fidelity::kFloat;
+    // The wave's approach goes in front of --duration-s, as a board's
+    // record of the same length does (board = simulator).
+    make_room_for_approach(p.built.model, o);
     return p;
 }
 
@@ -86,6 +89,7 @@ nlohmann::json sim_case_summary(const Scenario& s, const SimCaseRequest& a, cons
     if (a.amplitude_V > 0.0) out["trajectory"]["range_piezo_V"] = a.amplitude_V;
     out["ticks"] = r.ticks;
     out["window_ticks"] = r.ticks - o.window_start;
+    out["approach_ticks"] = o.approach_ticks;
     out["hysteresis_pct"] = r.hysteresis_pct >= 0.0 ? nlohmann::json(r.hysteresis_pct) : nlohmann::json();
     out["e_max_pct"] = r.tracking.e_max_pct;
     out["e_rms_pct"] = r.tracking.e_rms_pct;

@@ -183,6 +183,102 @@ TEST(Pipeline, ReferencePreFilterShapesTheReferenceArmedOrNot) {
     EXPECT_FLOAT_EQ(shaped->last().r, 0.02f * 0.25f * plain->last().r);
 }
 
+namespace {
+
+// r of the next `ticks` ticks, the loop reading y = 0.
+template <class T>
+std::vector<T> references(RefPipeline<T>& p, int ticks) {
+    std::vector<T> r;
+    for (int k = 0; k < ticks; ++k) {
+        p.tick(sample_zero<T>());
+        r.push_back(p.last().r);
+    }
+    return r;
+}
+
+// A wave's start: r is the approach (approach.hpp, tested against its closed
+// form in test_approach.cpp) from `from` to the wave's first value, then the
+// wave exactly as a generator of its own produces it from its start.
+template <class T>
+void expect_approach_then_wave(RefPipeline<T>& p, T from, const TrajectoryConfig& wave, const char* what) {
+    const SignalScale pos = reference::setup().position;
+    TrajectoryGenerator<T> gen(pos);
+    ASSERT_TRUE(gen.configure(wave).ok());
+    Approach<T> ref(pos, reference::kRate_Hz);
+    const uint32_t n = ref.ticks_for(from, gen.start_value());
+    EXPECT_EQ(p.approach_ticks(from), n) << what;
+    std::vector<T> expected;
+    if (ref.begin(from, gen.start_value())) {
+        while (ref.moving()) expected.push_back(ref.step());
+    }
+    const std::size_t approach = expected.size();
+    for (int k = 0; k < 3000; ++k) expected.push_back(gen.step());
+    const std::vector<T> r = references(p, static_cast<int>(expected.size()));
+    for (std::size_t k = 0; k < r.size(); ++k)
+        ASSERT_TRUE(r[k] == expected[k]) << what << ": tick " << k << " of an approach of " << approach;
+}
+
+template <class T>
+void wave_start_approaches() {
+    const SignalScale pos = reference::setup().position;
+    // Loop armed and holding a setpoint of 5 um: the triangle (first value
+    // -15 um) is approached from the setpoint, 20 um at 500 um/s: 7500 ticks.
+    {
+        auto p = std::make_unique<RefPipeline<T>>(reference::setup());
+        ASSERT_TRUE(p->stage(reference::params(false, true)).ok());
+        p->arm();
+        ASSERT_TRUE(p->set_setpoint(pos.to_sample<T>(5.0f)));
+        (void)references(*p, 10);
+        ASSERT_TRUE(p->start_wave(triangle_10Hz()).ok());
+        EXPECT_NEAR(p->approach_ticks(pos.to_sample<T>(5.0f)), 7500.0, 1.0);
+        expect_approach_then_wave(*p, pos.to_sample<T>(5.0f), triangle_10Hz(), "armed, from the setpoint");
+    }
+    // Disarmed, the stage reading 3 um; armed with the wave: from the reading.
+    {
+        auto p = std::make_unique<RefPipeline<T>>(reference::setup());
+        ASSERT_TRUE(p->stage(reference::params(false, true)).ok());
+        p->tick(pos.to_sample<T>(3.0f));
+        p->arm();
+        ASSERT_TRUE(p->start_wave(triangle_10Hz()).ok());
+        expect_approach_then_wave(*p, pos.to_sample<T>(3.0f), triangle_10Hz(), "arming, from the reading");
+    }
+    // The stage at the wave's first point (0 um): no approach, the wave from
+    // its first tick, as before there was one.
+    {
+        TrajectoryConfig from_zero = triangle_10Hz();
+        from_zero.offset_um = 15.0f;
+        auto p = std::make_unique<RefPipeline<T>>(reference::setup());
+        ASSERT_TRUE(p->stage(reference::params(false, true)).ok());
+        p->arm();
+        ASSERT_TRUE(p->start_wave(from_zero).ok());
+        EXPECT_EQ(p->approach_ticks(sample_zero<T>()), 0u);
+        expect_approach_then_wave(*p, sample_zero<T>(), from_zero, "at the first point");
+    }
+    // Stopped during the approach: the setpoint holds where r was.
+    {
+        auto p = std::make_unique<RefPipeline<T>>(reference::setup());
+        ASSERT_TRUE(p->stage(reference::params(false, true)).ok());
+        p->arm();
+        ASSERT_TRUE(p->start_wave(triangle_10Hz()).ok());
+        (void)references(*p, 1000);
+        EXPECT_TRUE(p->approaching());
+        p->stop_wave();
+        p->tick(sample_zero<T>());
+        const T held = p->last().r;
+        EXPECT_FALSE(p->wave_running());
+        EXPECT_FALSE(p->approaching());
+        for (const T r : references(*p, 100)) ASSERT_TRUE(r == held);
+        // The next wave approaches from there.
+        ASSERT_TRUE(p->start_wave(triangle_10Hz()).ok());
+        expect_approach_then_wave(*p, held, triangle_10Hz(), "after a stop");
+    }
+}
+
+}  // namespace
+
+TEST(Pipeline, AWaveStartsWithASmoothApproachFromWhereTheLoopIs) { wave_start_approaches<float>(); }
+TEST(Pipeline, AQ31WaveStartsWithASmoothApproachFromWhereTheLoopIs) { wave_start_approaches<Q31>(); }
+
 TEST(Pipeline, DahlFeedforwardRunsInBothPipelines) {
     // Dahl feedforward alone (no feedback), a 6 um triangle. The float
     // pipeline's u_ff is DahlFeedforward's output; the Q31 pipeline runs the

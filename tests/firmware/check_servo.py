@@ -504,8 +504,15 @@ def run_checks(link, check, machine, seconds, replay=None):
         first = logs[0]
         fs = h["pos_fs"] / 2**31 if q31 else 1.0
         r0, y0 = first["samples"][0] * fs, first["samples"][1] * fs
-        check(abs(r0 - 1.0) < 1e-3 and y0 == 0.0, f"first frame: the wave's tick 0 (r = offset = {r0}), y = {y0} "
-              "(stage restarted at rest)")
+        # The wave starts at its offset, 1 um, the restarted stage at 0: its
+        # first ticks are the approach, which leaves 0 at rest (the first
+        # step 1 um * 10 / N^3, N = 375 ticks of 500 um/s at 100 kHz).
+        check(0.0 < r0 < 1e-6 and y0 == 0.0, f"first frame: the approach's first sample from the restarted stage "
+              f"(r = {r0}), y = {y0}")
+        rs = [l["samples"][i * 4] * fs for l in logs for i in range(l["frames"])]
+        k1 = next((k for k, r in enumerate(rs) if abs(r - 1.0) < 1e-6), len(rs))
+        check(k1 < 1000 and all(abs(b - a) <= 10.0 * h["pos_fs"] / rate * (1 + 1e-6) for a, b in zip(rs[:k1], rs[1:k1 + 1])),
+              f"the approach reaches the wave's first point (1 um, tick {k1}) within the speed bound")
         # Over the last 10 ms (one period of the wave): y spans most of r's 10 um.
         tail = [l for l in logs if l["first"] >= logs[-1]["first"] - int(rate / freq)]
         ys = [l["samples"][i * 4 + 1] * fs for l in tail for i in range(l["frames"])]

@@ -496,9 +496,13 @@ private:
     template <class Start, class Send>
     void start_at_tick(const FrameHeader& h, uint8_t f, Start&& start, Send& send) {
         mask(true);
-        if ((f & StartWave::kRestartStage) != 0 && !hooks_.restart_stage()) {
-            mask(false);
-            return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): the stage could not restart"), send);
+        if ((f & StartWave::kRestartStage) != 0) {
+            if (!hooks_.restart_stage()) {
+                mask(false);
+                return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): the stage could not restart"), send);
+            }
+            // A wave's approach starts where the restarted stage is.
+            pipeline_.stage_restarted();
         }
         if (const Status s = start(); !s.ok()) {
             mask(false);

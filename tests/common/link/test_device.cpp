@@ -419,7 +419,12 @@ TYPED_TEST(LinkDevice, WaveStartStop) {
     tp.frequency_Hz = 10.0f;
     EXPECT_EQ(r_.set(tp).type(), MsgType::kAck);
     EXPECT_EQ(r_.request(StartWave{}).type(), MsgType::kAck);
-    r_.tick(2500);  // a quarter period: r at the triangle's midpoint rising
+    // The triangle starts at -12 um, the stage reads 0: N - 1 ticks of
+    // approach (12 um at 500 um/s: N = 4500), then a quarter period: r at
+    // the triangle's midpoint rising.
+    const uint32_t n = r_.pipeline->approach_ticks(sample_zero<TypeParam>());
+    EXPECT_NEAR(n, 4500.0, 1.0);
+    r_.tick(n - 1 + 2500);
     EXPECT_TRUE(r_.pipeline->wave_running());
     const float r = reference::setup().position.to_physical(r_.pipeline->last().r);
     EXPECT_NEAR(r, 0.0f, 0.01f);  // triangle from -A at phase 0: 0 at 1/4 (one sample = 0.0048 µm)
@@ -718,6 +723,33 @@ TYPED_TEST(LinkStartWaveFlags, AllFlagsTakeEffectAtTheSameTick) {
     EXPECT_GE(k, static_cast<std::size_t>(kTicks) - Device<T>::kFramesPerBlock);
     // The wave moved the reference: the comparison was not of zeros.
     EXPECT_NE(ref->last().u, sample_zero<T>());
+}
+
+// The wave's approach starts where the stage is: after a restart at 0 (the
+// restarted stage's next reading), without one at the stage's last reading.
+TYPED_TEST(LinkStartWaveFlags, TheApproachStartsWhereTheRestartedStageIs) {
+    using T = TypeParam;
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(this->wave()).type(), MsgType::kAck);
+    const SignalScale pos = reference::setup().position;
+    const TrajectoryParams tp = this->wave();
+    TrajectoryGenerator<T> gen(pos);
+    ASSERT_TRUE(gen.configure(params::trajectory_config(tp, reference::setup().rate_Hz)).ok());
+    for (const bool restart : {false, true}) {
+        r_.pipeline->stop_wave();
+        r_.pipeline->disarm();
+        for (int k = 0; k < 3; ++k) r_.pipeline->tick(pos.to_sample<T>(3.0f));  // the stage reads 3 um
+        ASSERT_FALSE(r_.pipeline->wave_running());
+        const uint8_t flags = StartWave::kArmLoop | (restart ? StartWave::kRestartStage : 0);
+        ASSERT_EQ(r_.request(StartWave{flags}).type(), MsgType::kAck);
+        Approach<T> ref(pos, reference::setup().rate_Hz);
+        ASSERT_TRUE(ref.begin(restart ? sample_zero<T>() : pos.to_sample<T>(3.0f), gen.start_value()));
+        for (int k = 0; k < 50; ++k) {
+            r_.pipeline->tick(sample_zero<T>());
+            ASSERT_EQ(r_.pipeline->last().r, ref.step()) << (restart ? "restarted" : "not restarted") << ", tick " << k;
+        }
+    }
 }
 
 TYPED_TEST(LinkStartWaveFlags, UnknownBitsAreMalformed) {
