@@ -564,13 +564,21 @@ private:
             case StorageState::kEmpty: return {c.state, in_group("storage", c.why), ErrorCode::kNotConfigured};
             default: return {c.state, in_group("storage", c.why), ErrorCode::kStorage};
         }
-        if (!(stored_.loop_rate_Hz == pipeline_.setup().rate_Hz))
-            return {StorageState::kRejected,
-                    in_group("storage", error("loop_rate_Hz", "the set was saved at another loop rate than this board runs (hello)")),
-                    ErrorCode::kInvalidParam};
+        if (const Status s = check_set(stored_); !s.ok()) return {StorageState::kRejected, s, policy_.code()};
         if (const Status s = policy_.set_all(stored_); !s.ok()) return {StorageState::kRejected, s, policy_.code()};
         if (stored_.has_recorder) log_.drop_pending();
         return {StorageState::kApplied, ok_status(), ErrorCode::kNone};
+    }
+
+    // The one check of a whole set: Save refuses to store, and Load and the
+    // load at boot refuse to apply, a set that fails it. On error
+    // policy_.code() is the reply's code.
+    Status check_set(const storage::StoredParams& v) {
+        if (!(v.loop_rate_Hz == pipeline_.setup().rate_Hz)) {
+            policy_.note_code(ErrorCode::kInvalidParam);
+            return in_group("storage", error("loop_rate_Hz", "the set was saved at another loop rate than this board runs (hello)"));
+        }
+        return policy_.check_all(v);
     }
 
     // The texts are copied at once: a Status may point into a buffer that
@@ -606,6 +614,9 @@ private:
             case MsgType::kSave: {
                 policy_.all(stored_);
                 set_text(stored_.firmware_version, info_.firmware_version);
+                // A set the board would refuse at its next boot is not
+                // stored: the record stays as it was.
+                if (const Status s = check_set(stored_); !s.ok()) return fail(h, policy_.code(), s, send);
                 const std::size_t n = storage::encode_stored_params(stored_, hooks_.storage->scratch());
                 if (n == 0)
                     return fail(h, ErrorCode::kStorage, error("storage", "the record does not fit the storage"), send);
