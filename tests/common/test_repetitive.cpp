@@ -156,6 +156,7 @@ TEST(Repetitive, RejectsBadConfigAndKeepsOld) {
 // to a positive value and a negative delay would reach the delay line.
 TEST(Repetitive, LeadsNearTwoToThe31AreRefused) {
     constexpr int32_t kMax = INT32_MAX;
+    using Rc = RepetitiveController<float, 128>;
     for (const int32_t n : {2, 100, 128}) {
         for (const auto& [m1, m2] : {std::pair{kMax, kMax}, std::pair{kMax, 1}, std::pair{1, kMax},
                                      std::pair{kMax - n, kMax}, std::pair{kMax / 2 + 1, kMax / 2 + 1},
@@ -164,13 +165,13 @@ TEST(Repetitive, LeadsNearTwoToThe31AreRefused) {
             c.period_samples = n;
             c.m1 = m1;
             c.m2 = m2;
-            EXPECT_STREQ(RepetitiveController<float, 128>::validate(c).field, "m2") << n << " " << m1 << " " << m2;
+            EXPECT_STREQ(Rc::validate(c).field, "m2") << n << " " << m1 << " " << m2;
         }
         RepetitiveConfig edge;  // the longest leads that keep one sample of delay
         edge.period_samples = n;
         edge.m1 = n - 1;
         edge.m2 = 0;
-        EXPECT_TRUE(RepetitiveController<float, 128>::validate(edge).ok()) << n;
+        EXPECT_TRUE(Rc::validate(edge).ok()) << n;
     }
 }
 

@@ -92,6 +92,9 @@ public:
         const std::span<const uint8_t> body = payload.subspan(kHeaderSize);
         last_frame_tick_ = pipeline_.tick_count();  // the client is alive
         if (h.type == static_cast<uint8_t>(MsgType::kHello)) {
+            // A client opens its session with Hello: what the previous
+            // session's client started is lost with it (see client loss).
+            if (client_bound_ && policy_.client_timeout_ticks() != 0 && bound_run_active()) lose_client();
             // Any version: the reply tells the client which one we speak.
             reply(make_hello(), h.seq, send);
             return;
@@ -325,11 +328,14 @@ public:
 
 private:
     // ---- client loss --------------------------------------------------------
-    // A setpoint stream, or a wave started without the detached flag, is the
-    // client's. A stream that has been sent no setpoints for the link group's
-    // client_timeout_s (and is not draining) has lost its feeder, whatever
-    // else talks to the board meanwhile; a wave is lost when no intact frame
-    // arrives for that long.
+    // A setpoint stream, or a wave or an excitation started without the
+    // detached flag, is the client's. A stream that has been sent no
+    // setpoints for the link group's client_timeout_s (and is not draining)
+    // has lost its feeder, whatever else talks to the board meanwhile; a
+    // wave or an excitation is lost when no intact frame arrives for that
+    // long, or when a Hello opens another client's session (every host
+    // session starts with one), so a later client that keeps the link alive
+    // does not keep alive what a killed one started (timeout 0: neither).
     // Then it is stopped (the setpoint holds its last value), the loop is
     // disarmed if on_client_loss says so, and the status reports client_lost
     // until the next stream or wave starts. Checked in the main loop against
@@ -355,6 +361,16 @@ private:
         }
         const uint32_t timeout = policy_.client_timeout_ticks();
         if (timeout == 0 || now - since < timeout) return;
+        lose_client();
+    }
+
+    // A bound stream (not draining), wave or excitation still running.
+    bool bound_run_active() const {
+        if (stream_.open()) return !stream_.draining();
+        return pipeline_.wave_running() || pipeline_.excitation_running();
+    }
+
+    void lose_client() {
         stream_.stop(false);
         pipeline_.stop_wave();
         pipeline_.stop_excitation();

@@ -1007,6 +1007,46 @@ TYPED_TEST(LinkClientLoss, ADetachedWaveRunsOnAndZeroMeansNever) {
     EXPECT_TRUE(r_.pipeline->wave_running());
 }
 
+// A Hello opens another client's session: a bound excitation or wave is
+// lost at once (a later client that keeps the link alive must not keep
+// alive what a killed one started); a detached one, a draining stream, and
+// anything with the watchdog off (timeout 0) run on.
+TYPED_TEST(LinkClientLoss, AHelloEndsWhatThePreviousSessionStarted) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(LinkParams{5.0f, params::ClientLossAction::kDisarm}).type(), MsgType::kAck);
+    r_.tick();
+    const LimitsConfig lim = r_.pipeline->params().limits;
+    StartExcitation m;
+    m.flags = StartExcitation::kArmLoop;
+    m.config.signal = ExcitationSignal::kTriangle;
+    m.config.period_samples = 200;
+    m.config.offset = lim.u_min_V;
+    m.config.amplitude = 0.5f * (lim.u_max_V - lim.u_min_V);
+    ASSERT_EQ(r_.request(m).type(), MsgType::kAck);
+    this->silence(10);
+    EXPECT_EQ(r_.request(GetStatus{}).type(), MsgType::kStatusReply);  // its own client: runs on
+    this->silence(1);
+    EXPECT_TRUE(r_.pipeline->excitation_running());
+    EXPECT_EQ(r_.request(Hello{}).type(), MsgType::kHelloReply);
+    r_.tick();
+    EXPECT_FALSE(r_.pipeline->excitation_running());
+    EXPECT_FALSE(r_.pipeline->armed());
+    EXPECT_NE(r_.request(GetStatus{}).template as<StatusReply>().faults & fault::kClientLost, 0u);
+
+    this->start_triangle(StartWave::kDetached);
+    EXPECT_EQ(r_.request(Hello{}).type(), MsgType::kHelloReply);
+    this->silence(3);
+    EXPECT_TRUE(r_.pipeline->wave_running());
+    EXPECT_EQ(r_.request(StopWave{}).type(), MsgType::kAck);
+    r_.tick();
+    ASSERT_EQ(r_.set(LinkParams{0.0f, params::ClientLossAction::kHold}).type(), MsgType::kAck);
+    this->start_triangle(0);
+    EXPECT_EQ(r_.request(Hello{}).type(), MsgType::kHelloReply);
+    this->silence(3);
+    EXPECT_TRUE(r_.pipeline->wave_running());
+}
+
 // A timeout above 0 but below half a tick is at least one tick, never
 // "never": the smallest float, and 0.4 of a tick at the loop rate.
 TYPED_TEST(LinkClientLoss, ATimeoutBelowOneTickIsOneTick) {
