@@ -12,9 +12,10 @@
 // Clear-trip is refused while armed (as are limit-critical parameters).
 //
 // Storage (storage/param_storage.hpp, given in DeviceHooks): Save stores the
-// set GetParams reports, Load validates and applies the stored set as a
-// whole (ParamPolicy::set_all), Forget erases it; boot_from_storage() is
-// Load at boot, and its outcome is the status' storage block. All three
+// set GetParams reports once it passes the check Load makes (check_set),
+// Load validates and applies the stored set as a whole (check_set, then
+// ParamPolicy::set_all), Forget erases it; boot_from_storage() is Load at
+// boot, and its outcome is the status' storage block. All three
 // requests are refused while armed: Load replaces limit-critical groups,
 // and Save / Forget block the main loop (and with it the link and the
 // client watchdog) for as long as the medium takes -- a flash sector erase
