@@ -82,6 +82,8 @@ struct ExcitationConfig {
 namespace excitation_detail {
 
 inline constexpr float kMaxAbs = 1.0e6f;
+// The longest period of any shape, samples: counted in 32 bits.
+inline constexpr uint64_t kMaxPeriodSamples = 0xffffffffu;
 
 // Feedback taps (1-based bit positions) of maximum-length LFSRs, XAPP052
 // table 3; entry n is for order n, 0 marks an unused tap.
@@ -154,7 +156,8 @@ public:
             case ExcitationSignal::kMultisine:
                 if (c.period_samples < 4 || c.period_samples > TableCapacity)
                     return error("period_samples", "multisine: must be in [4, table capacity]");
-                if (c.first_bin < 1 || c.last_bin < c.first_bin || 2u * c.last_bin >= c.period_samples)
+                // 2 k2 < N in 64 bits: in 32, k2 = 2^31 would wrap to 0 and pass.
+                if (c.first_bin < 1 || c.last_bin < c.first_bin || 2u * uint64_t{c.last_bin} >= c.period_samples)
                     return error("last_bin", "multisine: bins must satisfy 1 <= first_bin <= last_bin < N / 2");
                 break;
             case ExcitationSignal::kSweep: {
@@ -172,6 +175,9 @@ public:
             case ExcitationSignal::kPrbs:
                 if (c.prbs_order < 2 || c.prbs_order > 24) return error("prbs_order", "must be in [2, 24]");
                 if (c.prbs_hold < 1 || c.prbs_hold > (1u << 16)) return error("prbs_hold", "must be in [1, 65536]");
+                // The period (2^n - 1) h is counted in 32 bits (period_length()).
+                if (((uint64_t{1} << c.prbs_order) - 1u) * c.prbs_hold > kMaxPeriodSamples)
+                    return error("prbs_hold", "prbs: the period (2^prbs_order - 1) * prbs_hold must be < 2^32 samples");
                 break;
             case ExcitationSignal::kStep:
             case ExcitationSignal::kTriangle:
@@ -228,7 +234,9 @@ public:
         done_ = false;
         sweep_phase_ = 0;
         sweep_inc_ = sweep_inc0_;
-        lfsr_ = (1u << cfg_.prbs_order) - 1u;  // any non-zero state; all ones as in XAPP052's XNOR reset
+        // Any non-zero state; all ones as in XAPP052's XNOR reset. (Another
+        // shape's prbs_order is unchecked, and unused.)
+        lfsr_ = cfg_.signal == ExcitationSignal::kPrbs ? (1u << cfg_.prbs_order) - 1u : 1u;
         hold_n_ = 0;
         bit_ = 1;
         ramp_phase_ = 0;
@@ -293,6 +301,7 @@ private:
     // p = floor(n 2^32 / N), then
     // p advances by 2^32 / N (quotient and Bresenham remainder, set at
     // configure): the same integers on every machine, no division per tick.
+    // rem + r stays below 2^32: both are < N, and for N > 2^31 r = 2^32 - N.
     constexpr int32_t ramp_shape() {
         const uint32_t p = ramp_phase_;
         ramp_phase_ += ramp_q_;

@@ -125,7 +125,9 @@ public:
             return error("period_samples", "must be in [2, delay-line capacity]");
         if (c.m1 < 0) return error("m1", "must be >= 0");
         if (c.m2 < 0) return error("m2", "must be >= 0");
-        if (c.period_samples - c.m1 - c.m2 < 1)
+        // In 64 bits: m1 and m2 near 2^31 would wrap the difference to a
+        // positive value in 32.
+        if (int64_t{c.period_samples} - int64_t{c.m1} - int64_t{c.m2} < 1)
             return error("m2", "N - m1 - m2 must be >= 1 so the lead stays causal");
         if (!(c.k_rc > 0.0f && c.k_rc < 2.0f)) return error("k_rc", "must be in (0, 2)");
         return ok_status();

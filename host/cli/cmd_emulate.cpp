@@ -55,19 +55,49 @@ struct EmulateArgs {
 // (bsp/mps2/semihosting_storage.cpp).
 constexpr std::size_t kMaxStoragePath = 200;
 
+// What a path names, for the refusal of anything but a regular file.
+const char* file_kind(fs::file_type t) {
+    switch (t) {
+        case fs::file_type::directory: return "a directory";
+        case fs::file_type::character: return "a character device";
+        case fs::file_type::block: return "a block device";
+        case fs::file_type::fifo: return "a FIFO";
+        case fs::file_type::socket: return "a socket";
+        default: return "not a regular file";
+    }
+}
+
 // The storage file as an absolute path (QEMU's working directory does not
 // matter then), created empty when missing: an empty file is an empty
-// storage, and a path that cannot be written is refused here, not by the
-// board's first Save.
+// storage. A save writes PATH.new beside it and renames that over PATH, so
+// PATH must be a regular file (a device node, a FIFO or a directory would
+// be replaced, or block the board's first read), writable, in a writable
+// folder; a link is followed to the file it names. Checked without opening
+// anything that is not a regular file (opening a FIFO blocks).
 fs::path storage_file(const std::string& arg) {
-    const fs::path p = fs::absolute(arg).lexically_normal();
-    if (fs::is_directory(p)) throw std::invalid_argument("--storage: " + p.string() + " is a directory, not a file");
-    if (!fs::exists(p)) {
-        std::ofstream create(p, std::ios::binary | std::ios::app);
-        if (!create) throw std::invalid_argument("--storage: cannot create " + p.string());
+    const auto refuse = [](const fs::path& p, const std::string& why) {
+        throw std::invalid_argument("--storage: " + p.string() + " " + why);
+    };
+    fs::path p = fs::absolute(arg).lexically_normal();
+    std::error_code ec;
+    if (fs::is_symlink(fs::symlink_status(p, ec))) {
+        p = fs::weakly_canonical(p, ec);
+        if (ec) refuse(p, "is a link that cannot be followed: " + ec.message());
     }
-    std::ofstream probe(p, std::ios::binary | std::ios::app);
-    if (!probe) throw std::invalid_argument("--storage: " + p.string() + " is not writable");
+    const fs::file_status st = fs::status(p, ec);
+    if (fs::exists(st)) {
+        if (!fs::is_regular_file(st))
+            refuse(p, std::string("is ") + file_kind(st.type()) + ": the storage must be a regular file (or a new one)");
+        // Root may write a read-only file; its mode still says not to.
+        if ((st.permissions() & fs::perms::owner_write) == fs::perms::none || ::access(p.c_str(), W_OK) != 0)
+            refuse(p, "is read-only: the storage must be writable");
+    } else {
+        if (!fs::is_directory(p.parent_path())) refuse(p, "is in a folder that does not exist");
+        std::ofstream create(p, std::ios::binary | std::ios::app);
+        if (!create) refuse(p, "cannot be created");
+    }
+    if (::access(p.parent_path().c_str(), W_OK) != 0)
+        refuse(p, "is in a folder that is not writable (a save writes " + p.filename().string() + ".new beside it)");
     if (p.string().size() > kMaxStoragePath)
         throw std::invalid_argument("--storage: the absolute path " + p.string() + " is longer than " +
                                     std::to_string(kMaxStoragePath) + " characters");
@@ -151,6 +181,9 @@ int free_port() {
 
 int run_emulate(const EmulateArgs& a) {
     const BoardSpec spec = board_spec(a.board);
+    // The storage before the image: a bad --storage is the user's to fix
+    // whatever the build tree holds.
+    const fs::path storage = a.storage.empty() ? fs::path() : storage_file(a.storage);
     const fs::path image = firmware_image(a);
     json info = {{"board", a.board}};
     fs::path tmpdir;
@@ -169,7 +202,7 @@ int run_emulate(const EmulateArgs& a) {
     } else {
         // The firmware finds its storage file as the last semihosting
         // argument, --storage=PATH (SYS_GET_CMDLINE).
-        const fs::path file = storage_file(a.storage);
+        const fs::path& file = storage;
         args.emplace_back("-semihosting-config");
         args.push_back("enable=on,arg=servo,arg=--storage=" + qemu_option_value(file.string()));
         info["storage"] = file.string();
@@ -304,8 +337,8 @@ void add_emulate(CLI::App& app) {
                                          "fw-<board>/firmware/servo.elf)");
     cmd->add_option("--storage", a->storage,
                     "host file the board keeps its parameter set in between runs (`save`, `load`, `forget`; "
-                    "applied at boot after validation); created empty if missing. Without it the board has no "
-                    "storage");
+                    "applied at boot after validation): a regular file, created empty if missing; a device, "
+                    "FIFO, directory or read-only file is refused. Without it the board has no storage");
     cmd->add_option("--boot-timeout-s", a->boot_timeout_s, "give up if the board does not answer")
         ->check(CLI::Range(0.5, 600.0));
     cmd->callback([a] {

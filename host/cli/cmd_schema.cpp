@@ -1,11 +1,12 @@
 // `piezoloop schema`: the parameter tree as JSON Schema (draft 2020-12), the
 // contract other clients use to name parameters; `--markdown`: the tables of
-// docs/protocol.md, section 3.
+// docs/protocol.md, section 3; `--messages`: its table of message types.
 #include <iostream>
 #include <memory>
 
 #include "commands.hpp"
 #include "link/params_schema.hpp"
+#include "link/protocol_tables.hpp"
 
 namespace piezoloop::cli {
 
@@ -16,9 +17,15 @@ void add_schema(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand(
         "schema", "Print the board's parameter groups as JSON Schema (draft 2020-12): every field's type, unit, "
                   "range, default and whether it is limit-critical.");
-    cmd->add_flag("--markdown", *markdown, "print the Markdown tables of docs/protocol.md instead");
-    cmd->callback([markdown] {
-        if (*markdown)
+    auto messages = std::make_shared<bool>(false);
+    CLI::Option* md = cmd->add_flag("--markdown", *markdown, "print the Markdown tables of docs/protocol.md instead");
+    cmd->add_flag("--messages", *messages,
+                  "print the Markdown table of message types of docs/protocol.md, section 2, instead")
+        ->excludes(md);
+    cmd->callback([markdown, messages] {
+        if (*messages)
+            std::cout << hostlink::message_types_markdown();
+        else if (*markdown)
             std::cout << hostlink::parameter_tables_markdown();
         else
             std::cout << hostlink::parameter_schema().dump(2) << "\n";

@@ -158,13 +158,13 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     json source;
     // The verification's triangles and recordings change the board's
     // trajectory and recorder groups; the user's are put back (before a
-    // save), as the measurement sessions do. An unconfigured recorder stays
-    // as the recordings left it (it cannot be set back to empty).
+    // save), as the measurement sessions do (an unconfigured recorder
+    // reports its defaults, which are put back).
     std::optional<link::TrajectoryParams> trajectory;
     std::optional<link::RecorderParams> recorder;
     auto put_back = [&] {
         if (trajectory) board->set(*trajectory);
-        if (recorder && recorder->channel_count != 0) board->set(*recorder);
+        if (recorder) board->set(*recorder);
     };
     if (board) {
         trajectory = board->get<link::TrajectoryParams>();

@@ -29,10 +29,9 @@ void write_controller(Client& c, const ControllerGroups& g) {
 }
 
 // The recorder group the measurement's recording replaces, put back after
-// it (unconfigured: left as the measurement set it, since an unconfigured
-// recorder cannot be sent).
+// it (an unconfigured recorder reports its defaults, which are put back).
 void restore_recorder(Client& c, const link::RecorderParams& before) {
-    if (before.channel_count != 0 && !(c.get<link::RecorderParams>() == before)) c.set(before);
+    if (!(c.get<link::RecorderParams>() == before)) c.set(before);
 }
 
 // The board must be free and able to move before anything is changed.

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "format/number.hpp"
+#include "measure/record_bound.hpp"
 
 namespace piezoloop::measure {
 
@@ -26,6 +27,21 @@ WelchEstimate estimate(const FrfRequest& r, const FrfPlan& plan, const std::vect
         return w;
     }
     return estimate_h1(in, out, plan.layout.rate_Hz, plan.segment_samples, r.from_Hz, r.to_Hz);
+}
+
+// Sweep, PRBS: the longest Welch segment, samples (2^20: a resolution of
+// rate / 2^20, 0.01 Hz at 10 kHz, and at most 2^19 lines).
+constexpr uint32_t kMaxSegmentSamples = 1u << 20;
+
+// The whole run (transient and measured periods) within the longest record.
+void check_record(double rate, const FrfPlan& p) {
+    if (p.ticks <= kMaxRecordTicks) return;
+    refuse("--periods", "(--transient-periods + --periods) x " + std::to_string(p.period_samples) +
+                            " ticks a period = " + std::to_string(p.ticks) + " ticks (" +
+                            num(static_cast<double>(p.ticks) / rate) + " s) exceeds the longest record, " +
+                            std::to_string(kMaxRecordTicks) + " ticks (" +
+                            num(static_cast<double>(kMaxRecordTicks) / rate) +
+                            " s at this rate): lower --periods or raise --from-hz");
 }
 
 }  // namespace
@@ -63,6 +79,11 @@ FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const 
     p.signal = r.signal;
     p.layout.rate_Hz = rate;
     if (r.signal == "sweep" || r.signal == "prbs") {
+        // The Welch segment, and with it the lines, is bounded before it is
+        // counted out.
+        if (!(rate / r.from_Hz <= kMaxSegmentSamples))
+            refuse("--from-hz", "must be >= rate / " + std::to_string(kMaxSegmentSamples) + " = " +
+                                    num(rate / kMaxSegmentSamples) + " Hz for a sweep or a PRBS (its Welch segment)");
         uint32_t seg = 8;
         while (seg < rate / r.from_Hz - 1e-9) seg *= 2;
         if (r.to_Hz < rate / seg)
@@ -80,6 +101,7 @@ FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const 
         }
         p.measured_start = uint64_t{p.period_samples} * static_cast<uint64_t>(r.transient_periods);
         p.ticks = uint64_t{p.period_samples} * static_cast<uint64_t>(r.transient_periods + r.periods);
+        check_record(rate, p);
         return p;
     }
     if (r.signal != "multisine") refuse("--signal", "must be multisine, sweep or prbs");
@@ -93,6 +115,7 @@ FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const 
         refuse("--to-hz", "no DFT line between --from-hz and --to-hz at a spacing of " + num(rate / N) + " Hz");
     p.measured_start = uint64_t{N} * static_cast<uint64_t>(r.transient_periods);
     p.ticks = uint64_t{N} * static_cast<uint64_t>(r.transient_periods + r.periods);
+    check_record(rate, p);
     return p;
 }
 

@@ -34,7 +34,9 @@ struct FrfRequest {
 //     sweep: from_Hz -> to_Hz over 4 S samples per period; prbs: each bit
 //     held h = max(1, floor(0.4 rate / to_Hz)) samples (its spectrum is
 //     within 1.5 dB of flat up to to_Hz), order n the smallest with
-//     (2^n - 1) h >= S.
+//     (2^n - 1) h >= S, and S at most 2^20 samples.
+// The whole run, (transient + P) periods, is at most kMaxRecordTicks
+// (record_bound.hpp).
 struct FrfPlan {
     std::string signal = "multisine";
     MultisineLayout layout;       // multisine

@@ -117,11 +117,17 @@ LoopsPlan plan_loops(const MeasureBounds& b, const LoopsRequest& r) {
     const double f_max = b.rate_Hz / 20.0;
     if (!std::isfinite(r.frequency_Hz) || !(r.frequency_Hz > 0.0) || r.frequency_Hz > f_max)
         refuse("--frequency-hz", "must be in (0, rate / 20 = " + num(f_max) + "] Hz");
+    // The duration first, in double: a frequency near 0 would overflow the
+    // tick counts below.
+    const double max_s = static_cast<double>(kMaxRecordTicks) / b.rate_Hz;
+    const double total_s = static_cast<double>(r.amplitudes_V.size()) * r.cycles / r.frequency_Hz;
+    if (!(total_s <= max_s))
+        refuse("--frequency-hz", "amplitudes x cycles / frequency must be at most " + num(max_s) + " s (got " +
+                                     num(total_s) + " s)");
     LoopsPlan p;
     p.cycle_ticks = static_cast<uint64_t>(std::llround(b.rate_Hz / r.frequency_Hz));
     p.amplitude_ticks = p.cycle_ticks * static_cast<uint64_t>(r.cycles);
     p.ticks = p.amplitude_ticks * r.amplitudes_V.size();
-    const double max_s = static_cast<double>(kMaxRecordTicks) / b.rate_Hz;
     if (p.ticks > kMaxRecordTicks)
         refuse("--frequency-hz", "amplitudes x cycles / frequency must be at most " + num(max_s) + " s (got " +
                                      num(static_cast<double>(p.ticks) / b.rate_Hz) + " s)");

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "measure/record_bound.hpp"
 #include "measure/step_response.hpp"
 #include "piezoloop/excitation.hpp"
 #include "piezoloop/limits.hpp"
@@ -40,10 +41,6 @@ struct MeasureBounds {
     std::string whose;
 };
 
-// Longest record either command keeps: bounds memory (a few doubles per tick,
-// ~100 MB at this count) and wall time; in ticks, since a 100 kHz loop fills
-// it ten times faster than a 10 kHz one.
-inline constexpr uint64_t kMaxRecordTicks = 2'000'000;
 
 // ---------------------------------------------------------------- step
 

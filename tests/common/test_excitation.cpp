@@ -283,6 +283,50 @@ TEST(Excitation, RefusesWhatItCannotGenerate) {
     EXPECT_FALSE(g.configured());
 }
 
+// Every size and count the excitation takes, at the boundaries near 2^31
+// and 2^32 where 32-bit arithmetic wraps: a multisine's last bin must stay
+// below N / 2 (2 k2 = 2^32 + 2 j would wrap to 2 j < N, admitting 2^31
+// lines above Nyquist for the main loop to tabulate), and a PRBS period
+// (2^n - 1) h must fit the 32-bit sample counter. Refused at once, naming
+// the field; the largest accepted values still work.
+TEST(Excitation, SizesNearTwoToThe31And32AreCheckedWithoutWrapping) {
+    ExcitationGenerator<float, 1024> g;
+    for (const uint32_t n : {4u, 5u, 1000u, 1001u, 1023u, 1024u}) {
+        const uint32_t top = (n - 1u) / 2u;  // the last bin below N / 2
+        for (const uint32_t k2 : {top + 1u, n / 2u + 1u, 0x7fffffffu, 0x80000000u, 0x80000001u,
+                                  0x80000000u + top, 0x80000000u + n / 2u - 1u, 0xfffffffeu, 0xffffffffu}) {
+            if (2ull * k2 < n) continue;
+            const Status s = g.configure(multisine(n, 1, k2, 1.0f));
+            ASSERT_FALSE(s.ok()) << n << " " << k2;
+            EXPECT_STREQ(s.field, "last_bin") << n << " " << k2;
+        }
+        EXPECT_STREQ(g.configure(multisine(n, 0x80000000u, 0x80000000u, 1.0f)).field, "last_bin");
+        ASSERT_TRUE(g.configure(multisine(n, 1, top, 1.0f)).ok()) << n;
+        EXPECT_EQ(g.period_length(), n);
+    }
+    EXPECT_STREQ(g.configure(multisine(1025, 1, 2, 1.0f)).field, "period_samples");
+    EXPECT_STREQ(g.configure(multisine(0x80000000u, 1, 2, 1.0f)).field, "period_samples");
+    EXPECT_STREQ(g.configure(multisine(0xffffffffu, 1, 2, 1.0f)).field, "period_samples");
+
+    // PRBS: for every order the longest hold whose period fits, and one more.
+    for (uint32_t order = 2; order <= 24; ++order) {
+        const uint64_t bits = (uint64_t{1} << order) - 1u;
+        const uint64_t fits = std::min<uint64_t>(0xffffffffull / bits, 65536u);
+        ExcitationConfig p;
+        p.signal = ExcitationSignal::kPrbs;
+        p.sample_rate_Hz = 10000.0f;
+        p.amplitude = 1.0f;
+        p.prbs_order = order;
+        p.prbs_hold = static_cast<uint32_t>(fits);
+        ASSERT_TRUE(g.configure(p).ok()) << order;
+        EXPECT_EQ(uint64_t{g.period_length()}, bits * fits) << order;
+        if (fits < 65536u) {
+            p.prbs_hold = static_cast<uint32_t>(fits + 1u);
+            EXPECT_STREQ(g.configure(p).field, "prbs_hold") << order;
+        }
+    }
+}
+
 namespace {
 
 PipelineSetup open_loop_setup() {

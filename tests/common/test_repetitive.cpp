@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "piezoloop/pid.hpp"
@@ -149,6 +150,29 @@ TEST(Repetitive, RejectsBadConfigAndKeepsOld) {
     EXPECT_FALSE(rc.configure(bad).ok());
     EXPECT_EQ(rc.config().period_samples, 100);
     EXPECT_FLOAT_EQ(rc.config().k_rc, 0.8f);
+}
+
+// N - m1 - m2 >= 1 with m1, m2 near 2^31: in 32 bits the difference wraps
+// to a positive value and a negative delay would reach the delay line.
+TEST(Repetitive, LeadsNearTwoToThe31AreRefused) {
+    constexpr int32_t kMax = INT32_MAX;
+    using Rc = RepetitiveController<float, 128>;
+    for (const int32_t n : {2, 100, 128}) {
+        for (const auto& [m1, m2] : {std::pair{kMax, kMax}, std::pair{kMax, 1}, std::pair{1, kMax},
+                                     std::pair{kMax - n, kMax}, std::pair{kMax / 2 + 1, kMax / 2 + 1},
+                                     std::pair{n, 0}, std::pair{0, n}}) {
+            RepetitiveConfig c;
+            c.period_samples = n;
+            c.m1 = m1;
+            c.m2 = m2;
+            EXPECT_STREQ(Rc::validate(c).field, "m2") << n << " " << m1 << " " << m2;
+        }
+        RepetitiveConfig edge;  // the longest leads that keep one sample of delay
+        edge.period_samples = n;
+        edge.m1 = n - 1;
+        edge.m2 = 0;
+        EXPECT_TRUE(Rc::validate(edge).ok()) << n;
+    }
 }
 
 // A Q that is not first order runs through the biquad realisation: the

@@ -9,7 +9,9 @@ its own COBS and CRC-32 (zlib's, IEEE 802.3) -- independent of the C++ codec:
   2. hello (board, protocol version, 100 kHz, 4 recorder channels), status
      (running: tick count grows, disarmed, reference controller swapped in)
   3. hostile input: random bytes, bad CRC, truncated, oversize, unknown
-     type, NaN parameter, limits change while armed -- each counted or
+     type, NaN parameter, limits change while armed, StartExcitation sizes
+     that wrap 32 bits (multisine lines to 2^31, a PRBS period beyond
+     2^32 - 1) -- each counted or
      answered with an error naming the field; the device keeps running and
      the limits read back unchanged
   4. a run: trajectory + recorder (r, y, e, u), StartWave with flags arm
@@ -46,6 +48,7 @@ VERSION = 4
 
 T_HELLO, T_STATUS, T_GET, T_SET, T_ARM, T_DISARM = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 T_START_WAVE, T_STOP_WAVE, T_REC_ARM, T_REC_STOP = 0x08, 0x09, 0x0D, 0x0E
+T_START_EXCITATION = 0x0F
 R_ACK, R_HELLO, R_STATUS, R_PARAMS, R_ERROR, R_LOG = 0x80, 0x81, 0x82, 0x83, 0xFF, 0xC0
 G_LIMITS, G_TRAJECTORY, G_RECORDER = 4, 5, 6
 ERR_MALFORMED, ERR_INVALID, ERR_ARMED = 3, 4, 5
@@ -483,6 +486,22 @@ def run_checks(link, check, machine, seconds, replay=None):
     e = parse_error(b) if t == R_ERROR else {}
     check(t == R_ERROR and e.get("code") == ERR_ARMED, f"limits change while armed -> error armed: {e}")
     check(link.request(T_DISARM)[0] == R_ACK, "disarm")
+    # StartExcitation sizes that wrap 32 bits are refused at once, and the
+    # board stays on the link: a multisine of N = 1000 with lines up to
+    # 2^31 (+ 300: above Nyquist) -- 2 k2 wraps below N -- and a PRBS whose
+    # period (2^24 - 1) x 257 exceeds 2^32 - 1. Flags: arm loop; point:
+    # the reference (0.1 um).
+    def excitation(signal, n, k2, order, hold):
+        return struct.pack("<BBBffIIIffBII", 1, signal, 1, 0.1, 0.0, n, 1, k2, 0.0, 0.0, order, hold, 1)
+    for body, field in ((excitation(0, 1000, 0x80000000, 10, 1), "last_bin"),
+                        (excitation(0, 1000, 0x80000000 + 300, 10, 1), "last_bin"),
+                        (excitation(2, 0, 1, 24, 257), "prbs_hold")):
+        t, b = link.request(T_START_EXCITATION, body)
+        e = parse_error(b) if t == R_ERROR else {}
+        check(t == R_ERROR and e.get("code") == ERR_INVALID and e.get("field") == field,
+              f"StartExcitation with sizes that wrap -> invalid_param naming {field}: {t} {e}")
+    s_exc = parse_status(link.request(T_STATUS, timeout=2.0)[1])
+    check(not s_exc["armed"] and not s_exc["excitation_running"], "the refused excitations started nothing")
     t, b = link.request(T_GET, bytes([G_LIMITS]))
     check(b == limits_before, "limits read back unchanged")
     s2 = parse_status(link.request(T_STATUS)[1])

@@ -12,9 +12,10 @@
 // Clear-trip is refused while armed (as are limit-critical parameters).
 //
 // Storage (storage/param_storage.hpp, given in DeviceHooks): Save stores the
-// set GetParams reports, Load validates and applies the stored set as a
-// whole (ParamPolicy::set_all), Forget erases it; boot_from_storage() is
-// Load at boot, and its outcome is the status' storage block. All three
+// set GetParams reports once it passes the check Load makes (check_set),
+// Load validates and applies the stored set as a whole (check_set, then
+// ParamPolicy::set_all), Forget erases it; boot_from_storage() is Load at
+// boot, and its outcome is the status' storage block. All three
 // requests are refused while armed: Load replaces limit-critical groups,
 // and Save / Forget block the main loop (and with it the link and the
 // client watchdog) for as long as the medium takes -- a flash sector erase
@@ -92,6 +93,9 @@ public:
         const std::span<const uint8_t> body = payload.subspan(kHeaderSize);
         last_frame_tick_ = pipeline_.tick_count();  // the client is alive
         if (h.type == static_cast<uint8_t>(MsgType::kHello)) {
+            // A client opens its session with Hello: what the previous
+            // session's client started is lost with it (see client loss).
+            if (client_bound_ && policy_.client_timeout_ticks() != 0 && bound_run_active()) lose_client();
             // Any version: the reply tells the client which one we speak.
             reply(make_hello(), h.seq, send);
             return;
@@ -325,11 +329,14 @@ public:
 
 private:
     // ---- client loss --------------------------------------------------------
-    // A setpoint stream, or a wave started without the detached flag, is the
-    // client's. A stream that has been sent no setpoints for the link group's
-    // client_timeout_s (and is not draining) has lost its feeder, whatever
-    // else talks to the board meanwhile; a wave is lost when no intact frame
-    // arrives for that long.
+    // A setpoint stream, or a wave or an excitation started without the
+    // detached flag, is the client's. A stream that has been sent no
+    // setpoints for the link group's client_timeout_s (and is not draining)
+    // has lost its feeder, whatever else talks to the board meanwhile; a
+    // wave or an excitation is lost when no intact frame arrives for that
+    // long, or when a Hello opens another client's session (every host
+    // session starts with one), so a later client that keeps the link alive
+    // does not keep alive what a killed one started (timeout 0: neither).
     // Then it is stopped (the setpoint holds its last value), the loop is
     // disarmed if on_client_loss says so, and the status reports client_lost
     // until the next stream or wave starts. Checked in the main loop against
@@ -355,6 +362,16 @@ private:
         }
         const uint32_t timeout = policy_.client_timeout_ticks();
         if (timeout == 0 || now - since < timeout) return;
+        lose_client();
+    }
+
+    // A bound stream (not draining), wave or excitation still running.
+    bool bound_run_active() const {
+        if (stream_.open()) return !stream_.draining();
+        return pipeline_.wave_running() || pipeline_.excitation_running();
+    }
+
+    void lose_client() {
         stream_.stop(false);
         pipeline_.stop_wave();
         pipeline_.stop_excitation();
@@ -568,13 +585,21 @@ private:
             case StorageState::kEmpty: return {c.state, in_group("storage", c.why), ErrorCode::kNotConfigured};
             default: return {c.state, in_group("storage", c.why), ErrorCode::kStorage};
         }
-        if (!(stored_.loop_rate_Hz == pipeline_.setup().rate_Hz))
-            return {StorageState::kRejected,
-                    in_group("storage", error("loop_rate_Hz", "the set was saved at another loop rate than this board runs (hello)")),
-                    ErrorCode::kInvalidParam};
+        if (const Status s = check_set(stored_); !s.ok()) return {StorageState::kRejected, s, policy_.code()};
         if (const Status s = policy_.set_all(stored_); !s.ok()) return {StorageState::kRejected, s, policy_.code()};
         if (stored_.has_recorder) log_.drop_pending();
         return {StorageState::kApplied, ok_status(), ErrorCode::kNone};
+    }
+
+    // The one check of a whole set: Save refuses to store, and Load and the
+    // load at boot refuse to apply, a set that fails it. On error
+    // policy_.code() is the reply's code.
+    Status check_set(const storage::StoredParams& v) {
+        if (!(v.loop_rate_Hz == pipeline_.setup().rate_Hz)) {
+            policy_.note_code(ErrorCode::kInvalidParam);
+            return in_group("storage", error("loop_rate_Hz", "the set was saved at another loop rate than this board runs (hello)"));
+        }
+        return policy_.check_all(v);
     }
 
     // The texts are copied at once: a Status may point into a buffer that
@@ -610,6 +635,9 @@ private:
             case MsgType::kSave: {
                 policy_.all(stored_);
                 set_text(stored_.firmware_version, info_.firmware_version);
+                // A set the board would refuse at its next boot is not
+                // stored: the record stays as it was.
+                if (const Status s = check_set(stored_); !s.ok()) return fail(h, policy_.code(), s, send);
                 const std::size_t n = storage::encode_stored_params(stored_, hooks_.storage->scratch());
                 if (n == 0)
                     return fail(h, ErrorCode::kStorage, error("storage", "the record does not fit the storage"), send);

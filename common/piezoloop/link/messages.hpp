@@ -76,7 +76,47 @@ enum class MsgType : uint8_t {
     kLogBlock = 0xC0,
 };
 
-constexpr bool is_request(uint8_t t) { return (t >= 0x01 && t <= 0x0E) || (t >= 0x11 && t <= 0x13); }
+constexpr bool is_request(uint8_t t) { return (t >= 0x01 && t <= 0x13); }
+
+// Every message type with its body and replies, as docs/protocol.md's
+// table of message types states them (generated from this list by
+// `piezoloop schema --messages`; a host test checks the committed table and
+// that every request type is listed).
+struct MessageTypeDoc {
+    MsgType type;
+    const char* name;
+    const char* body;
+    const char* reply;  // "" for replies and unasked messages
+};
+inline constexpr std::array<MessageTypeDoc, 26> kMessageTypes = {{
+    {MsgType::kHello, "Hello", "empty", "HelloReply"},
+    {MsgType::kGetStatus, "GetStatus", "empty", "StatusReply"},
+    {MsgType::kGetParams, "GetParams", "group:u8", "ParamsReply"},
+    {MsgType::kSetParams, "SetParams", "group:u8 + group layout", "Ack / Error"},
+    {MsgType::kArm, "Arm", "empty", "Ack / Error(tripped)"},
+    {MsgType::kDisarm, "Disarm", "empty", "Ack"},
+    {MsgType::kClearTrip, "ClearTrip", "empty", "Ack / Error(armed, tripped)"},
+    {MsgType::kStartWave, "StartWave", "empty, or u8 flags (runs the trajectory group; see below)", "Ack / Error"},
+    {MsgType::kStopWave, "StopWave", "empty", "Ack"},
+    {MsgType::kStreamStart, "StreamStart", "prefill:u16", "SetpointAck"},
+    {MsgType::kSetpoints, "Setpoints", "SetpointBlock", "SetpointAck / Error"},
+    {MsgType::kStreamStop, "StreamStop", "drain:bool", "Ack"},
+    {MsgType::kRecorderArm, "RecorderArm", "empty", "Ack / Error(not_configured)"},
+    {MsgType::kRecorderStop, "RecorderStop", "empty", "Ack"},
+    {MsgType::kStartExcitation, "StartExcitation", "see below", "Ack / Error"},
+    {MsgType::kStopExcitation, "StopExcitation", "empty", "Ack"},
+    {MsgType::kSave, "Save", "empty", "Ack / Error(unsupported, armed, invalid_param, storage)"},
+    {MsgType::kLoad, "Load", "empty",
+     "Ack / Error(unsupported, armed, not_configured, storage, invalid_param, busy)"},
+    {MsgType::kForget, "Forget", "empty", "Ack / Error(unsupported, armed, storage)"},
+    {MsgType::kAck, "Ack", "request_type:u8", ""},
+    {MsgType::kHelloReply, "HelloReply", "see below", ""},
+    {MsgType::kStatusReply, "StatusReply", "see below", ""},
+    {MsgType::kParamsReply, "ParamsReply", "group:u8 + group layout", ""},
+    {MsgType::kSetpointAck, "SetpointAck", "see below", ""},
+    {MsgType::kLogBlock, "LogBlock", "see below", ""},
+    {MsgType::kError, "Error", "see below", ""},
+}};
 
 enum class ErrorCode : uint8_t {
     kNone = 0,

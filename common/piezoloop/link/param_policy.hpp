@@ -55,22 +55,14 @@ public:
         return s;
     }
     ErrorCode code() const { return code_; }
+    // For a check of the caller's own that code() reports.
+    void note_code(ErrorCode c) { code_ = c; }
 
     // Applies a whole stored set, or nothing; on error code() as for set().
     Status set_all(const storage::StoredParams& v) {
         if (pipeline_.swap_pending())
             return fail(ErrorCode::kBusy, error("params", "previous parameter set not yet swapped in; retry after one tick"));
-        if (const Status s = check_group(v.limits); !s.ok()) return s;
-        if (const Status s = check_group(v.feedforward); !s.ok()) return s;
-        if (const Status s = check_group(v.feedback); !s.ok()) return s;
-        if (const Status s = check_group(v.rc); !s.ok()) return s;
-        if (v.has_trajectory) {
-            if (const Status s = check_group(v.trajectory); !s.ok()) return s;
-        }
-        if (v.has_recorder) {
-            if (const Status s = check_group(v.recorder); !s.ok()) return s;
-        }
-        if (const Status s = check_group(v.link); !s.ok()) return s;
+        if (const Status s = check_all(v); !s.ok()) return s;
         PipelineParams p = pipeline_.params();
         params::set_group(p, v.limits);
         params::set_group(p, v.feedforward);
@@ -83,6 +75,27 @@ public:
         if (v.has_trajectory) (void)apply(v.trajectory);
         if (v.has_recorder) (void)apply(v.recorder);
         (void)apply(v.link);
+        return ok_status();
+    }
+
+    // Steps 4 and 5 for every group of a whole set, nothing applied: what
+    // set_all() checks before it applies (Load, the load at boot) and what
+    // Save checks before it stores, so a saved set is one the board loads.
+    // (The pipeline's check of the groups together, in stage(), passed
+    // when the running set was staged; a set never staged holds the default
+    // limits, which fail here.) On error code() as for set().
+    Status check_all(const storage::StoredParams& v) {
+        if (const Status s = check_group(v.limits); !s.ok()) return s;
+        if (const Status s = check_group(v.feedforward); !s.ok()) return s;
+        if (const Status s = check_group(v.feedback); !s.ok()) return s;
+        if (const Status s = check_group(v.rc); !s.ok()) return s;
+        if (v.has_trajectory) {
+            if (const Status s = check_group(v.trajectory); !s.ok()) return s;
+        }
+        if (v.has_recorder) {
+            if (const Status s = check_group(v.recorder); !s.ok()) return s;
+        }
+        if (const Status s = check_group(v.link); !s.ok()) return s;
         return ok_status();
     }
 
@@ -127,7 +140,11 @@ public:
     RecorderParams recorder() const {
         const auto& c = pipeline_.recorder().config();
         RecorderParams r;
-        r.channel_count = pipeline_.recorder().configured() ? static_cast<uint8_t>(kRecChannels) : 0;
+        // Configured or not, the group is a valid set (an unconfigured
+        // recorder holds the defaults: every channel r, every tick, single
+        // shot of the whole capacity), so a client that changes one field of
+        // it sends a set that is checked on what it changed.
+        r.channel_count = static_cast<uint8_t>(kRecChannels);
         for (std::size_t i = 0; i < kRecChannels; ++i) r.channels[i] = c.channels[i];
         r.decimation = c.decimation;
         r.mode = c.mode;
@@ -301,10 +318,14 @@ private:
         return ok_status();
     }
 
-    // Seconds to ticks, to the nearest tick; at most 3600 s x the loop rate
-    // (< 2^32 ticks up to 1 MHz).
+    // Seconds to ticks, to the nearest tick, and at least one tick for any
+    // timeout above 0 (only 0 means never: a timeout shorter than half a
+    // tick would otherwise round to 0); at most 2^32 - 1 ticks.
     uint32_t timeout_ticks(float s) const {
-        return static_cast<uint32_t>(static_cast<double>(s) * static_cast<double>(pipeline_.setup().rate_Hz) + 0.5);
+        if (!(s > 0.0f)) return 0;
+        const double t = static_cast<double>(s) * static_cast<double>(pipeline_.setup().rate_Hz) + 0.5;
+        if (!(t >= 1.0)) return 1;
+        return t >= 4294967295.0 ? 0xffffffffu : static_cast<uint32_t>(t);
     }
 
     TrajectoryConfig trajectory_config(const TrajectoryParams& v) const {

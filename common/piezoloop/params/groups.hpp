@@ -275,8 +275,8 @@ constexpr void describe(V& v, G& g) {
 template <class V, GroupRef<LinkParams> G>
 constexpr void describe(V& v, G& g) {
     v.value(f32("client_timeout_s", "s",
-                "silence (no valid frame) after which a setpoint stream or a wave the client started is stopped; "
-                "0: never")
+                "silence (no valid frame) after which a setpoint stream, a wave or an excitation the client started "
+                "is stopped; 0: never; above 0 at least one tick")
                 .range(0, 3600),
             g.client_timeout_s);
     v.value(enumeration("on_client_loss", kClientLossNames,

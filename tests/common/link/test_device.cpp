@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <limits>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "test_link_client.hpp"
@@ -194,6 +196,22 @@ TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
     r_.tick(3);
     EXPECT_EQ(this->snapshot(), before);
     EXPECT_EQ(r_.pipeline->swaps(), 3u);  // the three accepted sets of configure_reference()
+}
+
+// A fresh board's recorder group is a valid set: a client that changes one
+// field of it (as `set recorder --json '{"decimation": 2}'` does) is checked
+// on that field only; the recorder is configured only once it is set.
+TYPED_TEST(LinkDevice, AFreshRecorderGroupIsAValidSetToChange) {
+    auto& r_ = this->rig;
+    RecorderParams rp = r_.template get<RecorderParams>(ParamGroup::kRecorder);
+    EXPECT_EQ(rp.channel_count, r_.device->make_hello().recorder_channels);
+    this->expect_error(r_.request(RecorderArm{}), ErrorCode::kNotConfigured, "recorder", "channels");
+    for (const uint32_t decimation : {2u, 7u, 0xffffffffu}) {
+        rp.decimation = decimation;
+        ASSERT_EQ(r_.set(rp).type(), MsgType::kAck) << decimation;
+        EXPECT_EQ(r_.template get<RecorderParams>(ParamGroup::kRecorder), rp);
+    }
+    EXPECT_EQ(r_.request(RecorderArm{}).type(), MsgType::kAck);
 }
 
 TYPED_TEST(LinkDevice, SeriesPlacementTravelsAndNeedsAFeedback) {
@@ -869,6 +887,34 @@ TYPED_TEST(LinkStartWaveFlags, StartExcitationChecksThenRunsAndStops) {
     EXPECT_EQ(st.excitation_ticks, 51u);
 }
 
+// A StartExcitation whose sizes wrap 32-bit arithmetic is refused at once
+// and the device stays responsive: a multisine's 2 k2 < N check at k2 near
+// 2^31 (2 k2 wraps below N), and a PRBS period (2^n - 1) h beyond 2^32 - 1.
+TYPED_TEST(LinkStartWaveFlags, StartExcitationSizesThatWrapAreRefused) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const LimitsConfig lim = r_.pipeline->params().limits;
+    StartExcitation m;
+    m.flags = StartExcitation::kArmLoop;
+    m.config.signal = ExcitationSignal::kMultisine;
+    m.config.offset = 0.5f * (lim.u_min_V + lim.u_max_V);
+    m.config.amplitude = 0.1f * (lim.u_max_V - lim.u_min_V);
+    m.config.first_bin = 1;
+    for (const auto& [n, k2] : {std::pair{1000u, 0x80000000u}, std::pair{1000u, 0x80000000u + 300u},
+                                std::pair{999u, 0x80000000u + 499u}, std::pair{1024u, 0xffffffffu},
+                                std::pair{4u, 0x80000001u}}) {
+        m.config.period_samples = n;
+        m.config.last_bin = k2;
+        this->expect_error(r_.request(m), ErrorCode::kInvalidParam, "excitation", "last_bin");
+    }
+    m.config.signal = ExcitationSignal::kPrbs;
+    m.config.prbs_order = 24;
+    m.config.prbs_hold = 257;  // (2^24 - 1) 257 > 2^32 - 1
+    this->expect_error(r_.request(m), ErrorCode::kInvalidParam, "excitation", "prbs_hold");
+    this->expect_nothing_started();
+    EXPECT_EQ(r_.request(GetStatus{}).type(), MsgType::kStatusReply);
+}
+
 TYPED_TEST(LinkDevice, RestartFlagWithoutAStageIsUnsupported) {
     auto& r_ = this->rig;  // default hooks: no restart_stage
     this->configure_reference();
@@ -991,6 +1037,61 @@ TYPED_TEST(LinkClientLoss, ADetachedWaveRunsOnAndZeroMeansNever) {
     this->start_triangle(0);
     this->silence(this->timeout_ticks(0.05f));
     EXPECT_TRUE(r_.pipeline->wave_running());
+}
+
+// A Hello opens another client's session: a bound excitation or wave is
+// lost at once (a later client that keeps the link alive must not keep
+// alive what a killed one started); a detached one, a draining stream, and
+// anything with the watchdog off (timeout 0) run on.
+TYPED_TEST(LinkClientLoss, AHelloEndsWhatThePreviousSessionStarted) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    ASSERT_EQ(r_.set(LinkParams{5.0f, params::ClientLossAction::kDisarm}).type(), MsgType::kAck);
+    r_.tick();
+    const LimitsConfig lim = r_.pipeline->params().limits;
+    StartExcitation m;
+    m.flags = StartExcitation::kArmLoop;
+    m.config.signal = ExcitationSignal::kTriangle;
+    m.config.period_samples = 200;
+    m.config.offset = lim.u_min_V;
+    m.config.amplitude = 0.5f * (lim.u_max_V - lim.u_min_V);
+    ASSERT_EQ(r_.request(m).type(), MsgType::kAck);
+    this->silence(10);
+    EXPECT_EQ(r_.request(GetStatus{}).type(), MsgType::kStatusReply);  // its own client: runs on
+    this->silence(1);
+    EXPECT_TRUE(r_.pipeline->excitation_running());
+    EXPECT_EQ(r_.request(Hello{}).type(), MsgType::kHelloReply);
+    r_.tick();
+    EXPECT_FALSE(r_.pipeline->excitation_running());
+    EXPECT_FALSE(r_.pipeline->armed());
+    EXPECT_NE(r_.request(GetStatus{}).template as<StatusReply>().faults & fault::kClientLost, 0u);
+
+    this->start_triangle(StartWave::kDetached);
+    EXPECT_EQ(r_.request(Hello{}).type(), MsgType::kHelloReply);
+    this->silence(3);
+    EXPECT_TRUE(r_.pipeline->wave_running());
+    EXPECT_EQ(r_.request(StopWave{}).type(), MsgType::kAck);
+    r_.tick();
+    ASSERT_EQ(r_.set(LinkParams{0.0f, params::ClientLossAction::kHold}).type(), MsgType::kAck);
+    this->start_triangle(0);
+    EXPECT_EQ(r_.request(Hello{}).type(), MsgType::kHelloReply);
+    this->silence(3);
+    EXPECT_TRUE(r_.pipeline->wave_running());
+}
+
+// A timeout above 0 but below half a tick is at least one tick, never
+// "never": the smallest float, and 0.4 of a tick at the loop rate.
+TYPED_TEST(LinkClientLoss, ATimeoutBelowOneTickIsOneTick) {
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const float rate = reference::setup().rate_Hz;
+    for (const float s : {std::numeric_limits<float>::denorm_min(), 0.4f / rate, 0.49f / rate, 1.0e-30f}) {
+        ASSERT_EQ(r_.set(LinkParams{s, params::ClientLossAction::kHold}).type(), MsgType::kAck) << s;
+        this->start_triangle(0);
+        this->silence(2);
+        EXPECT_FALSE(r_.pipeline->wave_running()) << s;
+        EXPECT_NE(r_.request(GetStatus{}).template as<StatusReply>().faults & fault::kClientLost, 0u) << s;
+    }
 }
 
 TYPED_TEST(LinkClientLoss, TheLinkGroupIsCheckedAndReadBack) {

@@ -249,6 +249,26 @@ TYPED_TEST(DeviceStorage, SetRejectedByValidationChangesNothing) {
     EXPECT_EQ(this->groups(rig), defaults);
 }
 
+// Save checks the set as its load at boot will: a fresh board (limits
+// never set) is refused, naming the limits field, and the previous good
+// record stays (the next boot applies it).
+TYPED_TEST(DeviceStorage, SaveRefusesASetItsBootWouldReject) {
+    Rig<TypeParam> good(this->hooks());
+    this->commission(good);
+    const auto saved = this->groups(good);
+    ASSERT_EQ(good.request(Save{}).type(), MsgType::kAck);
+    ASSERT_EQ(this->mem.writes(), 1);
+
+    Rig<TypeParam> fresh(this->hooks());
+    this->expect_error(fresh.request(Save{}), ErrorCode::kInvalidParam, "limits", "slew_V_per_s");
+    EXPECT_EQ(this->mem.writes(), 1);
+
+    Rig<TypeParam> reboot(this->hooks());
+    EXPECT_EQ(reboot.device->boot_from_storage(), StorageState::kApplied);
+    reboot.tick();
+    EXPECT_EQ(this->groups(reboot), saved);
+}
+
 TYPED_TEST(DeviceStorage, RefusedWhileArmed) {
     Rig<TypeParam> rig(this->hooks());
     this->commission(rig);

@@ -12,6 +12,7 @@ Usage: check_hostile_input.py PIEZOLOOP_BINARY CONFIGS_DIR"""
 import json
 import os
 import socket
+import stat
 import subprocess
 import sys
 import tempfile
@@ -105,6 +106,24 @@ port = s.getsockname()[1]
 s.close()
 refused("set --json duplicate key", ["--device", f"tcp:127.0.0.1:{port}", "set", "limits", "--json",
                                      '{"u_max_V": 5, "u_max_V": 6}'], "--json", "u_max_V", "duplicate key")
+
+# emulate --storage takes a regular file (or makes one) and refuses anything
+# a save's rename would replace or a read would block on, before the image
+# or QEMU is looked at, and leaves it as it was.
+no_image = os.path.join(tmp, "no-such-servo.elf")
+fifo = os.path.join(tmp, "storage.fifo")
+os.mkfifo(fifo)
+read_only = write("read_only.bin", "kept")
+os.chmod(read_only, 0o444)
+for name, path, kind in (("a character device", "/dev/null", "character device"), ("a FIFO", fifo, "FIFO"),
+                         ("a directory", tmp, "directory"), ("a read-only file", read_only, "read-only")):
+    refused(f"emulate --storage on {name}", ["emulate", "--board", "qemu-m3", "--image", no_image, "--storage", path],
+            "--storage", path, kind)
+check("emulate --storage leaves a FIFO a FIFO", os.path.exists(fifo) and stat.S_ISFIFO(os.stat(fifo).st_mode))
+check("emulate --storage leaves /dev/null a device", stat.S_ISCHR(os.stat("/dev/null").st_mode))
+with open(read_only) as f:
+    check("emulate --storage leaves a read-only file as it was", f.read() == "kept")
+check("emulate --storage makes no .new file", not os.path.exists(read_only + ".new") and not os.path.exists(fifo + ".new"))
 
 # CSV with a byte-order mark (and CRLF line ends), as spreadsheets write it.
 rows = "\r\n".join(f"{k * 1e-3:.3f},{(k % 7) - 3},{0.5 * ((k - 1) % 7) - 1.5 if k else 0}" for k in range(200))

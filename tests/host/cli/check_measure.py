@@ -177,6 +177,14 @@ hostile = [
     ("infinite bias", {"--bias-v": "inf"}, "--bias-v"),
     ("negative amplitude", {"--amplitude-v": "-0.1"}, "--amplitude-v"),
     ("closed loop without a case", {"--mode": "closed"}, "--case"),
+    # Bounded plans: a Welch segment of at most 2^20 samples, a run of at
+    # most 2,000,000 ticks (200 s at this scenario's 10 kHz).
+    ("PRBS from 1 mHz", {"--signal": "prbs", "--from-hz": "0.001"}, "--from-hz"),
+    ("sweep from 1 mHz", {"--signal": "sweep", "--from-hz": "0.001"}, "--from-hz"),
+    ("sweep from 1e-300 Hz", {"--signal": "sweep", "--from-hz": "1e-300"}, "--from-hz"),
+    ("PRBS just below the segment bound", {"--signal": "prbs", "--from-hz": "0.0095"}, "--from-hz"),
+    ("sweep beyond the longest record", {"--signal": "sweep", "--from-hz": "0.05", "--periods": "100"}, "--periods"),
+    ("multisine beyond the longest record", {"--periods": "10000"}, "--periods"),
 ]
 for name, extra, option in hostile:
     out = os.path.join(tmp, "hostile.json")

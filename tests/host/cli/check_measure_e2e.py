@@ -30,6 +30,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 
 from board_checks import Checks, Emulators, skip_without_qemu
 
@@ -139,6 +140,22 @@ try:
         # the same within a few noise sigmas of the range.
         diff = abs(bl[1]["hysteresis_pct"] - sl[1]["hysteresis_pct"])
         check(diff < 0.5, f"loops: the second amplitude's hysteresis as the simulator's ({diff:.2e} % apart)")
+
+    # A measurement killed in its excitation (SIGKILL: nothing is put back):
+    # the next client's session ends what the killed one started at its
+    # Hello, instead of the excitation running on for as long as some client
+    # keeps the link alive.
+    killed = subprocess.Popen([exe, *d, "measure", "frf", "--from-hz", "1", "--to-hz", "100", "--amplitude-v", "1",
+                               "--bias-v", "5", "--periods", "100", "--out", os.path.join(tmp, "killed.json")],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(4.0)
+    running = killed.poll() is None
+    killed.kill()
+    killed.wait()
+    st = status()
+    check(running and not st["excitation"]["running"] and "client_lost" in json.dumps(st),
+          "a killed measurement's excitation ends at the next client's hello (client_lost)", json.dumps(st))
+    run(*d, "disarm")
 
     # A stage with every real-stage effect (sensor offset, gain error, mains
     # pickup, creep, drift: configs/stages/drifting_stage.json) carried to

@@ -200,6 +200,12 @@ hostile = [
     ("zero frequency", ["loops", "--scenario", scenario, "--amplitudes-v", "5", "--frequency-hz", "0"],
      "--frequency-hz"),
     ("zero cycles", ["loops", "--scenario", scenario, "--amplitudes-v", "5", "--cycles", "0"], "--cycles"),
+    # A frequency near 0: the duration is checked before it is counted in
+    # ticks (which would overflow).
+    ("frequency near 0", ["loops", "--scenario", scenario, "--amplitudes-v", "5", "--frequency-hz", "1e-15",
+                          "--cycles", "2"], "--frequency-hz"),
+    ("loops beyond the longest record", ["loops", "--scenario", scenario, "--amplitudes-v", "1,2,3",
+                                         "--frequency-hz", "0.01", "--cycles", "10"], "--frequency-hz"),
 ]
 for name, args, option in hostile:
     target = os.path.join(tmp, "hostile.out")

@@ -9,7 +9,8 @@
       -> status: storage ignored (corrupt, the CRC named); get all = the
          board's defaults; load refused naming the CRC; save repairs it.
 
-Also: save refused while armed, and on a board started without --storage.
+Also: save refused while armed, on a board started without --storage, and
+for a set the board's boot would ignore (a fresh board's), the record kept.
 Every emulator is stopped with SIGTERM (emulate then stops its QEMU), also
 when a check fails.
 
@@ -65,6 +66,16 @@ try:
           s.get("status", {}).get("storage", {}).get("at_boot") == "empty",
           "status: storage capability, nothing stored at boot", json.dumps(s.get("status", {}).get("storage")))
     defaults = get_all(d)
+    # A fresh board's set (limits never set) is one its boot would ignore:
+    # save refuses it, naming the field, and stores nothing.
+    r = run(*d, "save")
+    check(r.returncode == 3 and "limits.slew_V_per_s" in r.stderr and os.path.getsize(store) == 0,
+          "save of a fresh board's set refused, naming limits.slew_V_per_s", r.stderr)
+    # A fresh board's recorder group is a valid set to change one field of.
+    r = run(*d, "set", "recorder", "--json", '{"decimation": 3}')
+    rec = get_all(d) or {}
+    check(r.returncode == 0 and rec.get("recorder", {}).get("decimation") == 3,
+          "set recorder with one field on a fresh board", r.stderr)
     r = run(*d, "set", "--scenario", scenario, "--case", "dahl_ff_K", "--frequency-hz", "10")
     check(r.returncode == 0, "set --scenario --case dahl_ff_K", r.stderr)
     r = run(*d, "set", "link", "--json", '{"client_timeout_s": 2.5}')
@@ -113,6 +124,11 @@ try:
     check(r.returncode == 3 and "storage.crc" in r.stderr, "load of the corrupt record refused, naming the CRC",
           r.stderr)
     check(get_all(d) == defaults, "the refused load changed nothing")
+    r = run(*d, "save")
+    with open(store, "rb") as f:
+        kept = f.read() == bytes(data)
+    check(r.returncode == 3 and "limits.slew_V_per_s" in r.stderr and kept,
+          "save of the defaults refused, the record left as it was", r.stderr)
     r = run(*d, "forget")
     check(r.returncode == 0 and os.path.getsize(store) == 0, "forget empties the storage file", r.stderr)
     r = run(*d, "load")
