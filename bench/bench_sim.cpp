@@ -1,5 +1,5 @@
 // Simulated seconds per wall second of the simulator's reference closed loop,
-// float fidelity, one core (issue 4: target >= 200x real time):
+// float fidelity, one core (target >= 200x real time):
 //   100 kHz loop;
 //   stage (common/piezoloop/stage_model.hpp): 16-bit DAC, amplifier with a
 //     20 kHz bandwidth, Janaideh2016's 15-operator PI hysteresis (the

@@ -1,7 +1,7 @@
 // Time of a mixed-sensitivity H∞ design (host/synth/mixsyn) on a 14-state
 // augmented plant: the problem `order14` of tools/ref/synth_hinf.m (five
 // lightly damped modes 300 Hz … 7 kHz, second-order W1, first-order W2 and
-// W3), built here from the same numbers. Target (issue 15): <= 0.5 s.
+// W3), built here from the same numbers. Target: <= 0.5 s.
 // Printed, never asserted (docs/benchmarks.md).
 #include <cmath>
 #include <numbers>

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Wall time of the measurements on the emulated board and on the simulator
-(issue 16's targets: a 10 Hz - 0.4 x rate response with 1 dB accuracy in
+(the targets: a 10 Hz - 0.4 x rate response with 1 dB accuracy in
 <= 20 s on the emulated board and <= 2 s on the simulator; hysteresis loops
 at four amplitudes in <= 20 s on the emulated board). Prints figures, asserts
 nothing; docs/measurement.md has them with the machine and the date.

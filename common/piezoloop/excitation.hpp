@@ -1,4 +1,4 @@
-// Excitation for frequency-response measurements (issue 16): a signal d added
+// Excitation for frequency-response measurements: a signal d added
 // to the command or to the reference by the pipeline (pipeline.hpp).
 //
 //   d[n] = offset + amplitude * w[n]          w in [-1, 1]

@@ -9,7 +9,7 @@
 //   u     = limits(u_ff + u_fb)  -> DAC
 //   recorder <- (r, y, e, u, u_ff, u_fb, u_rc)
 //
-// Excitation (excitation.hpp, issue 16): while one runs, its sample d is
+// Excitation (excitation.hpp): while one runs, its sample d is
 // added to r after the wave (ExcitationPoint::kReference) or to the command
 // before the limiter (kCommand: u = limits(u_ff + u_fb + d); open loop, with
 // no feedforward and no feedback, u = limits(d) and d carries the bias). The
@@ -27,7 +27,7 @@
 // tick: the wave starts at once, with the arithmetic it always had. While
 // a wave runs the tick pays one well-predicted branch for it.
 //
-// Reference pre-filter (issue 17): up to two sections on the reference, so
+// Reference pre-filter: up to two sections on the reference, so
 // that its corners and steps do not excite the stage's lightly damped modes
 // through the feedforward (notches at the modes). It runs every tick, armed
 // or not, so it has settled on the reference when the loop arms; r as
@@ -281,6 +281,10 @@ public:
         // swaps in before it.
         const PipelineParams& p = swap_pending() ? params_[active_ ^ 1u] : params_[active_];
         const LimitsConfig& lim = p.limits;
+        // The span below needs both finite; the generator's own check comes
+        // after this one, so a NaN is named here as what it is.
+        if (!is_finite(c.offset)) return error("offset", "must be finite");
+        if (!is_finite(c.amplitude)) return error("amplitude", "must be finite");
         const bool unipolar = c.signal == ExcitationSignal::kStep || c.signal == ExcitationSignal::kTriangle ||
                               c.signal == ExcitationSignal::kRaisedCosine;
         const float a = c.amplitude < 0.0f ? -c.amplitude : c.amplitude;

@@ -5,7 +5,7 @@
 // docs/commissioning.md). Prints the summary JSON. Exit 2 for a bad request
 // (nothing moved), 1 when a safety step stops it, no candidate passes or the
 // verification fails (nothing saved; the report says why). The summary's
-// wall_s is the whole run's wall time (the targets: <= 120 s on an
+// wall_s is the whole run's wall time (the targets: <= 120 s on an
 // emulated board, <= 20 s on the simulator).
 #include <iostream>
 #include <memory>

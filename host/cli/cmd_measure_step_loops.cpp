@@ -1,5 +1,5 @@
 // `piezoloop measure step` and `piezoloop measure loops` on a board (--device)
-// or the simulator (--scenario) (issue 16, docs/measurement.md): a step of
+// or the simulator (--scenario) (docs/measurement.md): a step of
 // chosen size in open loop
 // (command, V) or closed loop (reference, um) with its overshoot, rise and
 // settling time; slow open-loop triangles (or sines) of several amplitudes,

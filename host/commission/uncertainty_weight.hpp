@@ -1,5 +1,5 @@
 // The multiplicative uncertainty weight W3 of a fitted model from its error
-// on the measured lines (issue 17: "the spread between fitted model and
+// on the measured lines ("the spread between fitted model and
 // measured response becomes the multiplicative uncertainty weight"):
 //
 //   δ_i = |G_i / G_fit(jω_i) - 1|  on the lines measured with SNR >= 20 dB,

@@ -1,4 +1,4 @@
-// Measurements on a board (issue 16): `piezoloop --device ADDR measure frf |
+// Measurements on a board: `piezoloop --device ADDR measure frf |
 // step | loops`.
 // The request is checked and planned against the board's loop rate, the
 // limits group in effect and its excitation capacity (measure/frf_plan), the

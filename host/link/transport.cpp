@@ -2,6 +2,7 @@
 #include "link/transport.hpp"
 
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 
 #include "link/tcp_transport.hpp"
@@ -17,8 +18,10 @@ const char* const kForms =
     "accepted forms: tcp:HOST:PORT (emulated board, see `piezoloop emulate`), usb (the only USB board), "
     "usb:SERIAL, serial:PATH[@BAUD] (UART bridge, default 115200 baud)";
 
+// A malformed address is bad input (exit 2), not a link failure.
 [[noreturn]] void bad(const std::string& address, const std::string& why) {
-    throw LinkError("--device " + (address.empty() ? std::string("''") : address) + ": " + why + "; " + kForms);
+    throw std::invalid_argument("--device " + (address.empty() ? std::string("''") : address) + ": " + why + "; " +
+                                kForms);
 }
 
 // Whole string is a decimal number in [lo, hi].

@@ -1,4 +1,4 @@
-// Nonparametric frequency response from recorded arrays (issue 16), shared by
+// Nonparametric frequency response from recorded arrays, shared by
 // every source of data: the simulator (frf_sim.hpp) and, later, a board's
 // recording over the link. Nothing here knows where u and y came from.
 //

@@ -1,5 +1,5 @@
 // `measure frf`'s request, plan and result, and the analysis of a recording
-// (issue 16), shared by the simulator (frf_sim.hpp) and a board
+// shared by the simulator (frf_sim.hpp) and a board
 // (frf_device.hpp): the request is checked and planned the same way, the
 // excitation is the core's (common/piezoloop/excitation.hpp), and the
 // estimate is frf_estimate's, the periodic one for a multisine, H1 with

@@ -1,4 +1,4 @@
-// `measure frf` against the simulator (issue 16): the scenario's stage and
+// `measure frf` against the simulator: the scenario's stage and
 // the core's pipeline with its excitation (common/piezoloop/excitation.hpp),
 // stepped by the loop kernel every simulated run uses (sim/loop_kernel.hpp),
 // so the recording is the one a board running the same excitation makes.

@@ -1,4 +1,4 @@
-// `measure step` and `measure loops` (issue 16): requests, plans, results and
+// `measure step` and `measure loops`: requests, plans, results and
 // the analysis of a recording, shared by the simulator (step_loops_sim.hpp)
 // and a board (link/measure_session.hpp). Both run the core's excitation
 // (common/piezoloop/excitation.hpp), so a board and the simulator make the

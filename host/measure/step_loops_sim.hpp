@@ -1,4 +1,4 @@
-// `measure step` and `measure loops` against the simulator (issue 16): the
+// `measure step` and `measure loops` against the simulator: the
 // scenario's stage and the core's pipeline stepped by the loop kernel every
 // simulated run uses (sim/loop_kernel.hpp), as `measure frf` (frf_sim.hpp),
 // with the excitations of step_loops_plan.hpp that a board runs too. Open

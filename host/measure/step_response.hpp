@@ -1,4 +1,4 @@
-// Step-response figures from a recorded response (issue 16, `measure step`):
+// Step-response figures from a recorded response (`measure step`):
 // overshoot, 10-90 % rise time, settling time into a band, final value. Pure
 // analysis of arrays, shared by the simulator and (later) the board path, and
 // testable against analytic responses without either.

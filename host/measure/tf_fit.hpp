@@ -1,4 +1,4 @@
-// A parametric model fitted to a measured frequency response (issue 16):
+// A parametric model fitted to a measured frequency response:
 // frequency-domain least squares with the Sanathanan–Koerner iteration
 // (C. K. Sanathanan, J. Koerner, "Transfer function synthesis as a ratio of
 // two complex polynomials", IEEE Trans. Automatic Control 8(1), 1963).

@@ -231,7 +231,7 @@ TEST(BiquadStiff, FloatCascadeMatchesScipyImpulseAndFrequencyResponse) {
         EXPECT_NE(form_names.find("delta"), std::string::npos) << name;
         EXPECT_LE(w.impulse, 1.0) << name;
         EXPECT_LE(w.freq, 1.0) << name;
-        // The figure of merit, implied by the above where it holds.
+        // The figure of merit, implied by the above where it holds.
         EXPECT_LE(w.db, 0.1) << name;
         EXPECT_LE(w.deg, 1.0) << name;
     }

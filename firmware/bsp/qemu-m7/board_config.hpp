@@ -7,7 +7,7 @@
 namespace piezoloop::bsp::config {
 
 // Budget of the controller's tick (ADC read to DAC write, reference pipeline
-// with all blocks), instructions under -icount shift=0 (issue 5).
+// with all blocks), instructions under -icount shift=0.
 inline constexpr uint32_t kTickBudget = 300;
 
 }  // namespace piezoloop::bsp::config

@@ -65,6 +65,10 @@ expect("missing input file (design)", ["design", "c2d", "--model", "/nonexistent
        "cannot open")
 expect("bad value (sim)", ["sim", "--scenario", scenario, "--case", "no_such_case"], 2, "no such case")
 expect("missing input file (reproduce)", ["reproduce", "ahmad2020", "--out", tmp, "--configs", "/nonexistent"], 2)
+# A malformed --device is bad input, not a link failure (3 is for a board that
+# cannot be reached at a well-formed address).
+for address in ("carrier-pigeon:7", "tcp:localhost", "tcp:127.0.0.1:99999", "serial:/dev/null@fast"):
+    expect(f"malformed --device {address}", ["--device", address, "status"], 2, "--device")
 # 1: an output that cannot be written.
 cases = run("sim", "--scenario", scenario, "--list").stdout
 case = re.search(r'"name":\s*"([^"]+)"', cases)

@@ -8,7 +8,7 @@ on, e_max at 1 Hz is a noise extreme (17-21 nm across five noise seeds at
 100 kHz, about +-9 %): two cores that round differently by one DAC or ADC
 step follow different noise paths, so their e_max differs by as much as two
 seeds do. Without noise, what remains is how each core realises K(s), which
-is what this test is about. The 1 % bound is the issue's; the measured
+is what this test is about. The 1 % bound is the acceptance bound; the measured
 spread is 0.3 % or less (docs/simulator.md).
 Usage: check_float_q31_agree.py PIEZOLOOP CONFIGS_DIR"""
 import json

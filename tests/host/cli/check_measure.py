@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """End-to-end checks of `piezoloop measure frf` (simulator) and `piezoloop
-identify tf` (issue 16; docs/measurement.md).
+identify tf` (docs/measurement.md).
 
 1. Open-loop multisine on the Ahmad2020 stage with its sensor noise on (and
    its 16-bit converters), with the float core and with the Q31 core: the
@@ -132,7 +132,7 @@ if res.returncode == 0:
     check("not an frf file refused", res.returncode == 2 and "frequency_Hz" in res.stderr, res.stderr)
 
 # 1b. Swept sine and PRBS (H1, Welch, coherence) on the same stage: within
-# 0.5 dB and 3 deg wherever the coherence is >= 0.95 (the issue's criterion).
+# 0.5 dB and 3 deg wherever the coherence is >= 0.95 (the acceptance criterion).
 def exact_response(f):
     model = json.load(open(os.path.join(configs, "models", "ahmad2020_G.json")))
     num = np.array(model["num"]) / model["num"][-1] * model["den"][-1]

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """`piezoloop --device ADDR measure frf | step | loops` against an emulated
-board (issue 16): the Ahmad2020 stage at 10 kHz on qemu-m7 (float core) and
+board: the Ahmad2020 stage at 10 kHz on qemu-m7 (float core) and
 qemu-m3 (Q31 core).
 
 - measure frf, open loop, multisine, --restart-stage: the board's recording

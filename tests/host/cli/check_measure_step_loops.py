@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """End-to-end checks of `piezoloop measure step` and `piezoloop measure loops`
-on the simulator (issue 16; docs/measurement.md), on the Ahmad2020 stage with
+on the simulator (docs/measurement.md), on the Ahmad2020 stage with
 its sensor noise and 16-bit converters on.
 
 1. Open-loop step, command 3 V -> 5 V (piezo 30 -> 50 V): the stage rises
@@ -15,7 +15,7 @@ its sensor noise and 16-bit converters on.
    0.02 um of 8 um (its controller has integral action); figures recomputed.
 3. Loops 2.5, 5, 7.5, 10 V at 2 Hz, then `identify pi` on the CSV: the PI
    model fitted from the measured loops reproduces them within 1 % of the
-   output range (the issue's check), both by the fit's own max_error and by
+   output range (the acceptance check), both by the fit's own max_error and by
    running the fitted model here (play operators from zero, as pi_fit.hpp)
    on the CSV's u; the hysteresis % per amplitude recomputed here at the
    input midpoint of the last cycle. `identify dahl` reads the same CSV.

@@ -1,7 +1,7 @@
-// What the physics must show on the simulator (issue 4), on the scenario
+// What the physics must show on the simulator, on the scenario
 // files in configs/ as shipped. Each assertion is a comparison between
 // controller cases or frequencies of one scenario; the thresholds are the
-// issue's ("at least half", "diverges", "stable") or, where a figure can
+// acceptance criteria ("at least half", "diverges", "stable") or, where a figure can
 // tie within measurement noise, stated next to the check.
 #include <gtest/gtest.h>
 

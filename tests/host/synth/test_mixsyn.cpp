@@ -70,7 +70,7 @@ void check_recomputed(const json& p, const MixsynResult& r) {
     EXPECT_LE(r.gamma, gk);
 }
 
-// γ within 0.5 % of Octave's (the criterion). Both sides bisect to
+// γ within 0.5 % of Octave's (the acceptance criterion). Both sides bisect to
 // 1e-6; ours returns the controller 0.1 % above its γ_opt (the backoff), so
 // both gamma_opt and the achieved gamma are compared.
 void check_against_octave(const std::string& name) {
