@@ -381,6 +381,13 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     // The response is measured up to a fifth of the rate; a design needs a
     // few times its bandwidth measured.
     const double frf_to_Hz = 0.2 * loop.rate_Hz;
+    // The design needs the response from 10 Hz to a fifth of the rate on at
+    // least 20 lines (a 1 kHz loop).
+    if (loop.rate_Hz < 1000.0)
+        throw std::invalid_argument("loop.rate_Hz: commissioning measures the frequency response from 10 Hz to a "
+                                    "fifth of the loop rate on at least 20 lines, which a " + num(loop.rate_Hz) +
+                                    " Hz loop does not give: it needs a loop of at least 1 kHz (the scenario's "
+                                    "loop.rate_Hz, or the board's rate)");
     if (r.target_bandwidth_Hz > frf_to_Hz / 4.0)
         throw std::invalid_argument("--target-bandwidth-hz: " + num(r.target_bandwidth_Hz) +
                                     " Hz is above what the measurement supports (a quarter of its " + num(frf_to_Hz) +
@@ -455,7 +462,11 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         double first = INFINITY;
         for (const design::cplx p : gn.poles)
             if (p.imag() > 0.0 && -p.real() / std::abs(p) < 0.2) first = std::min(first, std::abs(p) / kTwoPi);
-        c.target_bandwidth_Hz = std::min(first / 3.0, loop.rate_Hz / 20.0);
+        // Without a lightly damped mode in the measured band the stage's first
+        // mode lies beyond it, unmeasured (Shan2012's rings at 29 kHz, above
+        // its 20 kHz band): an eighth of the band keeps the loop well below it.
+        c.target_bandwidth_Hz = std::isfinite(first) ? std::min(first / 3.0, loop.rate_Hz / 20.0)
+                                                     : c.frf_request.to_Hz / 8.0;
     }
     say(c, "model " + std::to_string(fit.poles) + "/" + std::to_string(fit.zeros) + ", target bandwidth " +
                num(c.target_bandwidth_Hz) + " Hz");

@@ -65,11 +65,18 @@ RecoveryRun saturation_recovery(const sim::Scenario& stage, const Controller& k,
     out.wall_s = res.wall_s;
 
     const sim::RunLog& log = res.log;
+    // What the loop holds: the reading without its noise and mains, (1 + gain
+    // error) (x + offset) (stage_model.hpp), which is the displacement itself
+    // for a sensor without offset or gain error.
+    const SensorConfig& sc = b.model.stage.sensor;
+    const auto held_um = [&](std::size_t i) {
+        return (1.0 + double{sc.gain_error}) * (double{log.x_um[i]} + double{sc.offset_um});
+    };
     const auto tick_at = [&](int level) { return static_cast<std::size_t>(std::llround(level * unit_s * rate_Hz)); };
     const std::size_t first = tick_at(settle);  // the first episode's first tick
     const std::size_t last_100ms = first - std::min(first, static_cast<std::size_t>(0.1 * rate_Hz));
     for (std::size_t i = last_100ms; i < first; ++i)
-        out.settled_error_um = std::max(out.settled_error_um, std::fabs(double{log.x_um[i]} - r.centre_um));
+        out.settled_error_um = std::max(out.settled_error_um, std::fabs(held_um(i) - r.centre_um));
 
     const LimitsConfig& lim = b.model.params.limits;
     const double volt_tol = 1e-4 * b.model.setup.voltage.full_scale;
@@ -85,7 +92,7 @@ RecoveryRun saturation_recovery(const sim::Scenario& stage, const Controller& k,
         e.clamped_s = static_cast<double>(clamped) / rate_Hz;
         std::size_t last_outside = k1 - 1;  // none after the return yet
         for (std::size_t i = k1; i < k2; ++i)
-            if (!(std::fabs(double{log.x_um[i]} - r.centre_um) < out.tolerance_um)) last_outside = i;
+            if (!(std::fabs(held_um(i) - r.centre_um) < out.tolerance_um)) last_outside = i;
         if (last_outside + 1 < k2) e.recovery_s = static_cast<double>(last_outside + 1 - k1) / rate_Hz;
     }
     return out;

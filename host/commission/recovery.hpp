@@ -6,9 +6,10 @@
 // range, first above and then below, for hold_s each, which pins the command
 // at the limiter's u_max_V, then u_min_V (the feedforward and the feedback
 // both ask for more than the stage's command span). After each episode the
-// reference is back at the centre, and the recovery time is how long the
-// stage's displacement x (the stage's own, before the sensor and its noise)
-// then takes to come within 0.1 % of the range of the centre for good. The
+// reference is back at the centre, and the recovery time is how long what
+// the loop holds, the reading without its noise and mains ((1 + gain error)
+// (x + offset), x the stage's displacement), then takes to come within 0.1 %
+// of the range of the centre for good. The
 // reference is a step sequence of the core's trajectory generator
 // (Waveform::kSteps), one cycle, in units of about 10 ms that divide hold_s:
 //

@@ -72,6 +72,9 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
     o.log_every = 1;
     o.carried = &carried_;
     rest();
+    // The approach from where the stage is goes in front, as a board's
+    // record puts it (the two periods stay the triangle's).
+    sim::make_room_for_approach(b.model, o, carried_.started ? carried_.reading_um : 0.0f);
     const sim::RunResult r = sim::run_loop(b.model, o);
     TrackingRun out;
     out.e_max_um = r.tracking.e_max_um;

@@ -129,26 +129,26 @@ RunResult run_sample(const LoopModel& m, const RunOptions& o) {
 }
 
 template <class T>
-uint64_t approach_ticks_in(const LoopModel& m, const RunOptions& o) {
+uint64_t approach_ticks_in(const LoopModel& m, const RunOptions& o, float from_um) {
     TrajectoryGenerator<T> wave(m.setup.position);
     TrajectoryConfig c = o.wave;
     c.sample_rate_Hz = m.setup.rate_Hz;
     if (!o.table.empty()) c.table = o.table;
     if (const Status s = wave.configure(c); !s.ok()) reject("trajectory", s);
     const uint32_t n = Approach<T>(m.setup.position, m.setup.rate_Hz)
-                           .ticks_for(m.setup.position.to_sample<T>(0.0f), wave.start_value());
+                           .ticks_for(m.setup.position.to_sample<T>(from_um), wave.start_value());
     return n <= 1 ? 0 : n - 1;  // samples 1 .. N-1 come before the wave's first
 }
 
 }  // namespace
 
-uint64_t approach_ticks(const LoopModel& model, const RunOptions& options) {
-    return model.sample == SampleType::kQ31 ? approach_ticks_in<Q31>(model, options)
-                                            : approach_ticks_in<float>(model, options);
+uint64_t approach_ticks(const LoopModel& model, const RunOptions& options, float from_um) {
+    return model.sample == SampleType::kQ31 ? approach_ticks_in<Q31>(model, options, from_um)
+                                            : approach_ticks_in<float>(model, options, from_um);
 }
 
-void make_room_for_approach(const LoopModel& model, RunOptions& o) {
-    const uint64_t n = approach_ticks(model, o);
+void make_room_for_approach(const LoopModel& model, RunOptions& o, float from_um) {
+    const uint64_t n = approach_ticks(model, o, from_um);
     o.approach_ticks = n;
     o.ticks += n;
     o.window_start += n;

@@ -109,13 +109,14 @@ struct RunResult {
 // options are rejected by the core's validation.
 RunResult run_loop(const LoopModel& model, const RunOptions& options);
 
-// The ticks the core's approach takes from the stage at rest (y_0 = 0) to the
-// wave's first point in this model (0: the wave starts at once).
-uint64_t approach_ticks(const LoopModel& model, const RunOptions& options);
+// The ticks the core's approach takes from the stage at rest (y_0 = 0), or
+// from a carried stage's reading from_um, to the wave's first point in this
+// model (0: the wave starts at once).
+uint64_t approach_ticks(const LoopModel& model, const RunOptions& options, float from_um = 0.0f);
 // Puts the approach in front of a planned run: the run, its window and its
 // log (unless it starts at tick 0) move on by the approach's ticks, so they
 // cover the same periods of the wave as without one (`piezoloop sim`, the
 // scenario reports' experiments; a board's record does the same).
-void make_room_for_approach(const LoopModel& model, RunOptions& options);
+void make_room_for_approach(const LoopModel& model, RunOptions& options, float from_um = 0.0f);
 
 }  // namespace piezoloop::sim

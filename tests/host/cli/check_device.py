@@ -51,9 +51,9 @@ for sub in (["status"], ["get", "limits"], ["arm"], ["disarm"], ["clear-trip"],
     expect(f"{sub[0]} without --device", sub, 2, "--device ADDR before the subcommand", "piezoloop devices")
 # PIEZOLOOP_DEVICE is the default of --device.
 expect("PIEZOLOOP_DEVICE used", ["status"], 3, refused + ": connection refused", env={"PIEZOLOOP_DEVICE": refused})
-# Malformed addresses name the accepted forms.
+# Malformed addresses are bad input (exit 2) and name the accepted forms.
 for addr in ("bogus", "tcp:localhost", "tcp:localhost:70000", "usb:", "serial:", "serial:/dev/null@fast"):
-    expect(f"address {addr!r}", ["--device", addr, "status"], 3, "accepted forms: tcp:HOST:PORT", "usb:SERIAL",
+    expect(f"address {addr!r}", ["--device", addr, "status"], 2, "accepted forms: tcp:HOST:PORT", "usb:SERIAL",
            "serial:PATH[@BAUD]")
 expect("connection refused", ["--device", refused, "status"], 3, f"{refused}: connection refused",
        "piezoloop emulate")
