@@ -4,7 +4,8 @@
 //   r    <- reference pre-filter of r (biquad sections; none by default)
 //   u_ff <- inverse hysteresis of r (analytic PI inverse, a PI compensator
 //           such as Shan2012's fitted inverse, or Dahl feedforward)
-//   e     = r - y;  e' = e + RC(e) when repetitive control is on
+//   e     = r - y;  e' = e + RC(e) when repetitive control is on (RC's
+//           correction depends only on past errors: computed before y)
 //   u_fb <- feedback of e' (biquad cascade with anti-windup, anti_windup.hpp; or PID)
 //   u     = limits(u_ff + u_fb)  -> DAC
 //   recorder <- (r, y, e, u, u_ff, u_fb, u_rc)
@@ -313,10 +314,12 @@ public:
     // One tick: measured displacement in, command out. Bounded time, no
     // allocation, never fails. A tick is three phases, which a board may run
     // apart within its interrupt (firmware/app/control_loop.cpp):
-    //   begin_tick()  main-loop requests, bank swap, r and u_ff: nothing here
+    //   begin_tick()  main-loop requests, bank swap, r, u_ff and the RC's
+    //                 correction (from past errors only): nothing here
     //                 depends on the reading, so a board computes it while the
     //                 ADC converts;
-    //   output(y)     e, RC, feedback, limits: the ADC-read-to-DAC-write span;
+    //   output(y)     e, RC's store of e, feedback, limits: the
+    //                 ADC-read-to-DAC-write span;
     //   end_tick()    recorder and counters, after the DAC write.
     // tick(y) runs the three in order; split or not, the arithmetic and its
     // order are the same, so host and boards agree bit for bit.
@@ -407,17 +410,20 @@ private:
         // of the ADC-read-to-DAC-write span.
         if (armed && b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.before(b.sos);
         s.u_ff = armed ? b.feedforward(s.r) : sample_zero<T>();
+        // The RC's correction depends only on its delay line's past
+        // (repetitive.hpp): computed here, out of the ADC-read-to-DAC-write
+        // span; output_phase stores this tick's error.
+        s.u_rc = armed && b.rc_enabled ? b.rc.prepare() : sample_zero<T>();
     }
 
     [[gnu::always_inline]] void output_phase(TickSignals<T>& s, T y) {
         s.y = y;
         s.e = s.r - s.y;
-        s.u_rc = sample_zero<T>();
         if (was_armed_) {
             Bank& b = bank();
             T e_fb = s.e;
             if (b.rc_enabled) {
-                s.u_rc = b.rc.apply(s.e);
+                b.rc.push(s.e);
                 e_fb = s.e + s.u_rc;
             }
             s.u_fb = b.feedback_apply(e_fb);

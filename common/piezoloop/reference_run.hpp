@@ -47,7 +47,8 @@ struct RunResult {
 // The reference feedback crosses over near 150 Hz (the 1 kHz resonance sets
 // that), so the closed loop's phase lag passes 90° far below the RC's Q
 // cutoff: the RC condition |theta_T + theta_2| < 90° (docs/models.md, 'Repetitive control') fails and an RC
-// plugged into this loop would diverge. So the RC runs beside the loop on
+// with the published Q plugged into this loop would diverge (all_blocks_params()
+// cuts Q off at 200 Hz, which is stable). So the RC runs beside the loop on
 // its error, its output hashed but not applied: its arithmetic is still
 // covered by the cross-platform hash.
 template <class T, class PipelineT>

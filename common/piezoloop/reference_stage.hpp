@@ -16,8 +16,25 @@
 // slope (~4 µm/V) that u_fb sees around the feedforward. The repetitive
 // controller (N = 100: 1 kHz references) and the recorder complete the
 // "all blocks" pipeline the budgets are measured on.
+//
+// The RC in this loop (all_blocks_params): with the published Q (cutoff
+// ~7 kHz) it is unstable here. The loop's crossover is held near 150 Hz by
+// the 1 kHz resonance, so its closed-loop phase passes 90° at 240-310 Hz
+// (over the hysteresis' local slope, 2.7-4.4 µm/V), far below Q's cutoff,
+// and the small-gain condition |Q| |1 - k_rc T| < 1 (docs/models.md,
+// 'Repetitive control') peaks at 1.14-1.24 near 500 Hz: the RC's correction
+// grows every period until the output limits (float) or the Q31 delay
+// line's full scale (±50 µm: a bounded oscillation instead) stop it, and
+// the two cores part. A smaller k_rc does not cure it (the phase condition
+// does not depend on it). Q cut off at 200 Hz instead, below the 240 Hz
+// where the phase reaches 90°, satisfies both conditions (small-gain peak
+// 0.65-0.75, from the discretised loop). The RC then cannot learn the
+// 1 kHz harmonics of its period N = 100 (no RC can, in a loop this slow);
+// it runs, stable, in the loop, so every block's arithmetic is exercised
+// on signals of a loop that tracks.
 #pragma once
 
+#include "piezoloop/det_math.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/plant.hpp"
@@ -90,6 +107,23 @@ constexpr PipelineParams params(bool feedforward = true, bool feedback = true, b
     p.rc = RepetitiveConfig{};
     p.rc.m1 = 3;  // Q's low-frequency group delay (see tests/common/test_repetitive.cpp)
     p.limits = LimitsConfig{-10.0f, 10.0f, 2.0e5f, 0.0f};
+    return p;
+}
+
+// The RC's Q for the reference loop: first order with unit DC gain,
+// Q(z) = (1 - a) / (z - a), a = e^(-2 pi 200 Hz Ts) (the published Q's form,
+// 0.3558 / (z - 0.6442), with its pole moved from ~7 kHz to 200 Hz).
+inline constexpr double kRcQCutoff_Hz = 200.0;
+constexpr SosSection rc_q() {
+    const double a = det_exp(-2.0 * kPi * kRcQCutoff_Hz / static_cast<double>(kRate_Hz));
+    return SosSection{0.0, 1.0 - a, 0.0, -a, 0.0};
+}
+
+// Feedforward, feedback and the RC in the loop with the Q above: the "all
+// blocks" pipeline of the firmware self-test and its block profile.
+constexpr PipelineParams all_blocks_params() {
+    PipelineParams p = params(true, true, true);
+    p.rc.q = rc_q();
     return p;
 }
 

@@ -166,26 +166,41 @@ public:
         q1_generator_.reset();
         q1_output_.reset();
         phase_ = 0;
+        x_ = sample_zero<T>();
     }
 
     // One tick: error in, RC correction out (to be added to the error).
     T apply(T e) {
-        T x, lead;
+        const T u_rc = prepare();
+        push(e);
+        return u_rc;
+    }
+
+    // apply() in two steps, for a tick that splits its work around the
+    // reading: the correction depends only on the delay line's past (the
+    // generator reads N - m1 samples back, the output N - m1 - m2 >= 1), so
+    // prepare() computes it before the error is known and push(e) then
+    // stores e + X. The same arithmetic in the same order as apply(); every
+    // prepare() must be followed by one push() before the next.
+    T prepare() {
+        T lead;
         // With m2 = 0 both Q instances see the same sequence: skip the second.
         if (first_order_) {
-            x = q1_generator_.apply(line_.past(generator_delay_));
-            lead = output_delay_ == generator_delay_ ? x : q1_output_.apply(line_.past(output_delay_));
+            x_ = q1_generator_.apply(line_.past(generator_delay_));
+            lead = output_delay_ == generator_delay_ ? x_ : q1_output_.apply(line_.past(output_delay_));
         } else {
-            x = q_generator_.apply(line_.past(generator_delay_));
-            lead = output_delay_ == generator_delay_ ? x : q_output_.apply(line_.past(output_delay_));
+            x_ = q_generator_.apply(line_.past(generator_delay_));
+            lead = output_delay_ == generator_delay_ ? x_ : q_output_.apply(line_.past(output_delay_));
         }
-        line_.push(e + x);
-        if (++phase_ == config_.period_samples) phase_ = 0;
         if constexpr (std::is_same_v<T, float>) {
             return k_rc_ * lead;
         } else {
             return q31_from_accumulator(int64_t{k_rc_mantissa_} * lead.raw(), 1);
         }
+    }
+    void push(T e) {
+        line_.push(e + x_);
+        if (++phase_ == config_.period_samples) phase_ = 0;
     }
 
     // True at the start of a period: where N, m1, m2, k_rc and Q may change
@@ -206,6 +221,7 @@ private:
     float k_rc_ = 0.0f;
     int32_t k_rc_mantissa_ = 0;
     int phase_ = 0;
+    T x_ = sample_zero<T>();  // the generator's output of this tick, between prepare() and push()
 };
 
 }  // namespace piezoloop

@@ -1,5 +1,5 @@
 // Where the tick's instructions go: the reference pipeline with all blocks
-// (reference::params(true, true, true)) run in a plain loop against the
+// (reference::all_blocks_params()) run in a plain loop against the
 // emulated stage, and beside it a standalone copy of each core block,
 // configured exactly as Pipeline::configure_bank configures it and fed the
 // same signals as the pipeline's block saw that tick, each timed alone with

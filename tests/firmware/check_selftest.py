@@ -23,10 +23,23 @@ the board's RAM slots, and for each the board must print a line named
   period) within TRACKING_TOL_UM of the simulator's figures.
 
 It prints the per-tick budget figures (instructions, ADC read to DAC write)
-and whether they are within the board's budget, without failing on them.
+and requires every case the board ran to be within the board's budget: the
+worst tick's figure (`insn_per_tick_max`, or `cycles_per_tick_max` on
+hardware) at most the `budget` the board printed, and the board's own
+`within_budget` true. --budget N checks against N instead when N is lower
+(a tighter budget, never a looser one). --expect-over-budget CASE tests the check on a real
+report: the run is judged as always, then passes only if it failed on the
+budget of CASE (among others) and on nothing but budgets (with --budget,
+on a board within its own budget).
 
     check_selftest.py <host_selftest> <selftest.elf> <machine> <float|q31>
-                      [--piezoloop EXE --configs DIR]
+                      [--piezoloop EXE --configs DIR] [--budget N]
+                      [--expect-over-budget CASE]
+    check_selftest.py --self-test
+
+--self-test runs the budget check on made-up board lines (within, over by
+the worst tick, over by the board's flag, figures missing, a lowered
+budget) and fails unless it passes and fails each as it should.
 
 Environment: PIEZOLOOP_QEMU_TIMEOUT (seconds, default 60), QEMU_SYSTEM_ARM.
 """
@@ -77,6 +90,57 @@ def json_lines(text):
     return out
 
 
+def budget_failures(board_cases, budget_override=None):
+    """The cases over their ADC-read-to-DAC-write budget: [message]. A case
+    passes only if its worst tick is at most the budget (the board's, or
+    budget_override when that is lower) and the board says within_budget."""
+    out = []
+    for name, b in board_cases.items():
+        unit = "insn" if "insn_per_tick_max" in b else "cycles"
+        worst = b.get(unit + "_per_tick_max")
+        budget = b.get("budget")
+        if not isinstance(worst, int) or not isinstance(budget, int) or budget <= 0:
+            out.append(f"case {name}: no budget figures ({unit}_per_tick_max {worst}, budget {budget})")
+            continue
+        if budget_override is not None and budget_override < budget:
+            budget = budget_override
+        if worst > budget:
+            out.append(f"case {name} on {b.get('board')}: {worst} {unit} per tick (worst, ADC read to DAC write) "
+                       f"over the budget of {budget}")
+        if b.get("within_budget") is not True:
+            out.append(f"case {name} on {b.get('board')}: the board reports within_budget "
+                       f"{b.get('within_budget')}")
+    return out
+
+
+def self_test():
+    """The budget check against made-up board lines: each must pass or fail
+    as stated, else this returns 1."""
+    def line(worst, budget=300, within=True, unit="insn"):
+        return {"board": "qemu-m7", "name": "x", unit + "_per_tick_max": worst, "budget": budget,
+                "within_budget": within}
+    cases = [
+        ("within (299 of 300)", {"x": line(299)}, None, True),
+        ("at the budget (300 of 300)", {"x": line(300)}, None, True),
+        ("worst tick over (302 of 300), flag true", {"x": line(302)}, None, False),
+        ("flag false, figure within", {"x": line(250, within=False)}, None, False),
+        ("flag missing", {"x": {k: v for k, v in line(250).items() if k != "within_budget"}}, None, False),
+        ("figures missing", {"x": {"board": "qemu-m7", "name": "x"}}, None, False),
+        ("hardware cycles over (801 of 800)", {"x": line(801, 800, unit="cycles")}, None, False),
+        ("budget lowered to 250, worst 286", {"x": line(286)}, 250, False),
+        ("budget raised to 400 is ignored, worst 302", {"x": line(302)}, 400, False),
+        ("one of two cases over", {"a": line(200), "b": line(301)}, None, False),
+    ]
+    bad = 0
+    for what, board_cases, override, should_pass in cases:
+        msgs = budget_failures(board_cases, override)
+        ok = (not msgs) == should_pass
+        bad += 0 if ok else 1
+        print(f"{'ok' if ok else 'WRONG'}: {what}: {'passes' if not msgs else 'fails: ' + '; '.join(msgs)}")
+    print(f"{len(cases) - bad} passed, {bad} failed")
+    return 0 if bad == 0 else 1
+
+
 def make_board_cases(piezoloop, configs, sample, tmpdir):
     """Runs the simulator for each scenario case; returns [(name, file, sim json)]."""
     out = []
@@ -96,12 +160,24 @@ def make_board_cases(piezoloop, configs, sample, tmpdir):
 
 def main():
     args = sys.argv[1:]
-    piezoloop = configs = None
-    while len(args) > 4 and args[-2] in ("--piezoloop", "--configs"):
-        if args[-2] == "--piezoloop":
+    if args == ["--self-test"]:
+        return self_test()
+    piezoloop = configs = budget_override = expect_over = None
+    while len(args) > 4 and args[-2] in ("--piezoloop", "--configs", "--budget", "--expect-over-budget"):
+        if args[-2] == "--expect-over-budget":
+            expect_over = args[-1]
+        elif args[-2] == "--piezoloop":
             piezoloop = args[-1]
-        else:
+        elif args[-2] == "--configs":
             configs = args[-1]
+        else:
+            try:
+                budget_override = int(args[-1])
+            except ValueError:
+                budget_override = 0
+            if budget_override <= 0:
+                print(f"--budget must be a positive integer (instructions or cycles), got {args[-1]}")
+                return 2
         args = args[:-2]
     if len(args) != 4 or (piezoloop is None) != (configs is None):
         print(__doc__)
@@ -145,6 +221,7 @@ def main():
     board_cases = {c["name"]: c for c in lines if "name" in c}
 
     passed, failed = 0, 0
+    failures = []
 
     def check(ok, what):
         nonlocal passed, failed
@@ -152,6 +229,7 @@ def main():
             passed += 1
         else:
             failed += 1
+            failures.append(what)
             print(f"FAIL: {what}")
 
     check(board.returncode == 0, f"firmware exit status {board.returncode} (number of failed self-test items)")
@@ -206,7 +284,21 @@ def main():
               f"whole controller tick mean {b.get('tick_' + unit + '_mean')} max {b.get('tick_' + unit + '_max')}; "
               f"reconfigure tick max {b.get('reconfigure_' + unit + '_max')}; "
               f"plant model (apart) mean {b.get('plant_' + unit + '_per_tick_mean')}")
+    over = budget_failures(board_cases, budget_override)
+    check(len(board_cases) > 0, "board printed cases with budget figures")
+    for msg in over:
+        check(False, "budget: " + msg)
+    if board_cases and not over:
+        passed += 1
     print(f"{passed} passed, {failed} failed")
+    if expect_over is not None:
+        # The run above, judged the other way round: it must have failed on
+        # the budget of expect_over and on nothing else.
+        others = [f for f in failures if not f.startswith("budget: ")]
+        named = any(f.startswith(f"budget: case {expect_over} ") for f in failures)
+        print(f"expected: the budget check fails for {expect_over} and nothing else fails: "
+              f"{'so it did' if named and not others else 'it did not'}")
+        return 0 if named and not others else 1
     return 0 if failed == 0 else 1
 
 
