@@ -71,8 +71,13 @@ private:
 };
 
 json tracking_json(const commission::TrackingRun& t) {
+    const commission::TrackingDiagnosis& d = t.diagnosis;
     return {{"e_max_pct", t.e_max_pct}, {"e_rms_pct", t.e_rms_pct}, {"e_max_um", t.e_max_um},
-            {"hysteresis_pct", t.hysteresis_pct}, {"trip", t.trip}};
+            {"hysteresis_pct", t.hysteresis_pct}, {"trip", t.trip},
+            {"diagnosis",
+             {{"limited_fraction", d.limited_fraction}, {"rail_fraction", d.rail_fraction},
+              {"oscillation_rms_um", d.oscillation_rms_um}, {"oscillation_Hz", d.oscillation_Hz},
+              {"growing", d.growing}}}};
 }
 
 json candidate_json(const commission::Candidate& k) {

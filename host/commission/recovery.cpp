@@ -60,6 +60,9 @@ RecoveryRun saturation_recovery(const sim::Scenario& stage, const Controller& k,
     o.log_start = 0;
     o.log_every = 1;
     o.hash = false;
+    // The approach from the stage at rest to the centre goes in front; the
+    // levels' ticks count from its end.
+    sim::make_room_for_approach(b.model, o);
     const sim::RunResult res = sim::run_loop(b.model, o);
     out.trip = trip_reason_name(res.trip);
     out.wall_s = res.wall_s;
@@ -72,7 +75,9 @@ RecoveryRun saturation_recovery(const sim::Scenario& stage, const Controller& k,
     const auto held_um = [&](std::size_t i) {
         return (1.0 + double{sc.gain_error}) * (double{log.x_um[i]} + double{sc.offset_um});
     };
-    const auto tick_at = [&](int level) { return static_cast<std::size_t>(std::llround(level * unit_s * rate_Hz)); };
+    const auto tick_at = [&](int level) {
+        return static_cast<std::size_t>(o.approach_ticks) + static_cast<std::size_t>(std::llround(level * unit_s * rate_Hz));
+    };
     const std::size_t first = tick_at(settle);  // the first episode's first tick
     const std::size_t last_100ms = first - std::min(first, static_cast<std::size_t>(0.1 * rate_Hz));
     for (std::size_t i = last_100ms; i < first; ++i)

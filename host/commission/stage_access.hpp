@@ -40,7 +40,7 @@ struct TrackingRun {
     double e_max_um = 0.0, e_rms_um = 0.0, e_max_pct = 0.0, e_rms_pct = 0.0;
     double hysteresis_pct = -1.0;  // y against r; negative: undefined
     std::string trip = "none";
-    TrackingDiagnosis diagnosis;   // over the whole run (both periods)
+    TrackingDiagnosis diagnosis;   // over the last period
     TrackingDiagnosisInputs diagnosis_inputs;
 };
 

@@ -31,6 +31,13 @@ TrackingDiagnosis diagnose_tracking(const std::vector<double>& r_um, const std::
         throw std::invalid_argument("tracking diagnosis: rate, triangle frequency, range and command span must be > 0");
     TrackingDiagnosis d;
     if (n == 0) return d;
+    // The last period only: the one the run's figures are taken over (the
+    // approach and the first period take the start).
+    const auto period = static_cast<std::size_t>(std::llround(in.rate_Hz / in.triangle_Hz));
+    if (period >= 2 && period < n)
+        return diagnose_tracking(std::vector<double>(r_um.end() - static_cast<std::ptrdiff_t>(period), r_um.end()),
+                                 std::vector<double>(y_um.end() - static_cast<std::ptrdiff_t>(period), y_um.end()),
+                                 std::vector<double>(u_V.end() - static_cast<std::ptrdiff_t>(period), u_V.end()), in);
 
     const double u_tol = 1e-6 * (in.u_max_V - in.u_min_V);
     const double y_tol = 1e-6 * std::max(1.0, in.sensor_max_um - in.sensor_min_um);

@@ -1,5 +1,6 @@
 // Why a tracking run on the stage went wrong, from its record (r, y, u per
-// tick): what a failed verification tells the user besides its figures.
+// tick) over its last period (the one its figures are taken over): what a
+// failed verification tells the user besides its figures.
 //
 //   limited    the command sat at a command limit (saturation, or the
 //              limiter's clamp): the stage was asked for more than the span
@@ -33,7 +34,8 @@ struct TrackingDiagnosisInputs {
     double sensor_min_um = 0.0, sensor_max_um = 0.0;
 };
 
-// r, y (µm) and u (V) of the same ticks. Throws std::invalid_argument when
+// r, y (µm) and u (V) of the same ticks, the last rate / triangle_Hz of
+// them analysed (all when fewer). Throws std::invalid_argument when
 // the lengths differ or the inputs are not finite and positive where needed.
 TrackingDiagnosis diagnose_tracking(const std::vector<double>& r_um, const std::vector<double>& y_um,
                                     const std::vector<double>& u_V, const TrackingDiagnosisInputs& in);

@@ -1,6 +1,6 @@
 // Diagnosis of a tracking record against records whose causes are known by
-// construction: the fractions are counted exactly, the oscillation's
-// frequency is a sinusoid's on an FFT bin.
+// construction: the fractions are counted exactly over the last period, the
+// oscillation's frequency is a sinusoid's on an FFT bin.
 #include "commission/tracking_diagnosis.hpp"
 
 #include <cmath>
@@ -49,32 +49,35 @@ TEST(TrackingDiagnosis, ExactTrackingShowsNothing) {
     EXPECT_EQ(describe(d, inputs()), "");
 }
 
-TEST(TrackingDiagnosis, CountsTicksAtACommandLimit) {
+TEST(TrackingDiagnosis, CountsTicksAtACommandLimitInTheLastPeriod) {
     Record rec;
-    for (int k = 0; k < 300; ++k) rec.u[static_cast<std::size_t>(k)] = 10.0;   // at u_max
-    for (int k = 300; k < 400; ++k) rec.u[static_cast<std::size_t>(k)] = 0.0;  // at u_min
+    for (int k = 0; k < 1000; ++k) rec.u[static_cast<std::size_t>(k)] = 10.0;  // the first period: not counted
+    EXPECT_EQ(diagnose_tracking(rec.r, rec.y, rec.u, inputs()).limited_fraction, 0.0);
+    for (int k = 1000; k < 1300; ++k) rec.u[static_cast<std::size_t>(k)] = 10.0;  // at u_max
+    for (int k = 1300; k < 1400; ++k) rec.u[static_cast<std::size_t>(k)] = 0.0;   // at u_min
     const TrackingDiagnosis d = diagnose_tracking(rec.r, rec.y, rec.u, inputs());
-    EXPECT_DOUBLE_EQ(d.limited_fraction, 400.0 / 2000.0);
+    EXPECT_DOUBLE_EQ(d.limited_fraction, 400.0 / 1000.0);
     EXPECT_NE(describe(d, inputs()).find("saturation"), std::string::npos);
 }
 
 TEST(TrackingDiagnosis, ARailNeedsTenReadingsAtAnEnd) {
     Record rec;
-    for (int k = 0; k < 9; ++k) rec.y[static_cast<std::size_t>(k)] = 18.0;
+    for (int k = 1000; k < 1009; ++k) rec.y[static_cast<std::size_t>(k)] = 18.0;
     EXPECT_EQ(diagnose_tracking(rec.r, rec.y, rec.u, inputs()).rail_fraction, 0.0);
-    rec.y[9] = -2.0;
+    rec.y[1009] = -2.0;
     const TrackingDiagnosis d = diagnose_tracking(rec.r, rec.y, rec.u, inputs());
-    EXPECT_DOUBLE_EQ(d.rail_fraction, 10.0 / 2000.0);
+    EXPECT_DOUBLE_EQ(d.rail_fraction, 10.0 / 1000.0);
     EXPECT_NE(describe(d, inputs()).find("sensor rail"), std::string::npos);
 }
 
-// A sinusoid at 1.5 kHz (bin 300 of 2000 samples at 10 kHz) added to y:
-// found at its frequency; growing when its amplitude doubles over the record.
+// A sinusoid at 1.5 kHz (bin 150 of the last period's 1000 samples at
+// 10 kHz) added to y: found at its frequency; growing when its amplitude
+// doubles every half period.
 TEST(TrackingDiagnosis, FindsTheOscillationAndWhetherItGrows) {
     for (const bool grow : {false, true}) {
         Record rec;
         for (std::size_t k = 0; k < rec.y.size(); ++k) {
-            const double a = 0.2 * (grow ? std::exp2(2.0 * static_cast<double>(k) / 2000.0) : 1.0);
+            const double a = 0.2 * (grow ? std::exp2(static_cast<double>(k) / 500.0) : 1.0);
             rec.y[k] += a * std::sin(2.0 * std::numbers::pi * 1500.0 * static_cast<double>(k) / kRate);
         }
         const TrackingDiagnosis d = diagnose_tracking(rec.r, rec.y, rec.u, inputs());
