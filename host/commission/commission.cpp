@@ -129,16 +129,20 @@ std::vector<design::cplx> complementary_sensitivity(const design::MeasuredLoop& 
 // sensor's rails or trips is repeated about mid-span at 0.7x, twice at most.
 // The measured cycle's extremes are the reach: the rising branch's top at
 // the span's top, the falling branch's bottom at the span's bottom.
-void measure_hysteresis(StageAccess& stage, Commissioning& c, const measure::MeasureBounds& b, const Say& say) {
+void measure_hysteresis(StageAccess& stage, Commissioning& c, const measure::MeasureBounds& b, double range_um,
+                        const Say& say) {
     const double u_min = b.limits.u_min_V, span = b.limits.u_max_V - u_min, mid = u_min + 0.5 * span;
-    double loop_V = span;
-    for (int attempt = 0; attempt < 3; ++attempt, loop_V *= 0.7) {
+    auto run_loop = [&](double loop_V) {
         c.loops_request.amplitudes_V = {loop_V};
         c.loops_request.base_V = std::max(u_min, mid - 0.5 * loop_V);
         c.loops_request.frequency_Hz = 5.0;
         c.loops_request.cycles = 2;
         c.loops_request.shape = "sine";
         c.loops = stage.loops(c.loops_request);
+    };
+    double loop_V = span;
+    for (int attempt = 0; attempt < 3; ++attempt, loop_V *= 0.7) {
+        run_loop(loop_V);
         const auto [lo, hi] = std::minmax_element(c.loops.y_um.begin(), c.loops.y_um.end());
         c.hysteresis_note = c.loops.trip != "none" ? "the limiter tripped (" + c.loops.trip + ")"
                             : at_rail(c.loops.y_um, b.closed_range)
@@ -154,6 +158,20 @@ void measure_hysteresis(StageAccess& stage, Commissioning& c, const measure::Mea
         }
         if (c.hysteresis_note.empty()) break;
         say("hysteresis loop of " + num(loop_V) + " V: " + c.hysteresis_note);
+    }
+    // The fit on a loop the size the range needs (1.2x at the large-signal
+    // gain), about mid-span, where it is clearly smaller than the span: the
+    // hysteresis the loop will see, not the span's extremes, whose branches
+    // a PI model of a few operators fits less well.
+    if (c.hysteresis_note.empty() && c.large_signal_gain_um_per_V != 0.0) {
+        const double fit_V = std::min(span, 1.2 * range_um / std::fabs(c.large_signal_gain_um_per_V));
+        if (fit_V < 0.9 * loop_V) {
+            say("reach: " + num(c.reach_min_um) + " .. " + num(c.reach_max_um) + " um over " + num(loop_V) +
+                " V; the PI model is fitted on a loop of " + num(fit_V) + " V");
+            loop_V = fit_V;
+            run_loop(loop_V);
+            if (c.loops.trip != "none") c.hysteresis_note = "the limiter tripped (" + c.loops.trip + ")";
+        }
     }
     try {
         if (!c.hysteresis_note.empty()) throw std::invalid_argument(c.hysteresis_note);
@@ -416,7 +434,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     c.centre_um = c.safety.front().y_before_um;
 
     // 2. The hysteresis loop over the span, and the travel it measures.
-    measure_hysteresis(stage, c, b, note);
+    measure_hysteresis(stage, c, b, r.range_um, note);
     check_travel(c, b, r.range_um, note);
 
     // 3. Frequency response about mid-span.
