@@ -10,6 +10,7 @@
 #include "piezoloop/pi_inverse.hpp"
 #include "lti/freqresp.hpp"
 #include "lti/lti_convert.hpp"
+#include "measure/step_response.hpp"
 #include "commission/sim_stage.hpp"
 #include "commission/uncertainty_weight.hpp"
 #include "sim/design_bridge.hpp"
@@ -425,13 +426,24 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         // mode (ζ 0.01 at 600 Hz decays over 25 ms), which must be gone
         // from the samples the noise is taken from.
         q.duration_s = 0.2;
-        const measure::StepRun run = stage.step(q);
+        measure::StepRun run;
+        try {
+            run = stage.step(q);
+        } catch (const measure::NoStepResponse& e) {
+            throw std::runtime_error("safety step of " + num(q.step) + " V from " + num(mid) +
+                                     " V: the stage does not respond (" + e.what() + ")");
+        }
         c.safety.push_back(check_safety_step(run, q.step, mid, b.closed_range, c.safety.empty() ? nullptr : &c.safety.back()));
         say(c, "safety step " + num(q.step) + " V: " + num(c.safety.back().dy_um) + " um (" +
                    num(c.safety.back().gain_um_per_V) + " um/V)");
     }
     c.gain_um_per_V = c.safety.back().gain_um_per_V;
     c.centre_um = c.safety.front().y_before_um;
+    // A range at the noise's level gives tracking figures that are the noise's.
+    const double noise_um = c.safety.front().noise_um;
+    if (r.range_um < 20.0 * noise_um)
+        throw std::invalid_argument("--range-um: " + num(r.range_um) + " um is below 20x the sensor's noise (" +
+                                    num(noise_um) + " um RMS): at least " + num(20.0 * noise_um) + " um");
 
     // 2. The hysteresis loop over the span, and the travel it measures.
     measure_hysteresis(stage, c, b, r.range_um, note);

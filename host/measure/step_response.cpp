@@ -28,7 +28,8 @@ StepFigures analyse_step(std::span<const double> y, double sample_period_s, std:
     for (std::size_t k = y.size() - n_tail; k < y.size(); ++k) sum += y[k];
     f.final_value = sum / static_cast<double>(n_tail);
     const double delta = f.final_value - f.initial;
-    if (!(std::fabs(delta) > 0.0)) throw std::invalid_argument("step response: final value equals the initial one");
+    if (!(std::fabs(delta) > 0.0))
+        throw NoStepResponse("step response: the reading did not move (its final value equals the initial one)");
 
     // Normalised response after the step: 0 -> 1 whatever the step's sign.
     std::vector<double> z(n_post);

@@ -18,8 +18,16 @@
 
 #include <cstddef>
 #include <span>
+#include <stdexcept>
 
 namespace piezoloop::measure {
+
+// A record in which the reading does not move at all (a stage that does not
+// respond, or a sensor pinned at a rail): a finding about the stage, not bad
+// input.
+struct NoStepResponse : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
 
 struct StepOptions {
     double settle_band = 0.02;     // fraction of |final - initial|
@@ -38,7 +46,7 @@ struct StepFigures {
 // y: the record, sample_period_s apart; step_index: the first sample at or
 // after the step (t = 0 there); needs at least one sample before it and two
 // after. Throws std::invalid_argument if the record cannot define a step
-// (too short, non-finite samples, or final == initial).
+// (too short, non-finite samples), NoStepResponse if final == initial.
 StepFigures analyse_step(std::span<const double> y, double sample_period_s, std::size_t step_index,
                          const StepOptions& o = {});
 

@@ -59,7 +59,7 @@ if r.returncode == 0:
     check("**chosen**" in open(os.path.join(out, "report.md")).read(), "report names the chosen one")
 
 for args, option in ((["--range-um", "1000"], "--range-um"), (["--range-um", "-1"], "--range-um"),
-                     (["--range-um", "nan"], "--range-um"),
+                     (["--range-um", "nan"], "--range-um"), (["--range-um", "1e-9"], "--range-um"),
                      (["--range-um", "12", "--target-bandwidth-hz", "4000"], "--target-bandwidth-hz"),
                      (["--range-um", "12", "--target-bandwidth-hz", "-5"], "--target-bandwidth-hz")):
     bad = os.path.join(tmp, "bad")

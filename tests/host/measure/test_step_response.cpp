@@ -180,7 +180,7 @@ TEST(StepResponse, RefusesWhatCannotDefineAStep) {
     std::vector<double> with_nan(100, 0.0);
     for (std::size_t k = 10; k < 100; ++k) with_nan[k] = 1.0;
     with_nan[50] = NAN;
-    EXPECT_THROW(pm::analyse_step(flat, 1e-3, 10), std::invalid_argument);        // final == initial
+    EXPECT_THROW(pm::analyse_step(flat, 1e-3, 10), pm::NoStepResponse);           // final == initial: the stage did not move
     EXPECT_THROW(pm::analyse_step(short_rec, 1e-3, 1), std::invalid_argument);    // one sample after
     EXPECT_THROW(pm::analyse_step(with_nan, 1e-3, 10), std::invalid_argument);    // non-finite
     EXPECT_THROW(pm::analyse_step(with_nan, 1e-3, 0), std::invalid_argument);     // nothing before
