@@ -53,15 +53,13 @@ const std::vector<double>& CsvData::column(std::string_view name) const {
                                 " (columns: " + have + ")");
 }
 
-CsvData parse_csv(std::string_view text, const std::string& source, const CsvProgress& progress) {
-    CsvData d;
-    d.source = source;
-    // A UTF-8 byte-order mark (spreadsheets write one) is not part of the
-    // first column's name.
-    if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
-    int line_no = 0;
-    bool have_header = false;
-    std::size_t pos = 0;
+namespace {
+
+// The next line of text from pos that is neither empty nor a comment,
+// trimmed, into line (line_no counts every line read); progress every Mi
+// lines. False at the end of the text.
+bool next_data_line(std::string_view text, std::size_t& pos, int& line_no, const CsvProgress& progress,
+                    std::string_view& line) {
     while (pos <= text.size()) {
         const std::size_t nl = text.find('\n', pos);
         const std::string_view raw =
@@ -71,8 +69,25 @@ CsvData parse_csv(std::string_view text, const std::string& source, const CsvPro
         if (progress && (line_no & 0xFFFFF) == 0)
             progress("reading: " + std::to_string(line_no >> 20) + " Mi lines, " +
                      std::to_string(100 * std::min(pos, text.size()) / std::max<std::size_t>(text.size(), 1)) + " %");
-        const std::string_view line = trim(raw);
-        if (line.empty() || line.front() == '#') continue;
+        line = trim(raw);
+        if (!line.empty() && line.front() != '#') return true;
+    }
+    return false;
+}
+
+}  // namespace
+
+CsvData parse_csv(std::string_view text, const std::string& source, const CsvProgress& progress) {
+    CsvData d;
+    d.source = source;
+    // A UTF-8 byte-order mark (spreadsheets write one) is not part of the
+    // first column's name.
+    if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+    int line_no = 0;
+    bool have_header = false;
+    std::size_t pos = 0;
+    std::string_view line;
+    while (next_data_line(text, pos, line_no, progress, line)) {
         const auto fields = split(line);
         if (!have_header) {
             const bool numeric_start = std::string_view("0123456789+-.").find(line.front()) != std::string_view::npos;
@@ -192,18 +207,9 @@ CsvData parse_table(std::string_view text, const std::vector<ColumnPick>& picks,
     d.columns.resize(picks.size());
     int line_no = 0;
     std::size_t pos = 0;
+    std::string_view line;
     std::vector<std::string_view> fields;
-    while (pos <= text.size()) {
-        const std::size_t nl = text.find('\n', pos);
-        const std::string_view raw =
-            text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
-        pos = nl == std::string_view::npos ? text.size() + 1 : nl + 1;
-        ++line_no;
-        if (progress && (line_no & 0xFFFFF) == 0)
-            progress("reading: " + std::to_string(line_no >> 20) + " Mi lines, " +
-                     std::to_string(100 * std::min(pos, text.size()) / std::max<std::size_t>(text.size(), 1)) + " %");
-        const std::string_view line = trim(raw);
-        if (line.empty() || line.front() == '#') continue;
+    while (next_data_line(text, pos, line_no, progress, line)) {
         fields.clear();
         std::size_t i = 0;
         while (i < line.size()) {
