@@ -30,46 +30,43 @@ TrackingDiagnosis diagnose_tracking(const std::vector<double>& r_um, const std::
     if (!(in.rate_Hz > 0.0) || !(in.triangle_Hz > 0.0) || !(in.range_um > 0.0) || !(in.u_max_V > in.u_min_V))
         throw std::invalid_argument("tracking diagnosis: rate, triangle frequency, range and command span must be > 0");
     TrackingDiagnosis d;
-    if (n == 0) return d;
     // The last period only: the one the run's figures are taken over (the
     // approach and the first period take the start).
     const auto period = static_cast<std::size_t>(std::llround(in.rate_Hz / in.triangle_Hz));
-    if (period >= 2 && period < n)
-        return diagnose_tracking(std::vector<double>(r_um.end() - static_cast<std::ptrdiff_t>(period), r_um.end()),
-                                 std::vector<double>(y_um.end() - static_cast<std::ptrdiff_t>(period), y_um.end()),
-                                 std::vector<double>(u_V.end() - static_cast<std::ptrdiff_t>(period), u_V.end()), in);
+    const std::size_t from = period >= 2 && period < n ? n - period : 0, m = n - from;
+    if (m == 0) return d;
 
     const double u_tol = 1e-6 * (in.u_max_V - in.u_min_V);
     const double y_tol = 1e-6 * std::max(1.0, in.sensor_max_um - in.sensor_min_um);
     std::size_t limited = 0, rail = 0;
-    for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t i = from; i < n; ++i) {
         if (u_V[i] <= in.u_min_V + u_tol || u_V[i] >= in.u_max_V - u_tol) ++limited;
         if (y_um[i] <= in.sensor_min_um + y_tol || y_um[i] >= in.sensor_max_um - y_tol) ++rail;
     }
-    d.limited_fraction = static_cast<double>(limited) / static_cast<double>(n);
-    d.rail_fraction = rail >= 10 ? static_cast<double>(rail) / static_cast<double>(n) : 0.0;
+    d.limited_fraction = static_cast<double>(limited) / static_cast<double>(m);
+    d.rail_fraction = rail >= 10 ? static_cast<double>(rail) / static_cast<double>(m) : 0.0;
 
     // The error's fast part: e minus its centred moving average over a fifth
-    // of the triangle's period (a running sum: O(n)).
-    std::vector<double> e(n), fast(n);
-    for (std::size_t i = 0; i < n; ++i) e[i] = r_um[i] - y_um[i];
+    // of the triangle's period (a running sum: O(m)).
+    std::vector<double> e(m), fast(m);
+    for (std::size_t i = 0; i < m; ++i) e[i] = r_um[from + i] - y_um[from + i];
     const std::size_t half = std::max<std::size_t>(1, static_cast<std::size_t>(0.1 * in.rate_Hz / in.triangle_Hz));
-    std::vector<double> sum(n + 1, 0.0);
-    for (std::size_t i = 0; i < n; ++i) sum[i + 1] = sum[i] + e[i];
-    for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t a = i >= half ? i - half : 0, b = std::min(n, i + half + 1);
+    std::vector<double> sum(m + 1, 0.0);
+    for (std::size_t i = 0; i < m; ++i) sum[i + 1] = sum[i] + e[i];
+    for (std::size_t i = 0; i < m; ++i) {
+        const std::size_t a = i >= half ? i - half : 0, b = std::min(m, i + half + 1);
         fast[i] = e[i] - (sum[b] - sum[a]) / static_cast<double>(b - a);
     }
-    d.oscillation_rms_um = rms(fast, 0, n);
+    d.oscillation_rms_um = rms(fast, 0, m);
     if (d.oscillation_rms_um > 0.005 * in.range_um) {
-        d.growing = rms(fast, n / 2, n) > 1.5 * rms(fast, 0, n / 2);
+        d.growing = rms(fast, m / 2, m) > 1.5 * rms(fast, 0, m / 2);
         Eigen::FFT<double> fft;
         std::vector<std::complex<double>> spec;
         fft.fwd(spec, fast);
         std::size_t best = 1;
-        for (std::size_t k = 1; k <= n / 2; ++k)
+        for (std::size_t k = 1; k <= m / 2; ++k)
             if (std::abs(spec[k]) > std::abs(spec[best])) best = k;
-        d.oscillation_Hz = static_cast<double>(best) * in.rate_Hz / static_cast<double>(n);
+        d.oscillation_Hz = static_cast<double>(best) * in.rate_Hz / static_cast<double>(m);
     }
     return d;
 }

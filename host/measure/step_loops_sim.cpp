@@ -79,10 +79,7 @@ Recorded run(const sim::LoopModel& m, uint64_t ticks, Before&& before, const std
     };
     reference::LogHash hash;
     sim::LoopKernel<T, ShapePipeline<T>, StageModel> loop(*pipe, stage, m.stage.sensor.gain, &hash);
-    if (carried && carried->started) {
-        stage = carried->stage;
-        loop.resume(carried->reading_um);
-    }
+    loop.carry_in(carried);
     pipe->arm();
     const auto t0 = std::chrono::steady_clock::now();
     for (uint64_t k = 0; k < ticks; ++k) {
@@ -91,12 +88,7 @@ Recorded run(const sim::LoopModel& m, uint64_t ticks, Before&& before, const std
     }
     rec.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (progress) progress(1.0);
-    if (carried) {
-        carried->stage = stage;
-        carried->reading_um = loop.reading_um();
-        carried->command_V = loop.command_V();
-        carried->started = true;
-    }
+    loop.carry_out(carried);
     rec.clipped = pipe->limiter().clamped_samples() + pipe->limiter().slew_limited_samples();
     rec.trip = trip_reason_name(pipe->limiter().trip_reason());
     rec.hash = hash.value();

@@ -59,11 +59,21 @@ public:
         observe(TickView{k, pos_.to_physical(sig.r), pos_.to_physical(sig.y), volt_.to_physical(u)}, sig, stage_);
     }
 
-    // A stage carried on from an earlier run: the first tick reads y_um.
-    void resume(float y_um) { loop_.resume(y_um); }
-    // The reading the next tick would use, and the last command, physical.
-    float reading_um() const { return pos_.to_physical(loop_.reading()); }
-    float command_V() const { return volt_.to_physical(loop_.last_command()); }
+    // A stage carried on from an earlier run (sim/carried_stage.hpp): the
+    // kernel's stage takes its state and the first tick reads its reading;
+    // carry_out leaves this run's end there. Null or not started: from rest.
+    void carry_in(const CarriedStage* c) {
+        if (!c || !c->started) return;
+        stage_ = c->stage;
+        loop_.resume(c->reading_um);
+    }
+    void carry_out(CarriedStage* c) const {
+        if (!c) return;
+        c->stage = stage_;
+        c->reading_um = pos_.to_physical(loop_.reading());
+        c->command_V = volt_.to_physical(loop_.last_command());
+        c->started = true;
+    }
 
 private:
     PipelineT& pipe_;
@@ -81,21 +91,9 @@ template <class T, class PipelineT, class Stage, class Observer>
 inline void run_ticks(PipelineT& pipe, Stage& stage, float sensor_gain, uint64_t ticks, reference::LogHash* hash,
                       Observer&& observe, CarriedStage* carried = nullptr) {
     LoopKernel<T, PipelineT, Stage> loop(pipe, stage, sensor_gain, hash);
-    if constexpr (std::is_same_v<Stage, StageModel>) {
-        if (carried && carried->started) {
-            stage = carried->stage;
-            loop.resume(carried->reading_um);
-        }
-    }
+    if constexpr (std::is_same_v<Stage, StageModel>) loop.carry_in(carried);
     for (uint64_t k = 0; k < ticks; ++k) loop.step(k, observe);
-    if constexpr (std::is_same_v<Stage, StageModel>) {
-        if (carried) {
-            carried->stage = stage;
-            carried->reading_um = loop.reading_um();
-            carried->command_V = loop.command_V();
-            carried->started = true;
-        }
-    }
+    if constexpr (std::is_same_v<Stage, StageModel>) loop.carry_out(carried);
 }
 
 }  // namespace piezoloop::sim
