@@ -108,6 +108,26 @@ TEST(SimScenario, ErrorsNameTheFieldPath) {
 // controller.prefilter: a continuous model discretised by Tustin at the loop
 // rate into the core's pre-filter sections (float and Q31), r shaped as they
 // say; more than two sections are refused naming the field.
+// A compensator given directly (commissioning writes one with its model's
+// offset and, with strong hysteresis, in series): its offset and placement
+// are read, and bad ones refused naming the field.
+TEST(SimScenario, PiCompensatorOffsetAndPlacement) {
+    nlohmann::json j = read("ahmad2020");
+    j["cases"][0]["controller"]["feedforward"] = {{"kind", "pi_compensator"}, {"thresholds_um", {1.0}},
+                                                  {"weights_V_per_um", {0.1}}, {"p0_V_per_um", 0.5},
+                                                  {"input_offset_um", -0.25}, {"placement", "feedforward"}};
+    const Scenario s = parse_scenario(j, kConfigs);
+    EXPECT_EQ(s.cases[0].feedforward.pi.input_offset, -0.25f);
+    EXPECT_EQ(s.cases[0].feedforward.placement, "feedforward");
+    for (const auto& [field, value] : {std::pair<const char*, nlohmann::json>{"input_offset_um", 1e5},
+                                       {"input_offset_um", "x"}, {"placement", "sideways"}}) {
+        nlohmann::json bad = j;
+        bad["cases"][0]["controller"]["feedforward"][field] = value;
+        EXPECT_NE(error_of(bad).find(std::string("cases[0].controller.feedforward.") + field), std::string::npos)
+            << field << ": " << error_of(bad);
+    }
+}
+
 TEST(SimScenario, ReferencePreFilterBuildsIntoTheCoreSections) {
     nlohmann::json j = read("ahmad2020");
     // A notch at 1 kHz (ζ 0.01 -> 0.7): four poles, two sections.
