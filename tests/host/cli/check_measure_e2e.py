@@ -152,7 +152,15 @@ try:
     running = killed.poll() is None
     killed.kill()
     killed.wait()
+    # The hello asks the tick to stop the excitation; the tick does so on its
+    # next run, which on a loaded emulator can come after that session's
+    # status reply: ask again for up to 2 s.
     st = status()
+    for _ in range(20):
+        if not st["excitation"]["running"]:
+            break
+        time.sleep(0.1)
+        st = status()
     check(running and not st["excitation"]["running"] and "client_lost" in json.dumps(st),
           "a killed measurement's excitation ends at the next client's hello (client_lost)", json.dumps(st))
     run(*d, "disarm")
