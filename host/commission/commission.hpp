@@ -31,8 +31,12 @@
 //      (s/1.6 + ω_b)/(s + 1e-3 ω_b) at the target bandwidth, W2 = 0.5; again
 //      at 0.7x and 0.5x the target when refused), the same with the fit's
 //      error on the measured lines as the uncertainty weight W3 on T
-//      (commission/uncertainty_weight), and classic, PI + notches
-//      (synth/pi_notch) at the target bandwidth.
+//      (commission/uncertainty_weight), classic, PI + notches
+//      (synth/pi_notch) at the target bandwidth, and, when the fit has a
+//      lightly damped mode (ζ < 0.2), robust damped: the same weights with a
+//      disturbance at the plant's input (synth/damping_mixsyn), which damps
+//      the mode instead of cancelling it (listed last: chosen only when its
+//      prediction is better by more than the tie).
 //   6. each checked on the measured response (analysis/measured_loop):
 //      PM >= 45°, GM >= 6 dB, max|S| <= 2; a candidate that fails is never
 //      loaded. When none passes at the automatic target bandwidth, it is
