@@ -408,7 +408,7 @@ private:
         // The cascade's states as they are before this tick's sample, for its
         // anti-windup: taken here, before the reading, so the copy stays out
         // of the ADC-read-to-DAC-write span.
-        if (armed && b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.before(b.sos);
+        if (armed && b.sos_anti_windup_on) b.sos_anti_windup.before(b.sos);
         s.u_ff = armed ? b.feedforward(s.r) : sample_zero<T>();
         // The RC's correction depends only on its delay line's past
         // (repetitive.hpp): computed here, out of the ADC-read-to-DAC-write
@@ -442,7 +442,7 @@ private:
             } else {
                 s.u = limiter_.apply(command);
             }
-            if (b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.after(b.sos, e_fb, limiter_.clamp_direction());
+            if (b.sos_anti_windup_on) b.sos_anti_windup.after(b.sos, e_fb, limiter_.clamp_direction());
         } else {
             s.u_fb = sample_zero<T>();
             s.u = limiter_.apply(sample_zero<T>());
@@ -493,6 +493,7 @@ private:
         FeedbackKind fb_kind = FeedbackKind::kNone;
         BiquadCascade<T, kMaxControllerSections> sos{};
         CascadeAntiWindup<T, kMaxControllerSections> sos_anti_windup{};
+        bool sos_anti_windup_on = false;  // kSos feedback with a DC gain (anti_windup.hpp)
         Pid<T> pid{};
         bool rc_enabled = false;
         RepetitiveController<T, RcCapacity> rc{};
@@ -541,6 +542,7 @@ private:
         b.position = setup_.position;
         b.voltage = setup_.voltage;
         b.ff_kind = p.feedforward;
+        b.sos_anti_windup_on = false;
         switch (p.feedforward) {
             case FeedforwardKind::kNone:
                 break;
@@ -579,6 +581,7 @@ private:
                     !s.ok())
                     return in_group("sos", s);
                 b.sos_anti_windup.configure(p.sos.data(), p.sos_count);
+                b.sos_anti_windup_on = b.sos_anti_windup.dc_sign() != 0;
                 break;
             case FeedbackKind::kPid:
                 if (const Status s = b.pid.configure(p.pid, setup_.rate_Hz, setup_.position, fb_out);
@@ -607,7 +610,9 @@ private:
         return ok_status();
     }
 
-    Bank& bank() { return banks_[active_]; }
+    // The tick's bank by pointer: one load, where indexing by active_ costs
+    // a load and a multiply-add each time the compiler rematerialises it.
+    Bank& bank() { return *bank_; }
 
     void swap_banks() {
         const Bank& old = banks_[active_];
@@ -636,6 +641,7 @@ private:
         else
             next.prefilter.reset();
         active_ ^= 1u;
+        bank_ = &banks_[active_];
         // Prepared in stage(); the limiter keeps its last output and slews
         // into the new range.
         limiter_.apply_setting(limits_next_);
@@ -647,6 +653,7 @@ private:
     Bank banks_[2]{};
     PipelineParams params_[2]{};
     unsigned active_ = 0;
+    Bank* bank_ = &banks_[0];  // banks_[active_]
     std::atomic<bool> swap_pending_{false};
     bool rc_changes_ = false;  // the pending set changes the RC (written before swap_pending_)
     OutputLimiter<T> limiter_;
