@@ -62,6 +62,7 @@
 
 #include <array>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <type_traits>
 
@@ -345,8 +346,13 @@ public:
     }
     void end_tick() {
         // The recorder reads the signals it records from last_ directly
-        // (TickSignals is in SignalId order) instead of from a copy of every signal.
-        recorder_.push_from(tick_count_, [this](uint8_t i) { return last_.*kSignalMember[i]; });
+        // (TickSignals is in SignalId order, one sample apart: signal i is
+        // i samples past r) instead of from a copy of every signal.
+        recorder_.push_from(tick_count_, [this](uint8_t i) {
+            T v;
+            __builtin_memcpy(&v, reinterpret_cast<const unsigned char*>(&last_) + i * sizeof(T), sizeof(T));
+            return v;
+        });
         ++tick_count_;
     }
 
@@ -361,10 +367,17 @@ public:
     Trajectory& trajectory() { return trajectory_; }
 
 private:
-    // TickSignals' members by SignalId (the recorder's signal indices).
-    static constexpr T TickSignals<T>::*kSignalMember[kSignalCount] = {
-        &TickSignals<T>::r,  &TickSignals<T>::y,    &TickSignals<T>::e,   &TickSignals<T>::u,
-        &TickSignals<T>::u_ff, &TickSignals<T>::u_fb, &TickSignals<T>::u_rc, &TickSignals<T>::d};
+    // TickSignals' members in SignalId order (the recorder's signal
+    // indices), one sample apart: end_tick reads signal i at i samples.
+    static_assert(std::is_standard_layout_v<TickSignals<T>> && sizeof(TickSignals<T>) == kSignalCount * sizeof(T));
+    static_assert(offsetof(TickSignals<T>, r) == signal_index(SignalId::kR) * sizeof(T) &&
+                  offsetof(TickSignals<T>, y) == signal_index(SignalId::kY) * sizeof(T) &&
+                  offsetof(TickSignals<T>, e) == signal_index(SignalId::kE) * sizeof(T) &&
+                  offsetof(TickSignals<T>, u) == signal_index(SignalId::kU) * sizeof(T) &&
+                  offsetof(TickSignals<T>, u_ff) == signal_index(SignalId::kUff) * sizeof(T) &&
+                  offsetof(TickSignals<T>, u_fb) == signal_index(SignalId::kUfb) * sizeof(T) &&
+                  offsetof(TickSignals<T>, u_rc) == signal_index(SignalId::kUrc) * sizeof(T) &&
+                  offsetof(TickSignals<T>, d) == signal_index(SignalId::kD) * sizeof(T));
 
     // The phases, inlined into tick() and into the board's phase calls: as
     // separate functions tick()'s local signals would live on the stack
