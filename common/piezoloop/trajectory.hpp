@@ -137,7 +137,14 @@ constexpr Ramp make_ramp(uint64_t len) {  // 2 <= len <= 2^32 - 1
     r.mul = static_cast<uint32_t>((uint64_t{1} << (32 + r.shift)) / len);
     return r;
 }
-constexpr uint64_t apply_ramp(Ramp r, uint32_t x) { return (uint64_t{x} * r.mul) >> r.shift; }
+// x * mul < 2^(32 + shift): the result fits 32 bits, and the shift
+// (0 .. 31) is done on the product's two words (a 64-bit shift by a
+// variable amount costs twice the instructions on a 32-bit core).
+constexpr uint32_t apply_ramp(Ramp r, uint32_t x) {  // x < len
+    const uint64_t v = uint64_t{x} * r.mul;
+    const uint32_t lo = static_cast<uint32_t>(v), hi = static_cast<uint32_t>(v >> 32);
+    return (lo >> r.shift) | ((hi << 1) << (31 - r.shift));  // hi << (32 - shift), 0 for shift 0
+}
 
 constexpr uint32_t share_to_phase(double share) {  // share in [2^-16, 1 - 2^-16]
     return static_cast<uint32_t>(share * kTwo32 + 0.5);
