@@ -285,7 +285,7 @@ public:
     [[gnu::always_inline]] constexpr T step() {
         if (done_) return hold_;
         const T out = value_at(phase());
-        advance_acc(uint64_t{step_.inc} + carry());
+        advance_acc(step_.inc + carry());
         return out;
     }
 
@@ -355,10 +355,11 @@ private:
         return v > Q31::kMaxRaw ? Q31::kMaxRaw : (v < Q31::kMinRaw ? Q31::kMinRaw : static_cast<int32_t>(v));
     }
 
-    [[gnu::always_inline]] constexpr void advance_acc(uint64_t add) {
-        const uint64_t s = uint64_t{acc_} + add;  // add < 2^31: at most one wrap
-        acc_ = static_cast<uint32_t>(s);
-        if ((s >> 32) != 0) {  // one full cycle since the start phase
+    [[gnu::always_inline]] constexpr void advance_acc(uint32_t add) {
+        const uint32_t s = acc_ + add;  // add < 2^31: at most one wrap
+        const bool wrapped = s < acc_;
+        acc_ = s;
+        if (wrapped) {  // one full cycle since the start phase
             if (cycles_done_ != 0xffffffffu) ++cycles_done_;
             if (cfg_.cycles != 0 && cycles_done_ >= cfg_.cycles) done_ = true;
         }
