@@ -62,6 +62,7 @@
 
 #include <array>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <type_traits>
 
@@ -345,8 +346,13 @@ public:
     }
     void end_tick() {
         // The recorder reads the signals it records from last_ directly
-        // (TickSignals is in SignalId order) instead of from a copy of every signal.
-        recorder_.push_from(tick_count_, [this](uint8_t i) { return last_.*kSignalMember[i]; });
+        // (TickSignals is in SignalId order, one sample apart: signal i is
+        // i samples past r) instead of from a copy of every signal.
+        recorder_.push_from(tick_count_, [this](uint8_t i) {
+            T v;
+            __builtin_memcpy(&v, reinterpret_cast<const unsigned char*>(&last_) + i * sizeof(T), sizeof(T));
+            return v;
+        });
         ++tick_count_;
     }
 
@@ -361,10 +367,17 @@ public:
     Trajectory& trajectory() { return trajectory_; }
 
 private:
-    // TickSignals' members by SignalId (the recorder's signal indices).
-    static constexpr T TickSignals<T>::*kSignalMember[kSignalCount] = {
-        &TickSignals<T>::r,  &TickSignals<T>::y,    &TickSignals<T>::e,   &TickSignals<T>::u,
-        &TickSignals<T>::u_ff, &TickSignals<T>::u_fb, &TickSignals<T>::u_rc, &TickSignals<T>::d};
+    // TickSignals' members in SignalId order (the recorder's signal
+    // indices), one sample apart: end_tick reads signal i at i samples.
+    static_assert(std::is_standard_layout_v<TickSignals<T>> && sizeof(TickSignals<T>) == kSignalCount * sizeof(T));
+    static_assert(offsetof(TickSignals<T>, r) == signal_index(SignalId::kR) * sizeof(T) &&
+                  offsetof(TickSignals<T>, y) == signal_index(SignalId::kY) * sizeof(T) &&
+                  offsetof(TickSignals<T>, e) == signal_index(SignalId::kE) * sizeof(T) &&
+                  offsetof(TickSignals<T>, u) == signal_index(SignalId::kU) * sizeof(T) &&
+                  offsetof(TickSignals<T>, u_ff) == signal_index(SignalId::kUff) * sizeof(T) &&
+                  offsetof(TickSignals<T>, u_fb) == signal_index(SignalId::kUfb) * sizeof(T) &&
+                  offsetof(TickSignals<T>, u_rc) == signal_index(SignalId::kUrc) * sizeof(T) &&
+                  offsetof(TickSignals<T>, d) == signal_index(SignalId::kD) * sizeof(T));
 
     // The phases, inlined into tick() and into the board's phase calls: as
     // separate functions tick()'s local signals would live on the stack
@@ -408,7 +421,7 @@ private:
         // The cascade's states as they are before this tick's sample, for its
         // anti-windup: taken here, before the reading, so the copy stays out
         // of the ADC-read-to-DAC-write span.
-        if (armed && b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.before(b.sos);
+        if (armed && b.sos_anti_windup_on) b.sos_anti_windup.before(b.sos);
         s.u_ff = armed ? b.feedforward(s.r) : sample_zero<T>();
         // The RC's correction depends only on its delay line's past
         // (repetitive.hpp): computed here, out of the ADC-read-to-DAC-write
@@ -442,7 +455,7 @@ private:
             } else {
                 s.u = limiter_.apply(command);
             }
-            if (b.fb_kind == FeedbackKind::kSos) b.sos_anti_windup.after(b.sos, e_fb, limiter_.clamp_direction());
+            if (b.sos_anti_windup_on) b.sos_anti_windup.after(b.sos, e_fb, limiter_.clamp_direction());
         } else {
             s.u_fb = sample_zero<T>();
             s.u = limiter_.apply(sample_zero<T>());
@@ -493,6 +506,7 @@ private:
         FeedbackKind fb_kind = FeedbackKind::kNone;
         BiquadCascade<T, kMaxControllerSections> sos{};
         CascadeAntiWindup<T, kMaxControllerSections> sos_anti_windup{};
+        bool sos_anti_windup_on = false;  // kSos feedback with a DC gain (anti_windup.hpp)
         Pid<T> pid{};
         bool rc_enabled = false;
         RepetitiveController<T, RcCapacity> rc{};
@@ -541,6 +555,7 @@ private:
         b.position = setup_.position;
         b.voltage = setup_.voltage;
         b.ff_kind = p.feedforward;
+        b.sos_anti_windup_on = false;
         switch (p.feedforward) {
             case FeedforwardKind::kNone:
                 break;
@@ -579,6 +594,7 @@ private:
                     !s.ok())
                     return in_group("sos", s);
                 b.sos_anti_windup.configure(p.sos.data(), p.sos_count);
+                b.sos_anti_windup_on = b.sos_anti_windup.dc_sign() != 0;
                 break;
             case FeedbackKind::kPid:
                 if (const Status s = b.pid.configure(p.pid, setup_.rate_Hz, setup_.position, fb_out);
@@ -607,7 +623,9 @@ private:
         return ok_status();
     }
 
-    Bank& bank() { return banks_[active_]; }
+    // The tick's bank by pointer: one load, where indexing by active_ costs
+    // a load and a multiply-add each time the compiler rematerialises it.
+    Bank& bank() { return *bank_; }
 
     void swap_banks() {
         const Bank& old = banks_[active_];
@@ -636,6 +654,7 @@ private:
         else
             next.prefilter.reset();
         active_ ^= 1u;
+        bank_ = &banks_[active_];
         // Prepared in stage(); the limiter keeps its last output and slews
         // into the new range.
         limiter_.apply_setting(limits_next_);
@@ -647,6 +666,7 @@ private:
     Bank banks_[2]{};
     PipelineParams params_[2]{};
     unsigned active_ = 0;
+    Bank* bank_ = &banks_[0];  // banks_[active_]
     std::atomic<bool> swap_pending_{false};
     bool rc_changes_ = false;  // the pending set changes the RC (written before swap_pending_)
     OutputLimiter<T> limiter_;

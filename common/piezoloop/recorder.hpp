@@ -194,8 +194,10 @@ public:
     // The same, reading signal i as `signal(i)` (S signal(uint8_t i), i <
     // Signals): lets the pipeline offer its signals where they already are
     // instead of copying them into a SignalVector every tick.
+    // Inlined into the tick up to the streaming case; the other states
+    // take a call.
     template <class Source>
-    void push_from(uint32_t tick, const Source& signal) {
+    [[gnu::always_inline]] void push_from(uint32_t tick, const Source& signal) {
         // configure(), arm() and stop() never run concurrently with push, so
         // the writer's own view of the state needs no barrier.
         const RecorderState st = static_cast<RecorderState>(__atomic_load_n(&state_, __ATOMIC_RELAXED));
@@ -206,7 +208,52 @@ public:
             return;
         }
         if (st != RecorderState::kArmed && st != RecorderState::kTriggered) return;
+        push_record(tick, st, signal);
+    }
 
+    // Reader: copies up to out.size() frames, oldest first, and removes them.
+    std::size_t read(std::span<Frame> out) {
+        const uint32_t h = __atomic_load_n(&head_, __ATOMIC_ACQUIRE);
+        const uint32_t s = __atomic_load_n(&start_, __ATOMIC_ACQUIRE);
+        uint32_t t = tail_;
+        if (static_cast<int32_t>(s - t) > 0) t = s;
+        std::size_t n = h - t;
+        if (n > out.size()) n = out.size();
+        for (std::size_t i = 0; i < n; ++i) out[i] = frames_[(t + static_cast<uint32_t>(i)) & kMask];
+        __atomic_store_n(&tail_, t + static_cast<uint32_t>(n), __ATOMIC_RELEASE);
+        return n;
+    }
+
+    // Reader: frames ready to read.
+    std::size_t available() const {
+        const uint32_t h = __atomic_load_n(&head_, __ATOMIC_ACQUIRE);
+        const uint32_t s = __atomic_load_n(&start_, __ATOMIC_ACQUIRE);
+        uint32_t t = tail_;
+        if (static_cast<int32_t>(s - t) > 0) t = s;
+        return h - t;
+    }
+
+    // Frames dropped since arm()/configure() because the reader was too slow (saturating).
+    uint32_t overruns() const { return __atomic_load_n(&overruns_, __ATOMIC_RELAXED); }
+    RecorderState state() const {
+        return static_cast<RecorderState>(__atomic_load_n(&state_, __ATOMIC_ACQUIRE));
+    }
+    // Tick of the trigger frame of the current record (valid once triggered).
+    uint32_t trigger_tick() const { return trigger_tick_; }
+    bool configured() const { return configured_; }
+    const Config& config() const { return cfg_; }
+    static constexpr std::size_t capacity() { return Capacity; }
+    static constexpr std::size_t channels() { return Channels; }
+
+private:
+    static constexpr uint32_t kMask = static_cast<uint32_t>(Capacity - 1);
+
+    void set_state(RecorderState s) { __atomic_store_n(&state_, static_cast<uint8_t>(s), __ATOMIC_RELEASE); }
+
+    // push_from() in the armed and the other triggered states: trigger,
+    // decimation, pre-trigger history, single shot.
+    template <class Source>
+    [[gnu::noinline]] void push_record(uint32_t tick, RecorderState st, const Source& signal) {
         bool fire = false;
         if (st == RecorderState::kArmed) {
             if (cfg_.trigger == TriggerMode::kImmediate) {
@@ -253,45 +300,6 @@ public:
         // Triggered: append unless the reader has not made room.
         if (append(tick, signal) && finished(start_)) set_state(RecorderState::kDone);
     }
-
-    // Reader: copies up to out.size() frames, oldest first, and removes them.
-    std::size_t read(std::span<Frame> out) {
-        const uint32_t h = __atomic_load_n(&head_, __ATOMIC_ACQUIRE);
-        const uint32_t s = __atomic_load_n(&start_, __ATOMIC_ACQUIRE);
-        uint32_t t = tail_;
-        if (static_cast<int32_t>(s - t) > 0) t = s;
-        std::size_t n = h - t;
-        if (n > out.size()) n = out.size();
-        for (std::size_t i = 0; i < n; ++i) out[i] = frames_[(t + static_cast<uint32_t>(i)) & kMask];
-        __atomic_store_n(&tail_, t + static_cast<uint32_t>(n), __ATOMIC_RELEASE);
-        return n;
-    }
-
-    // Reader: frames ready to read.
-    std::size_t available() const {
-        const uint32_t h = __atomic_load_n(&head_, __ATOMIC_ACQUIRE);
-        const uint32_t s = __atomic_load_n(&start_, __ATOMIC_ACQUIRE);
-        uint32_t t = tail_;
-        if (static_cast<int32_t>(s - t) > 0) t = s;
-        return h - t;
-    }
-
-    // Frames dropped since arm()/configure() because the reader was too slow (saturating).
-    uint32_t overruns() const { return __atomic_load_n(&overruns_, __ATOMIC_RELAXED); }
-    RecorderState state() const {
-        return static_cast<RecorderState>(__atomic_load_n(&state_, __ATOMIC_ACQUIRE));
-    }
-    // Tick of the trigger frame of the current record (valid once triggered).
-    uint32_t trigger_tick() const { return trigger_tick_; }
-    bool configured() const { return configured_; }
-    const Config& config() const { return cfg_; }
-    static constexpr std::size_t capacity() { return Capacity; }
-    static constexpr std::size_t channels() { return Channels; }
-
-private:
-    static constexpr uint32_t kMask = static_cast<uint32_t>(Capacity - 1);
-
-    void set_state(RecorderState s) { __atomic_store_n(&state_, static_cast<uint8_t>(s), __ATOMIC_RELEASE); }
 
     // All values are read before the frame is written (unrolled for the
     // channel count): a frame store could alias the byte-sized channel

@@ -137,7 +137,14 @@ constexpr Ramp make_ramp(uint64_t len) {  // 2 <= len <= 2^32 - 1
     r.mul = static_cast<uint32_t>((uint64_t{1} << (32 + r.shift)) / len);
     return r;
 }
-constexpr uint64_t apply_ramp(Ramp r, uint32_t x) { return (uint64_t{x} * r.mul) >> r.shift; }
+// x * mul < 2^(32 + shift): the result fits 32 bits, and the shift
+// (0 .. 31) is done on the product's two words (a 64-bit shift by a
+// variable amount costs twice the instructions on a 32-bit core).
+constexpr uint32_t apply_ramp(Ramp r, uint32_t x) {  // x < len
+    const uint64_t v = uint64_t{x} * r.mul;
+    const uint32_t lo = static_cast<uint32_t>(v), hi = static_cast<uint32_t>(v >> 32);
+    return (lo >> r.shift) | ((hi << 1) << (31 - r.shift));  // hi << (32 - shift), 0 for shift 0
+}
 
 constexpr uint32_t share_to_phase(double share) {  // share in [2^-16, 1 - 2^-16]
     return static_cast<uint32_t>(share * kTwo32 + 0.5);
@@ -278,7 +285,7 @@ public:
     [[gnu::always_inline]] constexpr T step() {
         if (done_) return hold_;
         const T out = value_at(phase());
-        advance_acc(uint64_t{step_.inc} + carry());
+        advance_acc(step_.inc + carry());
         return out;
     }
 
@@ -348,10 +355,11 @@ private:
         return v > Q31::kMaxRaw ? Q31::kMaxRaw : (v < Q31::kMinRaw ? Q31::kMinRaw : static_cast<int32_t>(v));
     }
 
-    [[gnu::always_inline]] constexpr void advance_acc(uint64_t add) {
-        const uint64_t s = uint64_t{acc_} + add;  // add < 2^31: at most one wrap
-        acc_ = static_cast<uint32_t>(s);
-        if ((s >> 32) != 0) {  // one full cycle since the start phase
+    [[gnu::always_inline]] constexpr void advance_acc(uint32_t add) {
+        const uint32_t s = acc_ + add;  // add < 2^31: at most one wrap
+        const bool wrapped = s < acc_;
+        acc_ = s;
+        if (wrapped) {  // one full cycle since the start phase
             if (cycles_done_ != 0xffffffffu) ++cycles_done_;
             if (cfg_.cycles != 0 && cycles_done_ >= cfg_.cycles) done_ = true;
         }

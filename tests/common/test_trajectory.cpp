@@ -95,6 +95,32 @@ TEST(SineTable, InterpolatedSineWithinStatedError) {
 
 // ---- waveforms against analytic values -------------------------------------
 
+// The ramp x -> x * 2^32 / len as the generator evaluates it (the shift on
+// the product's two words) equals the plain 64-bit (x * mul) >> shift and
+// is at most 2 LSB below the exact floor(x * 2^32 / len), for lengths of
+// every shift 0..31 (len 2 .. 2^32 - 1) at both ends and at random x.
+TEST(TrajectoryRamp, WordShiftEqualsThe64BitShift) {
+    using piezoloop::trajectory_detail::apply_ramp;
+    using piezoloop::trajectory_detail::make_ramp;
+    std::mt19937_64 rng(7);
+    for (int b = 1; b <= 32; ++b) {
+        const uint64_t lens[3] = {(uint64_t{1} << (b - 1)) + 1u, (uint64_t{1} << b) - 1u,
+                                  (uint64_t{1} << (b - 1)) + (rng() % (uint64_t{1} << (b - 1)))};
+        for (const uint64_t len : lens) {
+            if (len < 2) continue;
+            const auto r = make_ramp(len);
+            for (int k = 0; k < 200; ++k) {
+                const uint32_t x = k == 0 ? 0u : (k == 1 ? static_cast<uint32_t>(len - 1) : static_cast<uint32_t>(rng() % len));
+                const uint64_t plain = (uint64_t{x} * r.mul) >> r.shift;
+                ASSERT_EQ(apply_ramp(r, x), plain) << "len " << len << " x " << x;
+                const uint64_t exact = (uint64_t{x} << 32) / len;  // x < 2^32: fits
+                ASSERT_LE(plain, exact);
+                ASSERT_LE(exact - plain, 2u) << "len " << len << " x " << x;
+            }
+        }
+    }
+}
+
 TEST(Trajectory, SineMatchesAnalytic) {
     // 1 kHz at 100 kHz: phase n / 100 exactly. Float error: table error times
     // the amplitude, plus the float rounding of the shape, product and sum
