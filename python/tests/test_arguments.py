@@ -117,9 +117,9 @@ def test_prefilter_coefficient_named_as_the_group_holds_it(board):
     lp = {"b0": 0.02, "b1": 0.04, "b2": 0.02, "a1": -1.56, "a2": 0.64}
     # Finite but a pole outside the unit circle: refused by the board's core.
     with pytest.raises(piezoloop.DeviceError, match=r"feedforward\.prefilter\[1\]\.a2: poles must be inside"):
-        board.set("feedforward", prefilter_count=2, prefilter=[lp, dict(lp, a2=1.25)])
+        board.set("feedforward", prefilter=[lp, dict(lp, a2=1.25)])
     with pytest.raises(ValueError, match=r"feedforward\.prefilter\[0\]\.b1: must be a finite number"):
-        board.set("feedforward", prefilter_count=1, prefilter=[dict(lp, b1=math.inf)])
+        board.set("feedforward", prefilter=[dict(lp, b1=math.inf)])
     assert board.get("feedforward") == before
 
 
