@@ -35,8 +35,9 @@
 // recorded and tracked is the filtered one. A wave that starts from the
 // stage's reading (its approach, above) first puts the pre-filter at its
 // steady state for that reading (BiquadCascade::settle), so the filtered r
-// starts where the stage is, not at the setpoint held before. A changed pre-filter starts from
-// rest, so it changes only while disarmed (stage() refuses it while armed).
+// starts where the stage is, not at the setpoint held before. A changed
+// pre-filter starts from rest, so it changes only while disarmed (stage()
+// refuses it while armed).
 // Without one the tick pays one well-predicted branch and its arithmetic is
 // unchanged.
 //
