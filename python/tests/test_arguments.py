@@ -113,6 +113,7 @@ def test_wave_checked_as_the_cli(board):
 
 
 def test_prefilter_coefficient_named_as_the_group_holds_it(board):
+    board.set("limits", u_min_V=-2.0, u_max_V=10.0, slew_V_per_s=200000.0)  # the core checks a whole set
     before = board.get("feedforward")
     lp = {"b0": 0.02, "b1": 0.04, "b2": 0.02, "a1": -1.56, "a2": 0.64}
     # Finite but a pole outside the unit circle: refused by the board's core.
