@@ -45,14 +45,30 @@ class BiquadCascade;
 
 namespace detail {
 
-// Field names "sections[<i>].<coef>" as static strings: a Status must point
+// Field names "<prefix>[<i>].<coef>" as static strings: a Status must point
 // at storage that outlives the call and the core cannot format at run time.
-// Only the table for the largest MaxSections in use is emitted.
+// The cascade names its coefficients "sections[i].b0"; a block that holds
+// sections under another name (the pipeline's pre-filter: "prefilter[i].b0")
+// renames with its own table. Only the tables in use are emitted.
 inline constexpr int kSosFieldLength = 24;
 inline constexpr const char* kSosCoefNames[5] = {"b0", "b1", "b2", "a1", "a2"};
+inline constexpr char kSectionsName[] = "sections";
 
-template <int N>
+constexpr int text_length(const char* t) {
+    int n = 0;
+    while (t[n] != '\0') ++n;
+    return n;
+}
+constexpr bool same_text(const char* a, const char* b) {
+    if (a == nullptr || b == nullptr) return a == b;
+    int i = 0;
+    while (a[i] != '\0' && a[i] == b[i]) ++i;
+    return a[i] == b[i];
+}
+
+template <int N, const char* Prefix>
 struct SosFieldNames {
+    static_assert(text_length(Prefix) + 9 < kSosFieldLength, "prefix too long for the field names");
     std::array<std::array<char, kSosFieldLength>, static_cast<std::size_t>(N) * 5> names{};
 
     constexpr SosFieldNames() {
@@ -60,7 +76,8 @@ struct SosFieldNames {
             for (int f = 0; f < 5; ++f) {
                 auto& s = names[static_cast<std::size_t>(i * 5 + f)];
                 int n = 0;
-                for (const char* p = "sections["; *p != '\0'; ++p) s[static_cast<std::size_t>(n++)] = *p;
+                for (const char* p = Prefix; *p != '\0'; ++p) s[static_cast<std::size_t>(n++)] = *p;
+                s[static_cast<std::size_t>(n++)] = '[';
                 char digits[4] = {};
                 int d = 0;
                 int v = i;
@@ -79,14 +96,25 @@ struct SosFieldNames {
     }
 };
 
-template <int N>
-inline constexpr SosFieldNames<N> kSosFieldNames{};
+template <int N, const char* Prefix>
+inline constexpr SosFieldNames<N, Prefix> kSosFieldNames{};
 
 enum SosCoef : int { kB0 = 0, kB1 = 1, kB2 = 2, kA1 = 3, kA2 = 4 };
 
-template <int N>
+template <int N, const char* Prefix = kSectionsName>
 constexpr const char* sos_field(int section, SosCoef coef) {
-    return kSosFieldNames<N>.names[static_cast<std::size_t>(section * 5 + coef)].data();
+    return kSosFieldNames<N, Prefix>.names[static_cast<std::size_t>(section * 5 + coef)].data();
+}
+
+// A cascade's error on one of its coefficients ("sections[i].b0"), renamed
+// "<Prefix>[i].b0" with no group; any other error unchanged.
+template <int N, const char* Prefix>
+constexpr Status renamed_sos_error(Status s) {
+    for (int i = 0; i < N; ++i)
+        for (int c = 0; c < 5; ++c)
+            if (same_text(s.field, sos_field<N>(i, SosCoef(c))))
+                return error(sos_field<N, Prefix>(i, SosCoef(c)), s.message);
+    return s;
 }
 
 // Block exponent for coefficients quantised through their partial sums.
@@ -246,6 +274,7 @@ public:
                              "poles too close to the unit circle to be represented in float");
         }
         coef_ = c;
+        for (int i = 0; i < count; ++i) settle_gain_[static_cast<std::size_t>(i)] = settle_gain(c[static_cast<std::size_t>(i)]);
         if (count != count_) state_ = {};
         count_ = count;
         return ok_status();
@@ -269,6 +298,40 @@ public:
     }
 
     constexpr void reset() { state_ = {}; }
+
+    // The state a constant input x settles to (its DC steady state): from
+    // here, x in gives H(1) x out at once, up to float rounding, and the
+    // state stays put. Per section, for its input x and output y = G x:
+    //   DF2T:  s2 = b2 x - a2 y,  s1 = b1 x - a1 y + s2 (the updates of
+    //          apply_n at rest; G = (b0 + b1 + b2) / (1 + a1 + a2));
+    //   delta: both increments zero, s1 = (g0 / c0) x, s2 = c1 s1 - g1 x,
+    //          residuals zero (G = b0 + g0 / c0).
+    // The next section's input is what this one then outputs, b0 x + s1.
+    // x = 0 is reset() exactly (no signed zeros). For a start from a given
+    // point, not per sample: one multiply per section more than apply.
+    constexpr void settle(float x) {
+        if (x == 0.0f) {
+            reset();
+            return;
+        }
+        for (int i = 0; i < count_; ++i) {
+            const Coef& c = coef_[static_cast<std::size_t>(i)];
+            State& s = state_[static_cast<std::size_t>(i)];
+            const float g = settle_gain_[static_cast<std::size_t>(i)];
+            if (c.form == SectionForm::kDf2t) {
+                const float y = g * x;
+                s.s2 = c.k2 * x - c.k4 * y;
+                s.s1 = c.k1 * x - c.k3 * y + s.s2;
+            } else {
+                s.s1 = g * x;
+                s.s2 = c.k3 * s.s1 - c.k1 * x;
+            }
+            s.r1 = 0.0f;
+            s.r2 = 0.0f;
+            x = c.k0 * x + s.s1;
+        }
+    }
+
     constexpr int count() const { return count_; }
     constexpr SectionForm form(int i) const { return coef_[static_cast<std::size_t>(i)].form; }
 
@@ -351,9 +414,19 @@ private:
         float s1 = 0.0f, s2 = 0.0f;  // DF2T or delta-form states
         float r1 = 0.0f, r2 = 0.0f;  // delta form: rounding residuals (error feedback)
     };
+    // settle()'s gain per section, from the realised (float) coefficients
+    // in double: DF2T G = (b0 + b1 + b2) / (1 + a1 + a2), delta g0 / c0.
+    static constexpr float settle_gain(const Coef& c) {
+        if (c.form == SectionForm::kDelta) return static_cast<float>(double{c.k2} / double{c.k4});
+        const double num = (double{c.k0} + double{c.k1}) + double{c.k2};
+        const double den = (1.0 + double{c.k3}) + double{c.k4};
+        return static_cast<float>(num / den);
+    }
+
     std::array<Coef, MaxSections> coef_{};
     std::array<State, MaxSections> state_{};
     int count_ = 0;
+    std::array<float, MaxSections> settle_gain_{};  // settle() only, never read by apply
 
 public:
     // The states alone, for the feedback's anti-windup (anti_windup.hpp),
@@ -493,6 +566,7 @@ public:
             small = small && k.num_shift < 32 && k.fb_shift < 32 && k.num_left == 0;
         }
         coef_ = c;
+        for (int i = 0; i < count; ++i) settle_gain_[static_cast<std::size_t>(i)] = settle_gain(c[static_cast<std::size_t>(i)]);
         small_shifts_ = small;
         if (count != count_) {
             hist_ = {};
@@ -514,6 +588,40 @@ public:
         hist_ = {};
         wide_ = {};
     }
+
+    // The state a constant input x settles to (its DC steady state), as the
+    // float cascade's settle(): every history of a section's input holds
+    // that input, every history of its output y = G x, and its unrounded
+    // accumulators w1 = w2 = G x in Q59 (so 2 w1 - w2 = w: no error-feedback
+    // kick). G is the quantised section's own DC gain, the x at which
+    // the numerator's and the feedback's contributions to acc cancel:
+    // G = sum(b) / (c1 + c2) * 2^(fb_shift - numerator shift), kept as a
+    // Q31 mantissa and a shift (configure()). A y beyond Q31 saturates as in
+    // apply(). x = 0 is reset() exactly. Integer arithmetic only.
+    constexpr void settle(Q31 in) {
+        int32_t x = in.raw();
+        if (x == 0) {
+            reset();
+            return;
+        }
+        for (int i = 0; i < count_; ++i) {
+            const std::size_t k = static_cast<std::size_t>(i);
+            int64_t w = settled_q59(x, settle_gain_[k]);
+            int64_t y = w >> kGuardBits;
+            if (y > Q31::kMaxRaw) {
+                y = Q31::kMaxRaw;
+                w = y * (int64_t{1} << kGuardBits);
+            } else if (y < Q31::kMinRaw) {
+                y = Q31::kMinRaw;
+                w = y * (int64_t{1} << kGuardBits);
+            }
+            hist_[k] = {x, x};
+            wide_[k] = {w, w};
+            x = static_cast<int32_t>(y);
+        }
+        hist_[static_cast<std::size_t>(count_)] = {x, x};
+    }
+
     constexpr int count() const { return count_; }
 
 private:
@@ -598,11 +706,61 @@ private:
         return v > Q31::kMaxRaw ? Q31::kMaxRaw : v < Q31::kMinRaw ? Q31::kMinRaw : static_cast<int32_t>(v);
     }
 
+    // A section's DC gain G = m * 2^-shift, m a Q31 mantissa (|m| in
+    // [2^30, 2^31), or 0 for G = 0).
+    struct SettleGain {
+        int32_t m = 0;
+        int32_t shift = 0;
+    };
+    static constexpr SettleGain settle_gain(const Coef& c) {
+        const int64_t b = int64_t{c.b0} + int64_t{c.b1} + int64_t{c.b2};
+        const int64_t a = int64_t{c.c1} + int64_t{c.c2};  // > 0: configure() checked it
+        const int numerator_shift = c.num_left > 0 ? -int{c.num_left} : int{c.num_shift};
+        double g = static_cast<double>(b) / static_cast<double>(a);
+        int shift = numerator_shift - int{c.fb_shift};  // g * 2^-shift is G
+        if (g == 0.0) return {};
+        const double mag_limit = 2147483648.0;  // 2^31
+        // Normalise |g| into [2^30, 2^31) by powers of two (exact); a gain
+        // beyond 2^-300 .. 2^300 never reaches here (|b| < 2^32, a >= 1).
+        while ((g < 0.0 ? -g : g) < mag_limit / 2.0) {
+            g *= 2.0;
+            ++shift;
+        }
+        while ((g < 0.0 ? -g : g) >= mag_limit) {
+            g *= 0.5;
+            --shift;
+        }
+        int64_t m = static_cast<int64_t>(g < 0.0 ? g - 0.5 : g + 0.5);  // round half away
+        if (m >= int64_t{1} << 31 || m <= -(int64_t{1} << 31)) {  // rounded up to 2^31
+            m /= 2;
+            --shift;
+        }
+        return {static_cast<int32_t>(m), static_cast<int32_t>(shift)};
+    }
+    // x G in Q59 (Q31 with kGuardBits more), saturated beyond +-2^60 (a y
+    // that saturates either way).
+    static constexpr int64_t settled_q59(int32_t x, SettleGain g) {
+        const int64_t p = int64_t{x} * g.m;  // |p| < 2^62
+        const int up = kGuardBits - g.shift;  // x G 2^28 = p 2^up
+        constexpr int64_t kBeyond = int64_t{1} << 60;
+        if (up >= 0) {
+            if (p == 0) return 0;
+            if (up >= 60) return p > 0 ? kBeyond : -kBeyond;
+            const int64_t limit = kBeyond >> up;
+            if (p >= limit) return kBeyond;
+            if (p <= -limit) return -kBeyond;
+            return p * (int64_t{1} << up);
+        }
+        if (-up >= 63) return p < 0 ? -1 : 0;
+        return p >> -up;
+    }
+
     std::array<Coef, MaxSections> coef_{};
     std::array<std::array<int32_t, 2>, MaxSections + 1> hist_{};  // {z^-1, z^-2} of each node
     std::array<std::array<int64_t, 2>, MaxSections> wide_{};  // unrounded outputs w1, w2, Q59
     int count_ = 0;
     bool small_shifts_ = true;  // every shift right and below 32 (no high-gain numerator)
+    std::array<SettleGain, MaxSections> settle_gain_{};  // settle() only, never read by apply
 
 public:
     // The states alone, for the feedback's anti-windup (anti_windup.hpp):

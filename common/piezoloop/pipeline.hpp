@@ -32,8 +32,12 @@
 // that its corners and steps do not excite the stage's lightly damped modes
 // through the feedforward (notches at the modes). It runs every tick, armed
 // or not, so it has settled on the reference when the loop arms; r as
-// recorded and tracked is the filtered one. A changed pre-filter starts from
-// rest, so it changes only while disarmed (stage() refuses it while armed).
+// recorded and tracked is the filtered one. A wave that starts from the
+// stage's reading (its approach, above) first puts the pre-filter at its
+// steady state for that reading (BiquadCascade::settle), so the filtered r
+// starts where the stage is, not at the setpoint held before. A changed
+// pre-filter starts from rest, so it changes only while disarmed (stage()
+// refuses it while armed).
 // Without one the tick pays one well-predicted branch and its arithmetic is
 // unchanged.
 //
@@ -85,6 +89,7 @@ namespace piezoloop {
 
 inline constexpr int kMaxControllerSections = 4;
 inline constexpr int kMaxPrefilterSections = 2;
+inline constexpr char kPrefilterName[] = "prefilter";  // its sections' field names: "prefilter[i].b0"
 
 enum class FeedforwardKind : uint8_t {
     kNone = 0,
@@ -468,10 +473,24 @@ private:
     // which tick() and the board's phases both hold in last_.y here); when
     // there is nothing to approach the wave starts on this tick.
     [[gnu::noinline]] T approach_sample(bool armed) {
-        if (approach_.pending())
-            (void)approach_.begin(armed && was_armed_ ? setpoint_ : last_.y);
+        if (approach_.pending()) {
+            const bool from_setpoint = armed && was_armed_;
+            const T from = from_setpoint ? setpoint_ : last_.y;
+            if (!from_setpoint) settle_prefilter(from);
+            (void)approach_.begin(from);
+        }
         if (approach_.moving()) return approach_.step();
         return trajectory_.step();
+    }
+    // A start from the stage's reading: the pre-filter, which ran on the
+    // held setpoint, is put at its steady state for the reading, so its
+    // output starts where the stage is instead of stepping from the
+    // setpoint to it (a step that would ring the stage's modes). From the
+    // setpoint of an armed loop it is left alone: its input goes on without
+    // a step, and its output is what the loop tracks.
+    void settle_prefilter(T from) {
+        Bank& b = bank();
+        if (b.pf_count > 0) b.prefilter.settle(from);
     }
 
     // The excitation's part of begin_phase: d of this tick, added to r here
@@ -610,8 +629,12 @@ private:
         if (p.prefilter_count > 0) {
             if (const Status s = b.prefilter.configure(p.prefilter.data(), p.prefilter_count, setup_.position,
                                                        setup_.position);
-                !s.ok())
-                return in_group("prefilter", s);
+                !s.ok()) {
+                // Named as the feedforward group holds it ("prefilter[1].a2"),
+                // the way its field checks and a scenario's controller name it.
+                const Status named = detail::renamed_sos_error<kMaxPrefilterSections, kPrefilterName>(s);
+                return named.field == s.field ? in_group("prefilter", s) : named;
+            }
         }
         b.rc_enabled = p.rc_enabled;
         if (p.rc_enabled) {

@@ -63,13 +63,11 @@ commission::TrackingRun BoardStage::track(const commission::Controller& k, const
     w.offset_um = static_cast<float>(t.centre_um);
     w.frequency_Hz = static_cast<float>(t.frequency_Hz);
     w.start_phase_cycles = 0.0f;  // from the triangle's minimum
-    // Two periods and done: the board then holds the triangle's minimum,
-    // near where its stage rests once disarmed, and the pre-filter, which
-    // runs on the held setpoint between runs, stays there. Stopped at an
-    // arbitrary point instead, the next run's approach (from the stage's
-    // reading) would start while the pre-filter still held that point: a
-    // step through the pre-filter that rang the stage's mode on the fastest
-    // verification triangle.
+    // Two periods and done: the board runs exactly the recorded window and
+    // stops by itself at the triangle's minimum, instead of running on for
+    // as long as the host takes to stop it and holding wherever that was.
+    // (The next run starts from the stage's reading either way: the core
+    // settles the pre-filter there when a wave's approach starts.)
     w.cycles = 2;
     RecordOptions ro;
     ro.signals = {signal_index(SignalId::kR), signal_index(SignalId::kY), signal_index(SignalId::kE),

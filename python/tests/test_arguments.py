@@ -112,6 +112,18 @@ def test_wave_checked_as_the_cli(board):
     assert board.status()["status"]["wave_running"] is False
 
 
+def test_prefilter_coefficient_named_as_the_group_holds_it(board):
+    board.set("limits", u_min_V=-2.0, u_max_V=10.0, slew_V_per_s=200000.0)  # the core checks a whole set
+    before = board.get("feedforward")
+    lp = {"b0": 0.02, "b1": 0.04, "b2": 0.02, "a1": -1.56, "a2": 0.64}
+    # Finite but a pole outside the unit circle: refused by the board's core.
+    with pytest.raises(piezoloop.DeviceError, match=r"feedforward\.prefilter\[1\]\.a2: poles must be inside"):
+        board.set("feedforward", prefilter=[lp, dict(lp, a2=1.25)])
+    with pytest.raises(ValueError, match=r"feedforward\.prefilter\[0\]\.b1: must be a finite number"):
+        board.set("feedforward", prefilter=[dict(lp, b1=math.inf)])
+    assert board.get("feedforward") == before
+
+
 def test_stream_checked_before_sending(board):
     board.stop()
     sp = np.full(50, 1.0)

@@ -7,6 +7,9 @@
 #include <cmath>
 #include <array>
 #include <complex>
+#include <cstring>
+#include <stdexcept>
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -548,4 +551,171 @@ TEST(BiquadConfigure, RetuningKeepsStateUnlessTheSectionCountChanges) {
     EXPECT_NEAR(q.apply(Q31::from_double(0.5)).to_double(), 0.1 * 0.1 * 0.5, 1e-8);
     q.reset();
     EXPECT_NEAR(q.apply(Q31::from_double(0.5)).to_double(), 0.1 * 0.1 * 0.5, 1e-8);
+}
+
+// ---------------------------------------------------------------------------
+// settle(x): the DC steady state of a constant input, against scipy's
+// sosfilt_zi (tools/ref/biquad_settle_ref.py -> tests/golden/biquad_settle_ref.json).
+
+namespace {
+
+const nlohmann::json& settle_golden() {
+    static const nlohmann::json j = [] {
+        std::ifstream f(std::string(PIEZOLOOP_GOLDEN_DIR) + "/biquad_settle_ref.json");
+        return nlohmann::json::parse(f);
+    }();
+    return j;
+}
+
+const nlohmann::json& settle_case(const std::string& name) {
+    for (const auto& c : settle_golden()["cases"])
+        if (c["name"] == name) return c;
+    throw std::runtime_error("no settle case " + name);
+}
+
+// The float cascade settled on x: its states against sosfilt_zi (x times
+// the unit-input states), then x in for `ticks` samples: every output H(1) x.
+// DF2T: s1, s2 as scipy's transposed direct form II states. Delta form:
+// s1 is the same quantity (y - b0 x of the section), s2 = c1 s1 - g1 x_in
+// (its increment d s1 = -c1 s1 + s2 + g1 x_in zero), residuals zero.
+// Tolerance: the states come from the float-rounded coefficients (2^-24
+// relative) through the section's DC gain 1 / c0 (DF2T: <= 16; delta form:
+// c0 kept to 2^-24 of itself), and from float products of ~|x|: 2e-6 of
+// |x| (1 + |state / x|) covers both (measured: 5e-8). The outputs then,
+// for as long as x stays: within 2e-6 of |x| of scipy's H(1) x (measured
+// 8e-7: the float coefficients' own DC gain).
+void expect_float_settles(const std::string& name, SectionForm form, int ticks) {
+    const nlohmann::json& c = settle_case(name);
+    const std::vector<SosSection> sos = sos_from(c["sos"]);
+    const std::vector<double> gain = vec(c["node_gain"]);
+    const int n = static_cast<int>(sos.size());
+    for (const double x : {7.25, -31.5, 0.004}) {
+        BiquadCascade<float, 4> f;
+        ASSERT_TRUE(f.configure(sos.data(), n, SignalScale{1.0f}, SignalScale{1.0f}).ok());
+        for (int k = 0; k < 50; ++k) (void)f.apply(-3.0f);  // somewhere else first
+        f.settle(static_cast<float>(x));
+        BiquadCascade<float, 4>::Snapshot st{};
+        f.save(st);
+        for (int i = 0; i < n; ++i) {
+            ASSERT_EQ(f.form(i), form) << name << " section " << i;
+            const SosSection& s = sos[static_cast<std::size_t>(i)];
+            const double in = i == 0 ? x : x * gain[static_cast<std::size_t>(i) - 1];
+            const double z1 = c["zi"][i][0].get<double>() * x;
+            double z2 = c["zi"][i][1].get<double>() * x;
+            if (form == SectionForm::kDelta) {
+                const double c1 = s.a1 + 2.0;
+                const double g1 = (2.0 * s.b0 + s.b1) - s.b0 * c1;
+                z2 = c1 * z1 - g1 * in;
+                EXPECT_EQ(st[static_cast<std::size_t>(i)].r1, 0.0f);
+                EXPECT_EQ(st[static_cast<std::size_t>(i)].r2, 0.0f);
+            }
+            const double tol1 = 2e-6 * std::fabs(x) * (1.0 + std::fabs(z1 / x));
+            const double tol2 = 2e-6 * std::fabs(x) * (1.0 + std::fabs(z2 / x));
+            EXPECT_NEAR(st[static_cast<std::size_t>(i)].s1, z1, tol1) << name << " x " << x << " section " << i;
+            EXPECT_NEAR(st[static_cast<std::size_t>(i)].s2, z2, tol2) << name << " x " << x << " section " << i;
+        }
+        const double steady = c["steady"].get<double>() * x;
+        double worst = 0.0;
+        for (int k = 0; k < ticks; ++k)
+            worst = std::max(worst, std::fabs(f.apply(static_cast<float>(x)) - steady));
+        EXPECT_LE(worst, 2e-6 * std::fabs(x)) << name << " x " << x << ": settled output H(1) x from the first sample";
+    }
+}
+
+// The Q31 cascade settled on x (in = out full scale): the histories of
+// every node at x times the DC gain up to it, the unrounded accumulators at
+// the same value in Q59, then x in for `ticks` samples: every output within
+// 3 LSB of the settled one (the section's own rounding limit cycle, measured
+// 2 LSB; no transient), and the nodes within 4e-6 of |x| + 4 LSB of scipy's
+// DC gains: the quantised coefficients have their own DC gain (the 100 kHz
+// cascade's 1 + a1 + a2 ~ 4e-5 and its numerator sums at a 2^-31 block
+// resolution; measured 1.7e-6 of |x| there, within 2 LSB at 10 kHz).
+void expect_q31_settles(const std::string& name, int ticks) {
+    const nlohmann::json& c = settle_case(name);
+    const std::vector<SosSection> sos = sos_from(c["sos"]);
+    const std::vector<double> gain = vec(c["node_gain"]);
+    const int n = static_cast<int>(sos.size());
+    for (const double x : {0.3, -0.45, 1e-4}) {
+        BiquadCascade<Q31, 4> q;
+        ASSERT_TRUE(q.configure(sos.data(), n, SignalScale{1.0f}, SignalScale{1.0f}).ok());
+        for (int k = 0; k < 50; ++k) (void)q.apply(Q31::from_double(-0.2));
+        const Q31 in = Q31::from_double(x);
+        q.settle(in);
+        BiquadCascade<Q31, 4>::Snapshot st{};
+        q.save(st);
+        const double rel = 4e-6 * std::fabs(x);
+        EXPECT_EQ(st.hist[0][0], in.raw());
+        EXPECT_EQ(st.hist[0][1], in.raw());
+        for (int i = 0; i < n; ++i) {
+            const double node = x * gain[static_cast<std::size_t>(i)];
+            const auto& h = st.hist[static_cast<std::size_t>(i) + 1];
+            const auto& w = st.wide[static_cast<std::size_t>(i)];
+            EXPECT_EQ(h[0], h[1]);
+            EXPECT_EQ(w[0], w[1]);
+            EXPECT_EQ(w[0] >> 28, h[0]) << "the accumulator rounds to the history";
+            EXPECT_NEAR(h[0] * kLsb, node, rel + 4 * kLsb) << name << " x " << x << " node " << i;
+            EXPECT_NEAR(static_cast<double>(w[0]) * kLsb / 268435456.0, node, rel + 4 * kLsb) << name << " node " << i;
+        }
+        const int32_t settled = st.hist[static_cast<std::size_t>(n)][0];
+        EXPECT_NEAR(settled * kLsb, c["steady"].get<double>() * x, rel + 4 * kLsb) << name << " x " << x;
+        int64_t worst = 0;
+        for (int k = 0; k < ticks; ++k) {
+            const int64_t d = int64_t{q.apply(in).raw()} - settled;
+            worst = std::max(worst, d < 0 ? -d : d);
+        }
+        EXPECT_LE(worst, 3) << name << " x " << x << ": LSB from the settled output";
+    }
+}
+
+}  // namespace
+
+TEST(BiquadSettle, FloatDf2tStatesAreScipysSteadyState) {
+    expect_float_settles("notch_lowpass_10k", SectionForm::kDf2t, 2000);
+    expect_float_settles("gain_0p8_10k", SectionForm::kDf2t, 2000);
+}
+
+TEST(BiquadSettle, FloatDeltaFormStatesAreTheSteadyState) {
+    expect_float_settles("lowpass_near_z1_100k", SectionForm::kDelta, 20000);
+    expect_float_settles("highpass_10k", SectionForm::kDelta, 20000);  // DC gain 0
+}
+
+TEST(BiquadSettle, Q31HistoriesAndAccumulatorsAreTheSteadyState) {
+    for (const char* name : {"notch_lowpass_10k", "lowpass_near_z1_100k", "highpass_10k", "gain_0p8_10k"})
+        expect_q31_settles(name, 20000);
+}
+
+TEST(BiquadSettle, WithoutItTheFilterStepsFromWhereItWas) {
+    // What settle() prevents: a filter holding 0 fed x steps through its
+    // step response (its first output the product of the b0s times x,
+    // 14 % of the way).
+    const nlohmann::json& c = settle_case("notch_lowpass_10k");
+    const std::vector<SosSection> sos = sos_from(c["sos"]);
+    BiquadCascade<float, 2> f;
+    ASSERT_TRUE(f.configure(sos.data(), 2, SignalScale{1.0f}, SignalScale{1.0f}).ok());
+    EXPECT_LT(f.apply(10.0f), 2.0f);
+    f.settle(10.0f);
+    EXPECT_NEAR(f.apply(10.0f), 10.0f, 1e-4f);
+}
+
+TEST(BiquadSettle, ZeroIsResetExactly) {
+    const nlohmann::json& c = settle_case("lowpass_near_z1_100k");
+    const std::vector<SosSection> sos = sos_from(c["sos"]);
+    BiquadCascade<float, 2> f, rest;
+    BiquadCascade<Q31, 2> q, qrest;
+    ASSERT_TRUE(f.configure(sos.data(), 2, SignalScale{1.0f}, SignalScale{1.0f}).ok());
+    ASSERT_TRUE(rest.configure(sos.data(), 2, SignalScale{1.0f}, SignalScale{1.0f}).ok());
+    ASSERT_TRUE(q.configure(sos.data(), 2, SignalScale{1.0f}, SignalScale{1.0f}).ok());
+    ASSERT_TRUE(qrest.configure(sos.data(), 2, SignalScale{1.0f}, SignalScale{1.0f}).ok());
+    for (int k = 0; k < 100; ++k) {
+        (void)f.apply(-2.5f);
+        (void)q.apply(Q31::from_double(0.1));
+    }
+    f.settle(0.0f);
+    q.settle(Q31{});
+    for (int k = 0; k < 100; ++k) {
+        const float x = static_cast<float>(std::sin(0.01 * k));
+        const float a = f.apply(x), b = rest.apply(x);
+        ASSERT_EQ(std::memcmp(&a, &b, sizeof a), 0) << k;  // bit for bit, sign of zero included
+        ASSERT_EQ(q.apply(Q31::from_double(0.5 * x)).raw(), qrest.apply(Q31::from_double(0.5 * x)).raw()) << k;
+    }
 }

@@ -2,6 +2,7 @@
 // validation and swapping, arming, and the hard limits.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -104,7 +105,7 @@ TEST(Pipeline, InvalidSetsAreRejectedFieldByFieldAndChangeNothing) {
         {"limits", "u_min_V", [](PipelineParams& p) { p.limits.u_min_V = NAN; }},
         {"pid", nullptr, [](PipelineParams& p) { p.feedback = FeedbackKind::kPid; p.pid.u_min = 5; p.pid.u_max = -5; }},
         {nullptr, "prefilter_count", [](PipelineParams& p) { p.prefilter_count = 3; }},
-        {"prefilter", "sections[0].a2", [](PipelineParams& p) { p.prefilter_count = 1; p.prefilter[0].a2 = 1.2; }},
+        {nullptr, "prefilter[0].a2", [](PipelineParams& p) { p.prefilter_count = 1; p.prefilter[0].a2 = 1.2; }},
     };
     // Reference: a pipeline that never sees a bad set. Subject: the same one
     // offered every bad set between ticks. Their outputs must stay identical.
@@ -135,6 +136,36 @@ TEST(Pipeline, InvalidSetsAreRejectedFieldByFieldAndChangeNothing) {
         const float a = ref->tick(y), b = sub->tick(y);
         ASSERT_EQ(a, b) << "tick " << k;
         y = 0.9f * y + 0.4f * a;  // a crude plant, identical for both
+    }
+}
+
+// A bad pre-filter coefficient is named as the feedforward group (and a
+// scenario's controller) holds it, "prefilter[i].<coef>", with no group of
+// its own: the link reports it as "feedforward.prefilter[i].<coef>", the
+// path its field checks use for a non-finite one.
+TEST(Pipeline, PreFilterCoefficientsAreNamedAsTheFeedforwardGroupHoldsThem) {
+    struct Case {
+        const char* field;
+        void (*mutate)(SosSection&);
+    };
+    const Case cases[] = {
+        {"prefilter[1].a1", [](SosSection& s) { s.a1 = 3.0; }},
+        {"prefilter[1].a2", [](SosSection& s) { s.a2 = -1.0; }},
+        {"prefilter[1].b2", [](SosSection& s) { s.b2 = NAN; }},
+    };
+    for (const Case& c : cases) {
+        PipelineParams p = reference::params();
+        p.prefilter_count = 2;
+        p.prefilter[0] = SosSection{0.02, 0.04, 0.02, -1.56, 0.64};
+        p.prefilter[1] = p.prefilter[0];
+        c.mutate(p.prefilter[1]);
+        for (const bool q31 : {false, true}) {
+            Status s;
+            if (q31) s = std::make_unique<RefPipeline<Q31>>(reference::setup())->validate(p);
+            else s = std::make_unique<RefPipeline<float>>(reference::setup())->validate(p);
+            EXPECT_STREQ(s.field, c.field) << (s.field ? s.field : "ok");
+            EXPECT_EQ(s.group, nullptr) << s.group;
+        }
     }
 }
 
@@ -278,6 +309,77 @@ void wave_start_approaches() {
 
 TEST(Pipeline, AWaveStartsWithASmoothApproachFromWhereTheLoopIs) { wave_start_approaches<float>(); }
 TEST(Pipeline, AQ31WaveStartsWithASmoothApproachFromWhereTheLoopIs) { wave_start_approaches<Q31>(); }
+
+namespace {
+
+// A wave stopped mid-way, the loop disarmed and the stage come to rest at
+// 1.5 um while the pre-filter runs on the held setpoint (the stopped wave's
+// last point, ~8 um away); then the next wave is started, arming the loop at
+// its first tick. Its approach starts from the reading, and so must the
+// filtered r: its first value is the reading (within 1e-5 um: float
+// rounding at ~15 um, a few Q31 LSB of 50 um), every step of r through the
+// approach within the approach's bound v_max / rate (5 % over it for the
+// low-pass pair's slight overshoot on a smooth move; a step through the
+// filter of the ~8 um between setpoint and reading would be ~1000 times
+// it), and the first ticks leave the reading at rest, within the minimum-
+// jerk start 10 D (k / N)^3 + 1e-5 um.
+template <class T>
+void wave_after_a_stopped_one_starts_where_the_stage_is() {
+    const SignalScale pos = reference::setup().position;
+    PipelineParams p = reference::params(false, true);
+    p.prefilter_count = 1;
+    p.prefilter[0] = SosSection{0.02, 0.04, 0.02, -1.56, 0.64};  // a low-pass pair, DC gain 1
+    auto pipe = std::make_unique<RefPipeline<T>>(reference::setup());
+    ASSERT_TRUE(pipe->stage(p).ok());
+    T y = sample_zero<T>();
+    auto tick = [&](T reading) {
+        pipe->tick(reading);
+        return pos.to_physical(pipe->last().r);
+    };
+    pipe->arm();
+    ASSERT_TRUE(pipe->start_wave(triangle_10Hz()).ok());
+    for (int k = 0; k < 12000; ++k) {  // the approach to -15 um, then 0.06 s of the triangle
+        (void)tick(y);
+        y = pipe->last().r;  // an ideal stage: where r was
+    }
+    ASSERT_TRUE(pipe->wave_running());
+    EXPECT_FALSE(pipe->approaching());
+    pipe->stop_wave();
+    (void)tick(y);
+    pipe->disarm();
+    const T rest = pos.to_sample<T>(1.5f);
+    for (int k = 0; k < 1900; ++k) (void)tick(rest);
+    const float held_um = tick(rest);
+    for (int k = 0; k < 100; ++k) ASSERT_NEAR(tick(rest), held_um, 1e-5) << "disarmed, the pre-filter holds the setpoint";
+    ASSERT_GT(std::fabs(held_um - 1.5f), 5.0f);
+
+    pipe->arm();
+    ASSERT_TRUE(pipe->start_wave(triangle_10Hz()).ok());
+    const float from_um = 1.5f, to_um = -15.0f;
+    const double d_um = std::fabs(to_um - from_um);
+    const double n = std::ceil(d_um / (8.0 / 15.0 * 10.0 * 50.0 / reference::kRate_Hz));
+    std::vector<float> r;  // the approach's ticks (the triangle then runs at 600 um/s, above the bound)
+    EXPECT_EQ(pipe->approach_ticks(rest), static_cast<uint32_t>(n));
+    for (int k = 0; k + 1 < static_cast<int>(n); ++k) r.push_back(tick(rest));
+    EXPECT_NEAR(r[0], from_um, 1e-5) << "the filtered r starts at the reading";
+    for (int k = 0; k < 5; ++k) {
+        const double x = (k + 1) / n;
+        EXPECT_LE(std::fabs(r[static_cast<std::size_t>(k)] - from_um), 10.0 * d_um * x * x * x + 1e-5) << "tick " << k;
+    }
+    const double bound = 10.0 * 50.0 / reference::kRate_Hz;
+    double largest = std::fabs(r[0] - from_um);
+    for (std::size_t k = 1; k < r.size(); ++k) largest = std::max(largest, static_cast<double>(std::fabs(r[k] - r[k - 1])));
+    EXPECT_LE(largest, 1.05 * bound) << "largest step of the filtered r (um)";
+}
+
+}  // namespace
+
+TEST(Pipeline, AWaveAfterAStoppedOneStartsThroughThePreFilterWhereTheStageIs) {
+    wave_after_a_stopped_one_starts_where_the_stage_is<float>();
+}
+TEST(Pipeline, AQ31WaveAfterAStoppedOneStartsThroughThePreFilterWhereTheStageIs) {
+    wave_after_a_stopped_one_starts_where_the_stage_is<Q31>();
+}
 
 TEST(Pipeline, DahlFeedforwardRunsInBothPipelines) {
     // Dahl feedforward alone (no feedback), a 6 um triangle. The float

@@ -153,6 +153,16 @@ TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
     ff = {p.feedforward, p.pi, p.dahl};
     ff.pi.thresholds[5] = ff.pi.thresholds[4];  // not ascending
     this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "feedforward", "pi.thresholds", 5);
+    // A pre-filter coefficient, non-finite (the field check) or making an
+    // unstable section (the core): both named as the group holds it.
+    ff = {p.feedforward, p.pi, p.dahl};
+    ff.prefilter_count = 2;
+    ff.prefilter[0] = ff.prefilter[1] = SosSection{0.02, 0.04, 0.02, -1.56, 0.64};
+    ff.prefilter[1].b0 = std::numeric_limits<double>::infinity();
+    this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "feedforward", "prefilter[1].b0");
+    ff.prefilter[1] = SosSection{0.02, 0.04, 0.02, -1.56, 0.64};
+    ff.prefilter[1].a2 = 1.25;  // a pole outside the unit circle
+    this->expect_error(r_.set(ff), ErrorCode::kInvalidParam, "feedforward", "prefilter[1].a2");
 
     FeedbackParams fb{p.feedback, p.sos_count, p.sos, p.pid};
     fb.sos[1].a2 = std::numeric_limits<double>::quiet_NaN();

@@ -157,6 +157,22 @@ TEST(SimScenario, ReferencePreFilterBuildsIntoTheCoreSections) {
     } catch (const std::exception& e) {
         EXPECT_NE(std::string(e.what()).find("cases[0].controller.prefilter"), std::string::npos) << e.what();
     }
+    // An unstable model: the core refuses its realised section, named as
+    // the feedforward group (and this controller) holds pre-filter sections.
+    j["cases"][0]["controller"]["prefilter"] = {{"zeros", nlohmann::json::array()},
+                                                {"poles", {{100.0, 0.0}, {-2000.0, 0.0}}}, {"gain", -200000.0}};
+    const Scenario unstable = parse_scenario(j, kConfigs);
+    for (const SampleType sample : {SampleType::kFloat, SampleType::kQ31}) {
+        CaseSpec c = unstable.cases[0];
+        c.sample = sample;
+        try {
+            (void)build_case(unstable, c, BuildOptions{});
+            FAIL() << "a pole in the right half-plane";
+        } catch (const std::exception& e) {
+            EXPECT_NE(std::string(e.what()).find("cases[0].controller.prefilter[0].a1: poles must be inside the unit circle"),
+                      std::string::npos) << e.what();
+        }
+    }
 }
 
 TEST(SimScenario, StreamedMetricsEqualStoredOnes) {
