@@ -129,25 +129,28 @@ stiff = json.load(open(os.path.join(configs, "stages", "stiff_stack.json")))
 dc = 1.0
 for re_, im in stiff["plant"]["dynamics"]["model"]["poles"]:
     dc *= abs(complex(re_, im))
+
+
+def commission_stage(s):
+    f = os.path.join(tmp, "stage.json")
+    json.dump(s, open(f, "w"))
+    return subprocess.run([exe, "commission", "--scenario", f, "--range-um", "4", "--out", bad], capture_output=True,
+                          text=True)
+
+
 for gain in (-0.3, -1.0, -2.7):
     s = json.loads(json.dumps(stiff))
     s["plant"]["dynamics"]["normalise_dc"] = False
     s["plant"]["dynamics"]["model"]["gain"] = gain * dc
     s["plant"]["adc"]["min"], s["plant"]["adc"]["max"] = -60, 60
-    f = os.path.join(tmp, "reversed.json")
-    json.dump(s, open(f, "w"))
-    r = subprocess.run([exe, "commission", "--scenario", f, "--range-um", "4", "--out", bad], capture_output=True,
-                       text=True)
+    r = commission_stage(s)
     check(r.returncode == 1 and "safety step of 0.2 V" in r.stderr and "sign is reversed" in r.stderr and
           "plant.sensor.gain_per_um" in r.stderr and not os.path.exists(bad),
           "a stage with gain %g: %d %s" % (gain, r.returncode, r.stderr[-400:]))
 for top_V in (50.6, 51.4, 52.5):
     s = json.loads(json.dumps(stiff))
     s["plant"]["amplifier"]["output_max_V"] = top_V
-    f = os.path.join(tmp, "saturating.json")
-    json.dump(s, open(f, "w"))
-    r = subprocess.run([exe, "commission", "--scenario", f, "--range-um", "4", "--out", bad], capture_output=True,
-                       text=True)
+    r = commission_stage(s)
     check(r.returncode == 1 and "safety step of" in r.stderr and "the output stops growing" in r.stderr and
           "saturates between" in r.stderr and not os.path.exists(bad),
           "an amplifier saturating at %g V: %d %s" % (top_V, r.returncode, r.stderr[-400:]))
