@@ -178,7 +178,10 @@ class Device:
         Every value is checked (finite, within +-1e6 um) before the stream
         starts. Ctrl-C closes the stream on the board (the setpoint holds, the
         loop stays as it was) and raises KeyboardInterrupt."""
-        sp = np.asarray(setpoints_um, dtype=np.float32)
+        raw = np.asarray(setpoints_um)
+        if raw.dtype.kind not in "iuf":
+            raise TypeError(f"setpoints_um: numbers (um), got an array of {raw.dtype}")
+        sp = raw.astype(np.float32)
         if sp.ndim != 1:
             raise ValueError(f"setpoints_um: a 1-D sequence, one setpoint per tick (got shape {sp.shape})")
         if sp.size == 0:
@@ -194,7 +197,11 @@ class Device:
         wave.amplitude_um = 0.0 if amplitude_um is None else number("amplitude_um", amplitude_um)
         wave.offset = text("offset", offset, True)
         wave.scenario = path("scenario", scenario) if scenario else ""
-        wave.cycles = whole("cycles", cycles)
+        n = whole("cycles", cycles)
+        # The command line's --cycles is a u32 (the trajectory group's).
+        if not 0 <= n <= 0xFFFFFFFF:
+            raise ValueError(f"cycles: must be in [0, 4294967295] periods, 0 = forever (got {cycles})")
+        wave.cycles = n
         return wave
 
 

@@ -109,6 +109,9 @@ def test_wave_checked_as_the_cli(board):
         board.record(0.01, trajectory="sine")
     with pytest.raises(ValueError, match=r"--offset: must be unipolar or bipolar"):
         board.wave("sine", 5.0, 4.0, offset="centred")
+    for bad in (-3, 2**32 + 7):
+        with pytest.raises(ValueError, match=r"^cycles: must be in \[0, 4294967295\]"):
+            board.wave("sine", 5.0, 4.0, cycles=bad)
     assert board.status()["status"]["wave_running"] is False
 
 
@@ -122,6 +125,9 @@ def test_stream_checked_before_sending(board):
         board.stream(sp, prefill=2.5)
     with pytest.raises(ValueError, match=r"setpoints_um: a 1-D sequence.*\(5, 10\)"):
         board.stream(np.ones((5, 10)))
+    for bad in (["0.25", "0.5"], [0.1, None], [{"um": 1}]):
+        with pytest.raises(TypeError, match="^setpoints_um: numbers"):
+            board.stream(bad)
     assert board.status()["status"]["streaming"] is False
 
 
