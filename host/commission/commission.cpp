@@ -391,8 +391,26 @@ SafetyStep check_safety_step(const measure::StepRun& run, double step_V, double 
         throw std::runtime_error(which + "the stage does not respond (moved " + num(s.dy_um) + " um, noise " +
                                  num(s.noise_um) + " um)");
     s.gain_um_per_V = s.dy_um / step_V;
+    // A step up that reads as a move down: the loop would push the stage
+    // away from every setpoint.
+    if (!previous && s.gain_um_per_V < 0.0)
+        throw std::runtime_error(which + "the reading moved " + num(s.dy_um) + " um for a step up (gain " +
+                                 num(s.gain_um_per_V) +
+                                 " um/V): the sensor's sign is reversed relative to the actuator's; flip the sign "
+                                 "of the sensor's gain in the input scaling (a scenario's plant.sensor.gain_per_um) "
+                                 "or swap the sensor's or the amplifier's polarity, then commission again");
     if (previous) {
         const double ratio = s.gain_um_per_V / previous->gain_um_per_V;
+        // A larger step that moves the stage by less per volt, same sign:
+        // the output stopped growing within the step (a rail).
+        const double previous_top_V = from_V + previous->step_V;
+        if (ratio > 0.0 && ratio <= 0.5)
+            throw std::runtime_error(which + "the output stops growing (gain " + num(s.gain_um_per_V) +
+                                     " um/V after " + num(previous->gain_um_per_V) + "): the stage or its amplifier "
+                                     "saturates between " + num(previous_top_V) + " V and " + num(from_V + step_V) +
+                                     " V of the command, a rail inside the command span; set the limits to the "
+                                     "span the stage follows (`piezoloop set limits`, or the scenario's limits) or "
+                                     "fix the amplifier's range");
         if (!(ratio > 0.5 && ratio < 1.5))
             throw std::runtime_error(which + "the response does not match the previous step (gain " +
                                      num(s.gain_um_per_V) + " um/V after " + num(previous->gain_um_per_V) + ")");

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <stdexcept>
 
@@ -53,9 +54,17 @@ FrfData load_frf_file(const std::string& path) {
         if (!(f_Hz > 0.0 && f_Hz <= d.rate_Hz / 2.0))
             bad(path, fi, "must be in (0, " + format::significant(d.rate_Hz / 2.0) + "] Hz, the Nyquist frequency of "
                           "excitation.rate_Hz (got " + format::significant(f_Hz) + ")");
-        if (const auto [it, fresh] = seen.emplace(f_Hz, i); !fresh)
+        const auto [it, fresh] = seen.emplace(f_Hz, i);
+        if (!fresh)
             bad(path, fi, format::significant(f_Hz, 10) + " Hz is frequency_Hz[" + std::to_string(it->second) +
                               "] again: each line once");
+        // Lines within 1e-9 of each other are one line measured twice: no
+        // measurement resolves them (a multisine's lines are rate / N apart).
+        for (const auto other : {std::next(it), it == seen.begin() ? seen.end() : std::prev(it)})
+            if (other != seen.end() && std::fabs(other->first - f_Hz) <= 1e-9 * f_Hz)
+                bad(path, fi, format::significant(f_Hz, 17) + " Hz is within 1e-9 of frequency_Hz[" +
+                                  std::to_string(other->second) + "] (" + format::significant(other->first, 17) +
+                                  " Hz): the same line again; each line once");
         const std::string ri = "response[" + std::to_string(i) + "]";
         if (!r[i].is_array() || r[i].size() != 2 || !r[i][0].is_number() || !r[i][1].is_number())
             bad(path, ri, "must be [re, im]");

@@ -1,6 +1,7 @@
 #include "sim/scenario.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
@@ -172,7 +173,25 @@ HysteresisSpec parse_hysteresis(const Field& f) {
 
 namespace {
 
-PlantSpec parse_plant(const Field& f, const std::filesystem::path& base) {
+// A stage's dynamics settle: every pole in the left half-plane, and none so
+// near s = 0 that the loop rate's discretisation rounds it onto z = 1 (an
+// integrator: |p| / rate below 1e-12, where exp(-|p| / rate) is 1 within a
+// few ulps of double).
+void check_stage_poles(const Field& model, const design::Zpk& zpk, double rate_Hz) {
+    for (const design::cplx p : zpk.poles) {
+        char pole[96];
+        std::snprintf(pole, sizeof pole, "pole %.6g %c %.6gj rad/s", p.real(), p.imag() < 0 ? '-' : '+',
+                      std::fabs(p.imag()));
+        if (!(p.real() < 0.0))
+            model.fail(std::string(pole) + " is not in the left half-plane: a stage's dynamics must settle (every pole with "
+                              "Re < 0)");
+        if (std::abs(p) < 1e-12 * rate_Hz)
+            model.fail(std::string(pole) + " is at s = 0 at the loop rate's resolution (|p| < 1e-12 x loop.rate_Hz): its "
+                              "discretisation is an integrator, and a stage's dynamics must settle");
+    }
+}
+
+PlantSpec parse_plant(const Field& f, const std::filesystem::path& base, double rate_Hz) {
     f.only({"dac", "amplifier", "hysteresis", "dynamics", "sensor", "adc", "creep", "drift_um_per_s", "note"});
     PlantSpec p;
     p.dac = parse_converter(f["dac"]);
@@ -182,6 +201,7 @@ PlantSpec parse_plant(const Field& f, const std::filesystem::path& base) {
         d->only({"model", "normalise_dc", "discretisation", "note"});
         LinearSpec lin = read_linear_model((*d)["model"], base);
         if (design::is_discrete(lin.zpk.ts)) (*d)["model"].fail("the plant dynamics must be continuous (no ts)");
+        check_stage_poles((*d)["model"], lin.zpk, rate_Hz);
         const bool normalise = d->get("normalise_dc") ? (*d)["normalise_dc"].boolean() : false;
         if (normalise) lin.zpk = normalise_dc_gain(lin.zpk, (*d)["model"]);
         p.dynamics = lin;
@@ -440,7 +460,7 @@ Scenario parse_scenario(const nlohmann::json& j, const std::filesystem::path& ba
         l->check(validate(s.limits, s.setup.hard));
     }
 
-    s.plant = parse_plant(top["plant"], base_dir);
+    s.plant = parse_plant(top["plant"], base_dir, s.rate_Hz);
     if (s.plant.amplifier.bandwidth_Hz >= 0.5f * s.setup.rate_Hz)
         top["plant"]["amplifier"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
     if (s.plant.sensor.bandwidth_Hz >= 0.5f * s.setup.rate_Hz)

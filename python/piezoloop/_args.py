@@ -27,6 +27,34 @@ def number(name: str, value) -> float:
     return float(value)
 
 
+def numbers(name: str, value) -> list:
+    """A sequence of real numbers (list, tuple, 1-D array); TypeError naming
+    the argument for a string, a scalar or a nested list (no comma string:
+    "1,2" is a string, not two numbers)."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise TypeError(f"{name}: a sequence of numbers, got {value!r}")
+    return [number(f"{name}[{i}]", v) for i, v in enumerate(value)]
+
+
+def text(name: str, value, optional: bool = False) -> str:
+    """A str (None as "" where optional); TypeError naming the argument
+    otherwise, before a C++ signature's own message."""
+    if value is None and optional:
+        return ""
+    if not isinstance(value, str):
+        raise TypeError(f"{name}: a string, got {value!r}")
+    return value
+
+
+def path(name: str, value) -> str:
+    """A file path (str or os.PathLike); TypeError naming the argument."""
+    import os
+    try:
+        return os.fspath(value)
+    except TypeError:
+        raise TypeError(f"{name}: a path (str or os.PathLike), got {value!r}") from None
+
+
 def names(name: str, value) -> str:
     """"r,y,u" or ["r", "y", "u"] as the command line's comma string."""
     if isinstance(value, str):

@@ -11,6 +11,7 @@ import os
 from typing import Callable, Optional
 
 from . import _piezoloop
+from ._args import path
 
 
 def check_commission(range_um: float, target_bandwidth_hz: Optional[float]) -> None:
@@ -35,5 +36,5 @@ def commission(scenario: str | os.PathLike, range_um: float, out: str | os.PathL
     `progress` receives each step's line. Raises ValueError naming the
     option for a bad request, RuntimeError when a safety step stops it."""
     check_commission(range_um, target_bandwidth_hz)
-    return _piezoloop.commission(os.fspath(scenario), float(range_um), float(target_bandwidth_hz or 0.0),
-                                 os.fspath(out), progress)
+    return _piezoloop.commission(path("scenario", scenario), float(range_um), float(target_bandwidth_hz or 0.0),
+                                 path("out", out), progress)

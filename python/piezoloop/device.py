@@ -9,7 +9,7 @@ from typing import Callable, Dict, Optional, Sequence
 import numpy as np
 
 from . import _piezoloop
-from ._args import finite_json, names, number, whole
+from ._args import finite_json, names, number, numbers, path, text, whole
 from .commission import check_commission
 from .measure import (FrequencyResponse, Loops, StepResponse, check_request, check_shape, check_step,
                       loops_from_result, response_from_report, step_from_report)
@@ -92,7 +92,8 @@ class Device:
         board's hard limits (listed in "clipped"). frequency_hz: the
         reference frequency, for a repetitive controller's period "auto".
         Only while disarmed."""
-        return self._dev.set_scenario(os.fspath(scenario), case, float(frequency_hz))
+        return self._dev.set_scenario(path("scenario", scenario), text("case", case),
+                                      number("frequency_hz", frequency_hz))
 
     def arm(self) -> None:
         self._dev.arm()
@@ -177,7 +178,10 @@ class Device:
         Every value is checked (finite, within +-1e6 um) before the stream
         starts. Ctrl-C closes the stream on the board (the setpoint holds, the
         loop stays as it was) and raises KeyboardInterrupt."""
-        sp = np.asarray(setpoints_um, dtype=np.float32)
+        raw = np.asarray(setpoints_um)
+        if raw.dtype.kind not in "iuf":
+            raise TypeError(f"setpoints_um: numbers (um), got an array of {raw.dtype}")
+        sp = raw.astype(np.float32)
         if sp.ndim != 1:
             raise ValueError(f"setpoints_um: a 1-D sequence, one setpoint per tick (got shape {sp.shape})")
         if sp.size == 0:
@@ -188,12 +192,16 @@ class Device:
     def _wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles):
         """Checked in C++ (check_wave_request, as the command line's options)."""
         wave = _piezoloop.WaveRequest()
-        wave.trajectory = trajectory or "triangle"
+        wave.trajectory = text("trajectory", trajectory, True) or "triangle"
         wave.frequency_Hz = number("frequency_hz", frequency_hz)
         wave.amplitude_um = 0.0 if amplitude_um is None else number("amplitude_um", amplitude_um)
-        wave.offset = offset or ""
-        wave.scenario = os.fspath(scenario) if scenario else ""
-        wave.cycles = whole("cycles", cycles)
+        wave.offset = text("offset", offset, True)
+        wave.scenario = path("scenario", scenario) if scenario else ""
+        n = whole("cycles", cycles)
+        # The command line's --cycles is a u32 (the trajectory group's).
+        if not 0 <= n <= 0xFFFFFFFF:
+            raise ValueError(f"cycles: must be in [0, 4294967295] periods, 0 = forever (got {cycles})")
+        wave.cycles = n
         return wave
 
 
@@ -210,7 +218,8 @@ class Device:
         anything moves; Ctrl-C stops the excitation, puts the groups back and
         raises KeyboardInterrupt."""
         check_request(from_hz, to_hz, amplitude_v, mode, signal)
-        report = self._dev.measure_frf(float(from_hz), float(to_hz), float(amplitude_v), float(bias_v), mode, signal,
+        report = self._dev.measure_frf(number("from_hz", from_hz), number("to_hz", to_hz),
+                                       number("amplitude_v", amplitude_v), number("bias_v", bias_v), mode, signal,
                                        whole("periods", periods), whole("transient_periods", transient_periods),
                                        bool(restart_stage))
         return response_from_report(report)
@@ -224,9 +233,10 @@ class Device:
         it holds unless from_um). Checked against the board's limits before
         anything moves; Ctrl-C as measure_frf."""
         check_step(step_um, step_v, mode)
-        opt = lambda v: None if v is None else float(v)
-        report = self._dev.measure_step(opt(step_um), opt(step_v), opt(from_um), opt(bias_v), mode or "",
-                                        float(duration_s), bool(restart_stage))
+        opt = lambda name, v: None if v is None else number(name, v)
+        report = self._dev.measure_step(opt("step_um", step_um), opt("step_v", step_v), opt("from_um", from_um),
+                                        opt("bias_v", bias_v), mode or "", number("duration_s", duration_s),
+                                        bool(restart_stage))
         return step_from_report(report)
 
     def measure_loops(self, amplitudes_v: Sequence[float], *, bias_v: Optional[float] = None,
@@ -235,8 +245,10 @@ class Device:
         """Open-loop hysteresis loops on the board, as `piezoloop --device
         measure loops` (the controller groups set to none and put back)."""
         check_shape(shape)
-        r = self._dev.measure_loops([float(a) for a in amplitudes_v], None if bias_v is None else float(bias_v),
-                                    float(frequency_hz), whole("cycles", cycles), shape, bool(restart_stage))
+        r = self._dev.measure_loops(numbers("amplitudes_v", amplitudes_v),
+                                    None if bias_v is None else number("bias_v", bias_v),
+                                    number("frequency_hz", frequency_hz), whole("cycles", cycles), shape,
+                                    bool(restart_stage))
         return loops_from_result(r)
 
     def commission(self, range_um: float, out: str | os.PathLike, *, target_bandwidth_hz: Optional[float] = None,
@@ -248,7 +260,7 @@ class Device:
         report and files to `out`; returns the summary. Ctrl-C stops it with
         the board disarmed."""
         check_commission(range_um, target_bandwidth_hz)
-        return self._dev.commission(float(range_um), float(target_bandwidth_hz or 0.0), os.fspath(out), bool(save),
+        return self._dev.commission(float(range_um), float(target_bandwidth_hz or 0.0), path("out", out), bool(save),
                                     progress)
 
 

@@ -16,7 +16,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from . import _piezoloop
-from ._args import whole
+from ._args import number, numbers, path, text, whole
 
 SIGNALS = ("multisine", "sweep", "prbs")
 
@@ -74,8 +74,7 @@ def check_request(from_hz: float, to_hz: float, amplitude_v: float, mode: str, s
     if signal not in SIGNALS:
         raise ValueError(f"signal: {signal!r} is not one of {', '.join(SIGNALS)}")
     for name, v in (("from_hz", from_hz), ("to_hz", to_hz), ("amplitude_v", amplitude_v)):
-        if not isinstance(v, (int, float)):
-            raise ValueError(f"{name}: a number, got {v!r}")
+        number(name, v)
 
 
 def measure_frf(scenario: str | os.PathLike, from_hz: float, to_hz: float, amplitude_v: float, *,
@@ -90,8 +89,10 @@ def measure_frf(scenario: str | os.PathLike, from_hz: float, to_hz: float, ampli
     check_request(from_hz, to_hz, amplitude_v, mode, signal)
     if sample not in (None, "float", "q31"):
         raise ValueError(f"sample: {sample!r} is not one of float, q31")
-    report = _piezoloop.measure_frf(os.fspath(scenario), case or "", sample or "", float(from_hz), float(to_hz),
-                                    float(amplitude_v), float(bias_v), mode, signal, whole("periods", periods),
+    report = _piezoloop.measure_frf(path("scenario", scenario), text("case", case, True), sample or "",
+                                    number("from_hz", from_hz), number("to_hz", to_hz),
+                                    number("amplitude_v", amplitude_v), number("bias_v", bias_v), mode, signal,
+                                    whole("periods", periods),
                                     whole("transient_periods", transient_periods))
     return response_from_report(report)
 
@@ -173,8 +174,8 @@ def check_shape(shape: str) -> None:
         raise ValueError(f"shape: {shape!r} is not one of triangle, sine")
 
 
-def _opt(v):
-    return None if v is None else float(v)
+def _opt(name, v):
+    return None if v is None else number(name, v)
 
 
 def measure_step(scenario: str | os.PathLike, *, step_um: Optional[float] = None, step_v: Optional[float] = None,
@@ -190,8 +191,9 @@ def measure_step(scenario: str | os.PathLike, *, step_um: Optional[float] = None
     check_step(step_um, step_v, mode)
     if sample not in (None, "float", "q31"):
         raise ValueError(f"sample: {sample!r} is not one of float, q31")
-    report = _piezoloop.measure_step(os.fspath(scenario), case or "", sample or "", _opt(step_um), _opt(step_v),
-                                     _opt(from_um), _opt(bias_v), mode or "", float(duration_s))
+    report = _piezoloop.measure_step(path("scenario", scenario), text("case", case, True), sample or "",
+                                     _opt("step_um", step_um), _opt("step_v", step_v), _opt("from_um", from_um),
+                                     _opt("bias_v", bias_v), mode or "", number("duration_s", duration_s))
     return step_from_report(report)
 
 
@@ -205,6 +207,7 @@ def measure_loops(scenario: str | os.PathLike, amplitudes_v: Sequence[float], *,
     check_shape(shape)
     if sample not in (None, "float", "q31"):
         raise ValueError(f"sample: {sample!r} is not one of float, q31")
-    r = _piezoloop.measure_loops(os.fspath(scenario), case or "", sample or "", [float(a) for a in amplitudes_v],
-                                 _opt(bias_v), float(frequency_hz), whole("cycles", cycles), shape)
+    r = _piezoloop.measure_loops(path("scenario", scenario), text("case", case, True), sample or "",
+                                 numbers("amplitudes_v", amplitudes_v), _opt("bias_v", bias_v),
+                                 number("frequency_hz", frequency_hz), whole("cycles", cycles), shape)
     return loops_from_result(r)

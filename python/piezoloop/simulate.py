@@ -8,7 +8,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from . import _piezoloop
-from ._args import number, whole
+from ._args import number, path, text, whole
 
 
 @dataclass
@@ -47,8 +47,9 @@ def sim(scenario: str | os.PathLike, case: str, trajectory: str = "triangle", fr
     # The ranges and choices are checked in C++ (sim::check_sim_request), as
     # `piezoloop sim` checks them.
     opt = lambda name, v: 0.0 if v is None else number(name, v)
-    r = _piezoloop.sim(os.fspath(scenario), case, trajectory, number("frequency_hz", frequency_hz),
-                       opt("amplitude_um", amplitude_um), opt("amplitude_v", amplitude_v), offset or "",
-                       opt("duration_s", duration_s), sample or "", fidelity, whole("substeps", substeps), True,
+    r = _piezoloop.sim(path("scenario", scenario), text("case", case), text("trajectory", trajectory),
+                       number("frequency_hz", frequency_hz), opt("amplitude_um", amplitude_um),
+                       opt("amplitude_v", amplitude_v), text("offset", offset, True), opt("duration_s", duration_s),
+                       text("sample", sample, True), text("fidelity", fidelity), whole("substeps", substeps), True,
                        whole("log_every", log_every))
     return SimRun(signals=r["signals"], metrics=r["metrics"], log_hash=r["metrics"]["log_hash"])

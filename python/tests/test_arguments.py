@@ -109,6 +109,9 @@ def test_wave_checked_as_the_cli(board):
         board.record(0.01, trajectory="sine")
     with pytest.raises(ValueError, match=r"--offset: must be unipolar or bipolar"):
         board.wave("sine", 5.0, 4.0, offset="centred")
+    for bad in (-3, 2**32 + 7):
+        with pytest.raises(ValueError, match=r"^cycles: must be in \[0, 4294967295\]"):
+            board.wave("sine", 5.0, 4.0, cycles=bad)
     assert board.status()["status"]["wave_running"] is False
 
 
@@ -134,6 +137,9 @@ def test_stream_checked_before_sending(board):
         board.stream(sp, prefill=2.5)
     with pytest.raises(ValueError, match=r"setpoints_um: a 1-D sequence.*\(5, 10\)"):
         board.stream(np.ones((5, 10)))
+    for bad in (["0.25", "0.5"], [0.1, None], [{"um": 1}]):
+        with pytest.raises(TypeError, match="^setpoints_um: numbers"):
+            board.stream(bad)
     assert board.status()["status"]["streaming"] is False
 
 
@@ -146,3 +152,28 @@ def test_set_none_and_nan_name_the_field(board):
     with pytest.raises(ValueError, match=r"feedback\.sections\[0\]\.b0: must be a finite number \(got inf\)"):
         board.set("feedback", sections=[{"b0": math.inf}])
     assert board.get("limits") == before
+
+
+@pytest.mark.parametrize("call,name", [
+    (lambda: piezoloop.sim(SC, 7, frequency_hz=10.0, amplitude_um=5.0), "case"),
+    (lambda: piezoloop.sim(SC, CASE, trajectory=["sine"], frequency_hz=10.0, amplitude_um=5.0), "trajectory"),
+    (lambda: piezoloop.sim(SC, CASE, frequency_hz=10.0, amplitude_um=5.0, fidelity=1), "fidelity"),
+    (lambda: piezoloop.sim(SC, CASE, frequency_hz=10.0, amplitude_um=5.0, offset=0.5), "offset"),
+    (lambda: piezoloop.sim(None, CASE, frequency_hz=10.0, amplitude_um=5.0), "scenario"),
+    (lambda: piezoloop.measure_frf(SC, "10", 1000.0, 0.1), "from_hz"),
+    (lambda: piezoloop.measure_frf(SC, 10.0, 1000.0, 0.1, bias_v=[0.5]), "bias_v"),
+    (lambda: piezoloop.measure_frf(SC, 10.0, 1000.0, 0.1, mode="closed", case=3), "case"),
+    (lambda: piezoloop.measure_step(SC, step_v="0.5"), "step_v"),
+    (lambda: piezoloop.measure_step(SC, step_v=0.5, duration_s="0.1"), "duration_s"),
+    (lambda: piezoloop.measure_loops(SC, "1.5,3"), "amplitudes_v"),
+    (lambda: piezoloop.measure_loops(SC, 2.5), "amplitudes_v"),
+    (lambda: piezoloop.measure_loops(SC, [[1.0, 2.0]]), r"amplitudes_v\[0\]"),
+    (lambda: piezoloop.measure_loops(SC, [1.0, "2"]), r"amplitudes_v\[1\]"),
+    (lambda: piezoloop.commission(SC, 10.0, None), "out"),
+])
+def test_wrong_types_name_the_argument(call, name):
+    """A string for a number, a number for a string, a scalar or a string for
+    a list: TypeError naming the argument (not a C++ signature's dump, not
+    float()'s message, not a string read character by character)."""
+    with pytest.raises(TypeError, match="^" + name + ": "):
+        call()

@@ -1,11 +1,18 @@
 // Message layouts of the link protocol (docs/protocol.md has them as tables).
 //
 // Every message is a struct with its type id (kType), write(Writer&) and
-// read(Reader&) that follow its layout field by field, little-endian, with no
-// padding and no optional fields: the layout of a type is fixed for a protocol
-// version (variable-length arrays travel with their count and only that many
+// read(Reader&) that follow its layout, little-endian, with no padding and no
+// optional fields: the layout of a type is fixed for a protocol version
+// (variable-length arrays travel with their count and only that many
 // elements). Requests come from the host, replies echo the request's sequence
 // id, log blocks are sent by the device unasked.
+//
+// The messages with more than one field declare their layout as the
+// parameter groups do (params/field.hpp): describe(visitor, message) lists
+// the fields in wire order with name, wire type and meaning. Their codec is
+// the groups' (params/wire_codec.hpp), and docs/protocol.md's layout tables
+// are generated from the same declarations (`piezoloop schema --layout`), so
+// the document, the encoder and the decoder cannot disagree.
 //
 // The codec checks form only (lengths, booleans, counts within their arrays).
 // Values go to the core's validation unchanged, so a NaN or an out-of-range
@@ -22,6 +29,7 @@
 #include "piezoloop/limits.hpp"
 #include "piezoloop/link/framing.hpp"
 #include "piezoloop/link/wire.hpp"
+#include "piezoloop/params/field.hpp"
 #include "piezoloop/params/groups.hpp"
 #include "piezoloop/params/wire_codec.hpp"
 #include "piezoloop/pi_model.hpp"
@@ -257,6 +265,30 @@ struct StartWave {
 // arm, the recorder's arm and the emulated stage's restart happen at one
 // tick boundary, so the first recorded frame is the excitation's sample 0.
 // The sample rate is the device's loop rate.
+struct StartExcitation;
+template <class V, params::GroupRef<StartExcitation> M>
+constexpr void describe(V& v, M& m) {
+    using namespace params;
+    auto& c = m.config;
+    v.value(u8("flags", "StartWave's bits (arm loop, arm recorder, restart stage, detached)"), m.flags);
+    v.value(u8("signal", "0 multisine, 1 log sweep, 2 PRBS, 3 step, 4 triangle, 5 raised cosine"), c.signal);
+    v.value(u8("point", "0 command (V), 1 reference (um); other values malformed"), c.point);
+    v.value(f32("amplitude", "V or um", "within +-1e6 (negative inverts the shape)"), c.amplitude);
+    v.value(f32("offset", "V or um", "added throughout (an open loop's bias)"), c.offset);
+    v.value(u32("period_samples", "samples",
+                "multisine N (<= excitation_capacity), sweep length, step/triangle/raised-cosine period"),
+            c.period_samples);
+    v.value(u32("first_bin", "1", "multisine: first line k1 >= 1"), c.first_bin);
+    v.value(u32("last_bin", "1", "multisine: last line k2, k1 <= k2 < N/2"), c.last_bin);
+    v.value(f32("f1_Hz", "Hz", "sweep: start, 0 < f1 < f2"), c.f1_Hz);
+    v.value(f32("f2_Hz", "Hz", "sweep: end, f2 < rate/2"), c.f2_Hz);
+    v.value(u8("prbs_order", "PRBS: 2..24"), c.prbs_order);
+    v.value(u32("prbs_hold", "samples", "PRBS: samples per bit, 1..65536, and (2^prbs_order - 1)*prbs_hold < 2^32"),
+            c.prbs_hold);
+    v.value(u32("periods", "1", "then d returns to 0 and the excitation ends; 0 runs until StopExcitation"),
+            c.periods);
+}
+
 struct StartExcitation {
     static constexpr MsgType kType = MsgType::kStartExcitation;
     static constexpr uint8_t kArmLoop = StartWave::kArmLoop;
@@ -273,22 +305,10 @@ struct StartExcitation {
                a.last_bin == b.last_bin && a.f1_Hz == b.f1_Hz && a.f2_Hz == b.f2_Hz &&
                a.prbs_order == b.prbs_order && a.prbs_hold == b.prbs_hold && a.periods == b.periods;
     }
-    void write(Writer& w) const {
-        const ExcitationConfig& c = config;
-        w.u8(flags); w.u8(static_cast<uint8_t>(c.signal)); w.u8(static_cast<uint8_t>(c.point));
-        w.f32(c.amplitude); w.f32(c.offset);
-        w.u32(c.period_samples); w.u32(c.first_bin); w.u32(c.last_bin);
-        w.f32(c.f1_Hz); w.f32(c.f2_Hz);
-        w.u8(static_cast<uint8_t>(c.prbs_order)); w.u32(c.prbs_hold); w.u32(c.periods);
-    }
+    void write(Writer& w) const { params::write_group(w, *this); }
     void read(Reader& r) {
-        ExcitationConfig& c = config;
-        flags = r.u8(); c.signal = static_cast<ExcitationSignal>(r.u8()); c.point = static_cast<ExcitationPoint>(r.u8());
-        c.amplitude = r.f32(); c.offset = r.f32();
-        c.period_samples = r.u32(); c.first_bin = r.u32(); c.last_bin = r.u32();
-        c.f1_Hz = r.f32(); c.f2_Hz = r.f32();
-        c.prbs_order = r.u8(); c.prbs_hold = r.u32(); c.periods = r.u32();
-        if (c.point != ExcitationPoint::kCommand && c.point != ExcitationPoint::kReference) r.mark_bad();
+        params::read_group(r, *this);
+        if (config.point != ExcitationPoint::kCommand && config.point != ExcitationPoint::kReference) r.mark_bad();
     }
 };
 
@@ -339,26 +359,35 @@ struct StreamStop {
 };
 
 // A block of setpoints (µm), consumed one per tick.
+struct SetpointBlock;
+template <class V, params::GroupRef<SetpointBlock> M>
+constexpr void describe(V& v, M& m) {
+    using namespace params;
+    v.value(u32("block_seq", "1", "0 for the first block after StreamStart, +1 per block"), m.block_seq);
+    v.count(u8("count", "setpoints in the block, 0..120").range(0, kMaxSetpointsPerBlock), m.count);
+    v.values(f32("setpoint_um", "um", "finite, within +-1e6 um"), m.setpoint_um, m.count, Travel::kCount);
+}
+
 struct SetpointBlock {
     static constexpr MsgType kType = MsgType::kSetpoints;
     uint32_t block_seq = 0;  // 0 for the first block after StreamStart, +1 per block
     uint8_t count = 0;
     std::array<float, kMaxSetpointsPerBlock> setpoint_um{};
     bool operator==(const SetpointBlock&) const = default;
-    void write(Writer& w) const {
-        w.u32(block_seq);
-        const uint8_t n = count > kMaxSetpointsPerBlock ? static_cast<uint8_t>(kMaxSetpointsPerBlock) : count;
-        w.u8(n);
-        for (std::size_t i = 0; i < n; ++i) w.f32(setpoint_um[i]);
-    }
-    void read(Reader& r) {
-        block_seq = r.u32();
-        count = r.u8();
-        if (count > kMaxSetpointsPerBlock) { r.mark_bad(); return; }
-        setpoint_um = {};
-        for (std::size_t i = 0; i < count; ++i) setpoint_um[i] = r.f32();
-    }
+    void write(Writer& w) const { params::write_group(w, *this); }
+    void read(Reader& r) { params::read_group(r, *this); }
 };
+
+struct SetpointAck;
+template <class V, params::GroupRef<SetpointAck> M>
+constexpr void describe(V& v, M& m) {
+    using namespace params;
+    v.value(u32("next_block_seq", "1", "the block the device expects next"), m.next_block_seq);
+    v.value(u16("free", "free FIFO slots (setpoints) after this block"), m.free);
+    v.value(u16("capacity", "FIFO slots"), m.capacity);
+    v.value(u32("underruns", "ticks", "ticks that found the FIFO empty since StreamStart"), m.underruns);
+    v.value(u32("consumed", "1", "setpoints consumed since StreamStart"), m.consumed);
+}
 
 struct SetpointAck {
     static constexpr MsgType kType = MsgType::kSetpointAck;
@@ -368,8 +397,8 @@ struct SetpointAck {
     uint32_t underruns = 0;       // ticks that found the FIFO empty since StreamStart
     uint32_t consumed = 0;        // setpoints consumed since StreamStart
     bool operator==(const SetpointAck&) const = default;
-    void write(Writer& w) const { w.u32(next_block_seq); w.u16(free); w.u16(capacity); w.u32(underruns); w.u32(consumed); }
-    void read(Reader& r) { next_block_seq = r.u32(); free = r.u16(); capacity = r.u16(); underruns = r.u32(); consumed = r.u32(); }
+    void write(Writer& w) const { params::write_group(w, *this); }
+    void read(Reader& r) { params::read_group(r, *this); }
 };
 
 struct Ack {
@@ -382,6 +411,20 @@ struct Ack {
 
 // Error reply. group/field/message are the core's Status texts (group empty
 // for top-level fields), index the array element or -1.
+struct ErrorReply;
+template <class V, params::GroupRef<ErrorReply> M>
+constexpr void describe(V& v, M& m) {
+    using namespace params;
+    v.value(u8("request_type", "the request's type"), m.request_type);
+    v.value(u8("code", "the error code (below)"), m.code);
+    v.text(text("group", "parameter group or block, e.g. `limits`, `pi`, `sos`, `rc`, `trajectory`; empty for "
+                         "top-level fields"),
+           m.group);
+    v.text(text("field", "the offending field, e.g. `u_max_V`, `weights`, `sections`, `kind`"), m.field);
+    v.value(i16("index", "1", "array element, -1 if none"), m.index);
+    v.text(text("message", "what is allowed, e.g. `must be finite and <= the hard limit u_max_V`"), m.message);
+}
+
 struct ErrorReply {
     static constexpr MsgType kType = MsgType::kError;
     uint8_t request_type = 0;
@@ -392,18 +435,8 @@ struct ErrorReply {
     std::array<char, kMessageTextSize> message{};
     bool operator==(const ErrorReply&) const = default;
 
-    void write(Writer& w) const {
-        w.u8(request_type); w.u8(static_cast<uint8_t>(code));
-        w.text(group.data(), kGroupTextSize); w.text(field.data(), kFieldTextSize);
-        w.i16(index);
-        w.text(message.data(), kMessageTextSize);
-    }
-    void read(Reader& r) {
-        request_type = r.u8(); code = static_cast<ErrorCode>(r.u8());
-        r.text(group.data(), group.size(), kGroupTextSize); r.text(field.data(), field.size(), kFieldTextSize);
-        index = r.i16();
-        r.text(message.data(), message.size(), kMessageTextSize);
-    }
+    void write(Writer& w) const { params::write_group(w, *this); }
+    void read(Reader& r) { params::read_group(r, *this); }
 };
 
 // Copies a C string into a fixed text array (cut, zero-terminated).
@@ -423,6 +456,39 @@ constexpr ErrorReply make_error(uint8_t request_type, ErrorCode code, const Stat
     e.index = static_cast<int16_t>(s.index < -1 ? -1 : (s.index > 32767 ? 32767 : s.index));
     set_text(e.message, s.message);
     return e;
+}
+
+struct HelloReply;
+template <class V, params::GroupRef<HelloReply> M>
+constexpr void describe(V& v, M& m) {
+    using namespace params;
+    v.value(u8("protocol_version", "the device's protocol version"), m.protocol_version);
+    v.text(text("board", "e.g. `qemu-m7`"), m.board);
+    v.text(text("firmware_version", "the project version the firmware was built from"), m.firmware_version);
+    v.text(text("serial", "up to 31 characters, zero-padded (STM32: the 96-bit unique ID as 24 hex digits)"), m.serial);
+    v.value(f32("loop_rate_Hz", "Hz", "control tick rate"), m.loop_rate_Hz);
+    v.value(u32("capabilities", "1",
+                "bit 0 float pipeline, 1 Q31 pipeline, 2 Dahl, 3 repetitive control, 4 setpoint stream, 5 recorder, "
+                "6 wave tables, 7 excitation, 8 parameter storage (Save / Load / Forget)"),
+            m.capabilities);
+    v.value(u8("sample_format", "0 float32 (physical units), 1 Q31"), m.sample_format);
+    v.value(f32("hard_u_min_V", "V", "board hard limits: never exceeded"), m.hard_u_min_V);
+    v.value(f32("hard_u_max_V", "V", "board hard limit"), m.hard_u_max_V);
+    v.value(f32("hard_slew_max_V_per_s", "V/s", "board hard slew limit"), m.hard_slew_max_V_per_s);
+    v.value(f32("position_full_scale_um", "um", "Q31 full scale of r, y, e"), m.position_full_scale_um);
+    v.value(f32("voltage_full_scale_V", "V", "Q31 full scale of u, u_ff, u_fb, u_rc (and d at the command)"),
+            m.voltage_full_scale_V);
+    v.value(u16("max_payload", "largest payload, bytes: 512"), m.max_payload);
+    v.value(u16("setpoint_capacity", "setpoint FIFO slots"), m.setpoint_capacity);
+    v.value(u8("recorder_channels", "channel count the recorder group must use"), m.recorder_channels);
+    v.value(u32("recorder_capacity", "frames", "recorder ring, frames"), m.recorder_capacity);
+    v.value(u8("max_sos_sections", "feedback SOS sections: 4"), m.max_sos_sections);
+    v.value(u8("max_play_operators", "PI play operators: 16"), m.max_play_operators);
+    v.value(u16("max_wave_table", "points of a steps / table wave: 96"), m.max_wave_table);
+    v.value(u32("rc_capacity", "samples", "largest RC period, samples"), m.rc_capacity);
+    v.value(u32("excitation_capacity", "samples",
+                "longest multisine period, samples (16384 on the QEMU boards, 4096 on the STM32)"),
+            m.excitation_capacity);
 }
 
 struct HelloReply {
@@ -448,27 +514,8 @@ struct HelloReply {
     uint32_t excitation_capacity = 0;  // longest multisine period, samples
     bool operator==(const HelloReply&) const = default;
 
-    void write(Writer& w) const {
-        w.u8(protocol_version);
-        w.text(board.data(), kNameSize); w.text(firmware_version.data(), kNameSize); w.text(serial.data(), kSerialSize);
-        w.f32(loop_rate_Hz); w.u32(capabilities); w.u8(static_cast<uint8_t>(sample_format));
-        w.f32(hard_u_min_V); w.f32(hard_u_max_V); w.f32(hard_slew_max_V_per_s);
-        w.f32(position_full_scale_um); w.f32(voltage_full_scale_V);
-        w.u16(max_payload); w.u16(setpoint_capacity); w.u8(recorder_channels); w.u32(recorder_capacity);
-        w.u8(max_sos_sections); w.u8(max_play_operators); w.u16(max_wave_table); w.u32(rc_capacity);
-        w.u32(excitation_capacity);
-    }
-    void read(Reader& r) {
-        protocol_version = r.u8();
-        r.text(board.data(), board.size(), kNameSize); r.text(firmware_version.data(), firmware_version.size(), kNameSize);
-        r.text(serial.data(), serial.size(), kSerialSize);
-        loop_rate_Hz = r.f32(); capabilities = r.u32(); sample_format = static_cast<SampleFormat>(r.u8());
-        hard_u_min_V = r.f32(); hard_u_max_V = r.f32(); hard_slew_max_V_per_s = r.f32();
-        position_full_scale_um = r.f32(); voltage_full_scale_V = r.f32();
-        max_payload = r.u16(); setpoint_capacity = r.u16(); recorder_channels = r.u8(); recorder_capacity = r.u32();
-        max_sos_sections = r.u8(); max_play_operators = r.u8(); max_wave_table = r.u16(); rc_capacity = r.u32();
-        excitation_capacity = r.u32();
-    }
+    void write(Writer& w) const { params::write_group(w, *this); }
+    void read(Reader& r) { params::read_group(r, *this); }
 };
 
 // Fault bits of the status reply.
@@ -518,6 +565,71 @@ constexpr const char* storage_state_name(StorageState s) {
     return "?";
 }
 
+struct StatusReply;
+template <class V, params::GroupRef<StatusReply> M>
+constexpr void describe(V& v, M& m) {
+    using namespace params;
+    v.value(boolean("armed", "the loop is armed"), m.armed);
+    v.value(boolean("tripped", "the limiter is tripped"), m.tripped);
+    v.value(u8("trip_reason", "0 none, 1 not configured, 2 invalid hard limits, 3 non-finite input, 4 sustained "
+                              "saturation, 5 external"),
+            m.trip_reason);
+    v.value(boolean("wave_running", "a wave runs (its approach included)"), m.wave_running);
+    v.value(boolean("streaming", "a setpoint stream runs"), m.streaming);
+    v.value(boolean("swap_pending", "a parameter set waits for its swap"), m.swap_pending);
+    v.value(u8("recorder_state", "0 idle, 1 armed, 2 triggered, 3 done"), m.recorder_state);
+    v.value(u32("faults", "1",
+                "bit 0 hard limits invalid, 1 tick overrun seen, 2 setpoint underrun seen, 3 recorder overrun, 4 link "
+                "errors counted, 5 client lost (section 5a), 8..31 board-specific"),
+            m.faults);
+    v.value(u32("tick_count", "ticks", "ticks since boot (wraps)"), m.tick_count);
+    v.value(u32("swaps", "1", "parameter sets swapped in"), m.swaps);
+    v.begin("tick");
+    v.value(u32("overruns", "1", "periods the loop did not serve on time"), m.tick.overruns);
+    v.value(u32("time_min", "counter units", "shortest tick"), m.tick.time_min);
+    v.value(u32("time_max", "counter units", "longest tick"), m.tick.time_max);
+    v.value(f32("time_mean", "counter units", "mean tick"), m.tick.time_mean);
+    v.value(f32("counter_Hz", "Hz", "counter units per second (0: unknown; the QEMU boards count instructions)"),
+            m.tick.counter_Hz);
+    v.value(u32("board_faults", "1", "board-specific fault bits"), m.tick.board_faults);
+    v.end();
+    v.value(u32("setpoint_underruns", "ticks", "ticks that found the setpoint FIFO empty"), m.setpoint_underruns);
+    v.value(u16("setpoint_free", "free setpoint FIFO slots"), m.setpoint_free);
+    v.value(u32("setpoint_next_seq", "1", "the setpoint block the device expects next"), m.setpoint_next_seq);
+    v.value(u32("recorder_overruns", "frames", "frames the recorder dropped since arm"), m.recorder_overruns);
+    v.value(u32("log_blocks", "1", "log blocks sent since RecorderArm"), m.log_blocks);
+    v.begin("link");
+    v.value(u32("frames_ok", "1", "frames with a good CRC (section 6 has the counters)"), m.link.frames_ok);
+    v.value(u32("bad_cobs", "1", "frames dropped: COBS"), m.link.bad_cobs);
+    v.value(u32("bad_crc", "1", "frames dropped: CRC"), m.link.bad_crc);
+    v.value(u32("truncated", "1", "frames dropped: too short"), m.link.truncated);
+    v.value(u32("oversize", "1", "frames dropped: too long"), m.link.oversize);
+    v.value(u32("unknown_type", "1", "unknown message types"), m.link.unknown_type);
+    v.value(u32("bad_version", "1", "requests of another protocol version"), m.link.bad_version);
+    v.value(u32("bad_length", "1", "bodies longer than their layout"), m.link.bad_length);
+    v.value(u32("bad_value", "1", "bodies with a bad bool, count or group"), m.link.bad_value);
+    v.value(u32("error_replies", "1", "Error replies sent"), m.link.error_replies);
+    v.end();
+    v.value(f32("r_um", "um", "last tick's reference"), m.r_um);
+    v.value(f32("y_um", "um", "last tick's reading"), m.y_um);
+    v.value(f32("u_V", "V", "last tick's command"), m.u_V);
+    v.value(boolean("excitation_running", "an excitation runs"), m.excitation_running);
+    v.value(u32("excitation_ticks", "ticks", "ticks the last excitation ran"), m.excitation_ticks);
+    v.value(u32("excitation_clipped", "ticks", "of those, ticks the limiter clamped or slew-limited"),
+            m.excitation_clipped);
+    // The storage block, the last of the layout: what became of the stored
+    // parameter set at boot.
+    v.value(u8("storage", "stored set at boot (section 4a): 0 absent (no storage), 1 empty (nothing stored), 2 "
+                          "applied, 3 ignored: corrupt, 4 ignored: other firmware version, 5 ignored: rejected by "
+                          "validation, 6 ignored: storage unreadable"),
+            m.storage);
+    v.text(text("storage_group", "why it was ignored, as an Error's group (empty when applied or absent)"),
+           m.storage_group);
+    v.text(text("storage_field", "... field"), m.storage_field);
+    v.value(i16("storage_index", "1", "... index"), m.storage_index);
+    v.text(text("storage_message", "... message"), m.storage_message);
+}
+
 struct StatusReply {
     static constexpr MsgType kType = MsgType::kStatusReply;
     bool armed = false;
@@ -554,45 +666,8 @@ struct StatusReply {
     // ---- end of the storage block
     bool operator==(const StatusReply&) const = default;
 
-    void write(Writer& w) const {
-        w.boolean(armed); w.boolean(tripped); w.u8(static_cast<uint8_t>(trip_reason));
-        w.boolean(wave_running); w.boolean(streaming); w.boolean(swap_pending);
-        w.u8(static_cast<uint8_t>(recorder_state));
-        w.u32(faults); w.u32(tick_count); w.u32(swaps);
-        w.u32(tick.overruns); w.u32(tick.time_min); w.u32(tick.time_max); w.f32(tick.time_mean); w.f32(tick.counter_Hz);
-        w.u32(tick.board_faults);
-        w.u32(setpoint_underruns); w.u16(setpoint_free); w.u32(setpoint_next_seq); w.u32(recorder_overruns); w.u32(log_blocks);
-        w.u32(link.frames_ok); w.u32(link.bad_cobs); w.u32(link.bad_crc); w.u32(link.truncated); w.u32(link.oversize);
-        w.u32(link.unknown_type); w.u32(link.bad_version); w.u32(link.bad_length); w.u32(link.bad_value);
-        w.u32(link.error_replies);
-        w.f32(r_um); w.f32(y_um); w.f32(u_V);
-        w.boolean(excitation_running); w.u32(excitation_ticks); w.u32(excitation_clipped);
-        // storage block
-        w.u8(static_cast<uint8_t>(storage));
-        w.text(storage_group.data(), kGroupTextSize); w.text(storage_field.data(), kFieldTextSize);
-        w.i16(storage_index);
-        w.text(storage_message.data(), kMessageTextSize);
-    }
-    void read(Reader& r) {
-        armed = r.boolean(); tripped = r.boolean(); trip_reason = static_cast<TripReason>(r.u8());
-        wave_running = r.boolean(); streaming = r.boolean(); swap_pending = r.boolean();
-        recorder_state = static_cast<RecorderState>(r.u8());
-        faults = r.u32(); tick_count = r.u32(); swaps = r.u32();
-        tick.overruns = r.u32(); tick.time_min = r.u32(); tick.time_max = r.u32(); tick.time_mean = r.f32(); tick.counter_Hz = r.f32();
-        tick.board_faults = r.u32();
-        setpoint_underruns = r.u32(); setpoint_free = r.u16(); setpoint_next_seq = r.u32(); recorder_overruns = r.u32(); log_blocks = r.u32();
-        link.frames_ok = r.u32(); link.bad_cobs = r.u32(); link.bad_crc = r.u32(); link.truncated = r.u32(); link.oversize = r.u32();
-        link.unknown_type = r.u32(); link.bad_version = r.u32(); link.bad_length = r.u32(); link.bad_value = r.u32();
-        link.error_replies = r.u32();
-        r_um = r.f32(); y_um = r.f32(); u_V = r.f32();
-        excitation_running = r.boolean(); excitation_ticks = r.u32(); excitation_clipped = r.u32();
-        // storage block
-        storage = static_cast<StorageState>(r.u8());
-        r.text(storage_group.data(), storage_group.size(), kGroupTextSize);
-        r.text(storage_field.data(), storage_field.size(), kFieldTextSize);
-        storage_index = r.i16();
-        r.text(storage_message.data(), storage_message.size(), kMessageTextSize);
-    }
+    void write(Writer& w) const { params::write_group(w, *this); }
+    void read(Reader& r) { params::read_group(r, *this); }
 };
 
 // Recorder frames, sent by the device. Frame i was recorded at tick
@@ -600,6 +675,29 @@ struct StatusReply {
 // Samples are frame-major: frame 0 channel 0, frame 0 channel 1, ...
 // float32 in physical units (µm, V), or Q31 raw (times the full scale of the
 // hello reply / 2^31 gives µm or V).
+struct LogBlock;
+template <class V, params::GroupRef<LogBlock> M>
+constexpr void describe(V& v, M& m) {
+    using namespace params;
+    v.value(u32("block_seq", "1", "0 for the first block after RecorderArm, +1 per block"), m.block_seq);
+    v.value(u32("first_tick", "ticks", "tick index of frame 0"), m.first_tick);
+    v.value(u32("tick_stride", "ticks", "the decimation; frame i is at first_tick + i*stride"), m.tick_stride);
+    v.value(u32("recorder_overruns", "frames", "frames the recorder dropped since arm (cumulative)"),
+            m.recorder_overruns);
+    v.value(u8("channel_count", "channels per frame, 0..8"), m.channel_count);
+    v.value(u8("format", "0 float32 (um / V), 1 Q31 (raw * full scale / 2^31)"), m.format);
+    v.value(u8("frame_count", "frames in the block"), m.frame_count);
+    v.value(u8("flags", "bit 0 last block of a single-shot record"), m.flags);
+    v.values(u8("channels", "signal id of each channel"), m.channels, kMaxLogChannels, Travel::kAll);
+    // count = channel_count * frame_count; a channel count beyond the
+    // layout's makes it beyond the array too (malformed).
+    const std::size_t count = m.channel_count <= kMaxLogChannels
+                                  ? std::size_t{m.channel_count} * m.frame_count
+                                  : m.samples.size() + 1;
+    v.values(u32("samples", "1", "count = channel_count*frame_count 32-bit samples, frame-major (f0c0, f0c1, ...)"),
+             m.samples, count, Travel::kCount);
+}
+
 struct LogBlock {
     static constexpr MsgType kType = MsgType::kLogBlock;
     uint32_t block_seq = 0;         // 0 for the first block after recorder arm, +1 per block
@@ -616,22 +714,8 @@ struct LogBlock {
 
     static constexpr uint8_t kFlagLast = 1;
 
-    void write(Writer& w) const {
-        w.u32(block_seq); w.u32(first_tick); w.u32(tick_stride); w.u32(recorder_overruns);
-        w.u8(channel_count); w.u8(static_cast<uint8_t>(format)); w.u8(frame_count); w.u8(flags);
-        for (const uint8_t c : channels) w.u8(c);
-        const std::size_t n = std::size_t{channel_count} * frame_count;
-        for (std::size_t i = 0; i < n && i < samples.size(); ++i) w.u32(samples[i]);
-    }
-    void read(Reader& r) {
-        block_seq = r.u32(); first_tick = r.u32(); tick_stride = r.u32(); recorder_overruns = r.u32();
-        channel_count = r.u8(); format = static_cast<SampleFormat>(r.u8()); frame_count = r.u8(); flags = r.u8();
-        for (uint8_t& c : channels) c = r.u8();
-        const std::size_t n = std::size_t{channel_count} * frame_count;
-        if (channel_count > kMaxLogChannels || n > samples.size()) { r.mark_bad(); return; }
-        samples = {};
-        for (std::size_t i = 0; i < n; ++i) samples[i] = r.u32();
-    }
+    void write(Writer& w) const { params::write_group(w, *this); }
+    void read(Reader& r) { params::read_group(r, *this); }
 };
 
 // ---- whole frames --------------------------------------------------------------

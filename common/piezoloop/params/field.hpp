@@ -13,7 +13,10 @@
 //                                            that follow (hidden in JSON)
 //   values(const Field&, A&, C&, Travel)     an array of scalars
 //   objects(const char*, A&, C&, Travel)     an array of described structs
-// and groups are visited with describe(visitor, group).
+//   text(const Field&, std::array<char, N>&) a zero-padded text field (link
+//                                            messages only, not in groups)
+// and groups are visited with describe(visitor, group). The link's message
+// layouts (link/messages.hpp) are declared the same way.
 #pragma once
 
 #include <cstddef>
@@ -22,13 +25,14 @@
 namespace piezoloop::params {
 
 // How a value travels in the link's little-endian layouts.
-enum class Wire : uint8_t { kU8, kU16, kU32, kI32, kF32, kF64, kBool };
+enum class Wire : uint8_t { kU8, kU16, kU32, kI16, kI32, kF32, kF64, kBool };
 
 constexpr const char* wire_name(Wire w) {
     switch (w) {
         case Wire::kU8: return "u8";
         case Wire::kU16: return "u16";
         case Wire::kU32: return "u32";
+        case Wire::kI16: return "i16";
         case Wire::kI32: return "i32";
         case Wire::kF32: return "f32";
         case Wire::kF64: return "f64";
@@ -40,7 +44,7 @@ constexpr const char* wire_name(Wire w) {
 constexpr std::size_t wire_size(Wire w) {
     switch (w) {
         case Wire::kU8: case Wire::kBool: return 1;
-        case Wire::kU16: return 2;
+        case Wire::kU16: case Wire::kI16: return 2;
         case Wire::kU32: case Wire::kI32: case Wire::kF32: return 4;
         case Wire::kF64: return 8;
     }
@@ -114,6 +118,7 @@ constexpr Field integer(Wire w, const char* name, const char* unit, const char* 
         case Wire::kU8: f.min = 0; f.max = 255; break;
         case Wire::kU16: f.min = 0; f.max = 65535; break;
         case Wire::kU32: f.min = 0; f.max = 4294967295.0; break;
+        case Wire::kI16: f.min = -32768.0; f.max = 32767.0; break;
         case Wire::kI32: f.min = -2147483648.0; f.max = 2147483647.0; break;
         default: break;
     }
@@ -122,7 +127,12 @@ constexpr Field integer(Wire w, const char* name, const char* unit, const char* 
 constexpr Field u8(const char* name, const char* doc) { return integer(Wire::kU8, name, "1", doc); }
 constexpr Field u16(const char* name, const char* doc) { return integer(Wire::kU16, name, "1", doc); }
 constexpr Field u32(const char* name, const char* unit, const char* doc) { return integer(Wire::kU32, name, unit, doc); }
+constexpr Field i16(const char* name, const char* unit, const char* doc) { return integer(Wire::kI16, name, unit, doc); }
 constexpr Field i32(const char* name, const char* unit, const char* doc) { return integer(Wire::kI32, name, unit, doc); }
+
+// A zero-padded text field of a link message (visited by text()): its size
+// is its array's.
+constexpr Field text(const char* name, const char* doc) { return number(Wire::kU8, name, "", doc); }
 
 constexpr Field boolean(const char* name, const char* doc) {
     Field f = number(Wire::kBool, name, "", doc);

@@ -1,4 +1,5 @@
-// A parameter group's wire layout, from its declaration (params/groups.hpp):
+// A parameter group's wire layout, from its declaration (params/groups.hpp),
+// and so a link message's (link/messages.hpp):
 // fields in declaration order, little-endian, no padding; an array travels
 // as its count (declared before it) and then the first `count` elements, or
 // all of its elements when the layout is fixed (Travel::kAll).
@@ -47,6 +48,10 @@ public:
     constexpr void objects(const char*, const std::array<S, N>& a, const C& n, Travel t) {
         for (std::size_t i = 0; i < traveling(n, N, t); ++i) describe(*this, a[i]);
     }
+    template <std::size_t N>
+    constexpr void text(const Field&, const std::array<char, N>& a) {
+        w_.text(a.data(), N);
+    }
 
 private:
     // A count beyond the array (only a corrupt struct has one) sends the array.
@@ -62,6 +67,7 @@ private:
             case Wire::kU8: w_.u8(static_cast<uint8_t>(x)); break;
             case Wire::kU16: w_.u16(static_cast<uint16_t>(x)); break;
             case Wire::kU32: w_.u32(static_cast<uint32_t>(x)); break;
+            case Wire::kI16: w_.i16(static_cast<int16_t>(x)); break;
             case Wire::kI32: w_.i32(static_cast<int32_t>(x)); break;
             case Wire::kF32: w_.f32(static_cast<float>(x)); break;
             case Wire::kF64: w_.f64(static_cast<double>(x)); break;
@@ -102,6 +108,11 @@ public:
         for (std::size_t i = 0; i < m; ++i) describe(*this, a[i]);
         for (std::size_t i = m; i < N; ++i) a[i] = S{};
     }
+    template <std::size_t N>
+    constexpr void text(const Field&, std::array<char, N>& a) {
+        if (stopped_) return;
+        r_.text(a.data(), N, N);
+    }
 
 private:
     template <class C>
@@ -120,6 +131,7 @@ private:
             case Wire::kU8: return static_cast<X>(r_.u8());
             case Wire::kU16: return static_cast<X>(r_.u16());
             case Wire::kU32: return static_cast<X>(r_.u32());
+            case Wire::kI16: return static_cast<X>(r_.i16());
             case Wire::kI32: return static_cast<X>(r_.i32());
             case Wire::kF32: return static_cast<X>(r_.f32());
             case Wire::kF64: return static_cast<X>(r_.f64());
@@ -178,6 +190,10 @@ public:
             size_.fixed += N * one;
         else
             size_.per_count += one;
+    }
+    template <std::size_t N>
+    constexpr void text(const Field&, const std::array<char, N>&) {
+        size_.fixed += N;
     }
     constexpr LayoutSize size() const { return size_; }
 

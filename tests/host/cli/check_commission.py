@@ -8,7 +8,9 @@ written scenario's commissioned case runs in `piezoloop sim`; the
 verification agrees; bad requests exit 2 naming the option, with nothing
 written; the stages of configs/stages/ and the sources' meet the tracking
 checks; a range beyond the reach the hysteresis loop measures is refused; a
-stage that does not respond stops at the first safety step;
+stage that does not respond stops at the first safety step, one whose sensor
+reads the wrong sign at the first, one that saturates near mid-span at a later
+one;
 options for a board only are refused on the simulator.
 Usage: check_commission.py PIEZOLOOP_BINARY CONFIGS_DIR
 """
@@ -116,6 +118,42 @@ r = subprocess.run([exe, "commission", "--scenario", dead_file, "--range-um", "1
                    text=True)
 check(r.returncode == 1 and "safety step of 0.2 V" in r.stderr and "does not respond" in r.stderr and
       not os.path.exists(bad), "a stage that does not respond: %d %s" % (r.returncode, r.stderr))
+
+# A stage whose reading moves down for a step up (its dynamics' DC gain
+# negative, several sizes): the first safety step stops it, exit 1, saying
+# the sensor's sign is reversed and how to flip it. A stage whose amplifier
+# saturates a little above mid-span (50.6 .. 52.5 V of 0..100 V; mid-span is
+# 50 V): a later safety step finds the output no longer growing, exit 1
+# naming the rail. Nothing written in either case.
+stiff = json.load(open(os.path.join(configs, "stages", "stiff_stack.json")))
+dc = 1.0
+for re_, im in stiff["plant"]["dynamics"]["model"]["poles"]:
+    dc *= abs(complex(re_, im))
+
+
+def commission_stage(s):
+    f = os.path.join(tmp, "stage.json")
+    json.dump(s, open(f, "w"))
+    return subprocess.run([exe, "commission", "--scenario", f, "--range-um", "4", "--out", bad], capture_output=True,
+                          text=True)
+
+
+for gain in (-0.3, -1.0, -2.7):
+    s = json.loads(json.dumps(stiff))
+    s["plant"]["dynamics"]["normalise_dc"] = False
+    s["plant"]["dynamics"]["model"]["gain"] = gain * dc
+    s["plant"]["adc"]["min"], s["plant"]["adc"]["max"] = -60, 60
+    r = commission_stage(s)
+    check(r.returncode == 1 and "safety step of 0.2 V" in r.stderr and "sign is reversed" in r.stderr and
+          "plant.sensor.gain_per_um" in r.stderr and not os.path.exists(bad),
+          "a stage with gain %g: %d %s" % (gain, r.returncode, r.stderr[-400:]))
+for top_V in (50.6, 51.4, 52.5):
+    s = json.loads(json.dumps(stiff))
+    s["plant"]["amplifier"]["output_max_V"] = top_V
+    r = commission_stage(s)
+    check(r.returncode == 1 and "safety step of" in r.stderr and "the output stops growing" in r.stderr and
+          "saturates between" in r.stderr and not os.path.exists(bad),
+          "an amplifier saturating at %g V: %d %s" % (top_V, r.returncode, r.stderr[-400:]))
 
 r = subprocess.run([exe, "commission", "--scenario", scenario, "--range-um", "12", "--no-save", "--out", bad],
                    capture_output=True, text=True)

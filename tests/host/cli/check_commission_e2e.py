@@ -17,6 +17,8 @@ the sensor's rail on a board while the simulator verified):
   (stop the board, start it again with F)
       -> status: the stored set applied at boot, disarmed; the feedback group
          is the commissioned one.
+  the same stage with its sensor's sign reversed: commission exits 1 at the
+  first safety step saying so, the board disarmed and unchanged.
 
 Usage: check_commission_e2e.py PIEZOLOOP SERVO_ELF CONFIGS_DIR
 Exit 77 (skipped) without qemu-system-arm or the image."""
@@ -98,6 +100,32 @@ try:
     r = run("sim", "--scenario", os.path.join(out, "scenario.json"), "--case", "commissioned", "--amplitude-um", "2",
             "--frequency-hz", "10")
     check(r.returncode == 0, "sim runs the written scenario's commissioned case", r.stderr)
+    check(stop(emu) == 0, "SIGTERM ends the rebooted board")
+
+    # The same stage moving the wrong way for the controller (its dynamics'
+    # DC gain -1.7, an ADC that reads both signs): the first safety step stops
+    # the commissioning, exit 1 saying the sensor's sign is reversed; the
+    # board is left disarmed with its groups as they were.
+    reversed_stage = json.load(open(stage))
+    dynamics = reversed_stage["plant"]["dynamics"]
+    dc = 1.0
+    for re_, im in dynamics["model"]["poles"]:
+        dc *= abs(complex(re_, im))
+    for re_, im in dynamics["model"].get("zeros", []):
+        dc /= abs(complex(re_, im))
+    dynamics["normalise_dc"] = False
+    dynamics["model"]["gain"] = -1.7 * dc
+    reversed_stage["plant"]["adc"]["min"] = -10
+    reversed_file = os.path.join(tmp, "reversed.json")
+    json.dump(reversed_stage, open(reversed_file, "w"))
+    emu, d, info = emulators.start("--board", "qemu-m7", "--scenario", reversed_file, "--image", image)
+    r = run(*d, "set", "limits", "--json", '{"u_min_V": 0, "u_max_V": 10, "slew_V_per_s": 200000}')
+    feedback = run(*d, "get", "feedback").stdout
+    r = run(*d, "commission", "--range-um", "4", "--out", os.path.join(tmp, "reversed_out"), timeout=120)
+    check(r.returncode == 1 and "safety step of" in r.stderr and "sign is reversed" in r.stderr,
+          "a reversed sensor on the board: exit 1 at the first safety step", r.stderr[-600:])
+    check(status(d).get("armed") is False and run(*d, "get", "feedback").stdout == feedback,
+          "the reversed stage's board is left disarmed, its feedback group unchanged")
 finally:
     emulators.stop_all()
 check.exit()

@@ -185,6 +185,9 @@ check("identify tf: the clean response fits", r.returncode == 0 and '"model"' in
 refused("identify tf: a line twice, two responses",
         ["identify", "tf", "--frf", frf_file("frf_dup.json", frequency_Hz=(7, freqs[3])), "--order", "1/0"],
         "frequency_Hz[7]", "frequency_Hz[3] again")
+refused("identify tf: a line twice within rounding, two responses",
+        ["identify", "tf", "--frf", frf_file("frf_near.json", frequency_Hz=(9, freqs[8] * (1 + 3e-13))), "--order",
+         "1/0"], "frequency_Hz[9]", "frequency_Hz[8]", "the same line again")
 refused("identify tf: negative std_db",
         ["identify", "tf", "--frf", frf_file("frf_neg.json", std_db=(4, -0.2)), "--order", "1/0"],
         "std_db[4]", ">= 0")

@@ -68,6 +68,33 @@ TEST(CommissionSafety, EachStopNamesItsReason) {
     EXPECT_NO_THROW(check_safety_step(record(10.0, 13.3, 0.01), 1.0, 5.0, kRails, &previous));
 }
 
+TEST(CommissionSafety, AStepUpReadAsAMoveDownIsAReversedSensor) {
+    // The first step: any negative gain, small or large, stops there.
+    for (const double gain : {-0.37, -1.39, -4.2, -12.0}) {
+        expect_stop(record(20.0, 20.0 + gain, 0.01), nullptr, "the sensor's sign is reversed");
+        expect_stop(record(20.0, 20.0 + gain, 0.01), nullptr, "flip the sign of the sensor's gain");
+    }
+    // A later step's flip is a mismatch with the previous step.
+    SafetyStep previous;
+    previous.gain_um_per_V = 1.7;
+    expect_stop(record(20.0, 18.4, 0.01), &previous, "does not match the previous step");
+}
+
+TEST(CommissionSafety, AnOutputThatStopsGrowingIsARail) {
+    // The previous step of 0.4 V from 5 V moved 2.6 um/V; a larger step with
+    // half the gain or less (same sign) saturated between 5.4 V and 6 V.
+    SafetyStep previous;
+    previous.step_V = 0.4;
+    previous.gain_um_per_V = 2.6;
+    for (const double gain : {0.1, 0.6, 1.1, 1.25}) {
+        expect_stop(record(20.0, 20.0 + gain, 0.01), &previous, "the output stops growing");
+        expect_stop(record(20.0, 20.0 + gain, 0.01), &previous, "saturates between 5.4 V and 6 V");
+    }
+    // More than 1.5x is a mismatch, not a rail; just above half passes.
+    expect_stop(record(20.0, 24.0, 0.01), &previous, "does not match the previous step");
+    EXPECT_NO_THROW(check_safety_step(record(20.0, 21.4, 0.01), 1.0, 5.0, kRails, &previous));
+}
+
 TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     const sim::Scenario s = sim::load_scenario(kConfigs + "ahmad2020.json");
     CommissionRequest r;

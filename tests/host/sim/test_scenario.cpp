@@ -345,6 +345,19 @@ TEST(SimScenario, RealStageEffectsRefuseBadValuesNamingTheField) {
          "plant.creep.from_s: must be at least 2 samples (2 / rate)"},
         {[](auto& j) { j["plant"]["creep"].erase("to_s"); }, "plant.creep.to_s: required field is missing"},
         {[](auto& j) { j["plant"]["drift_um_per_s"] = 11; }, "plant.drift_um_per_s: must be in [-10, 10]"},
+        // Stage poles that do not settle, or sit at s = 0 at the loop rate's
+        // resolution (which the discretisation once met as an internal
+        // pairing error or a float section on the unit circle).
+        {[](auto& j) { j["plant"]["dynamics"]["model"]["poles"].push_back({-1e-300, 0}); },
+         "plant.dynamics.model: pole -1e-300 + 0j rad/s is at s = 0"},
+        {[](auto& j) { j["plant"]["dynamics"]["model"]["poles"].push_back({-3e-14, 0}); }, "is at s = 0"},
+        {[](auto& j) { j["plant"]["dynamics"]["model"]["poles"].push_back({0.7, 0}); },
+         "plant.dynamics.model: pole 0.7 + 0j rad/s is not in the left half-plane"},
+        {[](auto& j) {
+             j["plant"]["dynamics"]["model"]["poles"].push_back({0.0, 900.0});
+             j["plant"]["dynamics"]["model"]["poles"].push_back({0.0, -900.0});
+         },
+         "pole 0 + 900j rad/s is not in the left half-plane"},
     };
     for (const Bad& b : bad) {
         nlohmann::json j = with_real_stage_effects();
