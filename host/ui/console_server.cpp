@@ -40,7 +40,12 @@ struct Viewer {
     std::mutex m;
     ScopeSettings settings;
     ScopeView view;
+    // The last frame the page reports drawn: frames wait while it is
+    // kMaxFramesAhead behind, so that a slow page drops frames instead of
+    // queueing them in the socket (which would add latency without bound).
+    std::atomic<uint64_t> drawn{0};
 };
+constexpr uint64_t kMaxFramesAhead = 2;
 
 }  // namespace
 
@@ -135,13 +140,19 @@ void ConsoleServer::Impl::routes() {
             const std::lock_guard lock(viewers_m);
             viewers[id] = v;
         }
-        auto state = std::make_shared<std::pair<bool, uint64_t>>(false, 0);  // hello sent, status serial sent
+        struct StreamState {
+            bool hello_sent = false;
+            uint64_t status_serial = 0;
+            std::chrono::steady_clock::time_point last_frame{}, last_write{};
+        };
+        auto state = std::make_shared<StreamState>();
         res.set_chunked_content_provider(
             "text/event-stream",
             [this, id, v, state](size_t, httplib::DataSink& sink) {
                 if (stopping) return false;
+                using clock = std::chrono::steady_clock;
                 std::string out;
-                if (!state->first) {
+                if (!state->hello_sent) {
                     json signals = json::array();
                     for (const Signal& s : board.history().signals())
                         signals.push_back({{"name", s.name}, {"unit", s.unit}});
@@ -153,24 +164,34 @@ void ConsoleServer::Impl::routes() {
                         hello["scope"] = to_json(v->settings);
                     }
                     out += sse_event("hello", hello);
-                    state->first = true;
+                    state->hello_sent = true;
                 } else {
-                    std::this_thread::sleep_for(std::chrono::microseconds(static_cast<int>(1e6 / kFramesPerSecond)));
+                    std::this_thread::sleep_for(std::chrono::milliseconds(4));
                 }
-                std::optional<json> frame;
-                {
-                    const std::lock_guard lock(v->m);
-                    frame = v->view.next_frame(board.history(), v->settings, now_ms());
+                const auto now = clock::now();
+                if (now - state->last_frame >= std::chrono::microseconds(static_cast<int>(1e6 / kFramesPerSecond))) {
+                    std::optional<json> frame;
+                    {
+                        const std::lock_guard lock(v->m);
+                        if (v->view.last_seq() < v->drawn + kMaxFramesAhead)
+                            frame = v->view.next_frame(board.history(), v->settings, now_ms());
+                    }
+                    if (frame) {
+                        out += sse_event("frame", *frame);
+                        state->last_frame = now;
+                    }
                 }
-                if (frame) out += sse_event("frame", *frame);
                 const uint64_t serial = board.status_serial();
-                if (serial != state->second) {
-                    state->second = serial;
+                if (serial != state->status_serial) {
+                    state->status_serial = serial;
                     json st = board.status_json();
                     st["control"] = control_json(id);
                     out += sse_event("status", st);
                 }
-                if (out.empty()) out = ": idle\n\n";  // a comment: finds a closed connection
+                // A comment now and then: finds a closed connection.
+                if (out.empty() && now - state->last_write > std::chrono::seconds(1)) out = ": idle\n\n";
+                if (out.empty()) return true;
+                state->last_write = now;
                 return sink.write(out.data(), out.size());
             },
             [this, id](bool) {
@@ -193,6 +214,17 @@ void ConsoleServer::Impl::routes() {
         }
     });
 
+    server.Post("/api/scope/drawn", [this](const httplib::Request& req, httplib::Response& res) {
+        const auto v = viewer(req.get_header_value("X-Piezoloop-Viewer"));
+        if (!v) return send_json(res, {{"error", "unknown viewer: open the live stream first"}}, 400);
+        try {
+            v->drawn = json::parse(req.body).at("seq").get<uint64_t>();
+            send_json(res, json::object());
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", std::string("seq: ") + e.what()}}, 400);
+        }
+    });
+
     server.Get("/api/scope/csv", [this](const httplib::Request& req, httplib::Response& res) {
         try {
             const double t0 = std::stod(req.get_param_value("t0_s"));
@@ -210,7 +242,7 @@ void ConsoleServer::Impl::routes() {
             const json schema = hostlink::parameter_schema();
             json groups = json::object();
             for (const std::string& g : BoardSession::form_groups()) groups[g] = schema["properties"][g];
-            send_json(res, {{"schema", groups}, {"values", board.groups_json()}});
+            send_json(res, {{"groups", BoardSession::form_groups()}, {"schema", groups}, {"values", board.groups_json()}});
         } catch (const std::exception& e) {
             send_json(res, {{"error", e.what()}}, 502);
         }

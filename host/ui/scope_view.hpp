@@ -47,6 +47,7 @@ public:
     // samples (in the window), newest_arrival_ms (host clock, ms),
     // sent_ms, and series {name: base64 float32 [first0, second0, first1, ...]}.
     std::optional<nlohmann::json> next_frame(const SampleHistory& h, const ScopeSettings& s, int64_t now_ms);
+    uint64_t last_seq() const { return seq_; }  // of the last frame made
 
 private:
     uint64_t seq_ = 0;

@@ -50,7 +50,7 @@ function makePlot() {
       scale: s.unit === 'V' ? 'V' : 'um',
       stroke: colours[s.name] || '#000',
       width: 1,
-      spanGaps: false,
+      spanGaps: true,  // columns without samples (zoomed in past the loop rate): join their neighbours
       points: { show: false },
     });
   }
@@ -95,6 +95,8 @@ function drawFrame(f) {
     state.latencies.push(now - f.newest_arrival_ms);
     if (state.drawTimes.length > 200) state.drawTimes.shift();
     if (state.latencies.length > 200) state.latencies.shift();
+    // The server sends the next frames once this one is on screen.
+    api('POST', '/api/scope/drawn', { seq: f.seq });
   });
   $('scope-state').textContent = `${f.mode}${f.waiting ? ' (waiting for trigger)' : ''}, ${f.samples} samples`;
 }
@@ -343,7 +345,7 @@ async function loadParams() {
     box.textContent = r.data.error || String(r.data);
     return;
   }
-  for (const [group, schema] of Object.entries(r.data.schema)) box.append(renderGroup(group, schema, r.data.values[group]));
+  for (const group of r.data.groups) box.append(renderGroup(group, r.data.schema[group], r.data.values[group]));
 }
 
 // ---- wave ----------------------------------------------------------------------
@@ -385,8 +387,12 @@ function connect() {
     state.ready = true;
   });
   es.addEventListener('frame', (ev) => {
-    if (state.paused || !plot) return;
-    drawFrame(JSON.parse(ev.data));
+    const f = JSON.parse(ev.data);
+    if (state.paused || !plot) {
+      api('POST', '/api/scope/drawn', { seq: f.seq });  // taken, not drawn: keep the stream going
+      return;
+    }
+    drawFrame(f);
   });
   es.addEventListener('status', (ev) => showStatus(JSON.parse(ev.data)));
   es.onerror = () => { $('device').textContent = 'disconnected: reconnecting…'; };
