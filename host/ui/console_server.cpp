@@ -45,7 +45,7 @@ struct Viewer {
     // queueing them in the socket (which would add latency without bound).
     std::atomic<uint64_t> drawn{0};
 };
-constexpr uint64_t kMaxFramesAhead = 2;
+constexpr uint64_t kMaxFramesAhead = 3;
 
 }  // namespace
 

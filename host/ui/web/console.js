@@ -13,6 +13,7 @@ const state = {
   frame: null,         // the frame on screen: {seq, t0_s, span_s, columns, series: {name: Float32Array}}
   framesDrawn: 0,
   drawTimes: [],       // ms of the last frames drawn (frame rate)
+  frameLog: [],        // [wall ms, end of the frame's window in device s] of the last frames received
   latencies: [],       // ms, newest sample's arrival at the host to its frame on screen
   status: null,
 };
@@ -72,6 +73,7 @@ function makePlot() {
 }
 
 function drawFrame(f) {
+  const started = performance.now();
   const cols = f.columns;
   const x = new Float64Array(2 * cols);
   const w = f.span_s / cols;
@@ -98,6 +100,7 @@ function drawFrame(f) {
     // The server sends the next frames once this one is on screen.
     api('POST', '/api/scope/drawn', { seq: f.seq });
   });
+  state.drawMs = (state.drawMs || 0) * 0.9 + (performance.now() - started) * 0.1;
   $('scope-state').textContent = `${f.mode}${f.waiting ? ' (waiting for trigger)' : ''}, ${f.samples} samples`;
 }
 
@@ -108,8 +111,13 @@ function rates() {
   const lat = state.latencies.slice(-50).sort((a, b) => a - b);
   const median = lat.length ? lat[Math.floor(lat.length / 2)] : NaN;
   state.fps = fps;
+  // How fast the board's record grows, in device seconds per wall second (an
+  // emulated board runs slower than real time on a loaded machine).
+  const log = state.frameLog.filter((x) => x[0] > Date.now() - 2000);
+  state.deviceSpeed = log.length > 1 ? (log[log.length - 1][1] - log[0][1]) / ((log[log.length - 1][0] - log[0][0]) / 1000) : NaN;
   state.latencyMedianMs = median;
-  $('rates').textContent = `${fps.toFixed(0)} frames/s, host-to-screen latency ${Number.isNaN(median) ? '–' : median + ' ms'} (median)`;
+  $('rates').textContent = `${fps.toFixed(0)} frames/s, host-to-screen latency ${Number.isNaN(median) ? '–' : median + ' ms'} (median); ` +
+    `the record grows ${Number.isNaN(state.deviceSpeed) ? '–' : state.deviceSpeed.toFixed(2)} s per second`;
 }
 setInterval(rates, 500);
 
@@ -388,6 +396,8 @@ function connect() {
   });
   es.addEventListener('frame', (ev) => {
     const f = JSON.parse(ev.data);
+    state.frameLog.push([Date.now(), f.t0_s + f.span_s]);
+    if (state.frameLog.length > 200) state.frameLog.shift();
     if (state.paused || !plot) {
       api('POST', '/api/scope/drawn', { seq: f.seq });  // taken, not drawn: keep the stream going
       return;
