@@ -12,6 +12,7 @@
 #include "link/params_schema.hpp"
 #include "ui/access.hpp"
 #include "ui/control_seat.hpp"
+#include "ui/psd.hpp"
 #include "ui/scope_view.hpp"
 #include "ui/web_assets.hpp"
 
@@ -234,6 +235,25 @@ void ConsoleServer::Impl::routes() {
             res.set_content(window_csv(board.history(), t0, span), "text/csv");
         } catch (const std::exception& e) {
             send_json(res, {{"error", std::string("t0_s, span_s: ") + e.what()}}, 400);
+        }
+    });
+
+    server.Get("/api/scope/psd", [this](const httplib::Request& req, httplib::Response& res) {
+        try {
+            const std::string name = req.get_param_value("signal");
+            const auto k = board.history().find(name);
+            if (!k) throw std::invalid_argument("signal: '" + name + "' is not a recorded signal");
+            const double t0 = std::stod(req.get_param_value("t0_s"));
+            const double span = std::stod(req.get_param_value("span_s"));
+            if (!(span > 0.0 && span <= 60.0)) throw std::invalid_argument("span_s: must be in (0, 60]");
+            const auto segment = static_cast<std::size_t>(std::stoul(req.get_param_value("segment")));
+            const SampleWindow w = board.history().window(t0, span);
+            const Psd p = welch_psd(w.values[*k], board.history().rate_Hz(), segment);
+            const std::string unit = board.history().signals()[*k].unit;
+            send_json(res, {{"signal", name}, {"unit", unit + "^2/Hz"}, {"segment", p.segment},
+                            {"segments", p.segments}, {"frequency_Hz", p.frequency_Hz}, {"density", p.density}});
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", e.what()}}, 400);
         }
     });
 

@@ -150,6 +150,38 @@ function scopeControls() {
   };
 }
 
+// ---- spectrum: Welch PSD of a signal over the window on screen ----------------
+
+let psdPlot = null;
+
+async function updatePsd() {
+  const f = state.frame;
+  if (!f) return;
+  const signal = $('psd-signal').value;
+  const q = `signal=${encodeURIComponent(signal)}&t0_s=${f.t0_s}&span_s=${f.span_s}&segment=${$('psd-segment').value}`;
+  const r = await api('GET', `/api/scope/psd?${q}`);
+  $('psd-error').textContent = r.ok ? '' : r.data.error;
+  if (!r.ok) return;
+  // Bin 0 (DC) has no place on a log frequency axis.
+  const x = r.data.frequency_Hz.slice(1);
+  const y = r.data.density.slice(1).map((d) => (d > 0 ? d : null));
+  state.psd = r.data;
+  $('psd-state').textContent = `${r.data.segments} segments of ${r.data.segment} samples, ${(r.data.frequency_Hz[1]).toPrecision(3)} Hz apart`;
+  if (psdPlot) psdPlot.destroy();
+  psdPlot = new uPlot({
+    width: Math.max(400, $('psd-plot').clientWidth || 800),
+    height: 260,
+    series: [{ label: 'f (Hz)' }, { label: `${signal} PSD (${r.data.unit})`, stroke: '#06c', width: 1, spanGaps: true }],
+    scales: { x: { time: false, distr: 3 }, y: { distr: 3 } },
+    axes: [{ label: 'Hz' }, { label: r.data.unit }],
+  }, [x, y], $('psd-plot'));
+}
+
+function psdControls() {
+  $('psd-update').onclick = updatePsd;
+  setInterval(() => { if ($('psd-follow').checked && !state.paused) updatePsd(); }, 500);
+}
+
 // ---- status ------------------------------------------------------------------
 
 function fill(dl, entries) {
@@ -389,6 +421,8 @@ function connect() {
     const sel = $('trigger-signal');
     sel.replaceChildren(...h.signals.map((s) => new Option(`${s.name} (${s.unit})`, s.name)));
     sel.value = h.scope.trigger_signal;
+    $('psd-signal').replaceChildren(...h.signals.map((s) => new Option(`${s.name} (${s.unit})`, s.name)));
+    $('psd-signal').value = h.signals.some((s) => s.name === 'y') ? 'y' : h.signals[0].name;
     if (!plot) makePlot();
     showControl(h);
     loadParams();
@@ -419,6 +453,7 @@ $('disarm').onclick = () => act('/api/disarm');
 $('clear-trip').onclick = () => act('/api/clear-trip');
 $('stop').onclick = () => act('/api/stop');
 scopeControls();
+psdControls();
 waveForm();
 showControl({ controls: false, seat_taken: false });
 connect();

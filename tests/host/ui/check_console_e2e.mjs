@@ -272,6 +272,19 @@ async function main() {
     const y = rows.map((row) => row[1 + names.indexOf('y')]);
     check(Math.max(...y) - Math.min(...y) > 3, 'y follows it (the loop tracks the wave)');
 
+    // The spectrum of y over the window on screen: 50 ms of a 20 Hz triangle,
+    // one segment of 500 samples, 20 Hz apart: the fundamental is the top bin
+    // (the Welch estimate itself is checked against scipy in test_psd.cpp).
+    await page.selectOption('#psd-signal', 'y');
+    await page.click('#psd-update');
+    await waitFor(page, () => window.piezoloop.psd, null, 'the spectrum');
+    const psd = await page.evaluate(() => window.piezoloop.psd);
+    if (psd) {
+      const d = psd.density.slice(1);
+      const top = psd.frequency_Hz[1 + d.indexOf(Math.max(...d))];
+      check(psd.segments === 1 && top === 20, 'the spectrum of y peaks at the wave\'s 20 Hz', `${psd.segments} segments, peak at ${top} Hz`);
+    }
+
     if (screenshot) await page.screenshot({ path: screenshot, fullPage: false });
 
     await page.click('#pause');
