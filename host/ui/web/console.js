@@ -173,7 +173,7 @@ async function updatePsd() {
     height: 260,
     series: [{ label: 'f (Hz)' }, { label: `${signal} PSD (${r.data.unit})`, stroke: '#06c', width: 1, spanGaps: true }],
     scales: { x: { time: false, distr: 3 }, y: { distr: 3 } },
-    axes: [{ label: 'Hz' }, { label: r.data.unit }],
+    axes: [{ label: 'Hz' }, { label: r.data.unit, size: 70, values: (u, vals) => vals.map((v) => (v == null ? '' : v.toExponential(0))) }],
   }, [x, y], $('psd-plot'));
 }
 
