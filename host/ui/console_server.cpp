@@ -174,7 +174,10 @@ void ConsoleServer::Impl::routes() {
                     std::optional<json> frame;
                     {
                         const std::lock_guard lock(v->m);
-                        if (v->view.last_seq() < v->drawn + kMaxFramesAhead)
+                        // A page silent for a second (a lost report, a hidden
+                        // tab) gets a frame anyway.
+                        if (v->view.last_seq() < v->drawn + kMaxFramesAhead ||
+                            now - state->last_frame > std::chrono::seconds(1))
                             frame = v->view.next_frame(board.history(), v->settings, now_ms());
                     }
                     if (frame) {
@@ -219,7 +222,11 @@ void ConsoleServer::Impl::routes() {
         const auto v = viewer(req.get_header_value("X-Piezoloop-Viewer"));
         if (!v) return send_json(res, {{"error", "unknown viewer: open the live stream first"}}, 400);
         try {
-            v->drawn = json::parse(req.body).at("seq").get<uint64_t>();
+            // Reports may arrive out of order (separate connections): the latest frame counts.
+            const uint64_t seq = json::parse(req.body).at("seq").get<uint64_t>();
+            uint64_t seen = v->drawn.load();
+            while (seq > seen && !v->drawn.compare_exchange_weak(seen, seq)) {
+            }
             send_json(res, json::object());
         } catch (const std::exception& e) {
             send_json(res, {{"error", std::string("seq: ") + e.what()}}, 400);

@@ -86,7 +86,7 @@ function drawFrame(f) {
     // NaN (a column without samples) is a gap for uPlot.
     data.push(Array.from(v, (a) => (Number.isNaN(a) ? null : a)));
   }
-  state.frame = { seq: f.seq, t0_s: f.t0_s, span_s: f.span_s, columns: cols, samples: f.samples, series };
+  state.frame = { seq: f.seq, t0_s: f.t0_s, span_s: f.span_s, columns: cols, samples: f.samples, mode: f.mode, trigger_t_s: f.trigger_t_s, series };
   plot.setScale('x', { min: f.t0_s, max: f.t0_s + f.span_s });
   plot.setData(data, false);
   plot.setScale('x', { min: f.t0_s, max: f.t0_s + f.span_s });
