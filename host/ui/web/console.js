@@ -426,7 +426,9 @@ function connect() {
     if (!plot) makePlot();
     showControl(h);
     loadParams();
-    state.ready = true;
+    // The first page takes control when nobody has it; later ones watch.
+    if (!h.seat_taken) claim().then(() => { state.ready = true; });
+    else state.ready = true;
   });
   es.addEventListener('frame', (ev) => {
     const f = JSON.parse(ev.data);
@@ -442,11 +444,12 @@ function connect() {
   es.onerror = () => { $('device').textContent = 'disconnected: reconnecting…'; };
 }
 
-$('claim').onclick = async () => {
+async function claim() {
   const r = await api('POST', '/api/control/claim');
   showControl(r.data);
   $('action-error').textContent = r.ok ? '' : r.data.error;
-};
+}
+$('claim').onclick = claim;
 $('release').onclick = async () => showControl((await api('POST', '/api/control/release')).data);
 $('arm').onclick = () => act('/api/arm');
 $('disarm').onclick = () => act('/api/disarm');
