@@ -324,6 +324,9 @@ int ConsoleServer::bind() {
     // connections open: more workers than cpp-httplib's default.
     s.server.new_task_queue = [] { return new httplib::ThreadPool(32); };
     s.server.set_keep_alive_timeout(2);
+    // Frames and the pages' small reports go out at once, not held for
+    // coalescing (Nagle's algorithm would delay a report's reply).
+    s.server.set_tcp_nodelay(true);
     if (s.options.port == 0) {
         s.port = s.server.bind_to_any_port(s.options.bind_address);
         if (s.port <= 0) throw std::runtime_error("cannot bind a port on " + s.options.bind_address);
