@@ -41,12 +41,13 @@ struct Viewer {
     std::mutex m;
     ScopeSettings settings;
     ScopeView view;
-    // The last frame the page reports drawn: frames wait while it is
-    // kMaxFramesAhead behind, so that a slow page drops frames instead of
-    // queueing them in the socket (which would add latency without bound).
+    // The last frame the page reports drawn: the next frame waits until the
+    // page has drawn the one before (kMaxFramesAhead), and is made from the
+    // newest samples then; a slow page skips frames instead of queueing them
+    // in the connection, which would add latency without bound.
     std::atomic<uint64_t> drawn{0};
 };
-constexpr uint64_t kMaxFramesAhead = 3;
+constexpr uint64_t kMaxFramesAhead = 1;
 
 }  // namespace
 

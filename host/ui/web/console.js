@@ -97,9 +97,10 @@ function drawFrame(f) {
     state.latencies.push(now - f.newest_arrival_ms);
     if (state.drawTimes.length > 200) state.drawTimes.shift();
     if (state.latencies.length > 200) state.latencies.shift();
-    // The server sends the next frames once this one is on screen.
-    api('POST', '/api/scope/drawn', { seq: f.seq });
   });
+  // The server sends the next frames once this one is drawn (uPlot draws
+  // the new data in a microtask of setData).
+  queueMicrotask(() => queueMicrotask(() => api('POST', '/api/scope/drawn', { seq: f.seq })));
   state.drawMs = (state.drawMs || 0) * 0.9 + (performance.now() - started) * 0.1;
   $('scope-state').textContent = `${f.mode}${f.waiting ? ' (waiting for trigger)' : ''}, ${f.samples} samples`;
 }
