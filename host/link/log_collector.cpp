@@ -1,5 +1,7 @@
 #include "link/log_collector.hpp"
 
+#include <algorithm>
+
 namespace piezoloop::hostlink {
 
 void LogCollector::clear() { *this = LogCollector(window_); }
@@ -32,6 +34,12 @@ void LogCollector::add(const link::LogBlock& b) {
         }
         break;
     }
+}
+
+void LogCollector::drop_front(std::size_t frames) {
+    frames = std::min(frames, ticks_.size());
+    ticks_.erase(ticks_.begin(), ticks_.begin() + static_cast<std::ptrdiff_t>(frames));
+    raw_.erase(raw_.begin(), raw_.begin() + static_cast<std::ptrdiff_t>(frames * channels_));
 }
 
 void LogCollector::finish() {
@@ -86,7 +94,7 @@ void LogCollector::append(const link::LogBlock& b) {
     have_prev_ = true;
     prev_tick_raw_ = b.first_tick + static_cast<uint32_t>(b.frame_count - 1) * stride_;
     prev_tick_ = t0 + static_cast<uint64_t>(b.frame_count - 1) * stride_;
-    stats_.frames = ticks_.size();
+    stats_.frames += b.frame_count;  // all frames taken, also those dropped since
 }
 
 }  // namespace piezoloop::hostlink

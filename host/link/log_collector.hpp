@@ -64,6 +64,10 @@ public:
     uint64_t tick(std::size_t i) const { return ticks_[i]; }
     uint32_t first_tick_raw() const { return first_tick_raw_; }
     const uint32_t* raw(std::size_t i) const { return raw_.data() + i * channels_; }
+    // Forgets the first `frames` frames (a live view that has taken them),
+    // keeping the accounting and the tick unwrapping: later frames go on
+    // from where these ended.
+    void drop_front(std::size_t frames);
 
 private:
     void append(const link::LogBlock& b);

@@ -1,0 +1,322 @@
+#include "ui/board_session.hpp"
+
+#include <chrono>
+#include <map>
+
+#include "device_common.hpp"
+#include "link/params_json.hpp"
+#include "piezoloop/params/field_check.hpp"
+#include "status_text.hpp"
+
+namespace piezoloop::ui {
+
+using nlohmann::json;
+using namespace std::chrono_literals;
+
+namespace {
+
+int64_t now_ms() {
+    return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+        .count();
+}
+
+// What each fault bit of the status means for the user (docs/protocol.md, Status).
+const std::map<std::string, std::string>& fault_meanings() {
+    static const std::map<std::string, std::string> m = {
+        {"hard_limits_invalid", "the board's hard limits are invalid: its output stays at zero"},
+        {"tick_overrun", "a control tick ran past its period at least once"},
+        {"setpoint_underrun", "a setpoint stream ran empty at least once (the setpoint held)"},
+        {"recorder_overrun", "the recorder dropped frames the link could not carry"},
+        {"link_errors", "the board received damaged frames on the link"},
+        {"client_lost", "a client went silent and its wave or stream was stopped"},
+        {"board_faults", "the board reports faults of its own (tick.board_faults)"},
+    };
+    return m;
+}
+
+const char* trip_meaning(const std::string& reason) {
+    if (reason == "none") return "not tripped";
+    if (reason == "not configured") return "no limits set yet: set the limits group before arming";
+    if (reason == "invalid hard limits") return "the board's hard limits are invalid (permanent)";
+    if (reason == "non-finite input") return "the controller produced NaN or infinity; output went to zero";
+    if (reason == "sustained saturation") return "the output stayed at a limit longer than limits.saturation_trip_s";
+    if (reason == "external") return "tripped from outside the limiter";
+    return "";
+}
+
+// "group.key: ..." of params_json's merge errors: the key.
+std::string field_of_message(const std::string& group, const std::string& message) {
+    const std::string prefix = group + ".";
+    if (message.rfind(prefix, 0) != 0) return "";
+    const auto end = message.find_first_of(":[. ", prefix.size());
+    return message.substr(prefix.size(), end == std::string::npos ? std::string::npos : end - prefix.size());
+}
+
+template <class G>
+json read_group(hostlink::Client& c) {
+    return hostlink::to_json(c.get<G>());
+}
+
+}  // namespace
+
+json SetOutcome::to_json() const {
+    json j = {{"ok", ok}, {"values", values}};
+    if (!ok)
+        j["error"] = {{"refused_by", refused_by}, {"group", group}, {"field", field}, {"index", index},
+                      {"message", message}};
+    return j;
+}
+
+const std::vector<std::string>& BoardSession::form_groups() {
+    static const std::vector<std::string> g = {"limits", "feedforward", "feedback", "rc", "trajectory", "link"};
+    return g;
+}
+
+BoardSession::BoardSession(hostlink::Client client, double history_s) : client_(std::move(client)) {
+    address_ = client_.address();
+    hello_ = client_.info();
+    std::vector<Signal> signals;
+    for (uint8_t id = 0; id < hello_.recorder_channels; ++id)
+        signals.push_back({hostlink::signal_name(id), hostlink::signal_unit(id)});
+    const auto capacity = static_cast<std::size_t>(history_s * hello_.loop_rate_Hz);
+    history_ = std::make_unique<SampleHistory>(std::move(signals), hello_.loop_rate_Hz, capacity);
+}
+
+BoardSession::~BoardSession() { stop(); }
+
+void BoardSession::start() {
+    locked([&](hostlink::Client& c) {
+        link::RecorderParams rec;
+        rec.channel_count = hello_.recorder_channels;
+        for (uint8_t i = 0; i < hello_.recorder_channels; ++i) rec.channels[i] = i;
+        rec.decimation = 1;
+        rec.mode = RecordMode::kContinuous;
+        rec.trigger = TriggerMode::kImmediate;
+        c.set(rec);
+        c.recorder_arm();
+        limits_ = read_group<link::LimitsParams>(c);
+        return 0;
+    });
+    poll_status();
+    running_ = true;
+    thread_ = std::thread([this] { run(); });
+}
+
+void BoardSession::stop() {
+    running_ = false;
+    if (thread_.joinable()) thread_.join();
+    try {
+        locked([](hostlink::Client& c) {
+            c.recorder_stop();
+            return 0;
+        });
+    } catch (const std::exception&) {
+        // The board is gone: nothing to stop.
+    }
+}
+
+void BoardSession::run() {
+    auto next_status = std::chrono::steady_clock::now();
+    while (running_) {
+        try {
+            locked([&](hostlink::Client& c) {
+                c.pump(4ms);
+                return 0;
+            });
+            take_log_frames();
+            if (std::chrono::steady_clock::now() >= next_status) {
+                poll_status();
+                next_status = std::chrono::steady_clock::now() + 200ms;
+            }
+        } catch (const std::exception& e) {
+            const std::lock_guard lock(status_m_);
+            link_error_ = e.what();
+            status_["link_error"] = link_error_;
+            ++status_serial_;
+            std::this_thread::sleep_for(500ms);
+        }
+        std::this_thread::sleep_for(1ms);  // lets a waiting request take the link
+    }
+}
+
+void BoardSession::take_log_frames() {
+    const std::lock_guard lock(link_);
+    hostlink::LogCollector& log = client_.log();
+    const std::size_t n = log.size();
+    if (n == 0) return;
+    const int64_t arrival = now_ms();
+    const std::size_t channels = log.channel_count();
+    std::vector<float> values(history_->signals().size(), 0.0f);
+    for (std::size_t i = 0; i < n; ++i) {
+        const uint32_t* raw = log.raw(i);
+        for (std::size_t ch = 0; ch < channels; ++ch) {
+            const uint8_t id = log.channels()[ch];
+            if (id < values.size())
+                values[id] = static_cast<float>(hostlink::log_sample_physical(raw[ch], id, log.format(), hello_));
+        }
+        history_->append(log.tick(i), values, arrival);
+    }
+    log.drop_front(n);
+}
+
+void BoardSession::poll_status() {
+    json j;
+    {
+        const std::lock_guard lock(link_);
+        const link::StatusReply st = client_.status();
+        j["status"] = hostlink::to_json(st);
+        j["storage_text"] = storage_state_text(st.storage);
+        const hostlink::ClientCounters& cc = client_.counters();
+        const hostlink::LogStats& ls = client_.log().stats();
+        j["host_link"] = {{"requests", cc.requests},       {"stale_replies", cc.stale_replies},
+                          {"bad_replies", cc.bad_replies}, {"log_blocks", cc.log_blocks},
+                          {"bytes_received", cc.bytes_received}, {"log_frames", ls.frames},
+                          {"lost_blocks", ls.lost_blocks}, {"tick_gaps", ls.tick_gaps},
+                          {"recorder_overruns", ls.recorder_overruns}};
+    }
+    json meanings = json::array();
+    for (const auto& f : j["status"]["faults"]) {
+        const auto it = fault_meanings().find(f.get<std::string>());
+        meanings.push_back({{"fault", f}, {"meaning", it == fault_meanings().end() ? "" : it->second}});
+    }
+    j["fault_meanings"] = meanings;
+    j["trip_meaning"] = trip_meaning(j["status"]["trip_reason"].get<std::string>());
+    j["device"] = address_;
+    j["hello"] = hostlink::to_json(hello_);
+    const std::lock_guard lock(status_m_);
+    j["limits"] = limits_;
+    if (!link_error_.empty()) j["link_error"] = link_error_;
+    status_ = std::move(j);
+    ++status_serial_;
+}
+
+json BoardSession::status_json() const {
+    const std::lock_guard lock(status_m_);
+    return status_;
+}
+
+void BoardSession::arm() {
+    locked([](hostlink::Client& c) {
+        c.arm();
+        return 0;
+    });
+    poll_status();
+}
+
+void BoardSession::disarm() {
+    locked([](hostlink::Client& c) {
+        c.disarm();
+        return 0;
+    });
+    poll_status();
+}
+
+void BoardSession::clear_trip() {
+    locked([](hostlink::Client& c) {
+        c.clear_trip();
+        return 0;
+    });
+    poll_status();
+}
+
+void BoardSession::stop_motion() {
+    locked([](hostlink::Client& c) {
+        c.stop_wave();
+        c.stream_stop(false);
+        return 0;
+    });
+    poll_status();
+}
+
+json BoardSession::group_json(const std::string& group) {
+    const link::ParamGroup g = hostlink::parse_group(group);
+    json out;
+    locked([&](hostlink::Client& c) {
+        params::with_group(g, [&](auto tag) { out = read_group<typename decltype(tag)::type>(c); });
+        return 0;
+    });
+    return out;
+}
+
+json BoardSession::groups_json() {
+    json out;
+    for (const std::string& g : form_groups()) out[g] = group_json(g);
+    return out;
+}
+
+SetOutcome BoardSession::set_group(const std::string& group, const json& fields) {
+    if (std::find(form_groups().begin(), form_groups().end(), group) == form_groups().end())
+        throw std::invalid_argument("group: '" + group + "' is not one the console edits");
+    const link::ParamGroup g = hostlink::parse_group(group);
+    SetOutcome out;
+    out.group = group;
+    locked([&](hostlink::Client& c) {
+        params::with_group(g, [&](auto tag) {
+            using G = typename decltype(tag)::type;
+            G value = c.get<G>();
+            try {
+                hostlink::merge_json(fields, value);
+                params::FieldCheck check;
+                if (const Status s = check.check(value); !s.ok()) {
+                    out.ok = false;
+                    out.refused_by = "host";
+                    out.field = s.field ? s.field : "";
+                    out.index = s.index;
+                    out.message = piezoloop::describe(s);
+                } else {
+                    c.set(value);
+                }
+            } catch (const hostlink::DeviceError& e) {
+                out.ok = false;
+                out.refused_by = "board";
+                out.field = e.field();
+                out.index = e.reply().index;
+                out.message = hostlink::describe(e.reply());
+            } catch (const std::invalid_argument& e) {
+                out.ok = false;
+                out.refused_by = "host";
+                out.field = field_of_message(group, e.what());
+                out.message = e.what();
+            }
+            out.values = read_group<G>(c);
+        });
+        if (g == link::ParamGroup::kLimits) {
+            const std::lock_guard lock(status_m_);
+            limits_ = out.values;
+        }
+        return 0;
+    });
+    poll_status();
+    return out;
+}
+
+json BoardSession::start_wave(const json& request) {
+    cli::WaveRequest w;
+    bool arm = false;
+    for (auto it = request.begin(); it != request.end(); ++it) {
+        const std::string& k = it.key();
+        if (k == "trajectory") w.trajectory = it->get<std::string>();
+        else if (k == "frequency_Hz") w.frequency_Hz = it->get<double>();
+        else if (k == "amplitude_um") w.amplitude_um = it->get<double>();
+        else if (k == "offset") w.offset = it->get<std::string>();
+        else if (k == "cycles") w.cycles = it->get<uint32_t>();
+        else if (k == "arm") arm = it->get<bool>();
+        else throw std::invalid_argument("wave." + k + ": unknown field (trajectory, frequency_Hz, amplitude_um, "
+                                         "offset, cycles, arm)");
+    }
+    cli::check_wave_request(w);
+    json out;
+    locked([&](hostlink::Client& c) {
+        const link::TrajectoryParams p = cli::wave_params(w, hello_.loop_rate_Hz);
+        c.set(p);
+        if (c.status().wave_running) c.stop_wave();
+        const bool armed = c.status().armed;
+        c.start_wave(hostlink::wave_flag::kDetached | (arm && !armed ? hostlink::wave_flag::kArm : 0));
+        out = {{"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>())}};
+        return 0;
+    });
+    poll_status();
+    return out;
+}
+
+}  // namespace piezoloop::ui

@@ -1,0 +1,358 @@
+#include "ui/console_server.hpp"
+
+#include <httplib.h>
+
+#include <atomic>
+#include <chrono>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#include "link/params_schema.hpp"
+#include "ui/access.hpp"
+#include "ui/control_seat.hpp"
+#include "ui/psd.hpp"
+#include "ui/scope_view.hpp"
+#include "ui/web_assets.hpp"
+
+namespace piezoloop::ui {
+
+using nlohmann::json;
+
+namespace {
+
+int64_t now_ms() {
+    return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+        .count();
+}
+
+void send_json(httplib::Response& res, const json& j, int status = 200) {
+    res.status = status;
+    res.set_content(j.dump(), "application/json");
+}
+
+std::string sse_event(const std::string& name, const json& data) {
+    return "event: " + name + "\ndata: " + data.dump() + "\n\n";
+}
+
+// One open page: its scope settings and frames.
+struct Viewer {
+    std::mutex m;
+    ScopeSettings settings;
+    ScopeView view;
+    // The last frame the page reports drawn: the next frame waits until the
+    // page has drawn the one before (kMaxFramesAhead), and is made from the
+    // newest samples then; a slow page skips frames instead of queueing them
+    // in the connection, which would add latency without bound.
+    std::atomic<uint64_t> drawn{0};
+};
+constexpr uint64_t kMaxFramesAhead = 1;
+
+}  // namespace
+
+struct ConsoleServer::Impl {
+    BoardSession& board;
+    ConsoleOptions options;
+    AccessRules rules;
+    httplib::Server server;
+    ControlSeat seat;
+    std::mutex viewers_m;
+    std::map<std::string, std::shared_ptr<Viewer>> viewers;
+    std::atomic<bool> stopping{false};
+    int port = 0;
+
+    Impl(BoardSession& b, ConsoleOptions o) : board(b), options(std::move(o)) {}
+
+    std::shared_ptr<Viewer> viewer(const std::string& id) {
+        const std::lock_guard lock(viewers_m);
+        const auto it = viewers.find(id);
+        return it == viewers.end() ? nullptr : it->second;
+    }
+
+    json control_json(const std::string& id) const {
+        const auto holder = seat.holder();
+        return {{"viewer", id}, {"controls", holder && *holder == id}, {"seat_taken", holder.has_value()},
+                {"viewers", seat.viewers()}};
+    }
+
+    void routes();
+    // Runs a request that changes the board: only for the seat's holder.
+    void control(const std::string& pattern, std::function<json(const httplib::Request&)> body);
+};
+
+void ConsoleServer::Impl::control(const std::string& pattern, std::function<json(const httplib::Request&)> body) {
+    server.Post(pattern, [this, body](const httplib::Request& req, httplib::Response& res) {
+        const std::string id = req.get_header_value("X-Piezoloop-Viewer");
+        if (!seat.holds(id)) {
+            send_json(res, {{"error", "another page controls the board (or this one has not taken control): "
+                                      "this page watches"}},
+                      409);
+            return;
+        }
+        try {
+            send_json(res, body(req));
+        } catch (const std::invalid_argument& e) {
+            send_json(res, {{"error", e.what()}}, 400);
+        } catch (const json::exception& e) {
+            send_json(res, {{"error", std::string("request: ") + e.what()}}, 400);
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", e.what()}}, 502);
+        }
+    });
+}
+
+void ConsoleServer::Impl::routes() {
+    server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+        std::string token = req.get_header_value("X-Piezoloop-Token");
+        if (token.empty()) token = req.get_param_value("token");
+        std::optional<std::string> origin;
+        if (req.has_header("Origin")) origin = req.get_header_value("Origin");
+        const Verdict v = check_access(rules, req.get_header_value("Host"), origin, token);
+        res.set_header("Cache-Control", "no-store");
+        res.set_header("X-Content-Type-Options", "nosniff");
+        res.set_header("X-Frame-Options", "DENY");
+        res.set_header("Referrer-Policy", "no-referrer");
+        if (v.ok()) return httplib::Server::HandlerResponse::Unhandled;
+        res.status = v.http_status;
+        res.set_content("refused: " + v.reason + "\n", "text/plain");
+        return httplib::Server::HandlerResponse::Handled;
+    });
+
+    for (const WebAsset& a : web_assets()) {
+        server.Get(std::string(a.path), [this, &a](const httplib::Request&, httplib::Response& res) {
+            std::string body(a.body);
+            // The page's own files carry the token in their URLs: a browser
+            // sends no header with a <script src>.
+            if (a.path == "/") {
+                const std::string mark = "{{TOKEN}}";
+                for (auto p = body.find(mark); p != std::string::npos; p = body.find(mark, p))
+                    body.replace(p, mark.size(), rules.token);
+            }
+            res.set_header("Content-Security-Policy",
+                           "default-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' blob: data:");
+            res.set_content(body, std::string(a.content_type) + "; charset=utf-8");
+        });
+    }
+
+    server.Get("/api/stream", [this](const httplib::Request&, httplib::Response& res) {
+        const std::string id = seat.join();
+        auto v = std::make_shared<Viewer>();
+        {
+            const std::lock_guard lock(viewers_m);
+            viewers[id] = v;
+        }
+        struct StreamState {
+            bool hello_sent = false;
+            uint64_t status_serial = 0;
+            std::chrono::steady_clock::time_point last_frame{}, last_write{};
+        };
+        auto state = std::make_shared<StreamState>();
+        res.set_chunked_content_provider(
+            "text/event-stream",
+            [this, id, v, state](size_t, httplib::DataSink& sink) {
+                if (stopping) return false;
+                using clock = std::chrono::steady_clock;
+                std::string out;
+                if (!state->hello_sent) {
+                    json signals = json::array();
+                    for (const Signal& s : board.history().signals())
+                        signals.push_back({{"name", s.name}, {"unit", s.unit}});
+                    json hello = control_json(id);
+                    hello["signals"] = signals;
+                    hello["rate_Hz"] = board.history().rate_Hz();
+                    {
+                        const std::lock_guard lock(v->m);
+                        hello["scope"] = to_json(v->settings);
+                    }
+                    out += sse_event("hello", hello);
+                    state->hello_sent = true;
+                } else {
+                    std::this_thread::sleep_for(std::chrono::milliseconds(4));
+                }
+                const auto now = clock::now();
+                if (now - state->last_frame >= std::chrono::microseconds(static_cast<int>(1e6 / kFramesPerSecond))) {
+                    std::optional<json> frame;
+                    {
+                        const std::lock_guard lock(v->m);
+                        // A page silent for a second (a lost report, a hidden
+                        // tab) gets a frame anyway.
+                        if (v->view.last_seq() < v->drawn + kMaxFramesAhead ||
+                            now - state->last_frame > std::chrono::seconds(1))
+                            frame = v->view.next_frame(board.history(), v->settings, now_ms());
+                    }
+                    if (frame) {
+                        out += sse_event("frame", *frame);
+                        state->last_frame = now;
+                    }
+                }
+                const uint64_t serial = board.status_serial();
+                if (serial != state->status_serial) {
+                    state->status_serial = serial;
+                    json st = board.status_json();
+                    st["control"] = control_json(id);
+                    out += sse_event("status", st);
+                }
+                // A comment now and then: finds a closed connection.
+                if (out.empty() && now - state->last_write > std::chrono::seconds(1)) out = ": idle\n\n";
+                if (out.empty()) return true;
+                state->last_write = now;
+                return sink.write(out.data(), out.size());
+            },
+            [this, id](bool) {
+                seat.leave(id);
+                const std::lock_guard lock(viewers_m);
+                viewers.erase(id);
+            });
+    });
+
+    server.Post("/api/scope", [this](const httplib::Request& req, httplib::Response& res) {
+        const auto v = viewer(req.get_header_value("X-Piezoloop-Viewer"));
+        if (!v) return send_json(res, {{"error", "unknown viewer: open the live stream first"}}, 400);
+        try {
+            const json j = json::parse(req.body);
+            const std::lock_guard lock(v->m);
+            v->settings = merge_scope_settings(j, v->settings, board.history());
+            send_json(res, to_json(v->settings));
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", e.what()}}, 400);
+        }
+    });
+
+    server.Post("/api/scope/drawn", [this](const httplib::Request& req, httplib::Response& res) {
+        const auto v = viewer(req.get_header_value("X-Piezoloop-Viewer"));
+        if (!v) return send_json(res, {{"error", "unknown viewer: open the live stream first"}}, 400);
+        try {
+            // Reports may arrive out of order (separate connections): the latest frame counts.
+            const uint64_t seq = json::parse(req.body).at("seq").get<uint64_t>();
+            uint64_t seen = v->drawn.load();
+            while (seq > seen && !v->drawn.compare_exchange_weak(seen, seq)) {
+            }
+            send_json(res, json::object());
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", std::string("seq: ") + e.what()}}, 400);
+        }
+    });
+
+    server.Get("/api/scope/csv", [this](const httplib::Request& req, httplib::Response& res) {
+        try {
+            const double t0 = std::stod(req.get_param_value("t0_s"));
+            const double span = std::stod(req.get_param_value("span_s"));
+            if (!(span > 0.0 && span <= 60.0)) throw std::invalid_argument("span_s: must be in (0, 60]");
+            res.set_header("Content-Disposition", "attachment; filename=\"scope.csv\"");
+            res.set_content(window_csv(board.history(), t0, span), "text/csv");
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", std::string("t0_s, span_s: ") + e.what()}}, 400);
+        }
+    });
+
+    server.Get("/api/scope/psd", [this](const httplib::Request& req, httplib::Response& res) {
+        try {
+            const std::string name = req.get_param_value("signal");
+            const auto k = board.history().find(name);
+            if (!k) throw std::invalid_argument("signal: '" + name + "' is not a recorded signal");
+            const double t0 = std::stod(req.get_param_value("t0_s"));
+            const double span = std::stod(req.get_param_value("span_s"));
+            if (!(span > 0.0 && span <= 60.0)) throw std::invalid_argument("span_s: must be in (0, 60]");
+            const auto segment = static_cast<std::size_t>(std::stoul(req.get_param_value("segment")));
+            const SampleWindow w = board.history().window(t0, span);
+            const Psd p = welch_psd(w.values[*k], board.history().rate_Hz(), segment);
+            const std::string unit = board.history().signals()[*k].unit;
+            send_json(res, {{"signal", name}, {"unit", unit + "^2/Hz"}, {"segment", p.segment},
+                            {"segments", p.segments}, {"frequency_Hz", p.frequency_Hz}, {"density", p.density}});
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", e.what()}}, 400);
+        }
+    });
+
+    server.Get("/api/params", [this](const httplib::Request&, httplib::Response& res) {
+        try {
+            const json schema = hostlink::parameter_schema();
+            json groups = json::object();
+            for (const std::string& g : BoardSession::form_groups()) groups[g] = schema["properties"][g];
+            send_json(res, {{"groups", BoardSession::form_groups()}, {"schema", groups}, {"values", board.groups_json()}});
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", e.what()}}, 502);
+        }
+    });
+
+    server.Post("/api/control/claim", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string id = req.get_header_value("X-Piezoloop-Viewer");
+        const bool ok = seat.claim(id);
+        json j = control_json(id);
+        if (!ok) j["error"] = "another page controls the board: this page watches";
+        send_json(res, j, ok ? 200 : 409);
+    });
+    server.Post("/api/control/release", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string id = req.get_header_value("X-Piezoloop-Viewer");
+        seat.release(id);
+        send_json(res, control_json(id));
+    });
+
+    control("/api/arm", [this](const httplib::Request&) {
+        board.arm();
+        return board.status_json();
+    });
+    control("/api/disarm", [this](const httplib::Request&) {
+        board.disarm();
+        return board.status_json();
+    });
+    control("/api/clear-trip", [this](const httplib::Request&) {
+        board.clear_trip();
+        return board.status_json();
+    });
+    control("/api/stop", [this](const httplib::Request&) {
+        board.stop_motion();
+        return board.status_json();
+    });
+    control(R"(/api/params/([a-z_]+))", [this](const httplib::Request& req) {
+        return board.set_group(req.matches[1], json::parse(req.body)).to_json();
+    });
+    control("/api/wave", [this](const httplib::Request& req) { return board.start_wave(json::parse(req.body)); });
+}
+
+ConsoleServer::ConsoleServer(BoardSession& board, ConsoleOptions options)
+    : impl_(std::make_unique<Impl>(board, std::move(options))) {}
+
+ConsoleServer::~ConsoleServer() {
+    impl_->stopping = true;
+    impl_->server.stop();
+}
+
+int ConsoleServer::bind() {
+    Impl& s = *impl_;
+    // Each page holds a worker for its stream, and a browser keeps several
+    // connections open: more workers than cpp-httplib's default.
+    s.server.new_task_queue = [] { return new httplib::ThreadPool(32); };
+    s.server.set_keep_alive_timeout(2);
+    // Frames and the pages' small reports go out at once, not held for
+    // coalescing (Nagle's algorithm would delay a report's reply).
+    s.server.set_tcp_nodelay(true);
+    if (s.options.port == 0) {
+        s.port = s.server.bind_to_any_port(s.options.bind_address);
+        if (s.port <= 0) throw std::runtime_error("cannot bind a port on " + s.options.bind_address);
+    } else {
+        if (!s.server.bind_to_port(s.options.bind_address, s.options.port))
+            throw std::runtime_error("cannot bind " + s.options.bind_address + ":" + std::to_string(s.options.port) +
+                                     " (in use?)");
+        s.port = s.options.port;
+    }
+    s.rules = access_rules(random_hex(kTokenBytes), s.port, s.options.bind_address);
+    s.routes();
+    return s.port;
+}
+
+std::string ConsoleServer::url() const {
+    return "http://127.0.0.1:" + std::to_string(impl_->port) + "/?token=" + impl_->rules.token;
+}
+
+void ConsoleServer::serve(const std::function<bool()>& stop_requested) {
+    Impl& s = *impl_;
+    std::thread listener([&s] { s.server.listen_after_bind(); });
+    while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    s.stopping = true;
+    s.server.stop();
+    listener.join();
+}
+
+}  // namespace piezoloop::ui

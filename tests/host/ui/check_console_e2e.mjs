@@ -1,0 +1,344 @@
+// The browser console (`piezoloop ui`) in Debian's Chromium, headless, driven
+// by playwright-core, against an emulated qemu-m7 board (`piezoloop emulate`
+// with the Ahmad2020 stage and its dahl_ff_K controller), or with --scenario
+// against the board `piezoloop ui --scenario` starts itself:
+//   - a request without the token, with a foreign Origin or a foreign Host is
+//     refused (403); the page with the token loads;
+//   - a second page watches: its claim of the control seat and its commands
+//     are refused (409);
+//   - arm and disarm from the page change the board's status, which the page
+//     shows; Stop stops the wave the page started;
+//   - the scope holds the board's samples: every pixel column the page drew
+//     equals the min/max of the samples the server exports for the same
+//     window (CSV), exactly (both are the board's float32 values); the record
+//     has no tick gap and its reference r is the wave the page started;
+//   - a limit the board refuses is shown at its field with the board's
+//     message, the form shows the board's value, and after the console has
+//     ended `piezoloop get limits` reads the unchanged value from the board;
+//   - the frame rate and the host-to-screen latency are printed (a figure,
+//     not a pass/fail check).
+//
+//   node check_console_e2e.mjs PIEZOLOOP SERVO_ELF CONFIGS_DIR device|scenario [SCREENSHOT.png]
+// Exit 77 (skipped) without QEMU, the image or /usr/bin/chromium.
+import { spawn, spawnSync } from 'node:child_process';
+import { existsSync } from 'node:fs';
+import { createRequire } from 'node:module';
+import http from 'node:http';
+import net from 'node:net';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+const require = createRequire(path.join(here, '../../../host/ui/web/package.json'));
+const { chromium } = require('playwright-core');
+
+const [exe, image, configs, mode = 'device', screenshot] = process.argv.slice(2);
+const chromiumPath = '/usr/bin/chromium';
+const qemu = spawnSync('sh', ['-c', 'command -v qemu-system-arm']).status === 0;
+if (!existsSync(image) || !qemu || !existsSync(chromiumPath)) {
+  console.log(`skipped: needs qemu-system-arm, ${image} and ${chromiumPath}`);
+  process.exit(77);
+}
+const env = { ...process.env, PIEZOLOOP_FIRMWARE_DIR: path.resolve(image, '../../..') };
+const scenario = path.join(configs, 'ahmad2020.json');
+
+let passed = 0;
+let failed = 0;
+function check(ok, what, detail = '') {
+  if (ok) { passed += 1; console.log(`ok   ${what}`); } else { failed += 1; console.log(`FAIL ${what}${detail ? `: ${detail}` : ''}`); }
+  return ok;
+}
+
+// Processes this test started, stopped with SIGTERM (emulate then stops QEMU).
+const children = [];
+function start(args) {
+  const p = spawn(exe, args, { env, stdio: ['ignore', 'pipe', 'pipe'] });
+  children.push(p);
+  p.stderrText = '';
+  p.stderr.on('data', (d) => { p.stderrText += d; });
+  return p;
+}
+function firstLines(p, pattern) {
+  return new Promise((resolve, reject) => {
+    let text = '';
+    const timer = setTimeout(() => reject(new Error(`no ${pattern} within 60 s: ${text} ${p.stderrText}`)), 60000);
+    p.stdout.on('data', (d) => {
+      text += d;
+      const m = text.match(pattern);
+      if (m) { clearTimeout(timer); resolve(m); }
+    });
+    p.on('exit', (code) => reject(new Error(`exited ${code}: ${text} ${p.stderrText}`)));
+  });
+}
+function stop(p) {
+  return new Promise((resolve) => {
+    if (p.exitCode !== null || p.signalCode !== null) return resolve(p.exitCode);
+    p.on('exit', (code) => resolve(code));
+    p.kill('SIGTERM');
+    setTimeout(() => p.kill('SIGKILL'), 20000).unref();
+  });
+}
+function run(args) {
+  const r = spawnSync(exe, args, { env, encoding: 'utf8', timeout: 60000 });
+  return { code: r.status, out: r.stdout, err: r.stderr };
+}
+
+// A raw request with any Host and Origin (a browser would not let a test set them).
+function request(port, pathAndQuery, headers = {}) {
+  return new Promise((resolve, reject) => {
+    const req = http.request({ host: '127.0.0.1', port, path: pathAndQuery, headers }, (res) => {
+      let body = '';
+      res.on('data', (d) => { body += d; });
+      res.on('end', () => resolve({ status: res.statusCode, body }));
+    });
+    req.on('error', reject);
+    req.end();
+  });
+}
+
+async function waitFor(page, fn, arg, what, timeout = 20000) {
+  try {
+    await page.waitForFunction(fn, arg, { timeout, polling: 50 });
+    return true;
+  } catch (e) {
+    return check(false, what, `not within ${timeout} ms`);
+  }
+}
+
+async function refusedLimit(page) {
+  await waitFor(page, () => document.querySelector('#group-limits [name="u_max_V"]'), null, 'the limits form');
+  const before = await page.inputValue('#group-limits [name="u_max_V"]');
+  await page.fill('#group-limits [name="u_max_V"]', '50');
+  await page.click('#group-limits button[type="submit"]');
+  await waitFor(page, () => document.querySelector('#group-limits [data-error-for="u_max_V"]')?.textContent, null, 'the refusal at u_max_V');
+  const message = await page.textContent('#group-limits [data-error-for="u_max_V"]');
+  check(message.includes('the board refused') && message.includes('hard limit'),
+    'u_max_V above the hard limit: the board\'s refusal is shown at u_max_V', message);
+  const after = await page.inputValue('#group-limits [name="u_max_V"]');
+  check(after === before, 'the form shows the board\'s u_max_V again', `${before} -> ${after}`);
+}
+
+async function main() {
+  let device = null;
+  let ui;
+  if (mode === 'device') {
+    const emu = start(['emulate', '--board', 'qemu-m7', '--scenario', scenario]);
+    device = JSON.parse((await firstLines(emu, /^\{.*\}\n/))[0]).device;
+    const set = run(['--device', device, 'set', '--scenario', scenario, '--case', 'dahl_ff_K']);
+    if (!check(set.code === 0, 'the Ahmad2020 controller is set on the emulated board', set.err)) return;
+    ui = start(['--device', device, 'ui']);
+  } else {
+    ui = start(['ui', '--scenario', scenario, '--case', 'dahl_ff_K']);
+  }
+  const started = await firstLines(ui, /console of tcp:127\.0\.0\.1:(\d+) at\s+(http:\/\/127\.0\.0\.1:\d+\/\?token=[0-9a-f]{32})/);
+  const boardPort = Number(started[1]);
+  const url = started[2];
+  const port = Number(url.match(/:(\d+)\//)[1]);
+  const token = url.split('token=')[1];
+  console.log(`console at ${url.replace(token, '<token>')}`);
+
+  // ---- the gate ----
+  const host = `127.0.0.1:${port}`;
+  check((await request(port, '/')).status === 403, 'the page without the token is refused (403)');
+  check((await request(port, '/?token=0123456789abcdef0123456789abcdef')).status === 403, 'a wrong token is refused (403)');
+  check((await request(port, `/api/stream?token=${token}`, { Origin: 'http://evil.example' })).status === 403,
+    'the live stream from a foreign Origin is refused, token or not (403)');
+  check((await request(port, `/?token=${token}`, { Host: `evil.example:${port}` })).status === 403,
+    'a foreign Host (DNS rebinding) is refused (403)');
+  check((await request(port, `/api/params?token=${token}`, { Origin: `http://${host}` })).status === 200,
+    'the same request from the page\'s own Origin passes');
+
+  const browser = await chromium.launch({ executablePath: chromiumPath, args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run'] });
+  try {
+    const context = await browser.newContext({ viewport: { width: 1400, height: 1000 }, acceptDownloads: true });
+    const page = await context.newPage();
+    const response = await page.goto(url);
+    check(response.status() === 200, 'the page loads with the token');
+    if (!await waitFor(page, () => window.piezoloop.ready && window.piezoloop.framesDrawn > 3, null, 'the scope draws frames')) return;
+    check(true, 'the scope draws frames from the board');
+
+    // ---- one controller, others watch ----
+    const watcher = await context.newPage();
+    await watcher.goto(url);
+    await waitFor(watcher, () => window.piezoloop.ready, null, 'the second page loads');
+    check(await page.evaluate(() => window.piezoloop.controls), 'the first page took the free control seat');
+    await watcher.click('#claim');
+    await watcher.waitForTimeout(300);
+    check(!(await watcher.evaluate(() => window.piezoloop.controls)) &&
+      (await watcher.textContent('#action-error')).includes('another page controls'),
+      'the second page\'s claim is refused: it watches');
+    const forced = await watcher.evaluate(async (t) => {
+      const r = await fetch('/api/arm', { method: 'POST', headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer } });
+      return r.status;
+    }, token);
+    check(forced === 409, 'a command from the watching page is refused (409)', `status ${forced}`);
+    check(await watcher.isDisabled('#arm'), 'the watching page\'s Arm button is disabled');
+
+    // ---- arm / disarm round trip ----
+    await page.click('#arm');
+    await waitFor(page, () => window.piezoloop.status && window.piezoloop.status.status.armed === true, null, 'armed');
+    check(await page.evaluate(() => window.piezoloop.status.status.armed), 'Arm: the board reports armed');
+    await waitFor(watcher, () => window.piezoloop.status && window.piezoloop.status.status.armed === true, null, 'watcher sees armed');
+    check(await watcher.evaluate(() => window.piezoloop.status.status.armed), 'the watching page sees the board armed');
+    await page.click('#disarm');
+    await waitFor(page, () => window.piezoloop.status.status.armed === false, null, 'disarmed');
+    check(!(await page.evaluate(() => window.piezoloop.status.status.armed)), 'Disarm: the board reports disarmed');
+
+    // ---- a refused parameter ----
+    if (mode === 'device') await refusedLimit(page);  // --scenario: the same page, fewer checks
+
+    // ---- a wave, the scope's samples ----
+    await page.selectOption('#wave [name="trajectory"]', 'triangle');
+    await page.fill('#wave [name="frequency_Hz"]', '20');
+    await page.fill('#wave [name="amplitude_um"]', '4');
+    await page.check('#wave [name="arm"]');
+    await page.click('#wave button[type="submit"]');
+    await waitFor(page, () => window.piezoloop.status.status.wave_running && window.piezoloop.status.status.armed, null, 'wave running');
+    check(await page.evaluate(() => window.piezoloop.status.status.wave_running), 'Start wave: the board runs the wave, armed');
+    const rate = await page.evaluate(() => window.piezoloop.rate_Hz);
+    await page.selectOption('#span', '0.05');
+    // The measured page in front: a browser pauses the drawing of background tabs.
+    await watcher.close();
+    await page.bringToFront();
+    await page.waitForTimeout(1000);
+    const t0 = Date.now();
+    await page.waitForTimeout(4000);
+    const rates = await page.evaluate(() => ({ fps: window.piezoloop.fps, latency: window.piezoloop.latencyMedianMs, speed: window.piezoloop.deviceSpeed }));
+    const wall = (Date.now() - t0) / 1000;
+    console.log(`figure: scope ${rates.fps.toFixed(1)} frames/s drawn, median host-to-screen latency ${rates.latency} ms ` +
+      `(newest sample's arrival at the host to its frame on screen), over ${wall.toFixed(1)} s; the board's record ` +
+      `grew ${rates.speed.toFixed(2)} s per wall second`);
+    check(rates.fps > 0, 'frames keep coming while the wave runs');
+
+    await page.click('#pause');
+    await page.waitForTimeout(200);
+    const shown = await page.evaluate(() => {
+      const f = window.piezoloop.frame;
+      const series = {};
+      for (const [k, v] of Object.entries(f.series)) series[k] = Array.from(v);
+      return { t0_s: f.t0_s, span_s: f.span_s, columns: f.columns, samples: f.samples, series };
+    });
+    const csv = await page.evaluate(async ([t, f]) => {
+      const r = await fetch(`/api/scope/csv?t0_s=${f.t0_s}&span_s=${f.span_s}`, { headers: { 'X-Piezoloop-Token': t } });
+      return r.text();
+    }, [token, shown]);
+    const lines = csv.trim().split('\n');
+    const names = lines[0].split(',').slice(1).map((c) => c.replace(/_(um|V)$/, ''));
+    const rows = lines.slice(1).map((l) => l.split(',').map(Number));
+    check(rows.length === shown.samples && rows.length > 100, 'the CSV export holds the window\'s samples',
+      `${rows.length} rows, frame had ${shown.samples}`);
+    let mismatches = 0;
+    for (let s = 0; s < names.length; ++s) {
+      const first = new Array(shown.columns).fill(NaN);
+      const second = new Array(shown.columns).fill(NaN);
+      const lo = new Array(shown.columns).fill(-1);
+      const hi = new Array(shown.columns).fill(-1);
+      rows.forEach((r, i) => {
+        const c = Math.floor((r[0] - shown.t0_s) / shown.span_s * shown.columns);
+        const v = Math.fround(r[s + 1]);
+        if (lo[c] < 0 || v < Math.fround(rows[lo[c]][s + 1])) lo[c] = i;
+        if (hi[c] < 0 || v > Math.fround(rows[hi[c]][s + 1])) hi[c] = i;
+      });
+      for (let c = 0; c < shown.columns; ++c) {
+        if (lo[c] < 0) continue;
+        first[c] = Math.fround(rows[Math.min(lo[c], hi[c])][s + 1]);
+        second[c] = Math.fround(rows[Math.max(lo[c], hi[c])][s + 1]);
+      }
+      const drawn = shown.series[names[s]];
+      for (let c = 0; c < shown.columns; ++c) {
+        const a = drawn[2 * c];
+        const b = drawn[2 * c + 1];
+        const same = (x, y) => (Number.isNaN(x) && Number.isNaN(y)) || x === y;
+        if (!same(a, first[c]) || !same(b, second[c])) mismatches += 1;
+      }
+    }
+    check(mismatches === 0, 'every column drawn equals the min/max of the exported samples, exactly', `${mismatches} columns differ`);
+    const plotHolds = await page.evaluate(() => {
+      const f = window.piezoloop.frame;
+      const u = document.querySelector('#plot .uplot') && window.piezoloop.frame;
+      return u !== null && f.series.y.length === 2 * f.columns;
+    });
+    check(plotHolds, 'the plot holds two points per pixel column');
+    const dt = rows.slice(1).map((r, i) => r[0] - rows[i][0]);
+    check(dt.every((d) => Math.abs(d * rate - 1) < 1e-6), 'the exported window has no tick gap (one sample per loop tick)');
+    const r = rows.map((row) => row[1 + names.indexOf('r')]);
+    const rMin = Math.min(...r);
+    const rMax = Math.max(...r);
+    // A 20 Hz triangle over a 50 ms window spans its whole range 0..4 µm (float32 steps).
+    check(rMin >= -1e-4 && rMax <= 4 + 1e-4 && rMax - rMin > 3.9, 'r is the page\'s wave: a 4 µm triangle from 0',
+      `r in [${rMin}, ${rMax}]`);
+    const y = rows.map((row) => row[1 + names.indexOf('y')]);
+    check(Math.max(...y) - Math.min(...y) > 3, 'y follows it (the loop tracks the wave)');
+
+    // The spectrum of y over the window on screen: 50 ms of a 20 Hz triangle,
+    // one segment of about 500 samples, about 20 Hz apart: the fundamental is the top bin
+    // (the Welch estimate itself is checked against scipy in test_psd.cpp).
+    await page.selectOption('#psd-signal', 'y');
+    await page.click('#psd-update');
+    await waitFor(page, () => window.piezoloop.psd, null, 'the spectrum');
+    const psd = await page.evaluate(() => window.piezoloop.psd);
+    if (psd) {
+      const d = psd.density.slice(1);
+      const top = psd.frequency_Hz[1 + d.indexOf(Math.max(...d))];
+      check(psd.segments === 1 && Math.abs(top - 20) < psd.frequency_Hz[1] / 2, 'the spectrum of y peaks at the wave\'s 20 Hz (the bin nearest it)', `${psd.segments} segments, peak at ${top} Hz`);
+    }
+
+    if (screenshot) await page.screenshot({ path: screenshot, fullPage: false });
+
+    await page.click('#pause');
+
+    // Triggered: r rising through 2 µm, a tenth of the way into the window.
+    await page.selectOption('#mode', 'triggered');
+    await page.fill('#trigger-level', '2');
+    await page.dispatchEvent('#trigger-level', 'change');
+    await page.selectOption('#trigger-signal', 'r');
+    await page.selectOption('#edge', 'rising');
+    await waitFor(page, () => window.piezoloop.frame.mode === 'triggered' && window.piezoloop.frame.trigger_t_s !== null, null, 'a triggered frame');
+    const trig = await page.evaluate(() => {
+      const f = window.piezoloop.frame;
+      return { t0_s: f.t0_s, span_s: f.span_s, columns: f.columns, mode: f.mode, trigger_t_s: f.trigger_t_s, r: Array.from(f.series.r) };
+    });
+    if (trig.mode === 'triggered') {
+      const c = Math.floor((trig.trigger_t_s - trig.t0_s) / trig.span_s * trig.columns);
+      // The crossing sample is drawn in column c (>= 2 µm); the sample before it, in an earlier column, is below.
+      const inC = [trig.r[2 * c], trig.r[2 * c + 1]].filter((v) => !Number.isNaN(v));
+      const before = trig.r.slice(0, 2 * c).filter((v) => !Number.isNaN(v));
+      const prev = before[before.length - 1];
+      check(Math.abs(trig.trigger_t_s - trig.t0_s - 0.1 * trig.span_s) < 1e-9 && inC.length > 0 && inC[0] >= 2 && prev < 2,
+        'triggered: r crosses 2 µm rising a tenth of the way into the window', `column ${c}: ${inC}, before: ${prev}`);
+    }
+    await page.selectOption('#mode', 'roll');
+    await page.click('#stop');
+    await waitFor(page, () => !window.piezoloop.status.status.wave_running, null, 'stopped');
+    check(!(await page.evaluate(() => window.piezoloop.status.status.wave_running)), 'Stop: the wave stops');
+    await page.click('#disarm');
+    await waitFor(page, () => window.piezoloop.status.status.armed === false, null, 'disarmed at the end');
+  } finally {
+    await browser.close();
+  }
+  const code = await stop(ui);
+  check(code === 0, 'the console ends cleanly on SIGTERM', `exit ${code}: ${ui.stderrText}`);
+  if (!device) {
+    const refused = await new Promise((resolve) => {
+      const c = net.connect(boardPort, '127.0.0.1');
+      c.on('connect', () => { c.destroy(); resolve(false); });
+      c.on('error', (e) => resolve(e.code === 'ECONNREFUSED'));
+    });
+    check(refused, 'the emulated board the console started has stopped with it');
+  }
+  if (device) {
+    const limits = run(['--device', device, 'get', 'limits']);
+    const held = limits.code === 0 ? JSON.parse(limits.out).u_max_V : NaN;
+    check(held === 10, 'the board still holds u_max_V = 10 V after the refused 50', limits.err || String(held));
+  }
+}
+
+try {
+  await main();
+} catch (e) {
+  check(false, 'the test ran to its end', e.stack);
+} finally {
+  for (const p of children.reverse()) await stop(p);
+}
+console.log(`${passed} passed, ${failed} failed`);
+process.exit(failed ? 1 : 0);
