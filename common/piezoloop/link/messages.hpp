@@ -417,7 +417,7 @@ constexpr void describe(V& v, M& m) {
     using namespace params;
     v.value(u8("request_type", "the request's type"), m.request_type);
     v.value(u8("code", "the error code (below)"), m.code);
-    v.text(text("group", "parameter group or block, e.g. `limits`, `pi`, `sos`, `rc`, `trajectory`; empty for "
+    v.text(text("group", "parameter group or block, e.g. `limits`, `feedforward`, `feedback`, `rc`, `trajectory`; empty for "
                          "top-level fields"),
            m.group);
     v.text(text("field", "the offending field, e.g. `u_max_V`, `weights`, `sections`, `kind`"), m.field);

@@ -50,7 +50,7 @@ public:
     // Applies a group; on error, code() says which ErrorCode the reply carries.
     template <class G>
     Status set(const G& v) {
-        const Status s = apply(v);
+        const Status s = as_user_path(apply(v));
         if (!s.ok() && s.group == nullptr) return in_group(group_name(G::kGroup), s);
         return s;
     }
@@ -68,7 +68,7 @@ public:
         params::set_group(p, v.feedforward);
         params::set_group(p, v.feedback);
         params::set_group(p, v.rc);
-        if (const Status s = pipeline_.stage(p); !s.ok())
+        if (const Status s = as_user_path(pipeline_.stage(p)); !s.ok())
             return fail(ErrorCode::kInvalidParam, s.group == nullptr ? in_group("params", s) : s);
         staged_ = p;
         // Checked above: none of these can fail now.
@@ -232,6 +232,31 @@ private:
         nested_field_.append(".");
         nested_field_.append(s.field);
         s.field = nested_field_.c_str();
+        return s;
+    }
+
+    // The core names a block's error by the block ("pid", field "kp"); the
+    // user sets the block inside a link group, so the reply names the path
+    // the user writes: group "feedback", field "pid.kp". The feedback's
+    // sections are the group's own field ("sections[1].a2").
+    Status as_user_path(Status s) {
+        struct Block {
+            const char* block;
+            const char* group;
+            const char* prefix;  // null: the block's fields are the group's
+        };
+        static constexpr Block kBlocks[] = {
+            {"pi", "feedforward", "pi"},        {"dahl", "feedforward", "dahl"},
+            {"prefilter", "feedforward", "prefilter"}, {"sos", "feedback", nullptr},
+            {"pid", "feedback", "pid"},
+        };
+        if (s.ok() || s.group == nullptr) return s;
+        for (const Block& b : kBlocks) {
+            if (!piezoloop::detail::same_text(s.group, b.block)) continue;
+            if (b.prefix != nullptr) s = nested(b.prefix, s);
+            s.group = b.group;
+            return s;
+        }
         return s;
     }
 

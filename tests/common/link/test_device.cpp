@@ -170,7 +170,12 @@ TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
     fb = {p.feedback, p.sos_count, p.sos, p.pid};
     fb.sos[0].a2 = 1.5;  // a pole outside the unit circle
     const Reply unstable = r_.set(fb);
-    this->expect_error(unstable, ErrorCode::kInvalidParam, "sos", nullptr, -1);
+    this->expect_error(unstable, ErrorCode::kInvalidParam, "feedback", "sections[0].a2", -1);
+    fb = {FeedbackKind::kPid, p.sos_count, p.sos, p.pid};
+    fb.pid.kp = 0.5f;
+    fb.pid.kd_s = 1e-6f;
+    fb.pid.derivative_cutoff_Hz = 3.0e6f;  // above half the loop rate: the core's check
+    this->expect_error(r_.set(fb), ErrorCode::kInvalidParam, "feedback", "pid.derivative_cutoff_Hz", -1);
 
     LimitsParams lim{p.limits};
     lim.limits.u_max_V = 11.0f;  // above the hard limit of 10 V
@@ -202,7 +207,7 @@ TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
 
     FeedforwardParams dahl{FeedforwardKind::kDahl, p.pi, kAhmad2020Dahl};
     dahl.dahl.alpha2 = 0.0f;
-    this->expect_error(r_.set(dahl), ErrorCode::kInvalidParam, "dahl", "alpha2");
+    this->expect_error(r_.set(dahl), ErrorCode::kInvalidParam, "feedforward", "dahl.alpha2");
     r_.tick(3);
     EXPECT_EQ(this->snapshot(), before);
     EXPECT_EQ(r_.pipeline->swaps(), 3u);  // the three accepted sets of configure_reference()
