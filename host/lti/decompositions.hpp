@@ -8,8 +8,8 @@
 // inline; with -ffp-contract=off on x86-64 a call instead of inlining does
 // not change a result bit.
 //
-// A member template (EigenSolver::compute<InputType>) is declared for the
-// input type the code passes (a plain matrix); a call with another input type
+// A member template (the eigensolvers' compute<InputType>) is declared for the
+// input type the code passes most (a plain matrix); a call with another input type
 // still instantiates its own copy, which is correct, only slower to compile.
 #pragma once
 
@@ -24,6 +24,7 @@ extern template class Eigen::HouseholderQR<Eigen::MatrixXd>;
 extern template class Eigen::ColPivHouseholderQR<Eigen::MatrixXd>;
 
 extern template class Eigen::JacobiSVD<Eigen::MatrixXd>;
+extern template class Eigen::JacobiSVD<Eigen::MatrixXcd>;
 
 extern template class Eigen::HessenbergDecomposition<Eigen::MatrixXd>;
 extern template class Eigen::RealSchur<Eigen::MatrixXd>;
@@ -31,5 +32,9 @@ extern template class Eigen::EigenSolver<Eigen::MatrixXd>;
 extern template Eigen::EigenSolver<Eigen::MatrixXd>& Eigen::EigenSolver<Eigen::MatrixXd>::compute<Eigen::MatrixXd>(
     const Eigen::EigenBase<Eigen::MatrixXd>&, bool);
 extern template class Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>;
+extern template Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>&
+Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>::compute<Eigen::MatrixXd>(const Eigen::EigenBase<Eigen::MatrixXd>&, int);
 extern template class Eigen::ComplexSchur<Eigen::MatrixXcd>;
 extern template class Eigen::ComplexEigenSolver<Eigen::MatrixXcd>;
+extern template Eigen::ComplexEigenSolver<Eigen::MatrixXcd>&
+Eigen::ComplexEigenSolver<Eigen::MatrixXcd>::compute<Eigen::MatrixXcd>(const Eigen::EigenBase<Eigen::MatrixXcd>&, bool);

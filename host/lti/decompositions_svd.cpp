@@ -1,4 +1,5 @@
-// The singular value decomposition of lti/decompositions.hpp, compiled once.
+// The singular value decompositions of lti/decompositions.hpp, compiled once.
 #include "lti/decompositions.hpp"
 
 template class Eigen::JacobiSVD<Eigen::MatrixXd>;
+template class Eigen::JacobiSVD<Eigen::MatrixXcd>;
