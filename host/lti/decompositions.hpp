@@ -11,11 +11,17 @@
 // A member template (the eigensolvers' compute<InputType>) is declared for the
 // input type the code passes most (a plain matrix); a call with another input type
 // still instantiates its own copy, which is correct, only slower to compile.
+//
+// With PIEZOLOOP_DECOMPOSITIONS_INLINE defined, each file instantiates what it
+// uses, as without this header: the fuzz builds (tests/fuzz) compile a few
+// host files once with the sanitizers, where compiling every decomposition
+// would cost more than it saves.
 #pragma once
 
 #include <Eigen/Dense>
 #include <Eigen/Eigenvalues>
 
+#ifndef PIEZOLOOP_DECOMPOSITIONS_INLINE
 extern template class Eigen::PartialPivLU<Eigen::MatrixXd>;
 extern template class Eigen::PartialPivLU<Eigen::MatrixXcd>;
 extern template class Eigen::FullPivLU<Eigen::MatrixXd>;
@@ -38,3 +44,4 @@ extern template class Eigen::ComplexSchur<Eigen::MatrixXcd>;
 extern template class Eigen::ComplexEigenSolver<Eigen::MatrixXcd>;
 extern template Eigen::ComplexEigenSolver<Eigen::MatrixXcd>&
 Eigen::ComplexEigenSolver<Eigen::MatrixXcd>::compute<Eigen::MatrixXcd>(const Eigen::EigenBase<Eigen::MatrixXcd>&, bool);
+#endif
