@@ -12,6 +12,7 @@
 #include <unsupported/Eigen/NumericalDiff>
 
 #include "ident/csv_data.hpp"
+#include "lti/decompositions.hpp"
 
 namespace piezoloop::design {
 namespace {

@@ -48,6 +48,7 @@
 #include <Eigen/Dense>
 
 #include "ident/dead_zone_map.hpp"
+#include "lti/decompositions.hpp"
 #include "piezoloop/pi_model.hpp"
 
 namespace piezoloop::design {

@@ -14,6 +14,8 @@
 
 #include <Eigen/Dense>
 
+#include "lti/decompositions.hpp"
+
 namespace piezoloop::design {
 
 using cplx = std::complex<double>;

@@ -37,6 +37,8 @@
 
 #include <Eigen/Dense>
 
+#include "lti/decompositions.hpp"
+
 namespace piezoloop::design {
 
 enum class RiccatiFailure {
