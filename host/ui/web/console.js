@@ -207,9 +207,10 @@ function showStatus(st) {
     ['wave', s.wave_running ? 'running' : 'stopped'],
     ['stream', s.streaming ? 'running' : 'stopped'],
     ['stored set', st.storage_text || ''],
-    ['setpoint r', s.r_um === undefined ? '' : `${s.r_um} µm`],
-    ['reading y', s.y_um === undefined ? '' : `${s.y_um} µm`],
-    ['output u', s.u_V === undefined ? '' : `${s.u_V} V`],
+    // The board's float32 values to 0.1 nm and 0.1 mV, not their 17 digits.
+    ['setpoint r', s.r_um === undefined ? '' : `${s.r_um.toFixed(4)} µm`],
+    ['reading y', s.y_um === undefined ? '' : `${s.y_um.toFixed(4)} µm`],
+    ['output u', s.u_V === undefined ? '' : `${s.u_V.toFixed(4)} V`],
   ].concat(st.link_error ? [['link', st.link_error, 'tripped']] : []));
   const faults = $('faults');
   faults.replaceChildren();
