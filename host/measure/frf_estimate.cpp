@@ -8,6 +8,8 @@
 
 #include <unsupported/Eigen/FFT>
 
+#include "measure/welch_segments.hpp"
+
 namespace piezoloop::measure {
 
 FrfEstimate estimate_multisine(const std::vector<double>& u, const std::vector<double>& y, const MultisineLayout& l) {
@@ -87,35 +89,19 @@ WelchEstimate estimate_h1(const std::vector<double>& u, const std::vector<double
     const std::size_t L = segment, hop = segment / 2;
     if (L < 8 || u.size() != y.size() || u.size() < L)
         throw std::invalid_argument("welch: u and y must have the same length, at least one segment of >= 8 samples");
-    std::vector<double> win(L);
-    for (std::size_t n = 0; n < L; ++n) win[n] = 0.5 - 0.5 * std::cos(2.0 * M_PI * static_cast<double>(n) / static_cast<double>(L));
     const std::size_t bins = L / 2 + 1;
     std::vector<double> suu(bins, 0.0), syy(bins, 0.0);
-    std::vector<cplx> syu(bins, 0.0), xu, xy;
-    std::vector<double> su(L), sy(L);
-    Eigen::FFT<double> fft;
+    std::vector<cplx> syu(bins, 0.0);
     WelchEstimate e;
-    for (std::size_t start = 0; start + L <= u.size(); start += hop) {
-        double mu = 0.0, my = 0.0;
-        for (std::size_t n = 0; n < L; ++n) {
-            mu += u[start + n];
-            my += y[start + n];
-        }
-        mu /= static_cast<double>(L);
-        my /= static_cast<double>(L);
-        for (std::size_t n = 0; n < L; ++n) {
-            su[n] = (u[start + n] - mu) * win[n];
-            sy[n] = (y[start + n] - my) * win[n];
-        }
-        fft.fwd(xu, su);
-        fft.fwd(xy, sy);
+    e.segments = for_each_welch_segment<double>({u, y}, hann_window(L), hop, [&](const auto& spectra) {
+        const std::vector<cplx>& xu = spectra[0];
+        const std::vector<cplx>& xy = spectra[1];
         for (std::size_t k = 0; k < bins; ++k) {
             suu[k] += std::norm(xu[k]);
             syy[k] += std::norm(xy[k]);
             syu[k] += xy[k] * std::conj(xu[k]);
         }
-        ++e.segments;
-    }
+    });
     e.segment_samples = segment;
     e.periods = 0;
     const double db_per_rel = 20.0 / std::log(10.0);
