@@ -1,7 +1,6 @@
 #include "ui/board_session.hpp"
 
 #include <chrono>
-#include <map>
 
 #include "device_common.hpp"
 #include "link/params_json.hpp"
@@ -18,30 +17,6 @@ namespace {
 int64_t now_ms() {
     return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
         .count();
-}
-
-// What each fault bit of the status means for the user (docs/protocol.md, Status).
-const std::map<std::string, std::string>& fault_meanings() {
-    static const std::map<std::string, std::string> m = {
-        {"hard_limits_invalid", "the board's hard limits are invalid: its output stays at zero"},
-        {"tick_overrun", "a control tick ran past its period at least once"},
-        {"setpoint_underrun", "a setpoint stream ran empty at least once (the setpoint held)"},
-        {"recorder_overrun", "the recorder dropped frames the link could not carry"},
-        {"link_errors", "the board received damaged frames on the link"},
-        {"client_lost", "a client went silent and its wave or stream was stopped"},
-        {"board_faults", "the board reports faults of its own (tick.board_faults)"},
-    };
-    return m;
-}
-
-const char* trip_meaning(const std::string& reason) {
-    if (reason == "none") return "not tripped";
-    if (reason == "not configured") return "no limits set yet: set the limits group before arming";
-    if (reason == "invalid hard limits") return "the board's hard limits are invalid (permanent)";
-    if (reason == "non-finite input") return "the controller produced NaN or infinity; output went to zero";
-    if (reason == "sustained saturation") return "the output stayed at a limit longer than limits.saturation_trip_s";
-    if (reason == "external") return "tripped from outside the limiter";
-    return "";
 }
 
 // "group.key: ..." of params_json's merge errors: the key.
@@ -176,8 +151,7 @@ void BoardSession::poll_status() {
     }
     json meanings = json::array();
     for (const auto& f : j["status"]["faults"]) {
-        const auto it = fault_meanings().find(f.get<std::string>());
-        meanings.push_back({{"fault", f}, {"meaning", it == fault_meanings().end() ? "" : it->second}});
+        meanings.push_back({{"fault", f}, {"meaning", fault_meaning(f.get<std::string>())}});
     }
     j["fault_meanings"] = meanings;
     j["trip_meaning"] = trip_meaning(j["status"]["trip_reason"].get<std::string>());
