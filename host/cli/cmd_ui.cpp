@@ -4,6 +4,7 @@
 // started for it (`piezoloop emulate` with the scenario's stage, and the
 // case's controller when --case is given).
 #include <signal.h>
+#include <arpa/inet.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -91,6 +92,13 @@ void open_in_browser(const std::string& url) {
 }
 
 int run_ui(const UiArgs& a) {
+    // Checked before anything starts: an address the listener could not use.
+    in_addr v4{};
+    in6_addr v6{};
+    if (a.bind != "localhost" && inet_pton(AF_INET, a.bind.c_str(), &v4) != 1 &&
+        inet_pton(AF_INET6, a.bind.c_str(), &v6) != 1)
+        throw std::invalid_argument("--bind: " + a.bind +
+                                    " is not an IPv4 or IPv6 address (e.g. 127.0.0.1, 0.0.0.0 for every network, ::)");
     const bool wildcard = a.bind == "0.0.0.0" || a.bind == "::";
     if (a.bind != "127.0.0.1" && a.bind != "localhost") {
         std::cerr << "\n*** WARNING: --bind " << a.bind << ": the console is reachable from "

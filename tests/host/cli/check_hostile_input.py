@@ -152,6 +152,14 @@ refused("measure loops: empty amplitude", ["measure", "loops", "--scenario", os.
 refused("measure loops: trailing comma", ["measure", "loops", "--scenario", os.path.join(configs, "ahmad2020.json"),
                                          "--amplitudes-v", "3,", "--out", os.path.join(tmp, "l.csv")],
         "--amplitudes-v", "item 2", "empty")
+# The browser console's options, refused before any board starts.
+refused("ui: port 70000", ["ui", "--port", "70000"], "--port")
+refused("ui: history 0.5 s", ["ui", "--history-s", "0.5"], "--history-s")
+refused("ui: history nan", ["ui", "--history-s", "nan"], "--history-s")
+refused("ui: --case without --scenario", ["ui", "--case", "dahl_ff_K"], "--case")
+for address in ["999.1.1.1", "example.org", "127.0.0.1:80", ""]:
+    refused(f"ui: --bind {address!r}", ["ui", "--scenario", os.path.join(configs, "ahmad2020.json"), "--bind", address],
+            "--bind")
 refused("pi-inverse: empty weight", ["pi-inverse", "--thresholds", "0,1,2", "--weights", "1,,0.5"], "--weights",
         "item 2")
 refused("pi-inverse: text threshold", ["pi-inverse", "--thresholds", "0,one", "--weights", "1,0.5"], "--thresholds",
