@@ -426,7 +426,9 @@ private:
     std::array<Coef, MaxSections> coef_{};
     std::array<State, MaxSections> state_{};
     int count_ = 0;
-    std::array<float, MaxSections> settle_gain_{};  // settle() only, never read by apply
+    // settle()'s gains, computed at configure so that the tick that starts an
+    // approach pays no division; never read by apply.
+    std::array<float, MaxSections> settle_gain_{};
 
 public:
     // The states alone, for the feedback's anti-windup (anti_windup.hpp),
@@ -760,7 +762,9 @@ private:
     std::array<std::array<int64_t, 2>, MaxSections> wide_{};  // unrounded outputs w1, w2, Q59
     int count_ = 0;
     bool small_shifts_ = true;  // every shift right and below 32 (no high-gain numerator)
-    std::array<SettleGain, MaxSections> settle_gain_{};  // settle() only, never read by apply
+    // settle()'s gains, computed at configure so that the tick that starts an
+    // approach does no double arithmetic; never read by apply.
+    std::array<SettleGain, MaxSections> settle_gain_{};
 
 public:
     // The states alone, for the feedback's anti-windup (anti_windup.hpp):
