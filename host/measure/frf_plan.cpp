@@ -46,6 +46,19 @@ void check_record(double rate, const FrfPlan& p) {
 
 }  // namespace
 
+MultisineLayout multisine_lines(double rate, double from_Hz, double to_Hz) {
+    MultisineLayout l;
+    l.rate_Hz = rate;
+    const uint32_t N = static_cast<uint32_t>(std::floor(rate / from_Hz + 1e-9));
+    l.period_samples = N;
+    l.first_bin = std::max<uint32_t>(1, static_cast<uint32_t>(std::ceil(from_Hz * N / rate - 1e-9)));
+    l.last_bin = static_cast<uint32_t>(std::floor(to_Hz * N / rate + 1e-9));
+    if (2 * l.last_bin >= N) l.last_bin = (N - 1) / 2;
+    if (l.last_bin < l.first_bin)
+        refuse("--to-hz", "no DFT line between --from-hz and --to-hz at a spacing of " + num(rate / N) + " Hz");
+    return l;
+}
+
 FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const FrfRequest& r,
                  const std::string& whose) {
     const double nyq = 0.5 * rate;
@@ -105,14 +118,9 @@ FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const 
         return p;
     }
     if (r.signal != "multisine") refuse("--signal", "must be multisine, sweep or prbs");
-    const uint32_t N = static_cast<uint32_t>(std::floor(rate / r.from_Hz + 1e-9));
+    p.layout = multisine_lines(rate, r.from_Hz, r.to_Hz);
+    const uint32_t N = p.layout.period_samples;
     p.period_samples = N;
-    p.layout.period_samples = N;
-    p.layout.first_bin = std::max<uint32_t>(1, static_cast<uint32_t>(std::ceil(r.from_Hz * N / rate - 1e-9)));
-    p.layout.last_bin = static_cast<uint32_t>(std::floor(r.to_Hz * N / rate + 1e-9));
-    if (2 * p.layout.last_bin >= N) p.layout.last_bin = (N - 1) / 2;
-    if (p.layout.last_bin < p.layout.first_bin)
-        refuse("--to-hz", "no DFT line between --from-hz and --to-hz at a spacing of " + num(rate / N) + " Hz");
     p.measured_start = uint64_t{N} * static_cast<uint64_t>(r.transient_periods);
     p.ticks = uint64_t{N} * static_cast<uint64_t>(r.transient_periods + r.periods);
     check_record(rate, p);

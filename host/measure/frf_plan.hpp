@@ -47,6 +47,12 @@ struct FrfPlan {
     uint64_t measured_start = 0;  // transient periods
 };
 
+// A multisine's lines for the band [from_Hz, to_Hz] at `rate` (the rule
+// above: N = floor(rate / from_Hz), bins k1..k2 of N in the band, k2 < N / 2).
+// The caller has checked 0 < from_Hz < to_Hz < rate / 2 and that N fits;
+// throws std::invalid_argument naming --to-hz when no bin lies in the band.
+MultisineLayout multisine_lines(double rate_Hz, double from_Hz, double to_Hz);
+
 // Checks the request against the loop rate, the command limits in effect
 // and the longest multisine period the pipeline tabulates (`capacity`)
 // before anything runs; throws std::invalid_argument naming the option and
