@@ -207,4 +207,10 @@ nlohmann::json mimo_frf_summary(const MimoFrfEstimate& e) {
     return j;
 }
 
+void write_mimo_frf_summary(const std::string& path, const MimoFrfEstimate& e) {
+    std::ofstream f(path);
+    f << mimo_frf_summary(e).dump(1) << "\n";
+    if (!f) throw std::runtime_error("cannot write " + path);
+}
+
 }  // namespace piezoloop::measure

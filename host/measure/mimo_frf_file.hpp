@@ -36,4 +36,8 @@ MimoFrfEstimate load_mimo_frf_file(const std::string& path);
 // the lowest and the median SNR (dB), the largest input condition.
 nlohmann::json mimo_frf_summary(const MimoFrfEstimate& e);
 
+// The summary as a JSON file (e.g. beside the CSV); throws
+// std::runtime_error when it cannot be written.
+void write_mimo_frf_summary(const std::string& path, const MimoFrfEstimate& e);
+
 }  // namespace piezoloop::measure

@@ -116,6 +116,8 @@ TEST(MimoFrfEstimate, StandardDeviationMatchesTheErrors) {
     EXPECT_EQ(total, 1800);
     EXPECT_GE(within, 0.99 * total) << within << " of " << total;
     const double ratio = std::sqrt(err2 / var);
+    RecordProperty("within_3_std", within);
+    RecordProperty("error_rms_over_std_rms", std::to_string(ratio));
     EXPECT_GT(ratio, 1.0 / 1.5);
     EXPECT_LT(ratio, 1.5);
     // And the analytic value: a period's DFT of white noise in peak units

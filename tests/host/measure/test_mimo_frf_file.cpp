@@ -56,7 +56,9 @@ TEST(MimoFrfFile, RoundTrip) {
             EXPECT_EQ(r.response[k], e.response[k]);
             EXPECT_EQ(r.std_dev[k], e.std_dev[k]);
         }
-        const nlohmann::json s = measure::mimo_frf_summary(e);
+        measure::write_mimo_frf_summary(path + ".json", e);
+        const nlohmann::json s = nlohmann::json::parse(read_text(path + ".json"));
+        EXPECT_EQ(s, measure::mimo_frf_summary(e));
         EXPECT_EQ(s["inputs"], e.inputs);
         EXPECT_EQ(s["lines"], 200);
         EXPECT_EQ(s["elements"].size(), static_cast<std::size_t>(e.inputs * e.outputs));
