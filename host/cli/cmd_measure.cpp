@@ -29,6 +29,9 @@
 #include "lti/freqresp.hpp"
 #include "measure/frf_report.hpp"
 #include "measure/frf_sim.hpp"
+#include "measure/coupling.hpp"
+#include "measure/mimo_frf_file.hpp"
+#include "measure/mimo_frf_sim.hpp"
 #include "sim/plotting.hpp"
 #include "sim/scenario.hpp"
 
@@ -42,6 +45,8 @@ struct FrfArgs {
     double from_Hz = 0.0, to_Hz = 0.0, amplitude_V = 0.0, bias_V = 0.0;
     int periods = 10, transient_periods = 1;
     bool restart_stage = false;
+    bool mimo = false;
+    std::string output_matrix;
 };
 
 // Where the recording came from: the JSON's "source", the plot's title.
@@ -96,7 +101,92 @@ void write_json(const std::string& path, const json& j) {
     if (!f) throw std::runtime_error("--out: cannot write " + path);
 }
 
+// An n x n output matrix from a JSON file with "output_matrix" (rows), as
+// `analyze coupling` prints it.
+Eigen::MatrixXd read_output_matrix(const std::string& path) {
+    std::ifstream f(path);
+    if (!f) throw std::invalid_argument("--output-matrix: cannot read " + path);
+    json j;
+    try {
+        j = json::parse(f);
+    } catch (const json::exception&) {
+        throw std::invalid_argument("--output-matrix: " + path + " is not JSON");
+    }
+    if (!j.is_object() || !j.contains("output_matrix") || !j["output_matrix"].is_array() || j["output_matrix"].empty())
+        throw std::invalid_argument("--output-matrix: " + path + " has no \"output_matrix\" (rows of numbers, as `analyze coupling` prints)");
+    const json& rows = j["output_matrix"];
+    const auto n = static_cast<Eigen::Index>(rows.size());
+    Eigen::MatrixXd m(n, n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+        const json& row = rows[static_cast<std::size_t>(i)];
+        if (!row.is_array() || static_cast<Eigen::Index>(row.size()) != n)
+            throw std::invalid_argument("--output-matrix: output_matrix[" + std::to_string(i) + "]: must hold " +
+                                        std::to_string(n) + " numbers (a square matrix)");
+        for (Eigen::Index k = 0; k < n; ++k) {
+            const json& v = row[static_cast<std::size_t>(k)];
+            if (!v.is_number())
+                throw std::invalid_argument("--output-matrix: output_matrix[" + std::to_string(i) + "][" +
+                                            std::to_string(k) + "]: must be a number");
+            m(i, k) = v.get<double>();
+        }
+    }
+    return m;
+}
+
+// --mimo: the n x n response of a scenario's coupled axes (simulator only).
+int run_frf_mimo(const FrfArgs& a) {
+    if (!device_address().empty() || a.scenario.empty())
+        throw std::invalid_argument("--mimo: measures a scenario's stage of coupled axes on the simulator (--scenario); "
+                                    "boards run one axis so far");
+    if (!a.case_name.empty()) throw std::invalid_argument("--case: not with --mimo (open loop on the stage alone)");
+    if (!a.sample.empty()) throw std::invalid_argument("--sample: not with --mimo (the stage is driven directly)");
+    if (a.mode != "open") throw std::invalid_argument("--mode: --mimo measures open loop only");
+    if (a.signal != "multisine") throw std::invalid_argument("--signal: --mimo uses orthogonal multisines only");
+    if (!a.plot.empty()) throw std::invalid_argument("--plot: not with --mimo (analyze coupling reads the CSV)");
+    if (a.restart_stage) throw std::invalid_argument("--restart-stage: only on a board (--device)");
+    const sim::Scenario s = sim::load_scenario(a.scenario);
+    const measure::MimoFrfRequest r =
+        measure::mimo_request(s, a.from_Hz, a.to_Hz, a.amplitude_V, {a.bias_V}, a.periods, a.transient_periods);
+    (void)measure::plan_mimo_frf(r);  // refuses before anything runs (and before --out is touched)
+    std::optional<Eigen::MatrixXd> d;
+    if (!a.output_matrix.empty()) d = read_output_matrix(a.output_matrix);
+    const auto t0 = std::chrono::steady_clock::now();
+    bool shown = false;
+    const measure::MimoFrfSimRun run = measure::run_mimo_frf_sim(s, r, d, [&](double f) { progress_bar(f, t0, shown); });
+    const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    measure::write_mimo_frf(a.out, run.estimate);
+    const measure::Coupling c = measure::coupling(run.estimate.frequency_Hz, run.estimate.response, std::nullopt);
+    json pairs = json::array();
+    for (const measure::CouplingPair& p : c.pairs)
+        pairs.push_back({{"pair", s.axes[static_cast<std::size_t>(p.output)].name + "<-" +
+                                      s.axes[static_cast<std::size_t>(p.input)].name},
+                         {"low_frequency_db", std::isfinite(p.low_frequency_db) ? json(p.low_frequency_db) : json(nullptr)},
+                         {"max_db", std::isfinite(p.max_db) ? json(p.max_db) : json(nullptr)},
+                         {"max_Hz", p.max_Hz}});
+    json axes = json::array();
+    for (const sim::AxisSpec& ax : s.axes) axes.push_back(ax.name);
+    const double simulated_s = static_cast<double>(run.plan.block_samples) * run.plan.inputs / s.rate_Hz;
+    json out = measure::mimo_frf_summary(run.estimate);
+    out["out"] = a.out;
+    out["axes"] = axes;
+    out["source"] = {{"kind", "simulator"}, {"scenario", s.name}};
+    out["output_matrix"] = d ? "given" : "identity";
+    out["coupling"] = pairs;
+    out["clamped_samples"] = run.clamped_samples;
+    out["slew_limited_samples"] = run.slew_limited_samples;
+    out["simulated_s"] = simulated_s;
+    out["wall_s"] = total_s;
+    out["log_hash"] = format::hex64(run.log_hash);
+    std::cout << out.dump(1) << "\n";
+    std::cerr << "measure frf --mimo: " << run.estimate.frequency_Hz.size() << " lines x " << run.plan.inputs << " x "
+              << run.plan.inputs << ", " << format::significant(simulated_s, 4) << " s simulated in "
+              << format::significant(total_s, 3) << " s wall\n";
+    return 0;
+}
+
 int run_frf(const FrfArgs& a) {
+    if (a.mimo) return run_frf_mimo(a);
+    if (!a.output_matrix.empty()) throw std::invalid_argument("--output-matrix: only with --mimo");
     const bool on_board = measure_on_board(a.scenario, a.case_name, a.restart_stage);
     if (on_board && !a.sample.empty()) throw std::invalid_argument("--sample: only with --scenario (a board has its own)");
     const measure::FrfRequest r = frf_request(a);
@@ -186,7 +276,14 @@ void add_measure(CLI::App& app) {
     cmd->add_option("--signal", a->signal, "excitation: multisine (periodic estimate), sweep or prbs (H1, Welch, coherence)")->check(CLI::IsMember({"multisine", "sweep", "prbs"}));
     cmd->add_option("--periods", a->periods, "measured periods, averaged (>= 2 for the variance)");
     cmd->add_option("--transient-periods", a->transient_periods, "periods run first and discarded");
-    cmd->add_option("--out", a->out, "the response as JSON")->required();
+    cmd->add_option("--out", a->out, "the response as JSON (with --mimo: the n x n response as CSV, read by "
+                                     "`analyze coupling`)")->required();
+    cmd->add_flag("--mimo", a->mimo,
+                  "a scenario's stage of coupled axes: the n x n response from orthogonal multisines on every axis at "
+                  "once (simulator, open loop; --bias-v applies to every axis)");
+    cmd->add_option("--output-matrix", a->output_matrix,
+                    "with --mimo: the decoupling matrix between axis commands and channels, a JSON file with "
+                    "\"output_matrix\" as `analyze coupling` prints it (default: the identity)");
     cmd->add_option("--plot", a->plot, "magnitude, phase and standard deviation as a PNG (tools/plot.py)");
     cmd->add_flag("--restart-stage", a->restart_stage,
                   "emulated board: its stage restarts at rest with the excitation (the recording then equals the "
