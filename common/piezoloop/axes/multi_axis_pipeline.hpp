@@ -159,11 +159,15 @@ public:
     // commands (the DAC values). Each axis's position is axis(i).last().y.
     const Samples& axis_commands() const { return u_axis_; }
     const Samples& channel_commands() const { return channels_.output(); }
+    // The channel stage, read-only: its matrix changes only through
+    // set_output_matrix.
     const ChannelOutput<T, N>& channels() const { return channels_; }
-    ChannelOutput<T, N>& channels() { return channels_; }
     // Per channel: samples clamped to its hard range, and slew-limited.
     uint32_t channel_clamped_samples(int channel) const { return channels_.clamped_samples(channel); }
     uint32_t channel_slew_limited_samples(int channel) const { return channels_.slew_limited_samples(channel); }
+    void reset_channel_counters() { channels_.reset_counters(); }
+    // Releases a channel limiter's non-finite trip (see ChannelOutput).
+    void clear_channel_trips() { channels_.clear_trips(); }
 
 private:
     template <std::size_t... I>

@@ -206,10 +206,11 @@ struct ChannelBounds {
     }
 };
 
+// An axis command: float with overflowing, huge, denormal and signed-zero
+// values among the ordinary ones (no NaN); Q31 with the extremes.
 template <class T>
-T random_command(std::mt19937_64& rng, SignalScale s) {
+T random_command(std::mt19937_64& rng) {
     if constexpr (std::is_same_v<T, float>) {
-        (void)s;
         constexpr float kMax = std::numeric_limits<float>::max();
         const float extremes[] = {kMax, -kMax, 1.0e30f, -1.0e30f, 1.0e-40f, -0.0f, 1.0e6f, -1.0e6f};
         std::uniform_int_distribution<int> pick(0, 9);
@@ -217,7 +218,6 @@ T random_command(std::mt19937_64& rng, SignalScale s) {
         if (k < 8 && std::bernoulli_distribution(0.3)(rng)) return extremes[k];
         return std::uniform_real_distribution<float>(-200.0f, 200.0f)(rng);
     } else {
-        (void)s;
         const int32_t extremes[] = {Q31::kMaxRaw, Q31::kMinRaw, 0, 1, -1};
         if (std::bernoulli_distribution(0.3)(rng)) return Q31::from_raw(extremes[rng() % 5]);
         return Q31::from_raw(static_cast<int32_t>(static_cast<uint32_t>(rng())));
@@ -247,7 +247,7 @@ void channel_stage_property(uint64_t seed) {
         if (m % 50 == 0) out.clear_trips();
         for (int k = 0; k < 8; ++k) {
             std::array<T, N> u{};
-            for (int i = 0; i < N; ++i) u[i] = random_command<T>(rng, b.scale[i]);
+            for (int i = 0; i < N; ++i) u[i] = random_command<T>(rng);
             b.check(out.apply(u));
         }
     }
@@ -283,16 +283,15 @@ void pipeline_property(uint64_t seed) {
     auto pipe = std::make_unique<Multi<T, N>>(s);
     ASSERT_TRUE(pipe->setup_status().ok());
     for (int i = 0; i < N; ++i) ASSERT_TRUE(pipe->axis(i).stage(p).ok());
-    const SignalScale pos{50.0f};
     auto reading = [&] {
         std::array<T, N> y{};
         for (int i = 0; i < N; ++i) {
             if constexpr (std::is_same_v<T, float>) {
                 const float extremes[] = {1.0e30f, -1.0e30f, 3.0e38f, -3.0e38f, 1.0e-40f};
-                y[i] = std::bernoulli_distribution(0.2)(rng) ? extremes[rng() % 5]
-                                                             : std::uniform_real_distribution<float>(-60.0f, 60.0f)(rng);
+                const bool extreme = std::bernoulli_distribution(0.2)(rng);
+                y[i] = extreme ? extremes[rng() % 5] : std::uniform_real_distribution<float>(-60.0f, 60.0f)(rng);
             } else {
-                y[i] = random_command<T>(rng, pos);
+                y[i] = random_command<T>(rng);
             }
         }
         return y;
@@ -475,14 +474,17 @@ TEST(MultiAxis, SetupRefusals) {
     EXPECT_EQ(channel.setup_status().index, 1);
 }
 
-TEST(MultiAxis, MatricesDecoupleACoupledStage) {
+TYPED_TEST(MultiAxisTyped, MatricesDecoupleACoupledStage) {
+    using T = TypeParam;
     // Two reference stages whose actuators are mixed (each piezo also pushes
-    // the other axis: A) and read by tilted sensors (S). The output matrix
-    // A^-1 and the input matrix S^-1 make the loops see two independent
-    // stages again: the axes then track as the uncoupled pair does, up to
-    // the float rounding of the inverses. Without them, they do not.
+    // the other axis: A) and read by tilted sensors with zero offsets
+    // (reading = S x + d). The output matrix A^-1, the input matrix S^-1 and
+    // the offsets -S^-1 d make the loops see two independent stages again:
+    // the axes then track as the uncoupled pair does, up to the rounding of
+    // the inverses. Without them, they do not.
     const double A[2][2] = {{1.0, 0.15}, {0.1, 1.0}};
     const double S[2][2] = {{1.0, 0.2}, {-0.1, 0.95}};
+    const double d[2] = {5.0, -3.0};
     auto inverse = [](const double (&m)[2][2]) {
         const double det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
         AxisMatrix<2> r{};
@@ -492,30 +494,39 @@ TEST(MultiAxis, MatricesDecoupleACoupledStage) {
         r.m[1][1] = static_cast<float>(m[0][0] / det);
         return r;
     };
+    const SignalScale pos = reference::setup().position, volt = reference::setup().voltage;
     auto run = [&](bool coupled, bool matrices) {
-        auto pipe = std::make_unique<Multi<float, 2>>(reference_setup<2>());
+        auto pipe = std::make_unique<Multi<T, 2>>(reference_setup<2>());
         if (matrices) {
+            const AxisMatrix<2> s_inv = inverse(S);
+            InputMatrix<2> in{s_inv, {}};
+            for (int i = 0; i < 2; ++i)
+                in.offset_um[i] = static_cast<float>(-(s_inv.m[i][0] * d[0] + s_inv.m[i][1] * d[1]));
             EXPECT_TRUE(pipe->set_output_matrix(inverse(A)).ok());
-            EXPECT_TRUE(pipe->set_input_matrix(InputMatrix<2>{inverse(S), {}}).ok());
+            EXPECT_TRUE(pipe->set_input_matrix(in).ok());
         }
         std::array<HammersteinPlant, 2> plant{reference_plant(), reference_plant()};
         for (int i = 0; i < 2; ++i) EXPECT_TRUE(pipe->axis(i).stage(reference::params()).ok());
         pipe->arm_all();
         EXPECT_TRUE(pipe->axis(0).start_wave(triangle(15.0f, 10.0f)).ok());
         EXPECT_TRUE(pipe->axis(1).start_wave(triangle(10.0f, 20.0f)).ok());
-        std::array<float, 2> reading{}, x{};
+        std::array<double, 2> x{};
         double e_max = 0.0;
         for (int k = 0; k < 30000; ++k) {
-            const std::array<float, 2> u = pipe->tick(reading);
+            std::array<T, 2> reading{};
             for (int i = 0; i < 2; ++i) {
-                const double drive = coupled ? A[i][0] * u[0] + A[i][1] * u[1] : u[i];
+                const double r = coupled ? S[i][0] * x[0] + S[i][1] * x[1] + d[i] : x[i];
+                reading[i] = pos.to_sample<T>(static_cast<float>(r));
+            }
+            const std::array<T, 2> u = pipe->tick(reading);
+            std::array<double, 2> u_V{volt.to_physical(u[0]), volt.to_physical(u[1])};
+            for (int i = 0; i < 2; ++i) {
+                const double drive = coupled ? A[i][0] * u_V[0] + A[i][1] * u_V[1] : u_V[i];
                 x[i] = plant[i].step(static_cast<float>(drive));
             }
-            for (int i = 0; i < 2; ++i)
-                reading[i] = coupled ? static_cast<float>(S[i][0] * x[0] + S[i][1] * x[1]) : x[i];
             if (k >= 10000)
                 for (int i = 0; i < 2; ++i)
-                    e_max = std::max(e_max, std::fabs(static_cast<double>(pipe->axis(i).last().r) - x[i]));
+                    e_max = std::max(e_max, std::fabs(pos.to_physical(pipe->axis(i).last().r) - x[i]));
         }
         return e_max;
     };
