@@ -1,6 +1,6 @@
 // The multi-axis pipeline: identity matrices compute exactly what Pipelines
 // on their own compute; the channels stay within their hard limits and slew
-// whatever the matrices and commands; refused matrices change nothing; a
+// whatever the matrices and readings; refused matrices change nothing; a
 // coupled stage is decoupled by its matrices.
 #include <gtest/gtest.h>
 
@@ -17,8 +17,10 @@
 #include "piezoloop/plant.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "piezoloop/reference_stage.hpp"
+#include "axes_property.hpp"
 
 using namespace piezoloop;
+using namespace piezoloop::test;
 
 namespace {
 
@@ -168,96 +170,6 @@ TYPED_TEST(MultiAxisTyped, ThreeAxesAreThreePipelinesBitForBit) {
 
 namespace {
 
-template <int N>
-AxisMatrix<N> random_valid_matrix(std::mt19937_64& rng) {
-    std::uniform_real_distribution<float> wide(-16.0f, 16.0f), coupling(-0.5f, 0.5f);
-    std::bernoulli_distribution near_identity(0.5);
-    for (;;) {
-        AxisMatrix<N> m{};
-        const bool near = near_identity(rng);
-        for (int i = 0; i < N; ++i)
-            for (int j = 0; j < N; ++j) m.m[i][j] = near ? (i == j ? 1.0f : 0.0f) + coupling(rng) : wide(rng);
-        if (validate_output_matrix(m).ok()) return m;
-    }
-}
-
-// The channel's bounds in volts, checked in double: inside the hard range,
-// and a step no larger than the hard slew / rate.
-template <class T>
-double volts(T u, SignalScale s) {
-    if constexpr (std::is_same_v<T, float>) return u;
-    else return static_cast<double>(u.raw()) / 2147483648.0 * s.full_scale;
-}
-
-template <class T, int N>
-struct ChannelBounds {
-    std::array<HardLimits, N> hard{};
-    std::array<SignalScale, N> scale{};
-    double rate_Hz = 0.0;
-    std::array<double, N> prev{};
-    int violations = 0;
-    void check(const std::array<T, N>& u) {
-        for (int i = 0; i < N; ++i) {
-            const double v = volts(u[i], scale[i]);
-            const double step = static_cast<double>(hard[i].slew_max_V_per_s) / rate_Hz;
-            if (!(v >= hard[i].u_min_V && v <= hard[i].u_max_V) || !(std::fabs(v - prev[i]) <= step)) ++violations;
-            prev[i] = v;
-        }
-    }
-};
-
-// An axis command: float with overflowing, huge, denormal and signed-zero
-// values among the ordinary ones (no NaN); Q31 with the extremes.
-template <class T>
-T random_command(std::mt19937_64& rng) {
-    if constexpr (std::is_same_v<T, float>) {
-        constexpr float kMax = std::numeric_limits<float>::max();
-        const float extremes[] = {kMax, -kMax, 1.0e30f, -1.0e30f, 1.0e-40f, -0.0f, 1.0e6f, -1.0e6f};
-        std::uniform_int_distribution<int> pick(0, 9);
-        const int k = pick(rng);
-        if (k < 8 && std::bernoulli_distribution(0.3)(rng)) return extremes[k];
-        return std::uniform_real_distribution<float>(-200.0f, 200.0f)(rng);
-    } else {
-        const int32_t extremes[] = {Q31::kMaxRaw, Q31::kMinRaw, 0, 1, -1};
-        if (std::bernoulli_distribution(0.3)(rng)) return Q31::from_raw(extremes[rng() % 5]);
-        return Q31::from_raw(static_cast<int32_t>(static_cast<uint32_t>(rng())));
-    }
-}
-
-template <class T, int N>
-void channel_stage_property(uint64_t seed) {
-    std::mt19937_64 rng(seed);
-    std::uniform_real_distribution<float> lo(-60.0f, -1.0f), hi(1.0f, 60.0f), slew(1.0e4f, 1.0e6f);
-    ChannelBounds<T, N> b;
-    b.rate_Hz = 100000.0;
-    std::array<HardLimits, N> axis_hard{};
-    for (int i = 0; i < N; ++i) {
-        b.hard[i] = HardLimits{lo(rng), hi(rng), slew(rng)};
-        b.scale[i] = SignalScale{150.0f};
-        axis_hard[i] = HardLimits{-100.0f, 100.0f, 1.0e8f};  // wider: the stage always runs
-        b.prev[i] = std::clamp(0.0, static_cast<double>(b.hard[i].u_min_V), static_cast<double>(b.hard[i].u_max_V));
-    }
-    ChannelOutput<T, N> out(b.hard, 100000.0f, b.scale, axis_hard);
-    ASSERT_TRUE(out.hard_status().ok());
-    for (int m = 0; m < 2000; ++m) {
-        AxisTransform<T, N> t;
-        const AxisMatrix<N> a = m % 7 == 0 ? AxisMatrix<N>::identity() : random_valid_matrix<N>(rng);
-        ASSERT_TRUE(out.prepare(a, t).ok());
-        out.set_matrix(t);
-        if (m % 50 == 0) out.clear_trips();
-        for (int k = 0; k < 8; ++k) {
-            std::array<T, N> u{};
-            for (int i = 0; i < N; ++i) u[i] = random_command<T>(rng);
-            b.check(out.apply(u));
-        }
-    }
-    EXPECT_EQ(b.violations, 0);
-    for (int i = 0; i < N; ++i) {
-        EXPECT_GT(out.clamped_samples(i), 0u);
-        EXPECT_GT(out.slew_limited_samples(i), 0u);
-    }
-}
-
 // A pipeline whose axes slam their (wide) limits on extreme readings, with
 // random valid matrices set between armed runs.
 template <class T, int N>
@@ -318,42 +230,8 @@ void pipeline_property(uint64_t seed) {
 
 TYPED_TEST(MultiAxisTyped, ChannelsStayWithinHardLimitsAndSlew) {
     using T = TypeParam;
-    channel_stage_property<T, 2>(11);
-    channel_stage_property<T, 3>(12);
     pipeline_property<T, 2>(13);
     pipeline_property<T, 3>(14);
-}
-
-TEST(MultiAxis, AnIdentityStageIsSkippedOnlyOnceTheChannelsHaveCaughtUp) {
-    const std::array<HardLimits, 2> hard{HardLimits{-10.0f, 10.0f, 1.0e5f}, HardLimits{-10.0f, 10.0f, 1.0e5f}};
-    const std::array<SignalScale, 2> scale{SignalScale{12.0f}, SignalScale{12.0f}};
-    ChannelOutput<float, 2> out(hard, 100000.0f, scale, hard);  // axes' limits = channels'
-    EXPECT_FALSE(out.active());
-    EXPECT_EQ(out.apply({3.0f, -2.0f}), (std::array<float, 2>{3.0f, -2.0f}));
-    AxisMatrix<2> swap{};
-    swap.m[0][1] = swap.m[1][0] = 1.0f;
-    AxisTransform<float, 2> t;
-    ASSERT_TRUE(out.prepare(swap, t).ok());
-    out.set_matrix(t);
-    EXPECT_TRUE(out.active());
-    // From (3, -2) towards (-2, 3) at 1 V per tick (less one ulp of the
-    // range: limits.hpp): no jump.
-    const std::array<float, 2> first = out.apply({3.0f, -2.0f});
-    EXPECT_NEAR(first[0], 2.0f, 1e-5f);
-    EXPECT_NEAR(first[1], -1.0f, 1e-5f);
-    EXPECT_LE(3.0f - first[0], 1.0f);
-    ASSERT_TRUE(out.prepare(AxisMatrix<2>::identity(), t).ok());
-    out.set_matrix(t);
-    // Back towards (3, -2), still slew-limited, then skipped once reached.
-    EXPECT_EQ(out.apply({3.0f, -2.0f}), (std::array<float, 2>{3.0f, -2.0f}));
-    EXPECT_FALSE(out.active());
-    EXPECT_EQ(out.slew_limited_samples(0), 1u);
-
-    // A channel narrower than its axis is never skipped.
-    const std::array<HardLimits, 2> wide{HardLimits{-20.0f, 10.0f, 1.0e5f}, hard[1]};
-    ChannelOutput<float, 2> narrow(hard, 100000.0f, scale, wide);
-    EXPECT_TRUE(narrow.active());
-    EXPECT_NEAR(narrow.apply({-15.0f, 0.0f})[0], -1.0f, 1e-5f);
 }
 
 namespace {
