@@ -41,7 +41,7 @@
 //   overflow), rounded half up to Q31 and saturated. Coefficient resolution
 //   2^(e - 31) (2^-30 for a row whose gains sum to 1..2); the result is
 //   within 2^(e - 1) sum_j |x_j| + 1/2 LSB of the exact product (x in full
-//   scales).
+//   scales; 2^e per term where a mantissa's rounding saturates at 2^31 - 1).
 // An exact identity with zero offsets (and, in Q31, equal input and output
 // scales) is bypassed: the outputs are the inputs, so a one-axis board, or
 // any board with identity matrices, computes exactly what it would without
