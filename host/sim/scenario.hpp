@@ -157,7 +157,9 @@ struct Scenario {
     double rate_Hz = 100000.0;
     PipelineSetup setup{};
     LimitsConfig limits{};
-    PlantSpec plant;                     // a multi-axis plant: axes[0]'s
+    // The single-axis plant; for plant.axes, a copy of axes[0]'s (the
+    // single-axis commands refuse two or three axes: require_single_axis).
+    PlantSpec plant;
     std::vector<AxisSpec> axes;          // plant.axes (empty: a single-axis plant)
     std::vector<CouplingSpec> coupling;  // plant.coupling
     double nominal_um_per_V = 1.0;  // piezo V -> µm at the loading curve's mean slope
