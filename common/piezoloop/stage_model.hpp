@@ -249,7 +249,13 @@ public:
 
     // One sample: the controller's command (V) in, the ADC reading out (in
     // sensor units; divide by sensor.gain for µm).
-    float step(float u_V) {
+    float step(float u_V) { return sense(actuate(u_V)); }
+
+    // The first half of step(): the command (V) through the DAC, the
+    // amplifier and the plant; returns the displacement (µm) of this sample.
+    // A stage of coupled axes (axes/coupled_stage.hpp) adds the other axes'
+    // contributions before the sensor reads it.
+    float actuate(float u_V) {
         const AmplifierConfig& a = config_.amplifier;
         float v = dac_.apply(u_V);
         v = clamp(v, a.input_min_V, a.input_max_V);
@@ -258,7 +264,14 @@ public:
         v = amp_lag_.apply(amp_unity_ ? v : a.gain * v);
         v_piezo_V_ = clamp(v, a.output_min_V, a.output_max_V);
         x_um_ = plant_.step(v_piezo_V_);
-        float s = sensor_lag_.apply(sensor_unity_ ? x_um_ : sensor_gain_ * x_um_);
+        return x_um_;
+    }
+
+    // The second half of step(): the sensor (gain, bandwidth, offset, mains,
+    // noise) and the ADC reading a position (µm); returns the reading in
+    // sensor units. Call once per sample, after actuate().
+    float sense(float x_um) {
+        float s = sensor_lag_.apply(sensor_unity_ ? x_um : sensor_gain_ * x_um);
         if (sensor_extra_) s = s + sensor_gain_ * (config_.sensor.offset_um + mains_.next_um());
         if (config_.sensor.noise_rms > 0.0f) s = s + config_.sensor.noise_rms * noise_.next_unit();
         return adc_.apply(s);

@@ -144,6 +144,7 @@ fs::path firmware_image(const EmulateArgs& a) {
 // The scenario's stage, loop rate and full scales as the board's profile.
 EmulationProfile scenario_profile(const EmulateArgs& a, json& info) {
     const sim::Scenario s = sim::load_scenario(a.scenario);
+    sim::require_single_axis(s, "emulate");
     const sim::CaseSpec* c = a.case_name.empty() ? nullptr : &s.find_case(a.case_name);
     sim::LoopModel m;
     sim::build_stage(s, c, 10, m);

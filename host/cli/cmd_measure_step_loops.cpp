@@ -64,6 +64,7 @@ struct Target {
                       {"rate_Hz", bounds.rate_Hz}};
         } else {
             scenario = sim::load_scenario(scenario_path);
+            sim::require_single_axis(*scenario, "measure");
             case_spec = measured_case(*scenario, case_name, sample, case_storage);
             bounds = measure::scenario_bounds(*scenario);
             source = {{"kind", "simulator"}, {"scenario", scenario->name}, {"case", case_name}, {"rate_Hz", bounds.rate_Hz}};

@@ -161,6 +161,7 @@ void write_board_case(const std::string& file, const sim::Scenario& s, const sim
 
 int run(const SimArgs& a) {
     const sim::Scenario s = sim::load_scenario(a.scenario);
+    sim::require_single_axis(s, "sim");
     if (a.list) {
         nlohmann::json out;
         out["scenario"] = s.name;

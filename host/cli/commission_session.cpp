@@ -180,6 +180,7 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
         source = {{"kind", "board"}, {"device", board->address()}, {"board", board->info().board.data()}};
     } else {
         const sim::Scenario s = sim::load_scenario(a.scenario);
+        sim::require_single_axis(s, "commission");
         source = {{"kind", "simulator"}, {"scenario", s.name}, {"case", ""}};
         stage = std::make_unique<CommissionedStage>(std::make_unique<commission::SimStage>(s), "--scenario");
     }

@@ -99,11 +99,9 @@ PiModel inverse_compensator(const HysteresisSpec& h, double amplifier_gain, std:
     return c;
 }
 
-void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& out, int* sections) {
-    const PlantSpec& p = s.plant;
-    const HysteresisSpec& h = c && c->plant_hysteresis ? *c->plant_hysteresis : p.hysteresis;
+StageConfig float_stage_config(const PlantSpec& p, const HysteresisSpec& h, double rate_Hz, int* sections) {
     StageConfig st{};
-    st.rate_Hz = f32(s.rate_Hz);
+    st.rate_Hz = f32(rate_Hz);
     st.dac = p.dac;
     st.amplifier = p.amplifier;
     st.sensor = p.sensor;
@@ -111,6 +109,28 @@ void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& 
     st.plant = hysteresis_config(h);
     st.plant.creep = p.creep;
     st.plant.drift_um_per_s = p.drift_um_per_s;
+    if (p.dynamics) {
+        const std::string where = p.dynamics->path.empty() ? "plant.dynamics" : p.dynamics->path;
+        const bool advance = p.discretisation != "tustin";
+        const std::vector<SosSection> sos =
+            discretise_sos(p.dynamics->zpk, rate_Hz, p.discretisation, 0.0, advance, where, kMaxPlantSections);
+        if (sos.size() > static_cast<size_t>(kMaxPlantSections))
+            throw ScenarioError(where + ": at most " + std::to_string(kMaxPlantSections) +
+                                " biquad sections (order 12) in the float stage");
+        st.plant.sections = static_cast<int>(sos.size());
+        for (size_t i = 0; i < sos.size(); ++i) st.plant.dynamics[i] = sos[i];
+        if (sections) *sections = static_cast<int>(sos.size());
+    }
+    return st;
+}
+
+void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& out, int* sections) {
+    // The loop, its logs and the emulated board are one axis's; a stage of
+    // coupled axes (sim/coupled_stage_build.hpp) is not silently cut to one.
+    require_single_axis(s, "this command");
+    const PlantSpec& p = s.plant;
+    const HysteresisSpec& h = c && c->plant_hysteresis ? *c->plant_hysteresis : p.hysteresis;
+    const StageConfig st = float_stage_config(p, h, s.rate_Hz, sections);
     DoubleStageConfig d{};
     d.rate_Hz = s.rate_Hz;
     d.substeps = substeps;
@@ -124,19 +144,7 @@ void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& 
     d.adc = p.adc;
     d.creep = p.creep;
     d.drift_um_per_s = p.drift_um_per_s;
-    if (p.dynamics) {
-        const std::string where = p.dynamics->path.empty() ? "plant.dynamics" : p.dynamics->path;
-        const bool advance = p.discretisation != "tustin";
-        const std::vector<SosSection> sos =
-            discretise_sos(p.dynamics->zpk, s.rate_Hz, p.discretisation, 0.0, advance, where, kMaxPlantSections);
-        if (sos.size() > static_cast<size_t>(kMaxPlantSections))
-            throw ScenarioError(where + ": at most " + std::to_string(kMaxPlantSections) +
-                                " biquad sections (order 12) in the float stage");
-        st.plant.sections = static_cast<int>(sos.size());
-        for (size_t i = 0; i < sos.size(); ++i) st.plant.dynamics[i] = sos[i];
-        d.dynamics = state_space(p.dynamics->zpk);
-        if (sections) *sections = static_cast<int>(sos.size());
-    }
+    if (p.dynamics) d.dynamics = state_space(p.dynamics->zpk);
     StageModel probe;
     if (const Status e = probe.configure(st); !e.ok()) fail("plant", e);
     out.stage = st;

@@ -52,6 +52,11 @@ private:
 // Throws ScenarioError / std::invalid_argument naming the field.
 BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o, DahlCache* cache = nullptr);
 
+// The float stage of one axis: its plant with hysteresis h, the dynamics
+// discretised at rate_Hz (sections: how many biquads they took). Throws
+// ScenarioError / std::invalid_argument naming the field.
+StageConfig float_stage_config(const PlantSpec& p, const HysteresisSpec& h, double rate_Hz, int* sections = nullptr);
+
 // The stage of a case alone (its hysteresis override applied), both fidelities.
 void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& out, int* sections = nullptr);
 

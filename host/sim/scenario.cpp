@@ -4,7 +4,9 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
+#include "piezoloop/axes/coupled_stage.hpp"
 #include "piezoloop/pi_generalized.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "sim/design_bridge.hpp"
@@ -191,8 +193,12 @@ void check_stage_poles(const Field& model, const design::Zpk& zpk, double rate_H
     }
 }
 
-PlantSpec parse_plant(const Field& f, const std::filesystem::path& base, double rate_Hz) {
-    f.only({"dac", "amplifier", "hysteresis", "dynamics", "sensor", "adc", "creep", "drift_um_per_s", "note"});
+// The fields of a single-axis plant (and of each of plant.axes[], which also
+// holds a name).
+PlantSpec parse_axis_plant(const Field& f, const std::filesystem::path& base, double rate_Hz, bool named) {
+    std::vector<std::string> fields{"dac", "amplifier", "hysteresis", "dynamics", "sensor", "adc", "creep", "drift_um_per_s", "note"};
+    if (named) fields.insert(fields.begin(), "name");
+    f.only(fields);
     PlantSpec p;
     p.dac = parse_converter(f["dac"]);
     p.amplifier = parse_amplifier(f["amplifier"]);
@@ -211,7 +217,86 @@ PlantSpec parse_plant(const Field& f, const std::filesystem::path& base, double 
     p.adc = parse_converter(f["adc"]);
     if (const auto c = f.get("creep")) p.creep = parse_creep(*c);
     if (const auto d = f.get("drift_um_per_s")) p.drift_um_per_s = f32(d->number_in(-10.0, 10.0));
+    // What the float stage at the loop rate needs (compared in float, as it
+    // configures).
+    const float half_rate = 0.5f * f32(rate_Hz);
+    if (p.amplifier.bandwidth_Hz >= half_rate)
+        f["amplifier"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
+    if (p.sensor.bandwidth_Hz >= half_rate)
+        f["sensor"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
+    if (p.sensor.mains.count > 0 && !(static_cast<double>(p.sensor.mains.frequency_Hz) * p.sensor.mains.count < 0.5 * rate_Hz))
+        f["sensor"]["mains"]["amplitudes_um"].fail("every harmonic must lie below rate / 2");
+    if (p.creep.percent_per_decade > 0.0f && !(rate_Hz * p.creep.from_s >= 2.0))
+        f["creep"]["from_s"].fail("must be at least 2 samples (2 / rate)");
+    if (p.creep.percent_per_decade > 0.0f && !(rate_Hz * p.creep.to_s <= 4.0e9))
+        f["creep"]["to_s"].fail("must be below 4e9 samples (4e9 / rate)");
     return p;
+}
+
+std::string name_list(const std::vector<AxisSpec>& axes) {
+    std::string list;
+    for (const AxisSpec& a : axes) list += (list.empty() ? "" : ", ") + a.name;
+    return list;
+}
+
+int axis_index(const Field& f, const std::vector<AxisSpec>& axes) {
+    const std::string n = f.string();
+    for (size_t i = 0; i < axes.size(); ++i)
+        if (axes[i].name == n) return static_cast<int>(i);
+    f.fail("must be one of the axis names " + name_list(axes) + " (got \"" + n + "\")");
+}
+
+CouplingSpec parse_coupling(const Field& f, const std::vector<AxisSpec>& axes, double rate_Hz) {
+    f.only({"from", "to", "dc_gain", "mode_Hz", "damping", "discretisation", "note"});
+    CouplingSpec c;
+    c.path = f.path();
+    c.from_axis = axis_index(f["from"], axes);
+    c.to_axis = axis_index(f["to"], axes);
+    c.from = axes[static_cast<size_t>(c.from_axis)].name;
+    c.to = axes[static_cast<size_t>(c.to_axis)].name;
+    if (c.from_axis == c.to_axis) f["to"].fail("must differ from `from` (\"" + c.from + "\"): no path from an axis to itself");
+    c.dc_gain = f["dc_gain"].number_in(-1.0, 1.0);
+    if (c.dc_gain == 0.0) f["dc_gain"].fail("must be non-zero (leave the path out for none)");
+    c.mode_Hz = f["mode_Hz"].number();
+    if (!(c.mode_Hz > 0.0 && c.mode_Hz < 0.5 * rate_Hz)) f["mode_Hz"].fail("must be in (0, rate / 2)");
+    c.damping = f["damping"].number_in(1e-3, 10.0);
+    if (const auto m = f.get("discretisation")) c.discretisation = m->choice({"zoh", "tustin", "matched"});
+    return c;
+}
+
+// A plant: single-axis, or {"axes": [...], "coupling": [...]}.
+void parse_plant(const Field& f, const std::filesystem::path& base, double rate_Hz, Scenario& s) {
+    if (!f.get("axes")) {
+        if (f.get("coupling")) Field(f.json(), f.child_path("axes")).fail("required with plant.coupling: the axes the paths join");
+        s.plant = parse_axis_plant(f, base, rate_Hz, false);
+        return;
+    }
+    f.only({"axes", "coupling", "note"});
+    const Field axes = f["axes"];
+    const size_t n = axes.size();
+    if (n < 1 || n > static_cast<size_t>(kMaxStageAxes))
+        axes.fail("must hold 1 to " + std::to_string(kMaxStageAxes) + " axes (got " + std::to_string(n) + ")");
+    for (size_t i = 0; i < n; ++i) {
+        const Field a = axes.at(i);
+        AxisSpec ax;
+        ax.path = a.path();
+        ax.name = a["name"].string();
+        if (ax.name.empty()) a["name"].fail("must not be empty");
+        for (const AxisSpec& other : s.axes)
+            if (other.name == ax.name) a["name"].fail("duplicate axis name \"" + ax.name + "\"");
+        ax.plant = parse_axis_plant(a, base, rate_Hz, true);
+        s.axes.push_back(std::move(ax));
+    }
+    if (const auto c = f.get("coupling")) {
+        for (size_t k = 0; k < c->size(); ++k) {
+            CouplingSpec p = parse_coupling(c->at(k), s.axes, rate_Hz);
+            for (const CouplingSpec& q : s.coupling)
+                if (q.from_axis == p.from_axis && q.to_axis == p.to_axis)
+                    c->at(k).fail("a path from " + p.from + " to " + p.to + " is given already (" + q.path + ")");
+            s.coupling.push_back(std::move(p));
+        }
+    }
+    s.plant = s.axes.front().plant;
 }
 
 // ---- controller ----------------------------------------------------------
@@ -460,18 +545,7 @@ Scenario parse_scenario(const nlohmann::json& j, const std::filesystem::path& ba
         l->check(validate(s.limits, s.setup.hard));
     }
 
-    s.plant = parse_plant(top["plant"], base_dir, s.rate_Hz);
-    if (s.plant.amplifier.bandwidth_Hz >= 0.5f * s.setup.rate_Hz)
-        top["plant"]["amplifier"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
-    if (s.plant.sensor.bandwidth_Hz >= 0.5f * s.setup.rate_Hz)
-        top["plant"]["sensor"]["bandwidth_Hz"].fail("must be below rate / 2 (the float stage discretises it)");
-    if (s.plant.sensor.mains.count > 0 &&
-        !(static_cast<double>(s.plant.sensor.mains.frequency_Hz) * s.plant.sensor.mains.count < 0.5 * s.rate_Hz))
-        top["plant"]["sensor"]["mains"]["amplitudes_um"].fail("every harmonic must lie below rate / 2");
-    if (s.plant.creep.percent_per_decade > 0.0f && !(s.rate_Hz * s.plant.creep.from_s >= 2.0))
-        top["plant"]["creep"]["from_s"].fail("must be at least 2 samples (2 / rate)");
-    if (s.plant.creep.percent_per_decade > 0.0f && !(s.rate_Hz * s.plant.creep.to_s <= 4.0e9))
-        top["plant"]["creep"]["to_s"].fail("must be below 4e9 samples (4e9 / rate)");
+    parse_plant(top["plant"], base_dir, s.rate_Hz, s);
 
     const Field ref = top["reference"];
     ref.only({"nominal_um_per_V", "offset"});
@@ -490,6 +564,28 @@ Scenario parse_scenario(const nlohmann::json& j, const std::filesystem::path& ba
     if (const auto ex = top.get("experiments"))
         for (size_t i = 0; i < ex->size(); ++i) s.experiments.push_back(parse_experiment(ex->at(i), s));
     return s;
+}
+
+void require_single_axis(const Scenario& s, const std::string& command) {
+    if (!s.multi_axis()) return;
+    throw std::invalid_argument("multi-axis scenario: " + command + " runs single-axis stages only so far (" + s.name +
+                                ": plant.axes " + name_list(s.axes) + ")");
+}
+
+design::Zpk coupling_model(const CouplingSpec& c) {
+    // dc_gain w^2 / (s^2 + 2 zeta w s + w^2): poles -zeta w +- j w sqrt(1 - zeta^2)
+    // (underdamped), else two real poles -w (zeta -+ sqrt(zeta^2 - 1)).
+    const double w = 2.0 * M_PI * c.mode_Hz, z = c.damping;
+    design::Zpk m;
+    if (z < 1.0) {
+        const double wd = w * std::sqrt(1.0 - z * z);
+        m.poles = {{-z * w, wd}, {-z * w, -wd}};
+    } else {
+        const double r = std::sqrt(z * z - 1.0);
+        m.poles = {{-w * (z - r), 0.0}, {-w * (z + r), 0.0}};
+    }
+    m.gain = c.dc_gain * w * w;
+    return m;
 }
 
 Scenario load_scenario(const std::filesystem::path& file) {

@@ -60,6 +60,32 @@ struct PlantSpec {
     float drift_um_per_s = 0.0f;         // thermal drift of the displacement
 };
 
+// One axis of a stage of coupled axes (plant.axes[]): its name and the
+// single-axis plant's fields.
+struct AxisSpec {
+    std::string name;
+    PlantSpec plant;
+    std::string path;  // e.g. "plant.axes[1]"
+};
+
+// A coupling path between two axes (plant.coupling[]), continuous, from the
+// displacement of axis `from` to the position of axis `to` (µm/µm):
+//   C(s) = dc_gain w^2 / (s^2 + 2 damping w s + w^2),   w = 2 pi mode_Hz,
+// discretised at the loop rate like the plant's dynamics (docs/models.md,
+// 'Coupled axes').
+struct CouplingSpec {
+    std::string from, to;     // axis names
+    int from_axis = 0, to_axis = 0;  // their indices in Scenario::axes
+    double dc_gain = 0.0;
+    double mode_Hz = 0.0;
+    double damping = 0.0;
+    std::string discretisation = "zoh";  // zoh | tustin | matched
+    std::string path;         // e.g. "plant.coupling[0]"
+};
+
+// The continuous C(s) of a coupling path.
+design::Zpk coupling_model(const CouplingSpec& c);
+
 struct DahlIdentifySpec {
     double frequency_Hz = 10.0;
     std::vector<double> amplitudes_V;  // peak-to-peak piezo voltage of each triangle, from 0
@@ -131,7 +157,11 @@ struct Scenario {
     double rate_Hz = 100000.0;
     PipelineSetup setup{};
     LimitsConfig limits{};
+    // The single-axis plant; for plant.axes, a copy of axes[0]'s (the
+    // single-axis commands refuse two or three axes: require_single_axis).
     PlantSpec plant;
+    std::vector<AxisSpec> axes;          // plant.axes (empty: a single-axis plant)
+    std::vector<CouplingSpec> coupling;  // plant.coupling
     double nominal_um_per_V = 1.0;  // piezo V -> µm at the loading curve's mean slope
     std::string offset = "unipolar";
     std::vector<CaseSpec> cases;
@@ -140,7 +170,15 @@ struct Scenario {
     const CaseSpec& find_case(const std::string& name) const;  // throws ScenarioError
     // Command (V) -> µm at the mean slope: nominal_um_per_V * amplifier gain.
     double command_um_per_V() const { return nominal_um_per_V * plant.amplifier.gain; }
+    // Two or three axes (plant.axes with more than one entry). One entry is
+    // a single-axis plant written as a list: `plant` is that axis.
+    bool multi_axis() const { return axes.size() > 1; }
 };
+
+// Refuses a multi-axis scenario in a command that runs single-axis stages:
+// std::invalid_argument "multi-axis scenario: <command> runs single-axis
+// stages only so far".
+void require_single_axis(const Scenario& s, const std::string& command);
 
 // One hysteresis object (the plant's, or a case's override).
 HysteresisSpec parse_hysteresis(const Field& f);

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The golden files are scipy/numpy output committed beside the scripts that
-# make them (tools/ref/). This regenerates every one in a scratch tree with
+# make them (tools/ref/). This regenerates every one in a scratch tree (the
+# scripts and the shipped stages some of them model) with
 # Debian's python3 and requires the committed file to agree with it (same
 # structure, numbers within 1e-9 relative: tests/golden/same_json.py says
 # why not byte for byte), so a test can never run against reference data its
@@ -9,7 +10,9 @@ set -u
 src=$(cd "$(dirname "$0")/../.." && pwd)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-mkdir -p "$tmp/tools/ref" "$tmp/tests/golden"
+mkdir -p "$tmp/tools/ref" "$tmp/tests/golden" "$tmp/configs"
+# Scripts that model a shipped stage read it from configs/stages/.
+cp -r "$src/configs/stages" "$tmp/configs/"
 passed=0 failed=0
 for script in "$src"/tools/ref/*.py; do
     name=$(basename "$script" .py)

@@ -64,6 +64,21 @@ expect("missing input file (sim)", ["sim", "--scenario", "/nonexistent.json", "-
 expect("missing input file (design)", ["design", "c2d", "--model", "/nonexistent.json", "--rate-hz", "1000"], 2,
        "cannot open")
 expect("bad value (sim)", ["sim", "--scenario", scenario, "--case", "no_such_case"], 2, "no such case")
+# A stage of coupled axes (configs/stages/xyz_flexure.json) in a command that
+# runs one axis: refused, naming the command, before anything runs or is
+# written.
+xyz = os.path.join(configs, "stages", "xyz_flexure.json")
+multi = "runs single-axis stages only so far"
+for name, args in [
+        ("sim", ["sim", "--scenario", xyz, "--case", "open_loop", "--frequency-hz", "10", "--amplitude-um", "5"]),
+        ("measure", ["measure", "frf", "--scenario", xyz, "--from-hz", "10", "--to-hz", "1000", "--amplitude-v", "0.1",
+                     "--out", os.path.join(tmp, "xyz_frf.json")]),
+        ("measure", ["measure", "step", "--scenario", xyz, "--step-v", "1", "--out", os.path.join(tmp, "xyz_step.json")]),
+        ("measure", ["measure", "loops", "--scenario", xyz, "--amplitudes-v", "1,2", "--out", os.path.join(tmp, "xyz.csv")]),
+        ("commission", ["commission", "--scenario", xyz, "--range-um", "10", "--out", os.path.join(tmp, "xyz_commission")]),
+        ("emulate", ["emulate", "--scenario", xyz, "--board", "qemu-m7"])]:
+    expect(f"multi-axis scenario ({' '.join(args[:2])})", args, 2, f"multi-axis scenario: {name} {multi}")
+check("multi-axis scenario: nothing written", not any(n.startswith("xyz") for n in os.listdir(tmp)), str(os.listdir(tmp)))
 expect("missing input file (reproduce)", ["reproduce", "ahmad2020", "--out", tmp, "--configs", "/nonexistent"], 2)
 # A malformed --device is bad input, not a link failure (3 is for a board that
 # cannot be reached at a well-formed address).
