@@ -213,7 +213,7 @@ int run_frf(const FrfArgs& a) {
         recording = hostlink::recording_summary(d.record);
     } else {
         const sim::Scenario s = sim::load_scenario(a.scenario);
-        sim::require_single_axis(s, "measure");
+        sim::require_single_axis(s, "measure frf without --mimo");
         sim::CaseSpec storage;
         const sim::CaseSpec* c = measured_case(s, a.case_name, a.sample, storage);
         if (r.closed && a.case_name.empty()) throw std::invalid_argument("--case: closed loop needs the case whose controller closes it");
