@@ -71,13 +71,29 @@ xyz = os.path.join(configs, "stages", "xyz_flexure.json")
 multi = "runs single-axis stages only so far"
 for name, args in [
         ("sim", ["sim", "--scenario", xyz, "--case", "open_loop", "--frequency-hz", "10", "--amplitude-um", "5"]),
-        ("measure", ["measure", "frf", "--scenario", xyz, "--from-hz", "10", "--to-hz", "1000", "--amplitude-v", "0.1",
+        ("measure frf without --mimo", ["measure", "frf", "--scenario", xyz, "--from-hz", "10", "--to-hz", "1000", "--amplitude-v", "0.1",
                      "--out", os.path.join(tmp, "xyz_frf.json")]),
         ("measure", ["measure", "step", "--scenario", xyz, "--step-v", "1", "--out", os.path.join(tmp, "xyz_step.json")]),
         ("measure", ["measure", "loops", "--scenario", xyz, "--amplitudes-v", "1,2", "--out", os.path.join(tmp, "xyz.csv")]),
         ("commission", ["commission", "--scenario", xyz, "--range-um", "10", "--out", os.path.join(tmp, "xyz_commission")]),
         ("emulate", ["emulate", "--scenario", xyz, "--board", "qemu-m7"])]:
     expect(f"multi-axis scenario ({' '.join(args[:2])})", args, 2, f"multi-axis scenario: {name} {multi}")
+# measure frf --mimo: what it cannot measure, refused before anything runs.
+mimo = ["measure", "frf", "--mimo", "--from-hz", "20", "--to-hz", "2000", "--out", os.path.join(tmp, "xyz_mimo.csv")]
+for why, args, needle in [
+        ("one axis", ["--scenario", scenario, "--amplitude-v", "0.1"], "--mimo:"),
+        ("board", ["--amplitude-v", "0.1"], "--mimo:"),
+        ("closed loop", ["--scenario", xyz, "--amplitude-v", "0.1", "--mode", "closed"], "--mode:"),
+        ("beyond the hard limits", ["--scenario", xyz, "--amplitude-v", "6", "--bias-v", "5"], "--amplitude-v:"),
+        ("no output matrix file", ["--scenario", xyz, "--amplitude-v", "0.1", "--bias-v", "5", "--output-matrix",
+                                   "/nonexistent.json"], "--output-matrix:"),
+        ("output matrix without --mimo", [], None)]:
+    if needle is None:
+        expect(f"measure frf --mimo: {why}", ["measure", "frf", "--scenario", scenario, "--from-hz", "20", "--to-hz",
+                                              "2000", "--amplitude-v", "0.1", "--output-matrix", "m.json", "--out",
+                                              os.path.join(tmp, "xyz_single.json")], 2, "--output-matrix:")
+    else:
+        expect(f"measure frf --mimo: {why}", mimo + args, 2, needle)
 check("multi-axis scenario: nothing written", not any(n.startswith("xyz") for n in os.listdir(tmp)), str(os.listdir(tmp)))
 expect("missing input file (reproduce)", ["reproduce", "ahmad2020", "--out", tmp, "--configs", "/nonexistent"], 2)
 # A malformed --device is bad input, not a link failure (3 is for a board that
