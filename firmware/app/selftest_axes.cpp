@@ -38,18 +38,19 @@ using T = CoreSample;
 constexpr int kAxes = bsp::config::kSelfTestAxes;
 static_assert(kAxes == 0 || kAxes == kAxesCount<T>, "the host replay runs kAxesCount<T> axes");
 
-// One storage for the largest pipeline, rebuilt in place for each count.
+// One storage for the largest pipeline and one for its stage, both built
+// in place for each count (raw storage: no static constructor, so nothing
+// of this is kept in an image that never runs it).
 template <int N>
 using AxesPipe = FwAxesPipeline<T, N>;
-constexpr std::size_t kStorageBytes = kAxes >= 1 ? sizeof(AxesPipe<kAxes >= 1 ? kAxes : 1>) : 1;
-constexpr std::size_t kStorageAlign = alignof(AxesPipe<kAxes >= 1 ? kAxes : 1>);
-alignas(kStorageAlign) unsigned char g_storage[kAxes >= 1 ? kStorageBytes : 1];
-
-template <int N>
-EmulatedCoupledStage<T, N> g_stage;
+constexpr int kLargest = kAxes >= 1 ? kAxes : 1;
+alignas(AxesPipe<kLargest>) unsigned char g_pipe_storage[kAxes >= 1 ? sizeof(AxesPipe<kLargest>) : 1];
+alignas(EmulatedCoupledStage<T, kLargest>) unsigned char
+    g_stage_storage[kAxes >= 1 ? sizeof(EmulatedCoupledStage<T, kLargest>) : 1];
 
 struct AxesTickState {
     void* pipe = nullptr;
+    void* stage = nullptr;
     volatile bool running = false;
     uint32_t max_ticks = 0;
     uint32_t ticks = 0;
@@ -71,7 +72,7 @@ template <int N>
 void axes_tick() {
     AxesTickState& st = g_tick;
     AxesPipe<N>& pipe = *static_cast<AxesPipe<N>*>(st.pipe);
-    EmulatedCoupledStage<T, N>& stage = g_stage<N>;
+    EmulatedCoupledStage<T, N>& stage = *static_cast<EmulatedCoupledStage<T, N>*>(st.stage);
     st.monitor.on_entry(bsp::timestamp());
     const bool armed = pipe.any_armed();
 
@@ -127,11 +128,12 @@ int run_axes(ControlLoop& loop) {
     constexpr uint32_t ticks = kAxesTicks<T>;
     const char* name = kAxesCaseNames[N - 1];
     loop.stop();
-    auto* pipe = new (g_storage) AxesPipe<N>(axes_setup<N>(kAxesRate_Hz<T>));
-    EmulatedCoupledStage<T, N>& stage = g_stage<N>;
+    auto* pipe = new (g_pipe_storage) AxesPipe<N>(axes_setup<N>(kAxesRate_Hz<T>));
+    EmulatedCoupledStage<T, N>& stage = *new (g_stage_storage) EmulatedCoupledStage<T, N>();
     JsonLine j;
     j.str("board", bsp::kBoardName).str("name", name);
-    if (const Status s = prepare_axes_case<T, N>(*pipe, stage); !s.ok()) {
+    static CoupledStageConfig stage_config;
+    if (const Status s = prepare_axes_case<T, N>(*pipe, stage, stage_config); !s.ok()) {
         if (s.group != nullptr) j.str("group", s.group);
         j.str("error", s.field).str("message", s.message).flush();
         pipe->~AxesPipe<N>();
@@ -140,6 +142,7 @@ int run_axes(ControlLoop& loop) {
     AxesLog<T, N> log = AxesLog<T, N>::make(*pipe);
 
     g_tick.pipe = pipe;
+    g_tick.stage = &stage;
     g_tick.max_ticks = ticks;
     g_tick.ticks = 0;
     g_tick.control = g_tick.whole = g_tick.reconfigure = g_tick.plant = WorkStats{};

@@ -115,8 +115,10 @@ constexpr MultiAxisSetup<N> axes_setup(float rate_Hz) {
     return s;
 }
 
-constexpr CoupledStageConfig axes_stage(int n, float rate_Hz) {
-    CoupledStageConfig c{};
+// Written into `c` (a few KiB: the board keeps it in static storage, off
+// the main stack that CoupledStage::configure already fills).
+constexpr void axes_stage(int n, float rate_Hz, CoupledStageConfig& c) {
+    c = CoupledStageConfig{};
     c.axes = n;
     for (int i = 0; i < n; ++i) c.axis[static_cast<std::size_t>(i)] = ideal_stage(reference::plant(rate_Hz), rate_Hz);
     for (const AxesCoupling& k : kAxesCoupling) {
@@ -127,15 +129,15 @@ constexpr CoupledStageConfig axes_stage(int n, float rate_Hz) {
         p.sections = 1;
         p.filter[0] = SosSection{k.gain, 0.0, 0.0, 0.0, 0.0};
     }
-    return c;
 }
 
 // With the tick stopped and the pipeline fresh, in the order of
 // prepare_case per axis: parameters staged, recorder armed, the output
 // matrix requested (taken over at the first tick, before any axis arms),
-// the stage at rest, every axis armed, every wave started.
+// the stage at rest, every axis armed, every wave started. stage_config:
+// storage for axes_stage().
 template <class T, int N, class PipelineT>
-Status prepare_axes_case(PipelineT& pipe, EmulatedCoupledStage<T, N>& stage) {
+Status prepare_axes_case(PipelineT& pipe, EmulatedCoupledStage<T, N>& stage, CoupledStageConfig& stage_config) {
     constexpr float rate = kAxesRate_Hz<T>;
     if (const Status s = pipe.setup_status(); !s.ok()) return s;
     for (int i = 0; i < N; ++i) {
@@ -150,7 +152,8 @@ Status prepare_axes_case(PipelineT& pipe, EmulatedCoupledStage<T, N>& stage) {
         position[static_cast<std::size_t>(i)] = pipe.axis(i).setup().position;
         voltage[static_cast<std::size_t>(i)] = pipe.axis(i).setup().voltage;
     }
-    if (const Status s = stage.configure(axes_stage(N, rate), position, voltage); !s.ok()) return s;
+    axes_stage(N, rate, stage_config);
+    if (const Status s = stage.configure(stage_config, position, voltage); !s.ok()) return s;
     pipe.arm_all();
     for (int i = 0; i < N; ++i)
         if (const Status s = pipe.axis(i).start_wave(axes_wave(i, rate)); !s.ok()) return s;

@@ -78,7 +78,8 @@ int run_axes(const char* sample) {
     auto stage = std::make_unique<EmulatedCoupledStage<T, N>>();
     JsonLine j;
     j.str("board", "host").str("name", kAxesCaseNames[N - 1]);
-    if (const Status s = prepare_axes_case<T, N>(*pipe, *stage); !s.ok()) {
+    auto stage_config = std::make_unique<CoupledStageConfig>();
+    if (const Status s = prepare_axes_case<T, N>(*pipe, *stage, *stage_config); !s.ok()) {
         if (s.group != nullptr) j.str("group", s.group);
         j.str("error", s.field).str("message", s.message).flush();
         return 1;
