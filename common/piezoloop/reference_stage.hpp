@@ -74,35 +74,38 @@ constexpr PiModel true_stage_model() {
     return m;
 }
 
-constexpr PlantConfig plant() {
+// At another loop rate (the self-test's multi-axis case on the M3 runs at
+// 50 kHz): the same continuous design discretised at rate_Hz.
+constexpr PlantConfig plant(float rate_Hz = kRate_Hz) {
     PlantConfig c{};
     c.hysteresis = HysteresisKind::kPi;
     c.pi = true_stage_model();
     c.sections = 1;
-    (void)tustin(resonance(1e3, 0.05), kRate_Hz, c.dynamics[0]);
+    (void)tustin(resonance(1e3, 0.05), rate_Hz, c.dynamics[0]);
     return c;
 }
 
 // Feedback sections (µm -> V), discretised with Tustin at the loop rate.
-constexpr void feedback_sections(SosSection* out) {
+constexpr void feedback_sections(SosSection* out, float rate_Hz = kRate_Hz) {
     const double w_i = 2.0 * kPi * 0.1, w_r = 2.0 * kPi * 1e3, w_lp = 2.0 * kPi * 5e3, w_hf = 2.0 * kPi * 20e3;
     const double k_i = 235.0;
     // k_i / ((s + w_i)(s / w_hf + 1)) = k_i w_hf / (s^2 + (w_i + w_hf) s + w_i w_hf)
-    (void)tustin(ContinuousSection{0.0, 0.0, k_i * w_hf, 1.0, w_i + w_hf, w_i * w_hf}, kRate_Hz, out[0]);
+    (void)tustin(ContinuousSection{0.0, 0.0, k_i * w_hf, 1.0, w_i + w_hf, w_i * w_hf}, rate_Hz, out[0]);
     (void)tustin(ContinuousSection{1.0, 2.0 * 0.05 * w_r, w_r * w_r, 1.0, 2.0 * 0.7 * w_r, w_r * w_r},
-                 kRate_Hz, out[1]);
-    (void)tustin(ContinuousSection{0.0, 0.0, w_lp * w_lp, 1.0, 2.0 * 0.7 * w_lp, w_lp * w_lp}, kRate_Hz,
+                 rate_Hz, out[1]);
+    (void)tustin(ContinuousSection{0.0, 0.0, w_lp * w_lp, 1.0, 2.0 * 0.7 * w_lp, w_lp * w_lp}, rate_Hz,
                  out[2]);
 }
 
 // What the demo calls feedforward + feedback, with RC on when `with_rc`.
-constexpr PipelineParams params(bool feedforward = true, bool feedback = true, bool with_rc = false) {
+constexpr PipelineParams params(bool feedforward = true, bool feedback = true, bool with_rc = false,
+                                float rate_Hz = kRate_Hz) {
     PipelineParams p{};
     p.feedforward = feedforward ? FeedforwardKind::kPiInverse : FeedforwardKind::kNone;
     p.pi = stage_model();
     p.feedback = feedback ? FeedbackKind::kSos : FeedbackKind::kNone;
     p.sos_count = 3;
-    feedback_sections(p.sos.data());
+    feedback_sections(p.sos.data(), rate_Hz);
     p.rc_enabled = with_rc;
     p.rc = RepetitiveConfig{};
     p.rc.m1 = 3;  // Q's low-frequency group delay (see tests/common/test_repetitive.cpp)
@@ -114,16 +117,16 @@ constexpr PipelineParams params(bool feedforward = true, bool feedback = true, b
 // Q(z) = (1 - a) / (z - a), a = e^(-2 pi 200 Hz Ts) (the published Q's form,
 // 0.3558 / (z - 0.6442), with its pole moved from ~7 kHz to 200 Hz).
 inline constexpr double kRcQCutoff_Hz = 200.0;
-constexpr SosSection rc_q() {
-    const double a = det_exp(-2.0 * kPi * kRcQCutoff_Hz / static_cast<double>(kRate_Hz));
+constexpr SosSection rc_q(float rate_Hz = kRate_Hz) {
+    const double a = det_exp(-2.0 * kPi * kRcQCutoff_Hz / static_cast<double>(rate_Hz));
     return SosSection{0.0, 1.0 - a, 0.0, -a, 0.0};
 }
 
 // Feedforward, feedback and the RC in the loop with the Q above: the "all
 // blocks" pipeline of the firmware self-test and its block profile.
-constexpr PipelineParams all_blocks_params() {
-    PipelineParams p = params(true, true, true);
-    p.rc.q = rc_q();
+constexpr PipelineParams all_blocks_params(float rate_Hz = kRate_Hz) {
+    PipelineParams p = params(true, true, true, rate_Hz);
+    p.rc.q = rc_q(rate_Hz);
     return p;
 }
 

@@ -240,6 +240,7 @@ int run_selftest() {
     const bool loopback = bsp::set_loopback(true);
     int failures = loopback ? 0 : 1;
     for (const SelfTestCase& c : kSelfTestCases) failures += run_case(loop, c);
+    failures += run_axes_cases();
     int scenario_cases = 0;
     if constexpr (!bsp::config::kHasConverters) {
         for (int i = 0; i < kBoardCaseSlots; ++i) {
@@ -255,6 +256,7 @@ int run_selftest() {
     failures += checks.failures;
     JsonLine j;
     begin(j).str("selftest", "done").uint("cases", kSelfTestCaseCount).uint("scenario_cases", static_cast<uint64_t>(scenario_cases));
+    j.uint("axes_cases", static_cast<uint64_t>(bsp::config::kSelfTestAxes));
     j.uint("checks", checks.count);
     j.uint("failures", static_cast<uint64_t>(failures)).flush();
     return failures;

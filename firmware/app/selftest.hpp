@@ -1,5 +1,6 @@
 // The self-test on a board: every case of selftest_cases.hpp run by the
 // 100 kHz interrupt against the emulated stage, then (QEMU boards) every
+// multi-axis run (run_axes_cases below), then every
 // board case QEMU's loader put into the RAM slots (common/piezoloop/
 // board_case.hpp) at its own loop rate, one JSON line each, plus checks of
 // what must be refused and of overrun counting. Returns the number of
@@ -20,11 +21,18 @@
 // then
 //   {"board","check":"<name>","ok":true|false, ...details}
 // and finally
-//   {"board","selftest":"done","cases":n,"scenario_cases":s,"checks":m,"failures":k}
+//   {"board","selftest":"done","cases":n,"scenario_cases":s,"axes_cases":a,"checks":m,"failures":k}
 #pragma once
 
 namespace piezoloop::fw {
 
 int run_selftest();
+
+// The multi-axis case with 1 .. kSelfTestAxes axes (app/selftest_axes.cpp),
+// one line each: the fields above (budget: the axes' ADC-to-DAC budget) and
+// "axes", "<unit>_per_axis_mean", "tick_<unit>_per_axis_mean", "tick_budget",
+// "within_tick_budget", per-axis tracking figures and hashes
+// (app/selftest_axes_cases.hpp). The number of failed runs.
+int run_axes_cases();
 
 }  // namespace piezoloop::fw

@@ -14,7 +14,7 @@ namespace piezoloop::bsp {
 
 class TextLine {
 public:
-    static constexpr std::size_t kCapacity = 640;  // a self-test JSON line fits
+    static constexpr std::size_t kCapacity = 1024;  // a self-test JSON line fits (three axes: ~900)
 
     TextLine& str(const char* s) {
         while (*s != '\0') put(*s++);

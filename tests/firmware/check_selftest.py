@@ -34,8 +34,13 @@ on a board within its own budget).
 
     check_selftest.py <host_selftest> <selftest.elf> <machine> <float|q31>
                       [--piezoloop EXE --configs DIR] [--budget N]
-                      [--expect-over-budget CASE]
+                      [--expect-over-budget CASE] [--axes-budgets]
     check_selftest.py --self-test
+
+--axes-budgets also judges the multi-axis runs (lines with "axes") on
+their ADC-to-DAC budget and their whole-tick budget (tick_budget,
+within_tick_budget); without it their hashes are checked but not their
+budgets.
 
 --self-test runs the budget check on made-up board lines (within, over by
 the worst tick, over by the board's flag, figures missing, a lowered
@@ -90,12 +95,25 @@ def json_lines(text):
     return out
 
 
-def budget_failures(board_cases, budget_override=None):
+def budget_failures(board_cases, budget_override=None, axes_budgets=False):
     """The cases over their ADC-read-to-DAC-write budget: [message]. A case
     passes only if its worst tick is at most the budget (the board's, or
-    budget_override when that is lower) and the board says within_budget."""
+    budget_override when that is lower) and the board says within_budget.
+    The multi-axis runs (lines with "axes") are judged only with
+    axes_budgets, and then on their whole-tick budget too (tick_budget,
+    within_tick_budget)."""
     out = []
     for name, b in board_cases.items():
+        if "axes" in b:
+            if not axes_budgets:
+                continue
+            unit = "insn" if "tick_insn_max" in b else "cycles"
+            worst, budget = b.get("tick_" + unit + "_max"), b.get("tick_budget")
+            if not isinstance(worst, int) or not isinstance(budget, int) or budget <= 0:
+                out.append(f"case {name}: no whole-tick budget figures (tick_{unit}_max {worst}, tick_budget {budget})")
+            elif worst > budget or b.get("within_tick_budget") is not True:
+                out.append(f"case {name} on {b.get('board')}: {worst} {unit} per whole tick (worst) over the "
+                           f"whole-tick budget of {budget} (within_tick_budget {b.get('within_tick_budget')})")
         unit = "insn" if "insn_per_tick_max" in b else "cycles"
         worst = b.get(unit + "_per_tick_max")
         budget = b.get("budget")
@@ -131,9 +149,24 @@ def self_test():
         ("budget raised to 400 is ignored, worst 302", {"x": line(302)}, 400, False),
         ("one of two cases over", {"a": line(200), "b": line(301)}, None, False),
     ]
+
+    def axes(worst, tick_worst, within=True, within_tick=True):
+        return {**line(worst, 600, within), "axes": 3, "tick_insn_max": tick_worst, "tick_budget": 1200,
+                "within_tick_budget": within_tick}
+    cases += [
+        ("axes run within both", {"x": axes(590, 1190)}, "axes", True),
+        ("axes run, whole tick over (1201 of 1200)", {"x": axes(590, 1201)}, "axes", False),
+        ("axes run, whole-tick flag false", {"x": axes(590, 1100, within_tick=False)}, "axes", False),
+        ("axes run, ADC to DAC over (601 of 600)", {"x": axes(601, 1100)}, "axes", False),
+        ("axes run, whole-tick budget missing", {"x": {**axes(590, 1100), "tick_budget": None}}, "axes", False),
+        ("axes run over, not judged without --axes-budgets", {"x": axes(900, 2000)}, None, True),
+    ]
     bad = 0
     for what, board_cases, override, should_pass in cases:
-        msgs = budget_failures(board_cases, override)
+        if override == "axes":
+            msgs = budget_failures(board_cases, None, axes_budgets=True)
+        else:
+            msgs = budget_failures(board_cases, override)
         ok = (not msgs) == should_pass
         bad += 0 if ok else 1
         print(f"{'ok' if ok else 'WRONG'}: {what}: {'passes' if not msgs else 'fails: ' + '; '.join(msgs)}")
@@ -163,6 +196,8 @@ def main():
     if args == ["--self-test"]:
         return self_test()
     piezoloop = configs = budget_override = expect_over = None
+    axes_budgets = "--axes-budgets" in args
+    args = [a for a in args if a != "--axes-budgets"]
     while len(args) > 4 and args[-2] in ("--piezoloop", "--configs", "--budget", "--expect-over-budget"):
         if args[-2] == "--expect-over-budget":
             expect_over = args[-1]
@@ -250,8 +285,11 @@ def main():
             check(False, f"case {name}: no board line")
             continue
         check(b.get("sample") == sample, f"case {name}: board sample {b.get('sample')} != {sample}")
-        for key in ("log_hash", "ticks", "frames", "e_max_um", "e_rms_um", "u_max_abs_V"):
-            check(b.get(key) == h.get(key), f"case {name}: {key} board {b.get(key)} != host {h.get(key)}")
+        # Every field the host prints but its name: the multi-axis runs add
+        # per-axis hashes and tracking figures (log_hash_<i>, ...).
+        for key in h:
+            if key != "board":
+                check(b.get(key) == h.get(key), f"case {name}: {key} board {b.get(key)} != host {h.get(key)}")
         check(b.get("overruns") == 0, f"case {name}: {b.get('overruns')} overruns")
         check(b.get("gaps") == 0, f"case {name}: {b.get('gaps')} recorder gaps")
 
@@ -284,7 +322,15 @@ def main():
               f"whole controller tick mean {b.get('tick_' + unit + '_mean')} max {b.get('tick_' + unit + '_max')}; "
               f"reconfigure tick max {b.get('reconfigure_' + unit + '_max')}; "
               f"plant model (apart) mean {b.get('plant_' + unit + '_per_tick_mean')}")
-    over = budget_failures(board_cases, budget_override)
+    for name, b in board_cases.items():
+        if "axes" in b:
+            unit = "insn" if "insn_per_tick_max" in b else "cycles"
+            print(f"  {b['board']} {name}: {b['axes']} axes at {b.get('loop_rate_Hz')} Hz: ADC->DAC max "
+                  f"{b.get(unit + '_per_tick_max')} (budget {b.get('budget')}), whole tick max "
+                  f"{b.get('tick_' + unit + '_max')} (budget {b.get('tick_budget')}), per axis mean "
+                  f"{b.get(unit + '_per_axis_mean')} / {b.get('tick_' + unit + '_per_axis_mean')}"
+                  f"{'' if axes_budgets else ' (budgets judged with --axes-budgets)'}")
+    over = budget_failures(board_cases, budget_override, axes_budgets)
     check(len(board_cases) > 0, "board printed cases with budget figures")
     for msg in over:
         check(False, "budget: " + msg)

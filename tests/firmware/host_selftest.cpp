@@ -9,6 +9,10 @@
 //   {"board":"host","name","sample","ticks","frames","gaps","tracking_valid",
 //    "e_max_um","e_rms_um","u_max_abs_V","log_hash"}
 //   host_selftest float|q31 [CASE.bin ...]
+// Then the multi-axis case with 1 .. kAxesCount axes (app/
+// selftest_axes_cases.hpp: float 3, Q31 2), as the board runs it:
+//   {"board":"host","name","sample","axes","loop_rate_Hz","ticks","frames",...,
+//    "log_hash","e_max_um_<i>","e_rms_um_<i>","log_hash_<i>"}
 // Board cases (common/piezoloop/board_case.hpp, written by `piezoloop sim
 // --board-case`) given as files run after the reference cases, decoded and
 // set up as the board does it (selftest_cases.hpp scenario_case /
@@ -22,9 +26,11 @@
 #include <vector>
 #include <span>
 #include <type_traits>
+#include <utility>
 
 #include "app/control_config.hpp"
 #include "app/json_line.hpp"
+#include "app/selftest_axes_cases.hpp"
 #include "app/selftest_cases.hpp"
 #include "app/selftest_report.hpp"
 #include "piezoloop/emulated_stage.hpp"
@@ -64,6 +70,44 @@ int run_case(const SelfTestCase& c, const char* sample, const PipelineSetup& set
     return acc.frames() == c.ticks && acc.gaps() == 0 ? 0 : 1;
 }
 
+// The multi-axis case with N axes (app/selftest_axes_cases.hpp).
+template <class T, int N>
+int run_axes(const char* sample) {
+    using Pipe = FwAxesPipeline<T, N>;
+    auto pipe = std::make_unique<Pipe>(axes_setup<N>(kAxesRate_Hz<T>));
+    auto stage = std::make_unique<EmulatedCoupledStage<T, N>>();
+    JsonLine j;
+    j.str("board", "host").str("name", kAxesCaseNames[N - 1]);
+    auto stage_config = std::make_unique<CoupledStageConfig>();
+    if (const Status s = prepare_axes_case<T, N>(*pipe, *stage, *stage_config); !s.ok()) {
+        if (s.group != nullptr) j.str("group", s.group);
+        j.str("error", s.field).str("message", s.message).flush();
+        return 1;
+    }
+    auto log = std::make_unique<AxesLog<T, N>>(AxesLog<T, N>::make(*pipe));
+    std::array<typename Pipe::AxisPipeline::RecorderType::Frame, 64> frames;
+    constexpr uint32_t ticks = kAxesTicks<T>;
+    for (uint32_t k = 0; k < ticks; ++k) {
+        stage->tick(*pipe);
+        stage->step();
+        for (int a = 0; a < N; ++a)
+            for (std::size_t n; (n = pipe->axis(a).recorder().read(std::span(frames))) != 0;)
+                for (std::size_t i = 0; i < n; ++i) log->axis[static_cast<std::size_t>(a)].add(frames[i]);
+    }
+    j.str("sample", sample).uint("axes", N).uint("loop_rate_Hz", kAxesRateInt_Hz<T>).uint("ticks", ticks);
+    add_axes_log_fields(j, *log);
+    j.flush();
+    std::fflush(stdout);
+    return log->frames() == ticks && log->gaps() == 0 ? 0 : 1;
+}
+
+template <class T, int... I>
+int run_axes_counts(const char* sample, std::integer_sequence<int, I...>) {
+    int failures = 0;
+    ((failures += run_axes<T, I + 1>(sample)), ...);
+    return failures;
+}
+
 template <class T>
 int run_board_case(const char* path, const char* sample) {
     std::ifstream f(path, std::ios::binary);
@@ -84,6 +128,7 @@ template <class T>
 int run_all(const char* sample, int n_cases, char** cases) {
     int failures = 0;
     for (const SelfTestCase& c : kSelfTestCases) failures += run_case<T>(c, sample, pipeline_setup(kEmulatedAnalog));
+    failures += run_axes_counts<T>(sample, std::make_integer_sequence<int, kAxesCount<T>>{});
     for (int i = 0; i < n_cases; ++i) failures += run_board_case<T>(cases[i], sample);
     return failures;
 }

@@ -20,6 +20,13 @@ inline constexpr uint32_t kStopwatchResolution = 1;
 // 480 MHz that is 0.63 µs, the 1 MHz loop the issue asks about.
 inline constexpr uint32_t kTickBudget = 300;
 
+// No multi-axis self-test case here: three pipelines (with their recorders
+// and excitation tables) do not fit beside the servo's in the 128 KiB DTCM,
+// and the board has two DAC channels (docs/boards.md, "Multiple axes").
+inline constexpr int kSelfTestAxes = 0;
+inline constexpr uint32_t kAxesTickBudget = 0;
+inline constexpr uint32_t kAxesWholeTickBudget = 0;
+
 // Analog front end (docs/boards.md): the displacement sensor's ±50 µm
 // conditioned to 0..3.3 V on the 16-bit ADC (offset binary), the 12-bit
 // DAC's 0..3.3 V amplified to ±12 V referred to the piezo; amplifier and

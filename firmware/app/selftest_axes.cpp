@@ -1,0 +1,226 @@
+// The self-test's multi-axis case (app/selftest_axes_cases.hpp) on the
+// QEMU boards: 1 .. kSelfTestAxes axes, each run 0.2 s in the tick
+// interrupt against the emulated coupled stage, one JSON line each.
+//
+// The tick, timed as ControlLoop::tick times the single-axis one (three
+// stopwatch spans, one per phase, so no span counts another's stopwatch):
+//   begin_tick()  every axis's reading-independent half (and the output
+//                 matrix taken over on the first tick)
+//   ADC -> DAC    every reading in, MultiAxisPipeline::output (input
+//                 matrix bypassed, N axis outputs, output matrix, channel
+//                 limits), every command out: the budget span
+//   end_tick()    every axis's recorder
+// then the coupled stage's sample (the plant, apart). The first tick
+// (parameters swapped in, axes armed) is counted apart as the
+// reconfigure tick, as for the single-axis cases.
+//
+// Built with -O2 like control_loop.cpp; not part of servo.elf (only
+// run_selftest() calls it).
+#include <array>
+#include <cstdint>
+#include <new>
+#include <span>
+#include <utility>
+
+#include "app/control_loop.hpp"
+#include "app/json_line.hpp"
+#include "app/selftest.hpp"
+#include "app/selftest_axes_cases.hpp"
+#include "app/tick_stats.hpp"
+#include "board_config.hpp"
+#include "bsp/bsp.hpp"
+
+namespace piezoloop::fw {
+
+namespace {
+
+using T = CoreSample;
+constexpr int kAxes = bsp::config::kSelfTestAxes;
+static_assert(kAxes == 0 || kAxes == kAxesCount<T>, "the host replay runs kAxesCount<T> axes");
+
+// One storage for the largest pipeline and one for its stage, both built
+// in place for each count (raw storage: no static constructor, so nothing
+// of this is kept in an image that never runs it).
+template <int N>
+using AxesPipe = FwAxesPipeline<T, N>;
+constexpr int kLargest = kAxes >= 1 ? kAxes : 1;
+alignas(AxesPipe<kLargest>) unsigned char g_pipe_storage[kAxes >= 1 ? sizeof(AxesPipe<kLargest>) : 1];
+alignas(EmulatedCoupledStage<T, kLargest>) unsigned char
+    g_stage_storage[kAxes >= 1 ? sizeof(EmulatedCoupledStage<T, kLargest>) : 1];
+
+struct AxesTickState {
+    void* pipe = nullptr;
+    void* stage = nullptr;
+    volatile bool running = false;
+    uint32_t max_ticks = 0;
+    uint32_t ticks = 0;
+    WorkStats control{}, whole{}, reconfigure{}, plant{};
+    TickMonitor monitor{};
+    uint32_t last_swaps = 0;
+    bool last_armed = false;
+};
+AxesTickState g_tick;
+
+template <int N>
+uint32_t swaps(const AxesPipe<N>& p) {
+    uint32_t s = 0;
+    for (int i = 0; i < N; ++i) s += p.axis(i).swaps();
+    return s;
+}
+
+template <int N>
+void axes_tick() {
+    AxesTickState& st = g_tick;
+    AxesPipe<N>& pipe = *static_cast<AxesPipe<N>*>(st.pipe);
+    EmulatedCoupledStage<T, N>& stage = *static_cast<EmulatedCoupledStage<T, N>*>(st.stage);
+    st.monitor.on_entry(bsp::timestamp());
+    const bool armed = pipe.any_armed();
+
+    const uint32_t t_before = bsp::stopwatch_start();
+    pipe.begin_tick();
+    const uint32_t before = bsp::stopwatch_elapsed(t_before);
+    const uint32_t t_control = bsp::stopwatch_start();
+    stage.output(pipe);
+    const uint32_t work = bsp::stopwatch_elapsed(t_control);
+    st.monitor.on_output(bsp::timestamp());
+    const uint32_t t_after = bsp::stopwatch_start();
+    pipe.end_tick();
+    const uint32_t whole = before + work + bsp::stopwatch_elapsed(t_after);
+
+    const uint32_t s = swaps<N>(pipe);
+    const bool reconfigured = s != st.last_swaps || (armed && !st.last_armed);
+    st.last_swaps = s;
+    st.last_armed = armed;
+    if (reconfigured) {
+        st.reconfigure.add(whole);
+    } else {
+        st.control.add(work);
+        st.whole.add(whole);
+    }
+
+    const uint32_t t_plant = bsp::stopwatch_start();
+    stage.step();
+    st.plant.add(bsp::stopwatch_elapsed(t_plant));
+
+    ++st.ticks;
+    if (st.max_ticks != 0u && st.ticks == st.max_ticks) {
+        bsp::tick_timer_stop();
+        st.running = false;
+    }
+}
+
+template <int N>
+void drain(AxesPipe<N>& pipe, AxesLog<T, N>& log) {
+    static std::array<typename AxesPipe<N>::AxisPipeline::RecorderType::Frame, 64> frames;
+    for (int i = 0; i < N; ++i) {
+        for (;;) {
+            const std::size_t n = pipe.axis(i).recorder().read(std::span(frames));
+            for (std::size_t k = 0; k < n; ++k) log.axis[static_cast<std::size_t>(i)].add(frames[k]);
+            if (n < frames.size()) break;
+        }
+    }
+}
+
+// One run with N axes; 0 if it passed. Prints one line.
+template <int N>
+int run_axes(ControlLoop& loop) {
+    constexpr uint32_t rate = kAxesRateInt_Hz<T>;
+    constexpr uint32_t ticks = kAxesTicks<T>;
+    const char* name = kAxesCaseNames[N - 1];
+    loop.stop();
+    auto* pipe = new (g_pipe_storage) AxesPipe<N>(axes_setup<N>(kAxesRate_Hz<T>));
+    EmulatedCoupledStage<T, N>& stage = *new (g_stage_storage) EmulatedCoupledStage<T, N>();
+    JsonLine j;
+    j.str("board", bsp::kBoardName).str("name", name);
+    static CoupledStageConfig stage_config;
+    if (const Status s = prepare_axes_case<T, N>(*pipe, stage, stage_config); !s.ok()) {
+        if (s.group != nullptr) j.str("group", s.group);
+        j.str("error", s.field).str("message", s.message).flush();
+        pipe->~AxesPipe<N>();
+        return 1;
+    }
+    AxesLog<T, N> log = AxesLog<T, N>::make(*pipe);
+
+    g_tick.pipe = pipe;
+    g_tick.stage = &stage;
+    g_tick.max_ticks = ticks;
+    g_tick.ticks = 0;
+    g_tick.control = g_tick.whole = g_tick.reconfigure = g_tick.plant = WorkStats{};
+    g_tick.last_swaps = swaps<N>(*pipe);
+    g_tick.last_armed = false;
+    g_tick.monitor.reset(bsp::config::kTimestamp_Hz / rate, bsp::config::kTimestampMask);
+    g_tick.running = true;
+    if (!bsp::tick_timer_start(rate, &axes_tick<N>)) {
+        g_tick.running = false;
+        j.str("error", "tick_timer").str("message", "rate not possible").flush();
+        pipe->~AxesPipe<N>();
+        return 1;
+    }
+    // As selftest.cpp's drain_until_stopped: the check and the wait with
+    // interrupts masked, so the last tick cannot slip in between.
+    for (;;) {
+        drain<N>(*pipe, log);
+        asm volatile("cpsid i" ::: "memory");
+        if (!g_tick.running) {
+            asm volatile("cpsie i" ::: "memory");
+            break;
+        }
+        bool empty = true;
+        for (int i = 0; i < N; ++i) empty = empty && pipe->axis(i).recorder().available() == 0;
+        if (empty) bsp::wait_for_interrupt();
+        asm volatile("cpsie i" ::: "memory");
+    }
+    drain<N>(*pipe, log);
+
+    const AxesTickState& st = g_tick;
+    const char* unit = bsp::config::kWorkUnit;
+    const uint32_t overruns = st.monitor.late() + st.monitor.missed();
+    const bool within = st.control.max <= bsp::config::kAxesTickBudget;
+    const bool within_tick = st.whole.max <= bsp::config::kAxesWholeTickBudget;
+    j.str("sample", kCoreSampleName).uint("axes", N).uint("loop_rate_Hz", rate);
+    j.uint("ticks", st.ticks).uint("overruns", overruns).uint("late", st.monitor.late()).uint("missed", st.monitor.missed());
+    j.uint({unit, "_per_tick_min"}, st.control.min);
+    j.fixed({unit, "_per_tick_mean"}, static_cast<double>(st.control.mean_tenths()) / 10.0, 1);
+    j.uint({unit, "_per_tick_max"}, st.control.max);
+    j.uint({unit, "_resolution"}, bsp::config::kStopwatchResolution);
+    j.fixed({"tick_", unit, "_mean"}, static_cast<double>(st.whole.mean_tenths()) / 10.0, 1);
+    j.uint({"tick_", unit, "_max"}, st.whole.max);
+    // Per axis: the figures over the axis count.
+    j.fixed({unit, "_per_axis_mean"}, static_cast<double>(st.control.mean_tenths()) / 10.0 / N, 1);
+    j.fixed({"tick_", unit, "_per_axis_mean"}, static_cast<double>(st.whole.mean_tenths()) / 10.0 / N, 1);
+    j.uint("reconfigure_ticks", st.reconfigure.count).uint({"reconfigure_", unit, "_max"}, st.reconfigure.max);
+    j.fixed({"plant_", unit, "_per_tick_mean"}, static_cast<double>(st.plant.mean_tenths()) / 10.0, 1);
+    j.uint({"plant_", unit, "_per_tick_max"}, st.plant.max);
+    j.uint("budget", bsp::config::kAxesTickBudget).boolean("within_budget", within);
+    j.uint("tick_budget", bsp::config::kAxesWholeTickBudget).boolean("within_tick_budget", within_tick);
+    j.uint("loop_rate_max_Hz", st.whole.max == 0 ? 0 : bsp::config::kCpuClock_Hz / st.whole.max);
+    add_axes_log_fields(j, log);
+    j.flush();
+
+    const bool ok = st.ticks == ticks && st.control.count + st.reconfigure.count == st.ticks &&
+                    st.whole.count == st.control.count && overruns == 0 && log.frames() == ticks &&
+                    log.gaps() == 0;
+    bool recorder_ok = true;
+    for (int i = 0; i < N; ++i) recorder_ok = recorder_ok && pipe->axis(i).recorder().overruns() == 0;
+    pipe->~AxesPipe<N>();
+    return ok && recorder_ok ? 0 : 1;
+}
+
+template <int... I>
+int run_counts(ControlLoop& loop, std::integer_sequence<int, I...>) {
+    int failures = 0;
+    ((failures += run_axes<I + 1>(loop)), ...);  // 1, 2, ... axes, in order
+    return failures;
+}
+
+}  // namespace
+
+int run_axes_cases() {
+    if constexpr (kAxes < 1) {
+        return 0;
+    } else {
+        return run_counts(control_loop(), std::make_integer_sequence<int, kAxes>{});
+    }
+}
+
+}  // namespace piezoloop::fw
