@@ -3,7 +3,8 @@
 //
 // Each frequency is the exact rational f / f_s = num / den of the
 // trajectory generator (trajectory.hpp), and the phase of tick n is
-// (n num mod den) / den of a cycle, so the path repeats exactly after
+// (n num mod den) / den of a cycle, carried exactly (an integer part and a
+// Bresenham remainder) and rounded up to 2^-32 cycle, so the path repeats exactly after
 // lcm(den_x, den_y) ticks: the frame, 1 / gcd(f_x, f_y) in time. Units: Q31
 // of the reach (2^31 = the reach >= A + B). The sine from sine_table.hpp.
 //
@@ -24,7 +25,8 @@
 namespace piezoloop {
 
 struct LissajousParams {
-    uint32_t num_x = 1, den_x = 3, num_y = 1, den_y = 3;  // f / f_s = num / den, den >= 3
+    trajectory_detail::PhaseStep step_x{}, step_y{};       // f / f_s as phase LSBs a tick
+    uint32_t num_x = 1, den_x = 3;                         // f_x / f_s = num / den
     uint32_t frame_ticks = 3;                              // lcm(den_x, den_y)
     int64_t amplitude_x = 0, amplitude_y = 0;              // Q31 of the reach
     uint32_t phase_y = 0;                                  // 2^32 = a cycle
@@ -36,24 +38,24 @@ class LissajousPath {
 public:
     constexpr void configure(const LissajousParams& p) {
         p_ = p;
-        ramp_x_ = trajectory_detail::make_ramp(p.den_x);
-        ramp_y_ = trajectory_detail::make_ramp(p.den_y);
         restart();
     }
     constexpr void restart() {
         n_ = 0;
-        mx_ = 0;
-        my_ = 0;
+        x_ = {};
+        y_ = {};
         frame_ = 0;
         done_ = false;
         // The count on the tick before the first (the frame's last), so the
-        // first frame's events are every frame's.
-        last_pixel_ = pixel_of(trajectory_detail::apply_ramp(ramp_x_, p_.den_x - p_.num_x));
+        // first frame's events are every frame's: phase -num/den, rounded up.
+        const uint64_t before = (uint64_t{p_.den_x - p_.num_x} << 32) / p_.den_x;
+        const bool exact = ((uint64_t{p_.den_x - p_.num_x} << 32) % p_.den_x) == 0;
+        last_pixel_ = pixel_of(static_cast<uint32_t>(before + (exact ? 0u : 1u)));
     }
 
     constexpr uint32_t step(int64_t& x, int64_t& y) {
-        const uint32_t px = trajectory_detail::apply_ramp(ramp_x_, mx_);
-        const uint32_t py = trajectory_detail::apply_ramp(ramp_y_, my_) + p_.phase_y;
+        const uint32_t px = x_.phase();
+        const uint32_t py = y_.phase() + p_.phase_y;
         x = (p_.amplitude_x * sine_q31(px)) >> 31;
         y = (p_.amplitude_y * sine_q31(py)) >> 31;
         if (done_) return 0;
@@ -64,12 +66,12 @@ public:
             if (pixel % p_.pixels == 0) sync |= kSyncLineStart;
             last_pixel_ = pixel;
         }
-        mx_ += p_.num_x;
-        if (mx_ >= p_.den_x) mx_ -= p_.den_x;
-        my_ += p_.num_y;
-        if (my_ >= p_.den_y) my_ -= p_.den_y;
+        x_.advance(p_.step_x);
+        y_.advance(p_.step_y);
         if (++n_ == p_.frame_ticks) {
             n_ = 0;
+            x_ = {};  // exactly where it was: the frame is a whole number of both periods
+            y_ = {};
             ++frame_;
             // Held at the frame's start (the next tick's position).
             if (p_.frames != 0 && frame_ >= p_.frames) done_ = true;
@@ -91,9 +93,20 @@ private:
         return static_cast<uint32_t>((uint64_t{px + 0x40000000u} * (2 * uint64_t{p_.pixels})) >> 32);
     }
 
+    // Phase n f / f_s: acc + err / den LSBs; phase() rounds it up.
+    struct Phase {
+        uint32_t acc = 0, err = 0;
+        constexpr uint32_t phase() const { return acc + (err != 0 ? 1u : 0u); }
+        constexpr void advance(const trajectory_detail::PhaseStep& s) {
+            acc += s.inc;
+            err += s.rem;
+            if (err >= s.den) { err -= s.den; ++acc; }
+        }
+    };
+
     LissajousParams p_{};
-    trajectory_detail::Ramp ramp_x_{}, ramp_y_{};
-    uint32_t n_ = 0, mx_ = 0, my_ = 0, frame_ = 0;
+    Phase x_{}, y_{};
+    uint32_t n_ = 0, frame_ = 0;
     uint32_t last_pixel_ = 0;
     bool done_ = false;
 };

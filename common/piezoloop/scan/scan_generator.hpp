@@ -403,10 +403,10 @@ private:
         if (static_cast<double>(frame) > kMaxTicks)
             return error("frequency_y_Hz", "f_x / f_y must be a ratio of small integers: the frame must be below 2^31 ticks");
         LissajousParams& p = d.lissajous;
+        p.step_x = sx;
+        p.step_y = sy;
         p.den_x = sx.den;
         p.num_x = static_cast<uint32_t>((uint64_t{sx.inc} * sx.den + sx.rem) >> 32);
-        p.den_y = sy.den;
-        p.num_y = static_cast<uint32_t>((uint64_t{sy.inc} * sy.den + sy.rem) >> 32);
         p.frame_ticks = static_cast<uint32_t>(frame);
         p.phase_y = phase_of_deg(c.phase_y_deg);
         p.pixels = c.pixels_per_line;

@@ -20,7 +20,9 @@
 //
 // Events (outward half only): frame start at n = 0; a line is a turn, line
 // start on the first tick of each turn; a pixel clock on the first tick at
-// or after each j/P of a turn in angle (evenly in time at CAV).
+// or after each j/P of a turn in angle: at constant angular rate exactly the
+// ticks ceil(j N_turn / P) of the turn (evenly in time), in the CLV part from
+// the computed angle.
 #pragma once
 
 #include <cstdint>
@@ -59,6 +61,9 @@ public:
         done_ = false;
         last_pixel_ = 0;
         last_turn_ = 0;
+        phase_tick_ = 0;
+        pixel_acc_ = 0;
+        pixel_in_turn_ = 0;
     }
 
     // This tick's position (Q31 of the reach) and events; advances one tick.
@@ -68,13 +73,27 @@ public:
         if (n_ < p_.out_ticks) {
             uint32_t turn = 0, phase = 0;
             outward(n_, x, y, turn, phase);
-            const uint64_t pixel = uint64_t{turn} * p_.pixels + ((uint64_t{phase} * p_.pixels) >> 32);
-            if (n_ == 0) {
-                sync = kSyncFrameStart | kSyncLineStart | kSyncPixel;
-                last_pixel_ = pixel;
+            if (n_ < p_.centre_ticks) {
+                // Constant rate: turn starts at k = 0, pixels on the ticks
+                // ceil(j N_turn / P) of a turn (pixel_acc_ = k P mod N_turn).
+                if (phase_tick_ == 0) {
+                    sync |= kSyncLineStart;
+                    pixel_acc_ = 0;
+                    pixel_in_turn_ = 0;
+                    if (n_ == 0) sync |= kSyncFrameStart;
+                }
+                if (pixel_acc_ < p_.pixels) {
+                    sync |= kSyncPixel;
+                    last_pixel_ = uint64_t{turn} * p_.pixels + pixel_in_turn_++;
+                }
                 last_turn_ = turn;
+                pixel_acc_ += p_.pixels;
+                if (pixel_acc_ >= p_.turn_ticks) pixel_acc_ -= p_.turn_ticks;
+                if (++phase_tick_ == p_.turn_ticks) phase_tick_ = 0;
             } else {
-                // Only forward steps count (the root's rounding cannot make one fire twice).
+                // CLV: from the angle. Only forward steps count (the root's
+                // rounding cannot make one fire twice).
+                const uint64_t pixel = uint64_t{turn} * p_.pixels + ((uint64_t{phase} * p_.pixels) >> 32);
                 if (pixel > last_pixel_) { sync |= kSyncPixel; last_pixel_ = pixel; }
                 if (turn > last_turn_) { sync |= kSyncLineStart; last_turn_ = turn; }
             }
@@ -128,6 +147,7 @@ private:
     bool done_ = false;
     uint64_t last_pixel_ = 0;
     uint32_t last_turn_ = 0;
+    uint32_t phase_tick_ = 0, pixel_acc_ = 0, pixel_in_turn_ = 0;  // centre region: tick in the turn, k P mod N_turn, pixels so far
 };
 
 }  // namespace piezoloop
