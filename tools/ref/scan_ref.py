@@ -50,12 +50,12 @@ def sweep_layout(c):
         turn = rhu(f32(c["turnaround_s"]) * fs)
         k, o = f32(c["retrace_speed_factor"]), f32(c["overscan_fraction"])
         line = fs / f32(c["line_rate_Hz"])
-        budget = line - turn if bi else line - 2 * turn
-        used_target = budget / (1 + 2 * o) if bi else budget / ((1 + 1 / k) * (1 + 2 * o))
-        used = rhu(used_target / P) * P
+        # line = cv + turn, or cv + retrace + 2 turn with v_t (cv + turn) = k v_t (retrace + turn)
+        budget = line - turn if bi else line / (1 + 1 / k) - turn
+        used = rhu(budget / (1 + 2 * o) / P) * P
         over = rhu(o * used)
         cv = used + 2 * over
-        retrace = 0 if bi else max(1, rhu(cv / k))
+        retrace = 0 if bi else rhu((cv + turn) / k - turn)
         slow = c["slow_axis"]
     else:  # cycloid
         bi = True

@@ -261,18 +261,21 @@ private:
             turn = round_half_up(static_cast<double>(c.turnaround_s) * fs);
             const double k = c.retrace_speed_factor, o = c.overscan_fraction;
             const double line = fs / static_cast<double>(c.line_rate_Hz);
-            const double budget = c.bidirectional ? line - turn : line - 2.0 * turn;
+            // line = cv + turn (bidirectional), or cv + retrace + 2 turn with the
+            // retrace closing the line at k times the trace speed:
+            // v_t (cv + turn) = k v_t (retrace + turn).
+            const double budget = c.bidirectional ? line - turn : line / (1.0 + 1.0 / k) - turn;
             if (!(budget >= 1.0))
                 return error("turnaround_s", "the turnarounds must be shorter than the line period");
-            const double used_target = c.bidirectional ? budget / (1.0 + 2.0 * o) : budget / ((1.0 + 1.0 / k) * (1.0 + 2.0 * o));
-            const double per_pixel = round_half_up(used_target / c.pixels_per_line);
+            const double per_pixel = round_half_up(budget / (1.0 + 2.0 * o) / c.pixels_per_line);
             if (per_pixel < 1.0)
                 return error("pixels_per_line", "must be at most the ticks of the line's used part (lower line_rate_Hz)");
             const double used = per_pixel * c.pixels_per_line;
             const double over = round_half_up(o * used);
             cv = used + 2.0 * over;
-            retrace = c.bidirectional ? 0.0 : round_half_up(cv / k);
-            if (!c.bidirectional && retrace < 1.0) retrace = 1.0;
+            retrace = c.bidirectional ? 0.0 : round_half_up((cv + turn) / k - turn);
+            if (!c.bidirectional && retrace < 1.0)
+                return error("retrace_speed_factor", "the retrace at this speed is shorter than a tick: lower it or shorten turnaround_s");
             p.used_ticks = static_cast<uint32_t>(used);
             p.overscan_ticks = static_cast<uint32_t>(over);
             p.bidirectional = c.bidirectional;
