@@ -104,6 +104,7 @@ public:
         }
         if (++n_ == 2 * p_.out_ticks) {
             n_ = 0;
+            phase_tick_ = 0;
             ++frame_;
             if (p_.frames != 0 && frame_ >= p_.frames) done_ = true;
         }
