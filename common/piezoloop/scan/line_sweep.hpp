@@ -23,7 +23,9 @@
 // where the constant velocity meets it) and the jerk
 // (v_out - v_in) s''(x) / T^2 is bounded by 6 |v_out - v_in| / T^2.
 // Displacement over a turnaround: (v_in + v_out) T / 2.
-// The retrace speed closes each line: v_r = v_t (cv + turn) / (retrace + turn).
+// The retrace closes each line, v_t (cv + turn) = v_r (retrace + turn): the
+// generator takes retrace = round((cv + turn) / k - turn) ticks for a speed
+// factor k and v_r follows (k within the rounding of a tick).
 //
 // Slow axis: a staircase holds y_i = -H/2 + i H / (L - 1) over line i and
 // moves to the next line's y during turnaround B (bidirectional: the
