@@ -82,6 +82,7 @@ template <class T>
 ScanRun run_scan(ScanGenerator<T>& g, std::size_t ticks = 0, SignalScale sx = {}, SignalScale sy = {},
                  SignalScale sz = {}) {
     ScanRun r;
+    if (!g.configured()) return r;
     for (std::size_t n = 0; ticks == 0 ? !g.done() : n < ticks; ++n) {
         const ScanPoint<T> p = g.step();
         r.x.push_back(sx.to_physical(p.x));

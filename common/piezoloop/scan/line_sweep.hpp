@@ -56,6 +56,13 @@ namespace piezoloop {
 
 namespace scan_detail {
 
+// a * q / 2^31 for |a| < 2^55 and q in [0, 2^31], in two 64-bit products
+// (a's top and its low 24 bits), within 2 of the exact value.
+constexpr int64_t times_q31(int64_t a, int64_t q) {
+    const int64_t hi = a >> 24, lo = a & 0xffffff;
+    return ((hi * q) >> 7) + ((lo * q) >> 31);
+}
+
 // S(x) = x^3 - x^4 / 2 for x = p / 2^32, Q31, in [0, 2^30).
 constexpr int64_t blend_q31(uint32_t p) {
     const uint64_t x = p >> 1;
@@ -89,7 +96,7 @@ class LineSweep {
         trajectory_detail::Ramp ramp{};
         int64_t x0 = 0;       // Q47
         int64_t v = 0;        // Q47 per tick, at the segment's start
-        int64_t e = 0;        // turnaround: (v_out - v_in) * len in Q31 LSB; 0: constant velocity
+        int64_t e = 0;        // turnaround: (v_out - v_in) * len, Q47; 0: constant velocity
         bool step_y = false;  // a staircase steps here
     };
 
@@ -105,12 +112,12 @@ public:
             s.ramp = trajectory_detail::make_ramp(p.turn_ticks);
             s.x0 = x0;
             s.v = v_in;
-            s.e = ((v_out - v_in) * p.turn_ticks) >> 16;
+            s.e = (v_out - v_in) * p.turn_ticks;
             s.step_y = step;
             return s;
         };
-        const auto end_of = [](const Segment& s) {  // where the formula would put tick len
-            return s.x0 + s.v * s.len + (s.e << 15);
+        const auto end_of = [](const Segment& s) {  // where the formula would put tick len: S(1) = 1/2
+            return s.x0 + s.v * s.len + s.e / 2;
         };
         Segment trace;
         trace.len = p.cv_ticks;
@@ -136,7 +143,7 @@ public:
             v_retrace_ = vr;
         }
         lead_in_ = blend(0, 0, vt, false);
-        lead_in_.x0 = x_start - (lead_in_.e << 15);  // ends exactly at the trace's start
+        lead_in_.x0 = x_start - lead_in_.e / 2;  // ends at the trace's start
         line_ticks_ = 0;
         for (uint32_t i = 0; i < segments_; ++i) line_ticks_ += seg_[i].len;
         frame_ticks_ = line_ticks_ * p.lines;
@@ -204,7 +211,7 @@ public:
 private:
     static constexpr int64_t position(const Segment& s, uint32_t k) {
         int64_t x = s.x0 + s.v * k;
-        if (s.e != 0) x += (s.e * scan_detail::blend_q31(trajectory_detail::apply_ramp(s.ramp, k))) >> 15;
+        if (s.e != 0) x += scan_detail::times_q31(s.e, scan_detail::blend_q31(trajectory_detail::apply_ramp(s.ramp, k)));
         return x;
     }
 
@@ -212,13 +219,16 @@ private:
     constexpr uint32_t stair_index(uint32_t line) const {
         return (frame_ & 1u) ? p_.lines - 1 - line : line;
     }
-    constexpr int64_t stair_y(uint32_t index) const { return -p_.height / 2 + y_pitch_ * index; }
+    constexpr int64_t stair_y(uint32_t index) const {
+        return p_.lines > 1 ? -p_.height / 2 + y_pitch_ * index : 0;  // one line: through the centre
+    }
 
     constexpr int64_t slow_position() const {
         if (p_.slow == SlowAxis::kRamp) {
             if (lead_in_left_) return -p_.height / 2;
-            const int64_t frac = trajectory_detail::apply_ramp(frame_ramp_, frame_tick_);
-            const int64_t up = (((p_.height >> 16) * frac) >> 16);  // H * t / T, Q47
+            const uint64_t frac = trajectory_detail::apply_ramp(frame_ramp_, frame_tick_);
+            // H * t / T, Q47: H / 2^16 <= 2^32 (H <= twice the reach) times frac < 2^32 fits unsigned.
+            const int64_t up = static_cast<int64_t>((static_cast<uint64_t>(p_.height >> 16) * frac) >> 16);
             return (frame_ & 1u) ? p_.height / 2 - up : -p_.height / 2 + up;
         }
         if (lead_in_left_) return stair_y(0);
@@ -230,9 +240,8 @@ private:
     constexpr int64_t staircase_step(int64_t y, uint32_t k, const Segment& s) const {
         if (line_ + 1 >= p_.lines) return y;
         const int64_t target = stair_y(stair_index(line_ + 1));
-        const int64_t d = (target - y) >> 16;  // Q31 LSB
         const int64_t m = approach_detail::min_jerk_q31(trajectory_detail::apply_ramp(s.ramp, k));
-        return y + ((d * m) >> 15);
+        return y + scan_detail::times_q31(target - y, m);
     }
 
     constexpr void advance(int64_t y) {
@@ -241,7 +250,7 @@ private:
         if (++k_ < s.len) return;
         k_ = 0;
         if (lead_out_now_) {  // at rest at the lead-out's end
-            const int64_t end = s.x0 + s.v * s.len + (s.e << 15);
+            const int64_t end = s.x0 + s.v * s.len + s.e / 2;
             hold_x_ = mirrored_ ? -end : end;
             hold_y_ = y;
             ++frame_;

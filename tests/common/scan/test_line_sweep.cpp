@@ -53,7 +53,8 @@ struct Sweep {
     double v_trace = 0.0, v_retrace = 0.0;  // µm per tick
     uint32_t lead = 0, line = 0, frame = 0;
     explicit Sweep(const ScanConfig& c) {
-        EXPECT_TRUE(g.configure(c).ok());
+        const auto s = g.configure(c);
+        EXPECT_TRUE(s.ok()) << s.field << ": " << s.message;
         run = run_scan(g);
         const auto& p = g.sweep_params();
         v_trace = c.size_x_um / static_cast<double>(p.used_ticks);
@@ -273,6 +274,54 @@ TEST(LineSweep, CycloidIsACircleOnTheLine) {
             const double a = 2.0 * M_PI * static_cast<double>(n) / N;
             EXPECT_NEAR(s.run.x[n], dir * (-0.5 * c.size_x_um + v * k) + r * std::cos(a), tol) << n;
             EXPECT_NEAR(s.run.y[n], y_line + r * std::sin(a), tol) << n;
+        }
+    }
+}
+
+TEST(LineSweep, ExtremeShapesStayWithinTheReachWithoutJumps) {
+    // Narrow and tall, wide and flat, the fastest retrace with long
+    // turnarounds, a single line: the path stays within the reach (the
+    // integer path's range, 2^31 LSB) and moves no more than its fastest
+    // sweep a tick (the staircase's step: 15/8 dy / T).
+    struct Shape {
+        float w, h, k, turn_s, rate;
+        uint32_t lines;
+        bool bi;
+        SlowAxis slow;
+    };
+    const Shape shapes[] = {
+        {0.1f, 100.0f, 1.0f, 0.0005f, 200.0f, 6, false, SlowAxis::kStaircase},
+        {0.1f, 100.0f, 1.0f, 0.0005f, 200.0f, 6, true, SlowAxis::kRamp},
+        {100.0f, 0.1f, 16.0f, 0.0005f, 50.0f, 6, false, SlowAxis::kStaircase},
+        {20.0f, 20.0f, 16.0f, 0.0005f, 100.0f, 3, false, SlowAxis::kRamp},
+        {20.0f, 5.0f, 4.0f, 0.0005f, 100.0f, 1, false, SlowAxis::kStaircase},
+    };
+    for (const Shape& sh : shapes) {
+        ScanConfig c = raster();
+        c.size_x_um = sh.w;
+        c.size_y_um = sh.h;
+        c.retrace_speed_factor = sh.k;
+        c.turnaround_s = sh.turn_s;
+        c.line_rate_Hz = sh.rate;
+        c.lines_per_frame = sh.lines;
+        c.bidirectional = sh.bi;
+        c.slow_axis = sh.slow;
+        c.pixels_per_line = 8;
+        Sweep s(c);
+        ASSERT_GT(s.run.size(), 0u);
+        const double tol = 2.0 * noise(s.g, s.run), T = s.g.sweep_params().turn_ticks;
+        const double dy = sh.lines > 1 ? sh.h / (sh.lines - 1) : 0.0;
+        const double step_max = std::max({s.v_trace, s.v_retrace}) + tol;
+        const double slow_max = std::max(15.0 / 8.0 * dy / T, 2.0 * sh.h / (s.frame + 1.0)) + tol;
+        for (std::size_t n = 0; n < s.run.size(); ++n) {
+            ASSERT_LE(std::fabs(s.run.x[n]) + std::fabs(s.run.y[n]), s.g.reach_um()) << sh.w << " " << n;
+            if (n == 0) continue;
+            ASSERT_LE(std::fabs(s.run.x[n] - s.run.x[n - 1]), step_max) << sh.w << " " << n;
+            ASSERT_LE(std::fabs(s.run.y[n] - s.run.y[n - 1]), slow_max) << sh.w << " " << n;
+        }
+        EXPECT_EQ(s.run.ticks_with(piezoloop::kSyncPixel).size(), std::size_t{8} * sh.lines * c.frames);
+        if (sh.lines == 1) {
+            EXPECT_EQ(s.run.y[s.lead], 0.0);
         }
     }
 }
