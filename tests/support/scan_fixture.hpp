@@ -48,6 +48,7 @@ inline ScanConfig scan_config_of(const nlohmann::json& j) {
     f("turnaround_s", c.turnaround_s);
     if (j.contains("slow_axis")) c.slow_axis = j["slow_axis"] == "ramp" ? SlowAxis::kRamp : SlowAxis::kStaircase;
     if (j.contains("bidirectional")) c.bidirectional = j["bidirectional"].get<bool>();
+    if (j.contains("fast_axis")) c.fast_axis = j["fast_axis"] == "sine" ? FastAxis::kSine : FastAxis::kTriangle;
     if (j.contains("spiral_mode"))
         c.spiral_mode = j["spiral_mode"] == "clv" ? SpiralMode::kConstantLinearVelocity
                                                   : SpiralMode::kConstantAngularVelocity;

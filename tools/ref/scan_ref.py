@@ -7,7 +7,8 @@ tests/golden/scan_ref.json.
 Raster and cycloid: the line sweep's velocity profile (constant velocity,
 turnarounds v_in + (v_out - v_in)(3x^2 - 2x^3)) integrated tick by tick with
 Simpson's rule (exact for a cubic velocity), not the closed-form integral
-the generator uses; the staircase steps along 10x^3 - 15x^4 + 6x^5.
+the generator uses; the staircase steps along 10x^3 - 15x^4 + 6x^5. The
+sine raster: x = -A cos(pi k / half) with numpy's cos and arccos.
 Spiral: r = R theta / (2 pi K) with theta linear in time (CAV) or
 theta^2 linear in time past the centre region (CLV). Lissajous: the closed
 form with phases n f / f_s as exact fractions, and the share of a 64 x 64
@@ -78,7 +79,51 @@ def integrate_segment(x0, n, v_in, v_out):
     return pos[:-1], pos[-1]
 
 
+def sine_sweep(c):
+    """The raster with a sine fast axis: x = -A cos(pi k / half) a sweep."""
+    fs = f32(c["sample_rate_Hz"])
+    P, L, frames, bi = c["pixels_per_line"], c["lines_per_frame"], c["frames"], c["bidirectional"]
+    W, H, o = f32(c["size_x_um"]), f32(c["size_y_um"]), f32(c["overscan_fraction"])
+    line = fs / f32(c["line_rate_Hz"])
+    half = rhu(line if bi else line / 2)
+    A = W / 2 * (1 + 2 * o)
+    k1 = rhu(half * math.acos(1 / (1 + 2 * o)) / math.pi)
+    used = half - 2 * k1
+    line_ticks = half if bi else 2 * half
+    frame_ticks = line_ticks * L
+    k = np.arange(line_ticks, dtype=float)
+    xs, ys = [], []
+    events = {"frame": [], "line": [], "pixel": []}
+    stair = lambda f, i: -H / 2 + (i if f % 2 == 0 else L - 1 - i) * H / (L - 1) if L > 1 else 0.0
+    step_from, step_len = (k1 + used, k1) if bi else (half, half)
+    count = 0
+    for f in range(frames):
+        for i in range(L):
+            tick = f * frame_ticks + i * line_ticks
+            events["line"].append(tick)
+            if i == 0:
+                events["frame"].append(tick)
+            events["pixel"] += [tick + k1 + -(-j * used // P) for j in range(P)]
+            sign = -1.0 if bi and count % 2 == 1 else 1.0
+            xs.append(-sign * A * np.cos(np.pi * k / half))
+            if c["slow_axis"] == "ramp":
+                frac = (i * line_ticks + k) / frame_ticks
+                ys.append(-H / 2 + H * frac if f % 2 == 0 else H / 2 - H * frac)
+            else:
+                y = np.full(line_ticks, stair(f, i))
+                if i + 1 < L:
+                    m = k >= step_from
+                    y[m] += (stair(f, i + 1) - stair(f, i)) * min_jerk((k[m] - step_from) / step_len)
+                ys.append(y)
+            count += 1
+    derived = {"half": half, "overscan": k1, "used": used, "line_ticks": line_ticks, "frame_ticks": frame_ticks,
+               "amplitude_um": A}
+    return np.concatenate(xs), np.concatenate(ys), events, derived
+
+
 def sweep(c):
+    if c.get("fast_axis") == "sine":
+        return sine_sweep(c)
     g = sweep_layout(c)
     frames, L, H = c["frames"], g["L"], f32(c["size_y_um"])
     turn, vt, vr = g["turn"], g["vt"], g["vr"]
@@ -233,6 +278,14 @@ CASES = [
         pattern="raster", size_x_um=10.0, size_y_um=8.0, line_rate_Hz=200.0, retrace_speed_factor=1.0,
         overscan_fraction=0.05, turnaround_s=0.0005, pixels_per_line=16, lines_per_frame=5, frames=2,
         slow_axis="ramp", bidirectional=True, rotation_deg=30.0, centre_x_um=3.0, centre_y_um=-2.0)),
+    ("raster_sine_unidirectional_staircase", 11, dict(
+        pattern="raster", fast_axis="sine", size_x_um=10.0, size_y_um=8.0, line_rate_Hz=200.0,
+        overscan_fraction=0.1, pixels_per_line=16, lines_per_frame=4, frames=2, slow_axis="staircase",
+        bidirectional=False)),
+    ("raster_sine_bidirectional_staircase_rotated", 11, dict(
+        pattern="raster", fast_axis="sine", size_x_um=10.0, size_y_um=8.0, line_rate_Hz=200.0,
+        overscan_fraction=0.1, pixels_per_line=16, lines_per_frame=5, frames=2, slow_axis="staircase",
+        bidirectional=True, rotation_deg=-20.0, centre_x_um=-1.0, centre_y_um=2.0)),
     ("cycloid", 11, dict(
         pattern="cycloid", size_x_um=6.0, size_y_um=4.0, radius_um=0.5, turn_rate_Hz=1000.0, turns_per_line=12,
         pixels_per_line=24, lines_per_frame=4, frames=1)),

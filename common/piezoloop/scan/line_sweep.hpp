@@ -39,6 +39,11 @@
 // stops the last line's final turnaround at rest instead. Both are
 // turnarounds as above.
 //
+// Sine fast axis (raster): x = -A cos(pi k / sweep) instead, A = W/2 (1 + 2
+// overscan); the used part is where |x| <= W/2 (to a tick), pixels evenly in
+// time over it; a staircase steps outside it (the retrace half, or the
+// overscan after it); no lead-in: the sweep starts at rest.
+//
 // Events: frame start on the first tick of a frame's first line, line start
 // on the first tick of each line's sweep, a pixel clock on the ticks
 // ceil(j * used / P), j = 0..P-1, after the overscan (the raster makes used a
@@ -50,6 +55,7 @@
 
 #include "piezoloop/approach.hpp"
 #include "piezoloop/scan/scan_config.hpp"
+#include "piezoloop/sine_table.hpp"
 #include "piezoloop/trajectory.hpp"
 
 namespace piezoloop {
@@ -88,6 +94,12 @@ struct LineSweepParams {
     SlowAxis slow = SlowAxis::kStaircase;
     int64_t v_trace = 0;          // Q47 per tick, > 0, even
     int64_t height = 0;           // Q47, the slow axis' span H
+    // Sine fast axis: x = -A cos(pi k / cv_ticks) over a sweep of cv_ticks
+    // (a half period; unidirectional lines are a full period, the second
+    // half the retrace); used_ticks in the middle of the sweep, overscan_ticks
+    // before and after; no lead-in or lead-out (it starts and ends at rest).
+    bool sine = false;
+    int64_t amplitude = 0;        // Q47, A
 };
 
 class LineSweep {
@@ -142,6 +154,19 @@ public:
             lead_out_ = blend(seg_[3].x0, -vr, 0, false);
             v_retrace_ = vr;
         }
+        if (p.sine) {
+            // One segment a line; its ramp runs over the full period.
+            Segment line;
+            line.len = p.bidirectional ? p.cv_ticks : 2 * p.cv_ticks;
+            line.ramp = trajectory_detail::make_ramp(2 * uint64_t{p.cv_ticks});
+            seg_[0] = line;
+            segments_ = 1;
+            // The staircase steps outside the used part: over the retrace
+            // half, or (bidirectional) over the overscan after the used part.
+            step_from_ = p.bidirectional ? p.overscan_ticks + p.used_ticks : p.cv_ticks;
+            const uint32_t step_len = p.bidirectional ? p.overscan_ticks : p.cv_ticks;
+            step_ramp_ = trajectory_detail::make_ramp(step_len >= 2 ? step_len : 2);
+        }
         lead_in_ = blend(0, 0, vt, false);
         lead_in_.x0 = x_start - lead_in_.e / 2;  // ends at the trace's start
         line_ticks_ = 0;
@@ -153,7 +178,7 @@ public:
     }
 
     constexpr void restart() {
-        lead_in_left_ = true;
+        lead_in_left_ = !p_.sine;
         frame_ = 0;
         line_ = 0;
         seg_index_ = 0;
@@ -182,9 +207,16 @@ public:
             return 0;
         }
         const Segment& s = lead_out_now_ ? lead_out_ : seg_[seg_index_];
-        x = position(s, k_);
+        if (p_.sine) {
+            // -A cos(2 pi k / (2 cv)) = A sin(phase - 1/4 cycle).
+            x = scan_detail::times_q31(p_.amplitude, sine_q31(trajectory_detail::apply_ramp(s.ramp, k_) - 0x40000000u));
+            if (p_.slow == SlowAxis::kStaircase && k_ >= step_from_)
+                y = staircase_step(y, k_ - step_from_, step_ramp_);
+        } else {
+            x = position(s, k_);
+            if (s.step_y && p_.slow == SlowAxis::kStaircase) y = staircase_step(y, k_, s.ramp);
+        }
         if (mirrored_) x = -x;
-        if (s.step_y && p_.slow == SlowAxis::kStaircase) y = staircase_step(y, k_, s);
         if (seg_index_ == 0) {
             if (k_ == 0) {
                 sync |= kSyncLineStart;
@@ -197,7 +229,7 @@ public:
                 if (pixel_acc_ >= p_.used_ticks) pixel_acc_ -= p_.used_ticks;
             }
         }
-        advance(y);
+        advance(x, y);
         return sync;
     }
 
@@ -237,14 +269,14 @@ private:
 
     // During the step segment, y moves to the next line's (the frame's last
     // line moves nowhere: the next frame starts on the same y).
-    constexpr int64_t staircase_step(int64_t y, uint32_t k, const Segment& s) const {
+    constexpr int64_t staircase_step(int64_t y, uint32_t k, trajectory_detail::Ramp ramp) const {
         if (line_ + 1 >= p_.lines) return y;
         const int64_t target = stair_y(stair_index(line_ + 1));
-        const int64_t m = approach_detail::min_jerk_q31(trajectory_detail::apply_ramp(s.ramp, k));
+        const int64_t m = approach_detail::min_jerk_q31(trajectory_detail::apply_ramp(ramp, k));
         return y + scan_detail::times_q31(target - y, m);
     }
 
-    constexpr void advance(int64_t y) {
+    constexpr void advance(int64_t x, int64_t y) {
         ++frame_tick_;
         const Segment& s = lead_out_now_ ? lead_out_ : seg_[seg_index_];
         if (++k_ < s.len) return;
@@ -269,6 +301,11 @@ private:
         line_ = 0;
         frame_tick_ = 0;
         ++frame_;
+        if (p_.sine && p_.frames != 0 && frame_ >= p_.frames) {  // at rest at a turning point
+            hold_x_ = x;
+            hold_y_ = y;
+            done_ = true;
+        }
     }
 
     LineSweepParams p_{};
@@ -279,6 +316,8 @@ private:
     trajectory_detail::Ramp frame_ramp_{};
     int64_t y_pitch_ = 0;
     int64_t v_retrace_ = 0;
+    uint32_t step_from_ = 0;                 // sine: the staircase's step starts here in the line
+    trajectory_detail::Ramp step_ramp_{};
 
     // State.
     bool lead_in_left_ = true;

@@ -14,6 +14,9 @@ enum class ScanPattern : uint8_t { kRaster, kSpiral, kLissajous, kCycloid };
 // The raster's slow axis: a staircase steps between lines during the
 // turnaround; a ramp moves continuously over the frame.
 enum class SlowAxis : uint8_t { kStaircase, kRamp };
+// The raster's fast axis: constant velocity with bounded-jerk turnarounds,
+// or a sinusoid.
+enum class FastAxis : uint8_t { kTriangle, kSine };
 // Constant angular velocity (r grows linearly in time), or constant linear
 // velocity (angle ~ sqrt(t)) outside a centre region run at the turn rate.
 enum class SpiralMode : uint8_t { kConstantAngularVelocity, kConstantLinearVelocity };
@@ -48,6 +51,7 @@ struct ScanConfig {
     float turnaround_s = 0.002f;       // duration of each turnaround (>= 2 ticks)
     SlowAxis slow_axis = SlowAxis::kStaircase;
     bool bidirectional = false;        // both sweeps are lines (no retrace)
+    FastAxis fast_axis = FastAxis::kTriangle;  // kSine: retrace_speed_factor and turnaround_s unused
 
     // Spiral; the cycloid's circle uses radius_um and turn_rate_Hz too.
     SpiralMode spiral_mode = SpiralMode::kConstantAngularVelocity;

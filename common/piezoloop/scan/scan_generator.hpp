@@ -75,6 +75,18 @@ constexpr double turnaround_excursion(double v_in, double v_out, double n) {
     return n * (v_in * lo - (v_in + v_out) * smooth_integral(lo));
 }
 
+// acos(c) for c in [0, 1] by bisection on cos(t) = sin(pi/2 - t) from the
+// sine table's Taylor series (sine_table.hpp): +, -, *, / only, the same on
+// every target.
+constexpr double det_acos(double c) {
+    double lo = 0.0, hi = kPi / 2.0;
+    for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        (sine_detail::sin_series(kPi / 2.0 - mid) > c ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
 constexpr uint64_t gcd(uint64_t a, uint64_t b) {
     while (b != 0) { const uint64_t t = a % b; a = b; b = t; }
     return a;
@@ -212,7 +224,8 @@ public:
     }
     // Ticks of the lead-in before the first frame (raster, cycloid), else 0.
     constexpr uint32_t lead_in_ticks() const {
-        return cfg_.pattern == ScanPattern::kRaster || cfg_.pattern == ScanPattern::kCycloid ? sweep_params_.turn_ticks : 0u;
+        if (cfg_.pattern != ScanPattern::kRaster && cfg_.pattern != ScanPattern::kCycloid) return 0;
+        return sweep_params_.sine ? 0u : sweep_params_.turn_ticks;
     }
     constexpr double reach_um() const { return reach_um_; }
     // The path's derived numbers (ticks, Q47 / Q31 of the reach).
@@ -248,6 +261,7 @@ private:
         const double width = c.size_x_um, height = c.size_y_um;
         LineSweepParams& p = d.sweep;
         double cv = 0.0, turn = 0.0, retrace = 0.0, ex_line = 0.0, circle = 0.0;
+        if (c.pattern == ScanPattern::kRaster && c.fast_axis == FastAxis::kSine) return sine_fields(c, fs, d);
         if (c.pattern == ScanPattern::kRaster) {
             if (!in_range(c.line_rate_Hz, 0.0, fs / 4.0) || !(c.line_rate_Hz > 0.0f) ||
                 !(static_cast<double>(c.line_rate_Hz) < fs / 4.0))
@@ -330,6 +344,47 @@ private:
         if (v47 < 2) return error("size_x_um", "too small for the line's ticks");
         p.v_trace = v47;
         p.height = static_cast<int64_t>(round_half_up(height * q47));
+        return ok_status();
+    }
+
+    // The raster with a sine fast axis: x = -A cos(pi k / half), A = W/2 (1 + 2 o),
+    // used where |x| <= W/2: from k1 = half acos(1 / (1 + 2 o)) / pi (rounded) to half - k1.
+    static constexpr Status sine_fields(const ScanConfig& c, double fs, Derived& d) {
+        using namespace scan_detail;
+        if (!in_range(c.line_rate_Hz, 0.0, fs / 4.0) || !(c.line_rate_Hz > 0.0f) ||
+            !(static_cast<double>(c.line_rate_Hz) < fs / 4.0))
+            return error("line_rate_Hz", "must be in (0, sample_rate_Hz / 4)");
+        if (!in_range(c.overscan_fraction, 0.0, 1.0)) return error("overscan_fraction", "must be in [0, 1]");
+        const double line = fs / static_cast<double>(c.line_rate_Hz);
+        const double half = round_half_up(c.bidirectional ? line : 0.5 * line);  // >= 2: line > 4
+        const double o = c.overscan_fraction;
+        const double k1 = round_half_up(half * det_acos(1.0 / (1.0 + 2.0 * o)) / kPi);
+        const double used = half - 2.0 * k1;
+        if (used < c.pixels_per_line)
+            return error("pixels_per_line", "must be at most the ticks of the sweep's used part (lower line_rate_Hz or overscan_fraction)");
+        if (c.bidirectional && c.slow_axis == SlowAxis::kStaircase && k1 < 2.0)
+            return error("overscan_fraction", "a bidirectional sine raster's staircase steps in the overscan: it must last >= 2 ticks");
+        const double line_ticks = c.bidirectional ? half : 2.0 * half;
+        if (line_ticks * c.lines_per_frame > kMaxTicks)
+            return error("lines_per_frame", "a frame must be shorter than 2^31 ticks");
+        LineSweepParams& p = d.sweep;
+        p.sine = true;
+        p.cv_ticks = static_cast<uint32_t>(half);
+        p.overscan_ticks = static_cast<uint32_t>(k1);
+        p.used_ticks = static_cast<uint32_t>(used);
+        p.turn_ticks = 2;  // no turnarounds: unused
+        p.retrace_ticks = 0;
+        p.pixels = c.pixels_per_line;
+        p.lines = c.lines_per_frame;
+        p.frames = c.frames;
+        p.bidirectional = c.bidirectional;
+        p.slow = c.slow_axis;
+        const double amplitude = 0.5 * static_cast<double>(c.size_x_um) * (1.0 + 2.0 * o);
+        d.reach_um = (amplitude + 0.5 * static_cast<double>(c.size_y_um)) * kReachMargin;
+        const double q47 = 140737488355328.0 / d.reach_um;
+        p.amplitude = static_cast<int64_t>(round_half_up(amplitude * q47));
+        p.v_trace = 2;  // unused
+        p.height = static_cast<int64_t>(round_half_up(static_cast<double>(c.size_y_um) * q47));
         return ok_status();
     }
 
@@ -438,6 +493,8 @@ private:
             case ScanPattern::kRaster:
                 if (c.slow_axis != SlowAxis::kStaircase && c.slow_axis != SlowAxis::kRamp)
                     return error("slow_axis", "unknown slow axis");
+                if (c.fast_axis != FastAxis::kTriangle && c.fast_axis != FastAxis::kSine)
+                    return error("fast_axis", "unknown fast axis");
                 s = sweep_fields(c, fs, d);
                 break;
             case ScanPattern::kCycloid: s = sweep_fields(c, fs, d); break;

@@ -325,3 +325,41 @@ TEST(LineSweep, ExtremeShapesStayWithinTheReachWithoutJumps) {
         }
     }
 }
+
+TEST(LineSweep, SineFastAxisUsesTheMiddleAndStepsOutsideIt) {
+    // x = -A cos(pi k / half), A = W/2 (1 + 2 overscan): the pixels span
+    // |x| <= W/2 (to a tick's travel, pi A / half at most), evenly in time;
+    // the staircase moves only outside the used part; the scan starts and
+    // ends at rest at a turning point, with no lead-in.
+    for (const bool bidirectional : {false, true}) {
+        ScanConfig c = raster();
+        c.fast_axis = piezoloop::FastAxis::kSine;
+        c.bidirectional = bidirectional;
+        Sweep s(c);
+        const auto& p = s.g.sweep_params();
+        const double A = 0.5 * c.size_x_um * (1.0 + 2.0 * c.overscan_fraction);
+        const double tick_travel = M_PI * A / p.cv_ticks, tol = 2.0 * noise(s.g, s.run);
+        EXPECT_EQ(s.lead, 0u);
+        EXPECT_NEAR(s.run.x[0], -A, tol);
+        EXPECT_EQ(s.line, bidirectional ? p.cv_ticks : 2 * p.cv_ticks);
+        EXPECT_EQ(s.run.size(), std::size_t{c.frames} * s.frame);
+        const auto lines = s.run.ticks_with(piezoloop::kSyncLineStart);
+        const auto pixels = s.run.ticks_with(piezoloop::kSyncPixel);
+        ASSERT_EQ(lines.size(), std::size_t{c.frames} * c.lines_per_frame);
+        ASSERT_EQ(pixels.size(), lines.size() * c.pixels_per_line);
+        for (std::size_t l = 0; l < lines.size(); ++l) {
+            const double dir = bidirectional && l % 2 == 1 ? -1.0 : 1.0;
+            const std::size_t first = pixels[l * c.pixels_per_line];
+            EXPECT_EQ(first, lines[l] + p.overscan_ticks);
+            EXPECT_NEAR(dir * s.run.x[first], -0.5 * c.size_x_um, tick_travel);
+            EXPECT_NEAR(dir * s.run.x[first + p.used_ticks], 0.5 * c.size_x_um, tick_travel);
+            for (std::size_t k = 0; k <= p.used_ticks; ++k) {
+                ASSERT_EQ(s.run.y[first + k], s.run.y[first]) << l << " " << k;  // no step in the used part
+                ASSERT_LE(std::fabs(s.run.x[first + k]), 0.5 * c.size_x_um + tick_travel);
+            }
+        }
+        const std::size_t e = s.run.size() - 1;
+        EXPECT_NEAR(std::fabs(s.run.x[e]), A, tick_travel);
+        EXPECT_TRUE(s.g.done());
+    }
+}

@@ -95,6 +95,8 @@ TEST_P(ScanGolden, PositionsAndEventsMatchTheReference) {
 
 INSTANTIATE_TEST_SUITE_P(Cases, ScanGolden,
                          ::testing::Values("raster_unidirectional_staircase", "raster_bidirectional_ramp_rotated",
+                                           "raster_sine_unidirectional_staircase",
+                                           "raster_sine_bidirectional_staircase_rotated",
                                            "cycloid", "spiral_cav", "spiral_clv", "lissajous"));
 
 // ---- float and Q31 ------------------------------------------------------------
@@ -220,6 +222,10 @@ TEST(ScanGenerator, RefusedConfigurationsNameTheFieldAndChangeNothing) {
     with("turnaround_s", [](ScanConfig& c) { c.turnaround_s = 1e-5f; });
     with("turnaround_s", [](ScanConfig& c) { c.turnaround_s = 0.004f; });  // longer than the line allows
     with("slow_axis", [](ScanConfig& c) { c.slow_axis = static_cast<piezoloop::SlowAxis>(7); });
+    with("fast_axis", [](ScanConfig& c) { c.fast_axis = static_cast<piezoloop::FastAxis>(3); });
+    with("overscan_fraction", [](ScanConfig& c) { c.fast_axis = piezoloop::FastAxis::kSine; c.bidirectional = true; c.overscan_fraction = 0.0f; });
+    with("pixels_per_line", [](ScanConfig& c) { c.fast_axis = piezoloop::FastAxis::kSine; c.pixels_per_line = 200; });
+    with("line_rate_Hz", [](ScanConfig& c) { c.fast_axis = piezoloop::FastAxis::kSine; c.line_rate_Hz = 0.0f; });
     with("radius_um", [](ScanConfig& c) { c.pattern = ScanPattern::kSpiral; c.radius_um = 0.0f; });
     with("turns", [](ScanConfig& c) { c.pattern = ScanPattern::kSpiral; c.turns = 0; });
     with("turn_rate_Hz", [](ScanConfig& c) { c.pattern = ScanPattern::kSpiral; c.turn_rate_Hz = 30000.0f; });
