@@ -1,5 +1,5 @@
 // The Lissajous path: x = A sin(2 pi f_x t), y = B sin(2 pi f_y t + phi)
-// (Tuma et al., Nanotechnology 23, 185501, 2012).
+// (Tuma et al., Nanotechnology 23, 2012).
 //
 // Each frequency is the exact rational f / f_s = num / den of the
 // trajectory generator (trajectory.hpp), and the phase of tick n is

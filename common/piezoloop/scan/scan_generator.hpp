@@ -15,13 +15,14 @@
 //   float:  x = centre_x + rho * u' / 2^31
 //   Q31:    x = centre_x / fs_x + (rho / fs_x) * u'      (one Q31 multiply)
 // The cycloid adds its circle, r (cos, sin)(2 pi n / N_turn), to the line
-// sweep's centre (Yong, Moheimani & Petersen, Nanotechnology 21, 365503, 2010).
+// sweep's centre (Yong, Moheimani & Petersen, Nanotechnology 21, 2010).
 //
-// Start: start_point() is the first tick's reference (at rest for the
-// raster and the cycloid's centre: the raster begins with a lead-in), so a
-// caller approaches it first (approach.hpp) and then starts the clock. The
-// spiral starts at the centre, Lissajous at (0, B sin phi); the circle and
-// the sinusoids start at their speed.
+// Start: start_point() is the first tick's reference, so a caller
+// approaches it first (approach.hpp) and then starts the clock. The raster
+// starts there at rest (a lead-in follows; a sine raster starts at a
+// turning point), as does the cycloid's centre; the spiral starts at the
+// centre, Lissajous at (0, B sin phi); the circle and the spiral's and
+// Lissajous' sinusoids start at their speed.
 #pragma once
 
 #include <cstdint>
