@@ -193,6 +193,8 @@ int run_multi_axis(const SimArgs& a, const sim::Scenario& s) {
     req.sim = sim_request(a);
     req.axis = a.axis;
     req.holds = a.holds;
+    // --hash prints no notes: the controllers' realisation check is skipped.
+    req.check_realisation = !a.hash_only;
     const sim::MultiAxisSimPlan plan = sim::plan_multi_axis_sim(s, req);
     const sim::MultiAxisRunResult r = sim::run_multi_axis(plan.model, plan.options);
     if (a.hash_only) {

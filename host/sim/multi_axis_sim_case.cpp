@@ -91,6 +91,7 @@ MultiAxisSimPlan plan_multi_axis_sim(const Scenario& s, const MultiAxisSimReques
 
     BuildOptions bo;
     bo.reference_frequency_Hz = a.frequency_Hz;
+    bo.check_realisation = r.check_realisation;
     p.model = build_multi_axis_case(s, c, bo);
 
     // Every axis approaches its first value from rest; the driven axis's

@@ -19,6 +19,7 @@ struct MultiAxisSimRequest {
     SimCaseRequest sim;              // case, trajectory, duration, sample, log (fidelity: float only)
     std::string axis;                // the driven axis's name
     std::vector<std::string> holds;  // "NAME=UM" per held axis, or "UM" for every held axis
+    bool check_realisation = true;   // the notes' realisation check of each controller (seconds for slow poles)
 };
 
 struct MultiAxisSimPlan {
