@@ -509,6 +509,9 @@ void parse_multi_axis_controller(const Field& ctl, const std::filesystem::path& 
         c.axis_cases.assign(n, every);
     }
     c.controller_path = ctl.path();
+    if (n == 1)
+        for (const char* key : {"output_matrix", "input_matrix", "input_offset_um"})
+            if (ctl.get(key)) ctl[key].fail("a stage of one axis has no matrices (leave it out)");
     if (const auto m = ctl.get("output_matrix")) c.output_matrix = parse_matrix(*m, n, "one per channel");
     if (const auto m = ctl.get("input_matrix")) c.input_matrix = parse_matrix(*m, n, "one per axis position");
     if (const auto o = ctl.get("input_offset_um")) {
@@ -530,6 +533,7 @@ CaseSpec parse_case(const Field& f, const std::filesystem::path& base, const std
     c.note = f.string("note", "");
     if (const auto s = f.get("sample")) c.sample = s->choice({"float", "q31"}) == "q31" ? SampleType::kQ31 : SampleType::kFloat;
     if (const auto p = f.get("plant")) {
+        if (axes.size() > 1) p->fail("a stage of coupled axes takes every axis's plant from plant.axes (leave it out)");
         p->only({"hysteresis"});
         c.plant_hysteresis = parse_hysteresis((*p)["hysteresis"]);
     }
