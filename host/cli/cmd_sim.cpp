@@ -186,8 +186,9 @@ sim::SimCaseRequest sim_request(const SimArgs& a) {
 // (sim/multi_axis_sim_case.hpp). The CSV holds, per tick, every axis's
 // r, y, channel command and true position.
 int run_multi_axis(const SimArgs& a, const sim::Scenario& s) {
-    if (!a.board_case.empty()) throw std::invalid_argument("--board-case: the boards run one axis (a stage of coupled axes has " + std::to_string(s.axes.size()) + ")");
-    if (!a.dump_model.empty()) throw std::invalid_argument("--dump-model: one axis only (a stage of coupled axes has " + std::to_string(s.axes.size()) + ")");
+    const std::string axes = " (a stage of coupled axes has " + std::to_string(s.axes.size()) + ")";
+    if (!a.board_case.empty()) throw std::invalid_argument("--board-case: the boards run one axis" + axes);
+    if (!a.dump_model.empty()) throw std::invalid_argument("--dump-model: one axis only" + axes);
     if (!a.plot.empty()) throw std::invalid_argument("--plot: one axis only (write --out and plot its columns)");
     sim::MultiAxisSimRequest req;
     req.sim = sim_request(a);

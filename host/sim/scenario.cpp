@@ -460,7 +460,8 @@ void validate_matrices(const Field& ctl, const CaseSpec& c) {
         for (int i = 0; i < N; ++i) {
             for (int j = 0; j < N && !c.input_matrix.empty(); ++j)
                 m.gain.m[i][j] = f32(c.input_matrix[static_cast<size_t>(i)][static_cast<size_t>(j)]);
-            if (!c.input_offset_um.empty()) m.offset_um[static_cast<size_t>(i)] = f32(c.input_offset_um[static_cast<size_t>(i)]);
+            if (!c.input_offset_um.empty())
+                m.offset_um[static_cast<size_t>(i)] = f32(c.input_offset_um[static_cast<size_t>(i)]);
         }
         Status st = validate_input_matrix(m);
         st.group = nullptr;
@@ -492,7 +493,8 @@ void parse_multi_axis_controller(const Field& ctl, const std::filesystem::path& 
             if (!known) (*ax)[item.key().c_str()].fail("no axis of that name (axes: " + name_list(axes) + ")");
         }
         for (const AxisSpec& a : axes) {
-            if (!ax->has(a.name.c_str())) ax->fail("axis " + a.name + " has no controller (give one for each of " + name_list(axes) + ")");
+            if (!ax->has(a.name.c_str()))
+                ax->fail("axis " + a.name + " has no controller (give one for each of " + name_list(axes) + ")");
             c.axis_cases.push_back(axis_case((*ax)[a.name.c_str()]));
         }
     } else {

@@ -198,12 +198,18 @@ TEST(MultiAxisLoop, RefusesBadCases) {
         edit(j["cases"][1]["controller"]);
         return parse_error(j);
     };
-    EXPECT_EQ(with([](nlohmann::json& c) { c["axes"]["w"] = c["axes"]["x"]; }).rfind("cases[1].controller.axes.w: no axis of that name (axes: x, y, z)", 0), 0u);
-    EXPECT_EQ(with([](nlohmann::json& c) { c["axes"].erase("z"); }).rfind("cases[1].controller.axes: axis z has no controller", 0), 0u);
-    EXPECT_EQ(with([](nlohmann::json& c) { c["axes"]["y"]["feedback"]["method"] = "euler"; }).rfind("cases[1].controller.axes.y.feedback.method:", 0), 0u);
-    EXPECT_EQ(with([](nlohmann::json& c) { c["output_matrix"] = {{1, 0}, {0, 1}}; }).rfind("cases[1].controller.output_matrix: must be 3 rows", 0), 0u);
+    auto starts = [](const std::string& text, const std::string& head) {
+        EXPECT_EQ(text.rfind(head, 0), 0u) << text;
+    };
+    starts(with([](nlohmann::json& c) { c["axes"]["w"] = c["axes"]["x"]; }),
+           "cases[1].controller.axes.w: no axis of that name (axes: x, y, z)");
+    starts(with([](nlohmann::json& c) { c["axes"].erase("z"); }), "cases[1].controller.axes: axis z has no controller");
+    starts(with([](nlohmann::json& c) { c["axes"]["y"]["feedback"]["method"] = "euler"; }),
+           "cases[1].controller.axes.y.feedback.method:");
+    starts(with([](nlohmann::json& c) { c["output_matrix"] = {{1, 0}, {0, 1}}; }),
+           "cases[1].controller.output_matrix: must be 3 rows");
     const std::string singular = with([](nlohmann::json& c) { c["output_matrix"] = {{1, 1, 0}, {1, 1, 0}, {0, 0, 1}}; });
-    EXPECT_EQ(singular.rfind("cases[1].controller.output_matrix", 0), 0u) << singular;
+    starts(singular, "cases[1].controller.output_matrix");
     EXPECT_NE(singular.find("singular"), std::string::npos) << singular;
     {
         nlohmann::json j = base;
@@ -220,11 +226,13 @@ TEST(MultiAxisLoop, RefusesBadCases) {
         EXPECT_EQ(parse_error(j).rfind("cases[0].controller.output_matrix: a stage of one axis has no matrices", 0), 0u)
             << parse_error(j);
     }
-    EXPECT_EQ(with([](nlohmann::json& c) { c["input_offset_um"] = {1, 2}; }).rfind("cases[1].controller.input_offset_um: must hold 3 numbers", 0), 0u);
+    starts(with([](nlohmann::json& c) { c["input_offset_um"] = {1, 2}; }),
+           "cases[1].controller.input_offset_um: must hold 3 numbers");
     // A per-axis PID's gains are checked against that axis's path.
     const Scenario s = [&] {
         nlohmann::json j = base;
-        j["cases"][1]["controller"]["axes"]["y"]["feedback"] = {{"kind", "pid"}, {"kp", 0.1}, {"ki_per_s", -5}, {"u_min_V", -1}, {"u_max_V", 1}};
+        j["cases"][1]["controller"]["axes"]["y"]["feedback"] = {
+            {"kind", "pid"}, {"kp", 0.1}, {"ki_per_s", -5}, {"u_min_V", -1}, {"u_max_V", 1}};
         return parse_scenario(j, test::configs_dir() + "stages");
     }();
     const std::string pid = test::error_of([&] { (void)build_multi_axis_case(s, s.cases[1], BuildOptions{10.0, 10, false}); });
