@@ -210,7 +210,27 @@ async function frequencyResponse(page, context, url, token) {
   for (const g of ['feedforward', 'feedback', 'rc', 'limits'])
     check(JSON.stringify(afterRun.values[g]) === JSON.stringify(before.values[g]), `the board's ${g} group is put back`);
   check(!afterRun.status.armed && !afterRun.status.excitation_running, 'the loop is left disarmed, no excitation running');
-  await waitFor(page, () => window.piezoloop.framesDrawn > 0 && window.piezoloop.frame && window.piezoloop.frame.samples > 0, null, 'the scope after');
+  // The scope meanwhile: the measurement's own recording (r, y, u of every
+  // tick, e not recorded: nan), between the console's recordings.
+  const drawnBefore = await page.evaluate(() => window.piezoloop.framesDrawn);
+  await waitFor(page, (n) => window.piezoloop.framesDrawn > n + 5, drawnBefore, 'the scope draws again after the measurement');
+  const end = await page.evaluate(() => window.piezoloop.frame.t0_s + window.piezoloop.frame.span_s);
+  const scope = (await page.evaluate(async ([t, e]) => (await fetch(`/api/scope/csv?t0_s=${e - 20}&span_s=20`, { headers: { 'X-Piezoloop-Token': t } })).text(), [token, end]))
+    .trim().split('\n');
+  const head = scope[0].split(',');
+  const srows = scope.slice(1).map((l) => l.split(',').map(Number));
+  const [ie, iu] = [head.indexOf('e_um'), head.indexOf('u_V')];
+  const during = srows.map((r, i) => [r, i]).filter(([r]) => Number.isNaN(r[ie]));
+  const first = during.length ? during[0][1] : -1;
+  const last = during.length ? during[during.length - 1][1] : -1;
+  const ticks = Math.round(res.device_s * res.rate_Hz);
+  const contiguous = during.every(([r], k) => k === 0 || Math.abs((r[0] - during[k - 1][0][0]) * res.rate_Hz - 1) < 1e-6);
+  // The excitation's ticks (the recorder runs a few ms past its end).
+  const uIn = during.slice(0, ticks).every(([r]) => Math.abs(r[iu] - frfRequest.bias_V) <= frfRequest.amplitude_V + 1e-6);
+  check(during.length >= ticks && last - first + 1 === during.length && contiguous && uIn && first > 0 && last < srows.length - 1 &&
+    srows[first][0] > srows[first - 1][0] && srows[last + 1][0] > srows[last][0],
+    'the scope holds the measurement\'s recording, every tick, u within bias ± amplitude over the excitation, between the console\'s own',
+    `${during.length} rows (the run: ${ticks} ticks), rows ${first}..${last} of ${srows.length}, contiguous ${contiguous}, u in band ${uIn}`);
   console.log(`figure: frequency response ${res.lines} lines ${res.frequency_Hz[0]}-${res.frequency_Hz[res.lines - 1]} Hz, ` +
     `${res.transient_periods}+${res.periods} periods = ${res.device_s} s on the board, measured in ${res.wall_s.toFixed(2)} s ` +
     `(${wall.toFixed(1)} s from the click to the plot); std ${Math.min(...res.std_dB).toExponential(2)}..${Math.max(...res.std_dB).toExponential(2)} dB; ` +
@@ -219,6 +239,28 @@ async function frequencyResponse(page, context, url, token) {
     await page.locator('#frf-panel').scrollIntoViewIfNeeded();
     await page.locator('#frf-panel').screenshot({ path: bodeShot });
   }
+
+  // A longer one stopped half-way: meanwhile the board's other commands are
+  // refused; after the stop the groups are back and the last result stays.
+  await fillFrf(page, { ...frfRequest, periods: 100 });
+  await page.click('#frf-start');
+  await waitFor(page, () => window.piezoloop.frf.state === 'running' && window.piezoloop.frf.phase === 'recording', null, 'the long measurement records');
+  const busy = await page.evaluate(async (t) => {
+    const r = await fetch('/api/arm', { method: 'POST', headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer } });
+    return { status: r.status, body: await r.json() };
+  }, token);
+  check(busy.status === 409 && busy.body.error.includes('measurement is running') && await page.isDisabled('#arm'),
+    'while it runs, Arm is disabled and refused (409)', JSON.stringify(busy));
+  await page.click('#frf-stop');
+  await waitFor(page, () => ['stopped', 'done', 'failed'].includes(window.piezoloop.frf.state), null, 'the stopped measurement ends', 60000);
+  const stopped = await page.evaluate(() => window.piezoloop.frf);
+  check(stopped.state === 'stopped' && stopped.error.message.includes('stopped before the end'), 'Stop measuring stops it', JSON.stringify(stopped));
+  await waitFor(page, () => !window.piezoloop.status.measuring, null, 'the status after the stop');
+  const afterStop = await board();
+  check(['feedforward', 'feedback', 'rc'].every((g) => JSON.stringify(afterStop.values[g]) === JSON.stringify(before.values[g])) &&
+    !afterStop.status.armed && !afterStop.status.excitation_running, 'after the stop the groups are put back, the loop disarmed, no excitation');
+  const kept = await page.evaluate(async (t) => (await (await fetch('/api/frf', { headers: { 'X-Piezoloop-Token': t } })).json()).result, token);
+  check(JSON.stringify(kept) === JSON.stringify(res), 'the last result stays');
   await watcher.close();
   return res;
 }
