@@ -208,6 +208,7 @@ void FrfJob::shutdown() {
 }
 
 json FrfJob::start(const json& form) {
+    const std::lock_guard lock(start_m_);  // one start at a time (a double click)
     if (running_) throw BoardBusy("a frequency response measurement is running: stop it first");
     const FrfForm f = parse_frf_form(form);
     try {

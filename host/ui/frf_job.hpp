@@ -79,6 +79,7 @@ private:
     BoardSession& board_;
     std::thread worker_;
     std::atomic<bool> running_{false}, stop_{false};
+    std::mutex start_m_;
     mutable std::mutex m_;
     nlohmann::json progress_ = {{"state", "idle"}};
     nlohmann::json result_;

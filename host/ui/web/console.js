@@ -483,6 +483,8 @@ function showFrfProgress(p) {
   $('frf-state').textContent = text[p.state] || p.state;
   if (p.state === 'running' && (!was || was.state !== 'running')) for (const e of frfErrors()) e.textContent = '';
   if (p.error) showFrfError(p.error.field || '', p.error.message);
+  // The forms as the board holds them again (a page opened meanwhile has none).
+  if (was && was.state === 'running' && p.state !== 'running') loadParams();
   updateButtons();
 }
 
