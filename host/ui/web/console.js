@@ -535,7 +535,7 @@ function showFrfResult(res) {
   bodeMag = bodePlot($('bode-mag'), d.mag, 'dB (µm/V)', fitLabel);
   bodePhase = bodePlot($('bode-phase'), d.phase, 'deg', fitLabel);
   const f = res.frequency_Hz;
-  const fmt = (x, n = 3) => Number(x).toPrecision(n);
+  const fmt = (x, n = 3) => String(Number(Number(x).toPrecision(n)));  // 2000, not 2.00e+3
   let text = `${res.lines} lines, ${fmt(f[0])} – ${fmt(f[f.length - 1])} Hz, ${res.signal}, ${res.periods} periods ` +
     `(+ ${res.transient_periods} transient): ${fmt(res.device_s)} s on the board in ${fmt(res.wall_s)} s; ` +
     `clipped samples ${res.clipped_samples}; limiter trip ${res.limiter_trip}; log hash ${res.log_hash}`;
