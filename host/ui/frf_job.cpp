@@ -221,6 +221,10 @@ json FrfJob::start(const json& form) {
     if (worker_.joinable()) worker_.join();
     running_ = true;
     stop_ = false;
+    {
+        const std::lock_guard l(m_);
+        progress_["request"] = form;
+    }
     set_progress("running", "starting", 0.0);
     worker_ = std::thread([this, f, form] { run(f, form); });
     return progress_json();
@@ -238,10 +242,6 @@ void FrfJob::set_progress(const std::string& state, const std::string& phase, do
 }
 
 void FrfJob::run(FrfForm f, json request) {
-    {
-        const std::lock_guard lock(m_);
-        progress_["request"] = request;
-    }
     hostlink::MeasureOptions o;
     o.restart_stage = f.restart_stage;
     o.stop_requested = [this] { return stop_.load(); };
