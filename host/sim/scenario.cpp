@@ -474,14 +474,16 @@ void validate_matrices(const Field& ctl, const CaseSpec& c) {
 void parse_multi_axis_controller(const Field& ctl, const std::filesystem::path& base, const std::vector<AxisSpec>& axes,
                                  CaseSpec& c) {
     const size_t n = axes.size();
-    auto axis_case = [&](const Field& f) {
+    // One axis's case: the case's name, label, sample type and path, with
+    // the controller read from f (keys besides a controller's allowed).
+    auto axis_case = [&](const Field& f, std::initializer_list<const char*> also = {}) {
         CaseSpec a;
         a.name = c.name;
         a.label = c.label;
         a.sample = c.sample;
         a.plant_hysteresis = c.plant_hysteresis;
         a.path = c.path;
-        parse_controller(f, base, a);
+        parse_controller(f, base, a, also);
         return a;
     };
     if (const auto ax = ctl.get("axes")) {
@@ -498,17 +500,7 @@ void parse_multi_axis_controller(const Field& ctl, const std::filesystem::path& 
             c.axis_cases.push_back(axis_case((*ax)[a.name.c_str()]));
         }
     } else {
-        const CaseSpec every = [&] {
-            CaseSpec a;
-            a.name = c.name;
-            a.label = c.label;
-            a.sample = c.sample;
-            a.plant_hysteresis = c.plant_hysteresis;
-            a.path = c.path;
-            parse_controller(ctl, base, a, {"output_matrix", "input_matrix", "input_offset_um"});
-            return a;
-        }();
-        c.axis_cases.assign(n, every);
+        c.axis_cases.assign(n, axis_case(ctl, {"output_matrix", "input_matrix", "input_offset_um"}));
     }
     c.controller_path = ctl.path();
     if (n == 1)
