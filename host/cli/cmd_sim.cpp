@@ -16,6 +16,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -29,6 +30,7 @@
 #include "sim/build_case.hpp"
 #include "sim/experiments.hpp"
 #include "sim/model_dump.hpp"
+#include "sim/multi_axis_sim_case.hpp"
 #include "sim/plotting.hpp"
 #include "sim/scenario.hpp"
 #include "sim/sim_case.hpp"
@@ -44,6 +46,7 @@ struct SimArgs {
     double amplitude_um = 0.0;
     double amplitude_V = 0.0;
     std::string offset;  // unipolar | bipolar (default: the scenario's)
+    std::optional<double> midpoint_um;
     double duration_s = 0.0;
     std::string fidelity = "float";
     int substeps = 10;
@@ -55,6 +58,8 @@ struct SimArgs {
     bool list = false;
     std::string dump_model;
     std::string board_case;
+    std::string axis;                // a stage of coupled axes: the axis that runs the wave
+    std::vector<std::string> holds;  // --hold-um: NAME=UM, or UM for every held axis
 };
 
 // What a board case cannot carry: exit 2, the field named.
@@ -159,12 +164,73 @@ void write_board_case(const std::string& file, const sim::Scenario& s, const sim
     if (!f) throw std::runtime_error("--board-case: cannot write " + file);
 }
 
+sim::SimCaseRequest sim_request(const SimArgs& a) {
+    sim::SimCaseRequest req;
+    req.case_name = a.case_name;
+    req.trajectory = a.trajectory;
+    req.frequency_Hz = a.frequency_Hz;
+    req.amplitude_um = a.amplitude_um;
+    req.amplitude_V = a.amplitude_V;
+    req.offset = a.offset;
+    req.midpoint_um = a.midpoint_um;
+    req.duration_s = a.duration_s;
+    req.fidelity = a.fidelity;
+    req.substeps = a.substeps;
+    req.sample = a.sample;
+    req.log = !a.out_csv.empty() || !a.plot.empty();
+    req.log_every = a.log_every;
+    return req;
+}
+
+// A stage of coupled axes: one axis runs the wave, the others hold
+// (sim/multi_axis_sim_case.hpp). The CSV holds, per tick, every axis's
+// r, y, channel command and true position.
+int run_multi_axis(const SimArgs& a, const sim::Scenario& s) {
+    const std::string axes = " (a stage of coupled axes has " + std::to_string(s.axes.size()) + ")";
+    if (!a.board_case.empty()) throw std::invalid_argument("--board-case: the boards run one axis" + axes);
+    if (!a.dump_model.empty()) throw std::invalid_argument("--dump-model: one axis only" + axes);
+    if (!a.plot.empty()) throw std::invalid_argument("--plot: one axis only (write --out and plot its columns)");
+    sim::MultiAxisSimRequest req;
+    req.sim = sim_request(a);
+    req.axis = a.axis;
+    req.holds = a.holds;
+    // --hash prints no notes: the controllers' realisation check is skipped.
+    req.check_realisation = !a.hash_only;
+    const sim::MultiAxisSimPlan plan = sim::plan_multi_axis_sim(s, req);
+    const sim::MultiAxisRunResult r = sim::run_multi_axis(plan.model, plan.options);
+    if (a.hash_only) {
+        std::cout << format::hex64(r.log_hash) << "\n";
+    } else {
+        std::cout << sim::multi_axis_sim_summary(s, req, plan, r).dump(1) << "\n";
+    }
+    if (!a.out_csv.empty()) {
+        std::ofstream f(a.out_csv);
+        if (!f) throw std::runtime_error("--out: cannot write " + a.out_csv);
+        const std::vector<std::string>& names = plan.model.names;
+        f << "tick,t_s";
+        for (const std::string& n : names) f << ",r_" << n << "_um,y_" << n << "_um,u_" << n << "_V,p_" << n << "_um";
+        f << "\n";
+        const sim::MultiAxisLog& l = r.log;
+        auto cell = [](double v) { return "," + format::significant(v, 9); };
+        for (size_t k = 0; k < l.tick.size(); ++k) {
+            f << l.tick[k] << cell(static_cast<double>(l.tick[k]) / s.rate_Hz);
+            for (size_t i = 0; i < names.size(); ++i)
+                f << cell(l.r_um[i][k]) << cell(l.y_um[i][k]) << cell(l.u_V[i][k]) << cell(l.p_um[i][k]);
+            f << "\n";
+        }
+    }
+    return 0;
+}
+
 int run(const SimArgs& a) {
     const sim::Scenario s = sim::load_scenario(a.scenario);
-    sim::require_single_axis(s, "sim");
+    if (!a.list && s.multi_axis()) return run_multi_axis(a, s);
+    if (!a.axis.empty()) throw std::invalid_argument("--axis: the scenario's stage has one axis (leave --axis out)");
+    if (!a.holds.empty()) throw std::invalid_argument("--hold-um: the scenario's stage has one axis (leave --hold-um out)");
     if (a.list) {
         nlohmann::json out;
         out["scenario"] = s.name;
+        for (const sim::AxisSpec& x : s.axes) out["axes"].push_back(x.name);
         for (const sim::CaseSpec& c : s.cases) out["cases"].push_back({{"name", c.name}, {"label", c.label}});
         for (const sim::ExperimentSpec& e : s.experiments)
             out["experiments"].push_back({{"name", e.name}, {"kind", e.kind}, {"title", e.title}});
@@ -178,19 +244,7 @@ int run(const SimArgs& a) {
         if (a.fidelity != "float")
             throw BoardCaseRefused("fidelity", "the boards run the float stage model (--fidelity float)");
     }
-    sim::SimCaseRequest req;
-    req.case_name = a.case_name;
-    req.trajectory = a.trajectory;
-    req.frequency_Hz = a.frequency_Hz;
-    req.amplitude_um = a.amplitude_um;
-    req.amplitude_V = a.amplitude_V;
-    req.offset = a.offset;
-    req.duration_s = a.duration_s;
-    req.fidelity = a.fidelity;
-    req.substeps = a.substeps;
-    req.sample = a.sample;
-    req.log = !a.out_csv.empty() || !a.plot.empty();
-    req.log_every = a.log_every;
+    const sim::SimCaseRequest req = sim_request(a);
     sim::SimCasePlan plan = sim::plan_sim_case(s, req);
     const sim::CaseSpec& c = plan.case_spec;
     const sim::TrajectoryRequest& t = plan.trajectory;
@@ -282,6 +336,7 @@ void add_sim(CLI::App& app) {
                     "reference range as peak-to-peak piezo voltage, 1e-6 to 1e4 V, converted at the stage's mean "
                     "slope");
     cmd->add_option("--offset", a->offset, "unipolar: from 0 up; bipolar: centred on 0 (default: the scenario's)");
+    cmd->add_option("--midpoint-um", a->midpoint_um, "the wave's midpoint, -1e3 to 1e3 um (instead of --offset's)");
     cmd->add_option("--duration-s", a->duration_s,
                     "simulated time, 1e-6 to 1e4 s (default two periods; the last full period is measured)");
     cmd->add_option("--fidelity", a->fidelity, "float: the boards' stage model; double: continuous sub-steps");
@@ -295,6 +350,11 @@ void add_sim(CLI::App& app) {
     cmd->add_option("--board-case", a->board_case,
                     "also write this run as a board case for the QEMU boards' self-test (limits clipped to their "
                     "hard limits and simulated so; docs/boards.md, Self-test)");
+    cmd->add_option("--axis", a->axis,
+                    "a stage of coupled axes: the axis that runs the reference (by name); the others hold");
+    cmd->add_option("--hold-um", a->holds,
+                    "a stage of coupled axes: NAME=UM, a held axis's setpoint (repeatable), or UM for every held "
+                    "axis (default: the wave's first value)");
     cmd->add_flag("--hash", a->hash_only, "print only the log hash of r, y, u (compare with the board self-test)");
     cmd->callback([a] {
         guarded([&] { return run(*a); });

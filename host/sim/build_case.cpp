@@ -328,12 +328,13 @@ BuiltCase build_case(const Scenario& s, const CaseSpec& c, const BuildOptions& o
         Status e = pipe->validate(p);
         if (e.ok()) return;
         const std::string group = e.group ? e.group : "";
-        std::string where = c.path + ".controller";
+        const std::string controller = c.controller_path.empty() ? c.path + ".controller" : c.controller_path;
+        std::string where = controller;
         if (group == "pid" || group == "sos") where += ".feedback";
         else if (group == "pi" || group == "dahl") where += ".feedforward";
         else if (group == "rc") where += ".rc";
         else if (group == "limits") where = "loop.limits";
-        if (where != c.path + ".controller" || group.empty()) e.group = nullptr;
+        if (where != controller || group.empty()) e.group = nullptr;
         fail(where, e);
     };
     if (c.sample == SampleType::kQ31) {

@@ -53,7 +53,7 @@ RunOptions plan_run(double rate_Hz, const TrajectoryRequest& t, size_t log_point
     }
     w.frequency_Hz = f32(t.frequency_Hz);
     w.amplitude_um = f32(0.5 * t.range_um);
-    w.offset_um = t.unipolar ? f32(0.5 * t.range_um) : 0.0f;
+    w.offset_um = t.midpoint_um ? f32(*t.midpoint_um) : t.unipolar ? f32(0.5 * t.range_um) : 0.0f;
     // Triangles start at their minimum at phase 0, sines at phase 3/4: the
     // stage starts at rest at the bottom of the range without a step.
     w.start_phase_cycles = t.waveform == Waveform::kSine ? 0.75f : 0.0f;

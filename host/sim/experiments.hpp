@@ -8,6 +8,7 @@
 #include <complex>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,7 @@ struct TrajectoryRequest {
     double frequency_Hz = 1.0;
     double range_um = 1.0;           // peak-to-peak
     bool unipolar = true;            // from 0 up, else centred on 0
+    std::optional<double> midpoint_um;  // given: the wave's midpoint instead (sim --midpoint-um)
     int periods = 2;                 // the last one is the measured window
     double min_duration_s = 0.0;
     std::vector<double> steps_um;    // steps: the levels (waveform kSteps), each held hold_s

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "piezoloop/axes/axis_matrix.hpp"
 #include "piezoloop/axes/coupled_stage.hpp"
 #include "piezoloop/pi_generalized.hpp"
 #include "piezoloop/pi_inverse.hpp"
@@ -414,7 +415,117 @@ RcSpec parse_rc(const Field& f) {
     return s;
 }
 
-CaseSpec parse_case(const Field& f, const std::filesystem::path& base) {
+// The controller fields of one loop (a single-axis case's controller, or one
+// axis's under controller.axes).
+void parse_controller(const Field& ctl, const std::filesystem::path& base, CaseSpec& c,
+                      std::initializer_list<const char*> extra = {}) {
+    std::vector<std::string> fields{"prefilter", "feedforward", "feedback", "rc"};
+    fields.insert(fields.end(), extra.begin(), extra.end());
+    ctl.only(fields);
+    c.controller_path = ctl.path();
+    if (const auto pf = ctl.get("prefilter")) c.prefilter = read_linear_model(*pf, base);
+    if (const auto ff = ctl.get("feedforward")) c.feedforward = parse_feedforward(*ff);
+    if (const auto fb = ctl.get("feedback")) c.feedback = parse_feedback(*fb, base);
+    if (const auto rc = ctl.get("rc")) c.rc = parse_rc(*rc);
+    if (c.rc.enabled && c.feedback.kind == "none")
+        ctl["rc"].fail("repetitive control plugs into a feedback loop: give controller.feedback");
+}
+
+// An n x n matrix as rows of numbers, each coefficient checked by the core
+// (magnitude, conditioning) through validate_matrix below.
+std::vector<std::vector<double>> parse_matrix(const Field& f, size_t n, const char* rows_are) {
+    if (!f.is_array() || f.size() != n)
+        f.fail("must be " + std::to_string(n) + " rows (" + rows_are + ") of " + std::to_string(n) + " numbers");
+    std::vector<std::vector<double>> m;
+    for (size_t i = 0; i < n; ++i) {
+        const Field row = f.at(i);
+        if (!row.is_array() || row.size() != n) row.fail("must hold " + std::to_string(n) + " numbers (one per axis)");
+        m.push_back(row.numbers());
+    }
+    return m;
+}
+
+template <int N>
+void validate_matrices(const Field& ctl, const CaseSpec& c) {
+    if (!c.output_matrix.empty()) {
+        AxisMatrix<N> m{};
+        for (int i = 0; i < N; ++i)
+            for (int j = 0; j < N; ++j) m.m[i][j] = f32(c.output_matrix[static_cast<size_t>(i)][static_cast<size_t>(j)]);
+        Status st = validate_output_matrix(m);
+        st.group = nullptr;  // "output_matrix[i][j]" names it under the controller
+        ctl.check(st);
+    }
+    if (!c.input_matrix.empty() || !c.input_offset_um.empty()) {
+        InputMatrix<N> m{};
+        for (int i = 0; i < N; ++i) {
+            for (int j = 0; j < N && !c.input_matrix.empty(); ++j)
+                m.gain.m[i][j] = f32(c.input_matrix[static_cast<size_t>(i)][static_cast<size_t>(j)]);
+            if (!c.input_offset_um.empty())
+                m.offset_um[static_cast<size_t>(i)] = f32(c.input_offset_um[static_cast<size_t>(i)]);
+        }
+        Status st = validate_input_matrix(m);
+        st.group = nullptr;
+        ctl.check(st);
+    }
+}
+
+// A case of a stage of coupled axes: controller.axes.<name> per axis (or one
+// controller for every axis), and the optional matrices.
+void parse_multi_axis_controller(const Field& ctl, const std::filesystem::path& base, const std::vector<AxisSpec>& axes,
+                                 CaseSpec& c) {
+    const size_t n = axes.size();
+    auto axis_case = [&](const Field& f) {
+        CaseSpec a;
+        a.name = c.name;
+        a.label = c.label;
+        a.sample = c.sample;
+        a.plant_hysteresis = c.plant_hysteresis;
+        a.path = c.path;
+        parse_controller(f, base, a);
+        return a;
+    };
+    if (const auto ax = ctl.get("axes")) {
+        ctl.only({"axes", "output_matrix", "input_matrix", "input_offset_um"});
+        if (!ax->is_object()) ax->fail("must be an object: a controller per axis name (" + name_list(axes) + ")");
+        for (const auto& item : ax->json().items()) {
+            bool known = false;
+            for (const AxisSpec& a : axes) known = known || a.name == item.key();
+            if (!known) (*ax)[item.key().c_str()].fail("no axis of that name (axes: " + name_list(axes) + ")");
+        }
+        for (const AxisSpec& a : axes) {
+            if (!ax->has(a.name.c_str()))
+                ax->fail("axis " + a.name + " has no controller (give one for each of " + name_list(axes) + ")");
+            c.axis_cases.push_back(axis_case((*ax)[a.name.c_str()]));
+        }
+    } else {
+        const CaseSpec every = [&] {
+            CaseSpec a;
+            a.name = c.name;
+            a.label = c.label;
+            a.sample = c.sample;
+            a.plant_hysteresis = c.plant_hysteresis;
+            a.path = c.path;
+            parse_controller(ctl, base, a, {"output_matrix", "input_matrix", "input_offset_um"});
+            return a;
+        }();
+        c.axis_cases.assign(n, every);
+    }
+    c.controller_path = ctl.path();
+    if (n == 1)
+        for (const char* key : {"output_matrix", "input_matrix", "input_offset_um"})
+            if (ctl.get(key)) ctl[key].fail("a stage of one axis has no matrices (leave it out)");
+    if (const auto m = ctl.get("output_matrix")) c.output_matrix = parse_matrix(*m, n, "one per channel");
+    if (const auto m = ctl.get("input_matrix")) c.input_matrix = parse_matrix(*m, n, "one per axis position");
+    if (const auto o = ctl.get("input_offset_um")) {
+        if (!o->is_array() || o->size() != n) o->fail("must hold " + std::to_string(n) + " numbers (one per axis, um)");
+        c.input_offset_um = o->numbers();
+    }
+    if (n == 2) validate_matrices<2>(ctl, c);
+    if (n == 3) validate_matrices<3>(ctl, c);
+    if (n == 1) validate_matrices<1>(ctl, c);
+}
+
+CaseSpec parse_case(const Field& f, const std::filesystem::path& base, const std::vector<AxisSpec>& axes) {
     f.only({"name", "label", "sample", "plant", "controller", "note"});
     CaseSpec c;
     c.path = f.path();
@@ -424,17 +535,26 @@ CaseSpec parse_case(const Field& f, const std::filesystem::path& base) {
     c.note = f.string("note", "");
     if (const auto s = f.get("sample")) c.sample = s->choice({"float", "q31"}) == "q31" ? SampleType::kQ31 : SampleType::kFloat;
     if (const auto p = f.get("plant")) {
+        if (axes.size() > 1) p->fail("a stage of coupled axes takes every axis's plant from plant.axes (leave it out)");
         p->only({"hysteresis"});
         c.plant_hysteresis = parse_hysteresis((*p)["hysteresis"]);
     }
     const Field ctl = f["controller"];
-    ctl.only({"prefilter", "feedforward", "feedback", "rc"});
-    if (const auto pf = ctl.get("prefilter")) c.prefilter = read_linear_model(*pf, base);
-    if (const auto ff = ctl.get("feedforward")) c.feedforward = parse_feedforward(*ff);
-    if (const auto fb = ctl.get("feedback")) c.feedback = parse_feedback(*fb, base);
-    if (const auto rc = ctl.get("rc")) c.rc = parse_rc(*rc);
-    if (c.rc.enabled && c.feedback.kind == "none")
-        ctl["rc"].fail("repetitive control plugs into a feedback loop: give controller.feedback");
+    if (axes.empty()) {
+        parse_controller(ctl, base, c);
+    } else {
+        // A plant of axes (one included): its controllers per axis. The
+        // case's own controller fields are axis 0's, for the commands that
+        // run one axis.
+        parse_multi_axis_controller(ctl, base, axes, c);
+        const std::string path = c.controller_path;
+        const CaseSpec& first = c.axis_cases.front();
+        c.prefilter = first.prefilter;
+        c.feedforward = first.feedforward;
+        c.feedback = first.feedback;
+        c.rc = first.rc;
+        c.controller_path = c.axis_cases.size() == 1 ? first.controller_path : path;
+    }
     return c;
 }
 
@@ -555,7 +675,7 @@ Scenario parse_scenario(const nlohmann::json& j, const std::filesystem::path& ba
 
     const Field cases = top["cases"];
     for (size_t i = 0; i < cases.size(); ++i) {
-        CaseSpec c = parse_case(cases.at(i), base_dir);
+        CaseSpec c = parse_case(cases.at(i), base_dir, s.axes);
         for (const CaseSpec& other : s.cases)
             if (other.name == c.name) cases.at(i)["name"].fail("duplicate case name \"" + c.name + "\"");
         s.cases.push_back(std::move(c));

@@ -124,6 +124,9 @@ struct RcSpec {
 
 struct CaseSpec {
     std::string name, label;
+    // Where its controller's fields are ("cases[1].controller", or one axis's
+    // "cases[1].controller.axes.y"), for the messages of build_case.
+    std::string controller_path;
     SampleType sample = SampleType::kFloat;
     std::optional<HysteresisSpec> plant_hysteresis;  // overrides the scenario's
     std::optional<LinearSpec> prefilter;  // continuous reference pre-filter, µm -> µm (Tustin at the loop rate)
@@ -132,6 +135,15 @@ struct CaseSpec {
     RcSpec rc;
     std::string note;
     std::string path;
+    // A stage of coupled axes (Scenario::axes): every axis's controller, in
+    // the order of plant.axes (each a CaseSpec of its own, its controller
+    // fields above; the case's sample type and plant override are copied),
+    // and the case's matrices (empty: identity, zero offsets). A controller
+    // without "axes" is every axis's.
+    std::vector<CaseSpec> axis_cases;
+    std::vector<std::vector<double>> output_matrix;  // rows: channels; columns: axis commands
+    std::vector<std::vector<double>> input_matrix;   // rows: axis positions; columns: readings (µm)
+    std::vector<double> input_offset_um;             // per axis position
 };
 
 struct ExperimentSpec {

@@ -25,10 +25,26 @@ void check_sim_request(const SimCaseRequest& a) {
     if (a.amplitude_V != 0.0) options::require_in("--amplitude-v", a.amplitude_V, 1e-6, 1e4, "V");
     if ((a.amplitude_um > 0.0) == (a.amplitude_V > 0.0))
         throw std::invalid_argument("give exactly one of --amplitude-um and --amplitude-v");
+    if (a.midpoint_um) options::require_in("--midpoint-um", *a.midpoint_um, -1e3, 1e3, "um");
     if (a.duration_s != 0.0) options::require_in("--duration-s", a.duration_s, 1e-6, 1e4, "s");
     options::require_in("--substeps", a.substeps, 1, 10000);
     // 0: the default (at most 200000 rows).
     if (a.log_every != 0) options::require_in("--log-every", a.log_every, 1, 1 << 30);
+}
+
+TrajectoryRequest sim_trajectory(const Scenario& s, const SimCaseRequest& a) {
+    TrajectoryRequest t;
+    t.waveform = a.trajectory == "sine" ? Waveform::kSine : Waveform::kTriangle;
+    t.frequency_Hz = a.frequency_Hz;
+    t.range_um = a.amplitude_um > 0.0 ? a.amplitude_um : a.amplitude_V * s.nominal_um_per_V;
+    t.unipolar = (a.offset.empty() ? s.offset : a.offset) == "unipolar";
+    t.midpoint_um = a.midpoint_um;
+    const double period_s = 1.0 / a.frequency_Hz;
+    const double duration = a.duration_s > 0.0 ? a.duration_s : 2.0 * period_s;
+    if (duration < period_s * (1.0 - 1e-9))
+        throw std::invalid_argument("--duration-s: must cover at least one period (" + std::to_string(period_s) + " s)");
+    t.periods = std::max(1, static_cast<int>(std::floor(duration / period_s + 1e-9)));
+    return t;
 }
 
 SimCasePlan plan_sim_case(const Scenario& s, const SimCaseRequest& a) {
@@ -41,15 +57,7 @@ SimCasePlan plan_sim_case(const Scenario& s, const SimCaseRequest& a) {
     if (a.sample == "float") c.sample = SampleType::kFloat;
 
     TrajectoryRequest& t = p.trajectory;
-    t.waveform = a.trajectory == "sine" ? Waveform::kSine : Waveform::kTriangle;
-    t.frequency_Hz = a.frequency_Hz;
-    t.range_um = a.amplitude_um > 0.0 ? a.amplitude_um : a.amplitude_V * s.nominal_um_per_V;
-    t.unipolar = (a.offset.empty() ? s.offset : a.offset) == "unipolar";
-    const double period_s = 1.0 / a.frequency_Hz;
-    const double duration = a.duration_s > 0.0 ? a.duration_s : 2.0 * period_s;
-    if (duration < period_s * (1.0 - 1e-9))
-        throw std::invalid_argument("--duration-s: must cover at least one period (" + std::to_string(period_s) + " s)");
-    t.periods = std::max(1, static_cast<int>(std::floor(duration / period_s + 1e-9)));
+    t = sim_trajectory(s, a);
 
     BuildOptions bo;
     bo.reference_frequency_Hz = a.frequency_Hz;

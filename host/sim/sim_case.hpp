@@ -5,6 +5,7 @@
 // so both give the same run, metrics and log hash for the same arguments.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -22,6 +23,7 @@ struct SimCaseRequest {
     double amplitude_um = 0.0;  // peak-to-peak; exactly one of the two amplitudes > 0
     double amplitude_V = 0.0;   // peak-to-peak piezo volts, at the stage's mean slope
     std::string offset;         // unipolar | bipolar; empty: the scenario's
+    std::optional<double> midpoint_um;  // the wave's midpoint (overrides offset)
     double duration_s = 0.0;    // 0: two periods
     std::string fidelity = "float";  // float | double
     int substeps = 10;               // double fidelity
@@ -40,6 +42,10 @@ struct SimCasePlan {
 // The request's ranges and choices, as the command line's options name them
 // (std::invalid_argument "--substeps: must be in [1, 10000] (got 0)").
 void check_sim_request(const SimCaseRequest& r);
+
+// The reference the request asks for (after check_sim_request):
+// waveform, frequency, range, offset and whole periods of --duration-s.
+TrajectoryRequest sim_trajectory(const Scenario& s, const SimCaseRequest& r);
 
 // Checks the request (check_sim_request) and builds
 // the case and the run options; the caller runs sim::run_loop(built.model,

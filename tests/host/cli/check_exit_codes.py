@@ -69,8 +69,14 @@ expect("bad value (sim)", ["sim", "--scenario", scenario, "--case", "no_such_cas
 # written.
 xyz = os.path.join(configs, "stages", "xyz_flexure.json")
 multi = "runs single-axis stages only so far"
+# sim runs them with one axis driven: which one is to be named.
+sim_xyz = ["sim", "--scenario", xyz, "--case", "open_loop", "--frequency-hz", "10", "--amplitude-um", "5"]
+expect("sim: a stage of axes without --axis", sim_xyz, 2, "--axis: a stage of axes x, y, z: choose one")
+expect("sim: an unknown --axis", sim_xyz + ["--axis", "w"], 2, "--axis: must be one of the axes x, y, z (got \"w\")")
+expect("sim: --hold-um of an unknown axis", sim_xyz + ["--axis", "x", "--hold-um", "w=3"], 2, "--hold-um: must be one of")
+expect("sim: --hold-um beyond the full scale", sim_xyz + ["--axis", "x", "--hold-um", "y=500"], 2, "--hold-um y: must be in")
+expect("sim: --axis on one axis", ["sim", "--scenario", scenario, "--case", "no_such_case", "--axis", "x"], 2, "--axis:")
 for name, args in [
-        ("sim", ["sim", "--scenario", xyz, "--case", "open_loop", "--frequency-hz", "10", "--amplitude-um", "5"]),
         ("measure frf without --mimo", ["measure", "frf", "--scenario", xyz, "--from-hz", "10", "--to-hz", "1000", "--amplitude-v", "0.1",
                      "--out", os.path.join(tmp, "xyz_frf.json")]),
         ("measure", ["measure", "step", "--scenario", xyz, "--step-v", "1", "--out", os.path.join(tmp, "xyz_step.json")]),

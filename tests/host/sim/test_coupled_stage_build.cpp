@@ -46,7 +46,7 @@ TEST(CoupledStageBuild, ShippedFlexuresLoadAndBuild) {
     ASSERT_EQ(xyz.coupling.size(), 4u);
     EXPECT_EQ(xyz.coupling[3].from, "y");
     EXPECT_EQ(xyz.coupling[3].to_axis, 2);
-    EXPECT_EQ(xyz.cases.size(), 1u);
+    EXPECT_EQ(xyz.cases.size(), 3u);  // open_loop, pi_notch, pi_notch_decoupled
     const CoupledStageConfig c = coupled_stage_config(xyz);
     EXPECT_EQ(c.axes, 3);
     EXPECT_EQ(c.paths, 4);
@@ -139,6 +139,7 @@ TEST(CoupledStageBuild, SingleAxisScenarioIsTheSimulatorsStageBitForBit) {
     nlohmann::json j = test::stage_json("xyz_flexure");
     j["plant"]["axes"] = nlohmann::json::array({j["plant"]["axes"][0]});
     j["plant"].erase("coupling");
+    j["cases"] = nlohmann::json::array({j["cases"][0]});  // the others name axes y and z
     const Scenario one = parse_scenario(j, test::configs_dir() + "stages");
     EXPECT_FALSE(one.multi_axis());
     EXPECT_EQ(one.plant.amplifier.gain, 15.0f);
