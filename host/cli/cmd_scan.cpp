@@ -37,6 +37,7 @@ namespace {
 
 struct ScanArgs {
     std::string scenario;
+    std::string case_name;
     std::string pattern = "raster";
     std::string size = "20x20";
     std::string pixels = "256x256";
@@ -183,6 +184,16 @@ nlohmann::json image_spec(const scan::ImageGrid& g, const std::string& out, cons
 int run(const ScanArgs& a) {
     const sim::Scenario s = sim::load_scenario(a.scenario);
     if (s.axes.size() < 2) bad("--scenario", "a scan needs a stage of two or three axes (plant.axes)");
+    if (s.cases.empty()) bad("--case", "the scenario has no cases");
+    const std::string case_name = a.case_name.empty() ? s.cases.front().name : a.case_name;
+    const sim::CaseSpec* chosen = nullptr;
+    for (const sim::CaseSpec& c : s.cases)
+        if (c.name == case_name) chosen = &c;
+    if (chosen == nullptr) {
+        std::string names;
+        for (const sim::CaseSpec& c : s.cases) names += (names.empty() ? "" : ", ") + c.name;
+        bad("--case", "'" + case_name + "' is not a case of the scenario (" + names + ")");
+    }
     const Plan plan = plan_scan(a, s);
     scan::SampleSurface sample;
     try {
@@ -195,6 +206,7 @@ int run(const ScanArgs& a) {
 
     const StopSignals stop_signals;
     scan::ScanRunOptions o;
+    o.case_name = case_name;
     o.scan = plan.cfg;
     o.sample = sample;
     o.stop_requested = [] { return StopSignals::requested(); };
@@ -218,8 +230,9 @@ int run(const ScanArgs& a) {
     auto pct = [](double v, double size) { return number(100.0 * v / size); };
     nlohmann::json j = {
         {"scenario", s.name},
-        {"control", "open loop: each axis's command is its setpoint times a static gain (V per um, below)"},
-        {"static_gain_V_per_um", r.V_per_um},
+        {"case", case_name},
+        {"case_label", chosen->label},
+        {"sample_type", r.q31 ? "q31" : "float"},
         {"pattern", a.pattern},
         {"sample", sample.describe()},
         {"centre_um", {plan.cfg.centre_x_um, plan.cfg.centre_y_um}},
@@ -319,6 +332,7 @@ void add_scan(CLI::App& app) {
     cmd->add_option("--scenario", a->scenario, "scenario of two or three axes (configs/stages/*.json)")
         ->required()
         ->check(CLI::ExistingFile);
+    cmd->add_option("--case", a->case_name, "controller case of the scenario (default: its first)");
     cmd->add_option("--pattern", a->pattern, "raster | spiral | lissajous | cycloid (docs/scan.md)");
     cmd->add_option("--size-um", a->size, "scan size WxH in um (spiral: diameter min(W, H)), default 20x20");
     cmd->add_option("--pixels", a->pixels, "image NXxNY (raster: pixels a line x lines), default 256x256");

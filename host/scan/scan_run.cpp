@@ -9,7 +9,7 @@
 #include "piezoloop/scan/scan_feed.hpp"
 #include "piezoloop/scan/scan_generator.hpp"
 #include "scan/virtual_probe.hpp"
-#include "sim/coupled_stage_build.hpp"
+#include "sim/multi_axis_loop.hpp"
 #include "status_text.hpp"
 
 namespace piezoloop::scan {
@@ -19,66 +19,92 @@ namespace {
     throw std::invalid_argument(what + ": " + describe(s));
 }
 
-LimitsConfig limits_of(const sim::Scenario& s) {
-    if (s.limits.u_max_V > s.limits.u_min_V) return s.limits;
-    return LimitsConfig{s.setup.hard.u_min_V, s.setup.hard.u_max_V, s.setup.hard.slew_max_V_per_s, 0.0f};
+template <int N>
+AxisMatrix<N> output_matrix_of(const sim::MultiAxisModel& m) {
+    AxisMatrix<N> a = AxisMatrix<N>::identity();
+    if (m.output_matrix.empty()) return a;
+    for (int i = 0; i < N; ++i)
+        for (int j = 0; j < N; ++j)
+            a.m[i][j] = static_cast<float>(m.output_matrix[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)]);
+    return a;
 }
 
 template <int N>
-ScanRunResult run_with(const sim::Scenario& s, const ScanRunOptions& o) {
-    using Pipe = MultiAxisPipeline<float, N, 1>;
-    MultiAxisSetup<N> setup{};
+InputMatrix<N> input_matrix_of(const sim::MultiAxisModel& m) {
+    InputMatrix<N> a{};
     for (int i = 0; i < N; ++i) {
-        setup.axes[static_cast<std::size_t>(i)] = s.setup;
-        setup.channels[static_cast<std::size_t>(i)] = s.setup.hard;
+        for (int j = 0; j < N && !m.input_matrix.empty(); ++j)
+            a.gain.m[i][j] = static_cast<float>(m.input_matrix[static_cast<std::size_t>(i)][static_cast<std::size_t>(j)]);
+        if (!m.input_offset_um.empty())
+            a.offset_um[static_cast<std::size_t>(i)] = static_cast<float>(m.input_offset_um[static_cast<std::size_t>(i)]);
+    }
+    return a;
+}
+
+template <class T, int N>
+ScanRunResult run_with(const sim::MultiAxisModel& m, const ScanRunOptions& o) {
+    using Pipe = MultiAxisPipeline<T, N, sim::kSimRcCapacity>;
+    MultiAxisSetup<N> setup{};
+    std::array<SignalScale, N> pos{}, volt{};
+    std::array<float, N> gain{};
+    for (int i = 0; i < N; ++i) {
+        const std::size_t a = static_cast<std::size_t>(i);
+        setup.axes[a] = m.axes[a].model.setup;
+        setup.channels[a] = m.axes[a].model.setup.hard;
+        pos[a] = setup.axes[a].position;
+        volt[a] = setup.axes[a].voltage;
+        gain[a] = m.stage.axis[a].sensor.gain;
+        if (gain[a] == 0.0f) throw std::invalid_argument(m.names[a] + ": plant.sensor.gain: must be non-zero");
     }
     auto pipe = std::make_unique<Pipe>(setup);
     if (const Status st = pipe->setup_status(); !st.ok()) reject("setup", st);
-    const std::vector<double> gains = static_gains_V_per_um(s);
-    for (int i = 0; i < N; ++i) {
-        PipelineParams p{};
-        p.feedforward = FeedforwardKind::kPiCompensator;
-        p.pi = PiModel{1.0f, 0.0f, static_cast<float>(gains[static_cast<std::size_t>(i)]), 0, {}, {}};
-        p.limits = limits_of(s);
-        if (const Status st = pipe->axis(i).stage(p); !st.ok()) reject("axis " + std::to_string(i), st);
-    }
+    if (const Status st = pipe->set_output_matrix(output_matrix_of<N>(m)); !st.ok()) reject("output_matrix", st);
+    if (const Status st = pipe->set_input_matrix(input_matrix_of<N>(m)); !st.ok()) reject("input_matrix", st);
+    for (int i = 0; i < N; ++i)
+        if (const Status st = pipe->axis(i).stage(m.axes[static_cast<std::size_t>(i)].model.params); !st.ok())
+            reject(m.names[static_cast<std::size_t>(i)] + ": controller", st);
 
     CoupledStage stage;
-    const CoupledStageConfig sc = sim::coupled_stage_config(s);
+    CoupledStageConfig sc = m.stage;
+    for (int i = 0; i < sc.axes; ++i) sc.axis[static_cast<std::size_t>(i)].rate_Hz = setup.axes[0].rate_Hz;
     if (const Status st = stage.configure(sc); !st.ok()) reject("plant", st);
-    std::array<float, N> gain{};
-    for (int i = 0; i < N; ++i) gain[static_cast<std::size_t>(i)] = sc.axis[static_cast<std::size_t>(i)].sensor.gain;
+    if (stage.axes() != N) throw std::invalid_argument("plant.axes: the stage and the controller differ in axes");
 
+    const float rate_Hz = setup.axes[0].rate_Hz;
     ScanConfig cfg = o.scan;
-    cfg.sample_rate_Hz = s.setup.rate_Hz;
-    ScanFeed<float> feed(s.setup.position, s.setup.position, s.setup.position, s.setup.rate_Hz);
+    cfg.sample_rate_Hz = rate_Hz;
+    ScanFeed<T> feed(pos[0], pos[1], pos[N > 2 ? N - 1 : 0], rate_Hz);
     const VirtualProbe probe(o.sample);
 
-    // The stage at rest: one tick disarmed (command at the safe value) to
-    // read where it is, then armed, from its readings.
-    ScanRunResult res;
-    res.V_per_um = gains;
-    for (int i = 0; i < 2; ++i) {
-        const auto t = axis_travel_um(s, i);
-        res.travel_um.push_back(t.first);
-        res.travel_um.push_back(t.second);
-    }
     typename Pipe::Samples y{};
-    std::array<float, N> readings{};
-    {
-        const auto u = pipe->tick(y);
-        stage.step(u.data(), readings.data());
-        for (int i = 0; i < N; ++i) y[static_cast<std::size_t>(i)] = readings[static_cast<std::size_t>(i)] / gain[static_cast<std::size_t>(i)];
-    }
-    // z, if any, is held where it is.
-    float z = 0.0f;
-    if constexpr (N > 2) z = y[2];
-    cfg.hold_z_um = z;
-    if (const Status st = feed.start(cfg, y[0], y[1], z); !st.ok()) reject("scan", st);
-    res.approach_ticks = feed.approach_ticks();
+    std::array<float, N> u_V{}, reading{};
+    auto tick = [&] {
+        const typename Pipe::Samples u = pipe->tick(y);
+        for (int i = 0; i < N; ++i)
+            u_V[static_cast<std::size_t>(i)] = volt[static_cast<std::size_t>(i)].to_physical(u[static_cast<std::size_t>(i)]);
+        stage.step(u_V.data(), reading.data());
+        for (int i = 0; i < N; ++i) {
+            const std::size_t a = static_cast<std::size_t>(i);
+            const float y_um = gain[a] == 1.0f ? reading[a] : reading[a] / gain[a];
+            y[a] = pos[a].template to_sample<T>(y_um);
+        }
+    };
+    // At rest: one tick holding 0 to read where the stage is, then the scan
+    // from there (z held where it is).
+    for (int i = 0; i < N; ++i) y[static_cast<std::size_t>(i)] = pos[static_cast<std::size_t>(i)].template to_sample<T>(0.0f);
     for (int i = 0; i < N; ++i) pipe->axis(i).set_setpoint(y[static_cast<std::size_t>(i)]);
     pipe->arm_all();
+    tick();
+    T z{};
+    if constexpr (N > 2) {
+        z = y[2];
+        cfg.hold_z_um = pos[2].to_physical(z);
+    }
+    if (const Status st = feed.start(cfg, y[0], y[1], z); !st.ok()) reject("scan", st);
 
+    ScanRunResult res;
+    res.q31 = !std::is_same_v<T, float>;
+    res.approach_ticks = feed.approach_ticks();
     const uint64_t total = uint64_t{feed.approach_ticks()} +
                            uint64_t{feed.generator().frame_period_ticks()} * (cfg.frames == 0 ? 1u : cfg.frames);
     uint64_t k = 0;
@@ -86,17 +112,15 @@ ScanRunResult run_with(const sim::Scenario& s, const ScanRunOptions& o) {
         if ((k & 1023u) == 0 && o.stop_requested && o.stop_requested()) break;
         if ((k & 32767u) == 0 && o.progress) o.progress(k, total);
         const bool scanning = !feed.approaching();
-        const ScanPoint<float> p = feed.feed(*pipe);
-        const auto u = pipe->tick(y);
-        stage.step(u.data(), readings.data());
-        for (int i = 0; i < N; ++i) y[static_cast<std::size_t>(i)] = readings[static_cast<std::size_t>(i)] / gain[static_cast<std::size_t>(i)];
+        const ScanPoint<T> p = feed.feed(*pipe);
+        tick();
         ++k;
         if (!scanning) continue;
         ScanTick t;
-        t.commanded_x_um = p.x;
-        t.commanded_y_um = p.y;
-        t.measured_x_um = y[0];
-        t.measured_y_um = y[1];
+        t.commanded_x_um = pos[0].to_physical(p.x);
+        t.commanded_y_um = pos[1].to_physical(p.y);
+        t.measured_x_um = gain[0] == 1.0f ? reading[0] : reading[0] / gain[0];
+        t.measured_y_um = gain[1] == 1.0f ? reading[1] : reading[1] / gain[1];
         t.true_x_um = stage.position_um(0);
         t.true_y_um = stage.position_um(1);
         t.height_nm = probe.read_nm(stage);
@@ -111,26 +135,23 @@ ScanRunResult run_with(const sim::Scenario& s, const ScanRunOptions& o) {
 
 }  // namespace
 
-std::vector<double> static_gains_V_per_um(const sim::Scenario& s) {
-    std::vector<double> g;
-    for (const sim::AxisSpec& a : s.axes) g.push_back(1.0 / (s.nominal_um_per_V * a.plant.amplifier.gain));
-    return g;
-}
-
 std::pair<double, double> axis_travel_um(const sim::Scenario& s, int axis) {
-    const LimitsConfig l = limits_of(s);
-    const double g = static_gains_V_per_um(s)[static_cast<std::size_t>(axis)];
-    return {l.u_min_V / g, l.u_max_V / g};
+    const double um_per_V = s.nominal_um_per_V * s.axes[static_cast<std::size_t>(axis)].plant.amplifier.gain;
+    return {s.setup.hard.u_min_V * um_per_V, s.setup.hard.u_max_V * um_per_V};
 }
 
 ScanRunResult run_scan(const sim::Scenario& s, const ScanRunOptions& o) {
     if (s.axes.size() < 2)
-        throw std::invalid_argument("scenario: a scan needs a stage of two or three axes (plant.axes), " +
-                                    std::to_string(s.axes.size() > 0 ? s.axes.size() : 1) + " given");
+        throw std::invalid_argument("scenario: a scan needs a stage of two or three axes (plant.axes)");
+    // The controllers' realisation check (a report's note, seconds for slow
+    // poles) is not needed to run them.
+    sim::BuildOptions build;
+    build.check_realisation = false;
+    const sim::MultiAxisModel m = sim::build_multi_axis_case(s, s.find_case(o.case_name), build);
     // The scan within each axis's travel, before anything moves.
     ScanConfig cfg = o.scan;
-    cfg.sample_rate_Hz = s.setup.rate_Hz;
-    ScanGenerator<float> g(s.setup.position, s.setup.position, s.setup.position);
+    cfg.sample_rate_Hz = m.axes[0].model.setup.rate_Hz;
+    ScanGenerator<float> g;
     if (const Status st = g.configure(cfg); !st.ok()) reject("scan", st);
     const double reach = g.reach_um();
     const double centre[2] = {cfg.centre_x_um, cfg.centre_y_um};
@@ -142,7 +163,9 @@ ScanRunResult run_scan(const sim::Scenario& s, const ScanRunOptions& o) {
                                         ", " + std::to_string(centre[i] + reach) + "] um, beyond the axis's travel [" +
                                         std::to_string(lo) + ", " + std::to_string(hi) + "] um");
     }
-    return s.axes.size() == 2 ? run_with<2>(s, o) : run_with<3>(s, o);
+    const bool q31 = m.sample == sim::SampleType::kQ31;
+    if (m.axes.size() == 2) return q31 ? run_with<Q31, 2>(m, o) : run_with<float, 2>(m, o);
+    return q31 ? run_with<Q31, 3>(m, o) : run_with<float, 3>(m, o);
 }
 
 }  // namespace piezoloop::scan

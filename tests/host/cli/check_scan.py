@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """`piezoloop scan` on configs/stages/xy_flexure.json: a 64 x 64 raster and a
 spiral at 50 lines (turns) a second, far below the stage's first mode
-(750 Hz). Checks the files, every figure of metrics.json against a
+(750 Hz), in closed loop (the case pi_notch). Checks the files, every figure of metrics.json against a
 recomputation from scan.csv (pixels formed here anew: numpy), the grating's
 pitch at measured positions within 1 % of the sample's, the refusals (exit 2
 naming the option, nothing written) and Ctrl-C (exit 4, what arrived
@@ -82,7 +82,7 @@ def run(args, out):
 with tempfile.TemporaryDirectory() as tmp:
     for pattern in ("raster", "spiral"):
         out = os.path.join(tmp, pattern)
-        res = run(["--pattern", pattern, "--size-um", "20x20", "--pixels", "64x64", "--line-rate-hz", "50",
+        res = run(["--case", "pi_notch", "--pattern", pattern, "--size-um", "20x20", "--pixels", "64x64", "--line-rate-hz", "50",
                    "--sample", "grating:pitch=2,height_nm=50"], out)
         check(f"{pattern}: exit 0", res.returncode == 0, res.stderr)
         if res.returncode != 0:
@@ -99,6 +99,7 @@ with tempfile.TemporaryDirectory() as tmp:
             m = json.load(fh)
         check(f"{pattern}: stdout is metrics.json", json.loads(res.stdout) == m)
         check(f"{pattern}: complete", m["complete"] is True and m["frames_completed"] == 1)
+        check(f"{pattern}: the case", m["case"] == "pi_notch" and m["sample_type"] == "float")
         r = recompute(os.path.join(out, "scan.csv"), m["rate_Hz"], pattern == "raster")
         for k in ("ticks", "used_ticks", "pixels", "lines"):
             check(f"{pattern}: {k} recomputed", r[k] == m[k], f"{r[k]} vs {m[k]}")
@@ -126,6 +127,7 @@ with tempfile.TemporaryDirectory() as tmp:
         (["--line-rate-hz", "6000"], "--line-rate-hz"),
         (["--pixels", "8x8", "--line-rate-hz", "4000"], "--line-rate-hz"),  # turnarounds under 2 ticks: the core's refusal
         (["--frames", "0"], "--frames"),
+        (["--case", "nope"], "--case"),
         (["--pattern", "zigzag"], "--pattern"),
         (["--sample", "ruler:pitch=2"], "--sample"),
         (["--sample", "grating:pitch=-1"], "--sample"),
