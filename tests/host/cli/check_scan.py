@@ -116,6 +116,34 @@ with tempfile.TemporaryDirectory() as tmp:
         print(f"{pattern}: rms x {m['tracking']['rms_x_percent']:.2f} %, max x {m['tracking']['max_x_percent']:.2f} %,"
               f" pitch measured {m['pitch']['measured_um']:.4f} um, commanded {m['pitch']['commanded_um']:.4f} um")
 
+    # The same case in Q31 (the core's fixed-point pipeline and scan feed):
+    # the same figures within a few percent, the pitch at measured positions
+    # within 1 %.
+    with open(scenario) as fh:
+        q = json.load(fh)
+    for c in q["cases"]:
+        if c["name"] == "pi_notch":
+            c["sample"] = "q31"
+    q31_scenario = os.path.join(tmp, "xy_flexure_q31.json")
+    with open(q31_scenario, "w") as fh:
+        json.dump(q, fh)
+    out = os.path.join(tmp, "q31")
+    res = subprocess.run([exe, "scan", "--scenario", q31_scenario, "--case", "pi_notch", "--pixels", "64x64",
+                          "--out", out], capture_output=True, text=True)
+    check("q31: exit 0", res.returncode == 0, res.stderr)
+    if res.returncode == 0:
+        mq = json.loads(res.stdout)
+        with open(os.path.join(tmp, "raster", "metrics.json")) as fh:
+            mf = json.load(fh)
+        check("q31: sample type", mq["sample_type"] == "q31")
+        check("q31: pitch at measured positions within 1 %", abs(mq["pitch"]["measured_um"] / 2.0 - 1.0) < 0.01,
+              mq["pitch"])
+        # Q31 rounding (2^-31 of 128 um, and the controllers' fixed point)
+        # against float: the tracking error within 2 % of itself.
+        check("q31: rms x as float's", close(mq["tracking"]["rms_x_um"], mf["tracking"]["rms_x_um"], rel=0.02),
+              f"{mq['tracking']['rms_x_um']} vs {mf['tracking']['rms_x_um']}")
+        check("q31: same ticks", mq["ticks"] == mf["ticks"] and mq["pixels"] == mf["pixels"])
+
     # Refusals: exit 2, the option named, nothing written.
     refusals = [
         (["--pixels", "64"], "--pixels"),
