@@ -25,6 +25,7 @@
 #include <array>
 #include <cstdint>
 #include <type_traits>
+#include <utility>  // std::tuple_size_v
 
 #include "piezoloop/approach.hpp"
 #include "piezoloop/q31.hpp"
