@@ -1,6 +1,7 @@
 #include "ui/board_session.hpp"
 
 #include <chrono>
+#include <limits>
 
 #include "device_common.hpp"
 #include "link/params_json.hpp"
@@ -61,20 +62,25 @@ BoardSession::~BoardSession() { stop(); }
 
 void BoardSession::start() {
     locked([&](hostlink::Client& c) {
-        link::RecorderParams rec;
-        rec.channel_count = hello_.recorder_channels;
-        for (uint8_t i = 0; i < hello_.recorder_channels; ++i) rec.channels[i] = i;
-        rec.decimation = 1;
-        rec.mode = RecordMode::kContinuous;
-        rec.trigger = TriggerMode::kImmediate;
-        c.set(rec);
-        c.recorder_arm();
+        arm_console_recorder();
         limits_ = read_group<link::LimitsParams>(c);
         return 0;
     });
     poll_status();
     running_ = true;
     thread_ = std::thread([this] { run(); });
+}
+
+void BoardSession::arm_console_recorder() {
+    link::RecorderParams rec;
+    rec.channel_count = hello_.recorder_channels;
+    for (uint8_t i = 0; i < hello_.recorder_channels; ++i) rec.channels[i] = i;
+    rec.decimation = 1;
+    rec.mode = RecordMode::kContinuous;
+    rec.trigger = TriggerMode::kImmediate;
+    client_.set(rec);
+    client_.recorder_arm();  // clears the host's log: a new recording
+    new_recording_ = true;
 }
 
 void BoardSession::stop() {
@@ -93,6 +99,10 @@ void BoardSession::stop() {
 void BoardSession::run() {
     auto next_status = std::chrono::steady_clock::now();
     while (running_) {
+        if (measuring_) {  // the measurement reads the link and polls the status
+            std::this_thread::sleep_for(20ms);
+            continue;
+        }
         try {
             locked([&](hostlink::Client& c) {
                 c.pump(4ms);
@@ -103,6 +113,8 @@ void BoardSession::run() {
                 poll_status();
                 next_status = std::chrono::steady_clock::now() + 200ms;
             }
+        } catch (const BoardBusy&) {
+            continue;
         } catch (const std::exception& e) {
             const std::lock_guard lock(status_m_);
             link_error_ = e.what();
@@ -115,29 +127,108 @@ void BoardSession::run() {
 }
 
 void BoardSession::take_log_frames() {
+    if (measuring_) return;
     const std::lock_guard lock(link_);
-    hostlink::LogCollector& log = client_.log();
+    const std::size_t n = client_.log().size();
+    append_log_frames(0);
+    client_.log().drop_front(n);
+}
+
+void BoardSession::append_log_frames(std::size_t from) {
+    const hostlink::LogCollector& log = client_.log();
     const std::size_t n = log.size();
-    if (n == 0) return;
+    if (from >= n) return;
+    if (new_recording_) {
+        // After the last by the board's tick counter; one that went back (a
+        // restarted emulated stage may restart it) or stood: just after.
+        uint32_t gap = log.first_tick_raw() - last_raw_;
+        if (gap == 0 || gap >= (1u << 31)) gap = 1;
+        recording_offset_ = have_last_ ? last_tick_ + gap : 0;
+        new_recording_ = false;
+    }
     const int64_t arrival = now_ms();
     const std::size_t channels = log.channel_count();
-    std::vector<float> values(history_->signals().size(), 0.0f);
-    for (std::size_t i = 0; i < n; ++i) {
+    std::vector<float> values(history_->signals().size());
+    for (std::size_t i = from; i < n; ++i) {
+        std::fill(values.begin(), values.end(), std::numeric_limits<float>::quiet_NaN());
         const uint32_t* raw = log.raw(i);
         for (std::size_t ch = 0; ch < channels; ++ch) {
             const uint8_t id = log.channels()[ch];
             if (id < values.size())
                 values[id] = static_cast<float>(hostlink::log_sample_physical(raw[ch], id, log.format(), hello_));
         }
-        history_->append(log.tick(i), values, arrival);
+        history_->append(recording_offset_ + log.tick(i), values, arrival);
     }
-    log.drop_front(n);
+    last_tick_ = recording_offset_ + log.tick(n - 1);
+    last_raw_ = log.first_tick_raw() + static_cast<uint32_t>(log.tick(n - 1));
+    have_last_ = true;
+}
+
+measure::FrfPlan BoardSession::plan_frf(const measure::FrfRequest& r) {
+    return locked([&](hostlink::Client& c) { return hostlink::plan_frf_device(c, r); });
+}
+
+hostlink::DeviceFrfRun BoardSession::measure_frf(const measure::FrfRequest& r, hostlink::MeasureOptions o) {
+    if (measuring_.exchange(true)) throw BoardBusy("a frequency response measurement is running already");
+    const std::lock_guard lock(link_);
+    // The console's recording up to here; the measurement's frames go into
+    // the history as they arrive (its recording is the log's from the
+    // excitation's start, which is when its progress is first reported).
+    const std::size_t console_frames = client_.log().size();
+    append_log_frames(0);
+    client_.log().drop_front(console_frames);
+    bool started = false;
+    std::size_t taken = 0;
+    auto last_status = std::chrono::steady_clock::now();
+    const std::function<void(double)> report = o.progress;
+    o.progress = [&](double f) {
+        if (!started) {
+            started = true;
+            new_recording_ = true;
+        }
+        append_log_frames(taken);
+        taken = client_.log().size();
+        if (std::chrono::steady_clock::now() - last_status >= 200ms) {
+            poll_status_locked();
+            last_status = std::chrono::steady_clock::now();
+        }
+        if (report) report(f);
+    };
+    // Whatever happened: the rest of the recording into the history, the
+    // console's recorder back, the status read.
+    auto finish = [&] {
+        try {
+            append_log_frames(taken);
+            arm_console_recorder();
+            measuring_ = false;
+            poll_status_locked();
+        } catch (const std::exception& e) {
+            const std::lock_guard s(status_m_);
+            link_error_ = e.what();
+            status_["link_error"] = link_error_;
+            ++status_serial_;
+        }
+        measuring_ = false;
+    };
+    try {
+        hostlink::DeviceFrfRun run = hostlink::run_frf_device(client_, r, o);
+        finish();
+        return run;
+    } catch (...) {
+        finish();
+        throw;
+    }
 }
 
 void BoardSession::poll_status() {
+    if (measuring_) return;  // the measurement polls it
+    const std::lock_guard lock(link_);
+    poll_status_locked();
+}
+
+void BoardSession::poll_status_locked() {
     json j;
     {
-        const std::lock_guard lock(link_);
         const link::StatusReply st = client_.status();
         j["status"] = hostlink::to_json(st);
         j["storage_text"] = storage_state_text(st.storage);
@@ -156,6 +247,7 @@ void BoardSession::poll_status() {
     j["fault_meanings"] = meanings;
     j["trip_meaning"] = trip_meaning(j["status"]["trip_reason"].get<std::string>());
     j["device"] = address_;
+    j["measuring"] = measuring_.load();
     j["hello"] = hostlink::to_json(hello_);
     const std::lock_guard lock(status_m_);
     j["limits"] = limits_;

@@ -4,18 +4,25 @@
 // (arm, disarm, parameters, waves) between its reads. The board's recorder
 // runs continuously, r, y, e, u (as many as the board records), for as long
 // as the console runs; its recorder group is the console's, not a form's.
+// A frequency-response measurement takes the link and the recorder over for
+// its run (measure_frf): the history then gets the measurement's r, y and u
+// (e is not recorded meanwhile: a gap), the status is polled between its
+// reads, other requests are refused (BoardBusy), and the console's
+// recording is re-armed after it.
 #pragma once
 
 #include <atomic>
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "link/client.hpp"
+#include "link/measure_session.hpp"
 #include "ui/sample_history.hpp"
 
 namespace piezoloop::ui {
@@ -30,6 +37,11 @@ struct SetOutcome {
     std::string message;
     nlohmann::json values;  // the group read back from the board
     nlohmann::json to_json() const;
+};
+
+// A request refused because a measurement holds the link.
+struct BoardBusy : std::runtime_error {
+    using std::runtime_error::runtime_error;
 };
 
 class BoardSession {
@@ -65,15 +77,30 @@ public:
     // trajectory group and start it (detached from this link's silence).
     nlohmann::json start_wave(const nlohmann::json& request);
 
+    // `measure frf`'s plan against the board (hostlink::plan_frf_device):
+    // std::invalid_argument naming the option, before anything moves.
+    measure::FrfPlan plan_frf(const measure::FrfRequest& r);
+    // `measure frf` on the board (hostlink::run_frf_device), the link held
+    // for its whole run; o.progress is called with the link held.
+    hostlink::DeviceFrfRun measure_frf(const measure::FrfRequest& r, hostlink::MeasureOptions o);
+    bool measuring() const { return measuring_.load(); }
+
     // Groups the parameter forms offer (not the recorder: the scope's).
     static const std::vector<std::string>& form_groups();
 
 private:
     void run();
     void take_log_frames();
+    // Frames [from, size) of the link's log into the history, placed after
+    // the last one (the board's tick counter gives the gap between two
+    // recordings); signals the log does not carry are NaN.
+    void append_log_frames(std::size_t from);
     void poll_status();
+    void poll_status_locked();  // the link's lock held
+    void arm_console_recorder();  // the link's lock held
     template <class F>
     auto locked(F f) {
+        if (measuring_) throw BoardBusy("a frequency response measurement is running: stop it first");
         const std::lock_guard lock(link_);
         return f(client_);
     }
@@ -85,6 +112,12 @@ private:
     std::mutex link_;
     std::thread thread_;
     std::atomic<bool> running_{false};
+    std::atomic<bool> measuring_{false};
+    // The history's tick of log frame 0 of the current recording, and the
+    // board's (wire) tick of the last frame appended.
+    bool new_recording_ = true, have_last_ = false;
+    uint64_t recording_offset_ = 0, last_tick_ = 0;
+    uint32_t last_raw_ = 0;
     mutable std::mutex status_m_;
     nlohmann::json status_;
     nlohmann::json limits_;

@@ -12,6 +12,7 @@
 #include "link/params_schema.hpp"
 #include "ui/access.hpp"
 #include "ui/control_seat.hpp"
+#include "ui/frf_job.hpp"
 #include "ui/psd.hpp"
 #include "ui/scope_view.hpp"
 #include "ui/web_assets.hpp"
@@ -57,12 +58,13 @@ struct ConsoleServer::Impl {
     AccessRules rules;
     httplib::Server server;
     ControlSeat seat;
+    FrfJob frf;
     std::mutex viewers_m;
     std::map<std::string, std::shared_ptr<Viewer>> viewers;
     std::atomic<bool> stopping{false};
     int port = 0;
 
-    Impl(BoardSession& b, ConsoleOptions o) : board(b), options(std::move(o)) {}
+    Impl(BoardSession& b, ConsoleOptions o) : board(b), options(std::move(o)), frf(b) {}
 
     std::shared_ptr<Viewer> viewer(const std::string& id) {
         const std::lock_guard lock(viewers_m);
@@ -92,6 +94,10 @@ void ConsoleServer::Impl::control(const std::string& pattern, std::function<json
         }
         try {
             send_json(res, body(req));
+        } catch (const FieldRefusal& e) {
+            send_json(res, {{"error", e.what()}, {"field", e.field}}, 400);
+        } catch (const BoardBusy& e) {
+            send_json(res, {{"error", e.what()}}, 409);
         } catch (const std::invalid_argument& e) {
             send_json(res, {{"error", e.what()}}, 400);
         } catch (const json::exception& e) {
@@ -144,7 +150,7 @@ void ConsoleServer::Impl::routes() {
         }
         struct StreamState {
             bool hello_sent = false;
-            uint64_t status_serial = 0;
+            uint64_t status_serial = 0, frf_serial = 0, frf_result_serial = 0;
             std::chrono::steady_clock::time_point last_frame{}, last_write{};
         };
         auto state = std::make_shared<StreamState>();
@@ -192,6 +198,16 @@ void ConsoleServer::Impl::routes() {
                     json st = board.status_json();
                     st["control"] = control_json(id);
                     out += sse_event("status", st);
+                }
+                // The measurement's progress, and its result once (every page
+                // gets the latest of both when it connects).
+                if (const uint64_t fs = frf.progress_serial(); fs != state->frf_serial) {
+                    state->frf_serial = fs;
+                    out += sse_event("frf", frf.progress_json());
+                }
+                if (const uint64_t rs = frf.result_serial(); rs != state->frf_result_serial) {
+                    state->frf_result_serial = rs;
+                    out += sse_event("frf-result", frf.result_json());
                 }
                 // A comment now and then: finds a closed connection.
                 if (out.empty() && now - state->last_write > std::chrono::seconds(1)) out = ": idle\n\n";
@@ -271,6 +287,8 @@ void ConsoleServer::Impl::routes() {
             json groups = json::object();
             for (const std::string& g : BoardSession::form_groups()) groups[g] = schema["properties"][g];
             send_json(res, {{"groups", BoardSession::form_groups()}, {"schema", groups}, {"values", board.groups_json()}});
+        } catch (const BoardBusy& e) {
+            send_json(res, {{"error", e.what()}}, 409);
         } catch (const std::exception& e) {
             send_json(res, {{"error", e.what()}}, 502);
         }
@@ -302,6 +320,11 @@ void ConsoleServer::Impl::routes() {
         return board.status_json();
     });
     control("/api/stop", [this](const httplib::Request&) {
+        // Stop stops a measurement too (its excitation ends, the groups go back).
+        if (board.measuring()) {
+            frf.request_stop();
+            return board.status_json();
+        }
         board.stop_motion();
         return board.status_json();
     });
@@ -309,6 +332,25 @@ void ConsoleServer::Impl::routes() {
         return board.set_group(req.matches[1], json::parse(req.body)).to_json();
     });
     control("/api/wave", [this](const httplib::Request& req) { return board.start_wave(json::parse(req.body)); });
+
+    control("/api/frf/start", [this](const httplib::Request& req) {
+        const json form = json::parse(req.body, nullptr, false);
+        if (form.is_discarded()) throw FieldRefusal("", "the request is not JSON");
+        return frf.start(form);
+    });
+    control("/api/frf/stop", [this](const httplib::Request&) {
+        frf.request_stop();
+        return frf.progress_json();
+    });
+    server.Get("/api/frf", [this](const httplib::Request&, httplib::Response& res) {
+        send_json(res, {{"progress", frf.progress_json()}, {"result", frf.result_json()}});
+    });
+    server.Get("/api/frf/csv", [this](const httplib::Request&, httplib::Response& res) {
+        const std::string csv = frf.result_csv();
+        if (csv.empty()) return send_json(res, {{"error", "no frequency response measured yet"}}, 404);
+        res.set_header("Content-Disposition", "attachment; filename=\"frf.csv\"");
+        res.set_content(csv, "text/csv");
+    });
 }
 
 ConsoleServer::ConsoleServer(BoardSession& board, ConsoleOptions options)
@@ -351,6 +393,7 @@ void ConsoleServer::serve(const std::function<bool()>& stop_requested) {
     std::thread listener([&s] { s.server.listen_after_bind(); });
     while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     s.stopping = true;
+    s.frf.shutdown();  // a running measurement stops, the board's groups put back
     s.server.stop();
     listener.join();
 }

@@ -11,6 +11,9 @@
 //   GET  /api/params                schema of the form groups and their values
 //   POST /api/control/claim|release the control seat
 //   POST /api/arm|disarm|clear-trip|stop, /api/params/GROUP, /api/wave
+//   POST /api/frf/start|stop        a frequency response (ui/frf_job); the
+//                                   stream's frf and frf-result events
+//   GET  /api/frf, /api/frf/csv     its progress and last result
 // The viewer id goes in the X-Piezoloop-Viewer header, the token in
 // X-Piezoloop-Token (or ?token= where a header cannot be set).
 #pragma once

@@ -16,6 +16,9 @@ const state = {
   frameLog: [],        // [wall ms, end of the frame's window in device s] of the last frames received
   latencies: [],       // ms, newest sample's arrival at the host to its frame on screen
   status: null,
+  measuring: false,    // a frequency response runs (the board's other commands wait)
+  frf: null,           // the measurement's progress: {state, phase, fraction, request, error}
+  frfResult: null,     // the last result, as the server sent it
 };
 window.piezoloop = state;  // for the browser tests and the curious
 
@@ -228,7 +231,9 @@ function showStatus(st) {
     ['requests (host)', hl.requests], ['log frames (host)', hl.log_frames],
     ['lost blocks / tick gaps', `${hl.lost_blocks} / ${hl.tick_gaps}`], ['recorder overruns', hl.recorder_overruns],
   ].map(([k, v]) => [k, String(v)]));
+  state.measuring = !!st.measuring || (state.frf && state.frf.state === 'running');
   if (st.control) showControl(st.control);
+  else updateButtons();
 }
 
 function showControl(c) {
@@ -237,8 +242,15 @@ function showControl(c) {
   $('seat').className = c.controls ? 'seat controls' : 'seat';
   $('claim').hidden = c.controls;
   $('release').hidden = !c.controls;
-  for (const b of document.querySelectorAll('.ctl')) b.disabled = !c.controls;
-  for (const b of document.querySelectorAll('#params button')) b.disabled = !c.controls;
+  updateButtons();
+}
+
+// Commands need the seat; while a measurement runs only the stops are offered.
+function updateButtons() {
+  const c = state.controls;
+  for (const b of document.querySelectorAll('.ctl')) b.disabled = !c || (state.measuring && b.id !== 'stop');
+  $('frf-stop').disabled = !c || !state.measuring;
+  for (const b of document.querySelectorAll('#params button')) b.disabled = !c || state.measuring;
 }
 
 async function act(path) {
@@ -410,6 +422,140 @@ function waveForm() {
   };
 }
 
+// ---- frequency response: the board's `measure frf`, as a Bode plot ------------
+
+let bodeMag = null;
+let bodePhase = null;
+
+function frfErrors() { return [...document.querySelectorAll('#frf [data-error-for]')]; }
+
+function showFrfError(field, message) {
+  const spans = frfErrors();
+  const at = spans.find((e) => e.dataset.errorFor === field) || spans.find((e) => e.dataset.errorFor === '');
+  at.textContent = `refused: ${message}`;
+}
+
+function frfForm() {
+  const f = $('frf');
+  f.onsubmit = async (ev) => {
+    ev.preventDefault();
+    for (const e of frfErrors()) e.textContent = '';
+    const body = {
+      from_Hz: Number(f.from_Hz.value),
+      to_Hz: Number(f.to_Hz.value),
+      amplitude_V: Number(f.amplitude_V.value),
+      bias_V: Number(f.bias_V.value),
+      periods: Number(f.periods.value),
+      transient_periods: Number(f.transient_periods.value),
+      signal: f.signal.value,
+      mode: f.mode.value,
+      restart_stage: f.restart_stage.checked,
+      fit_order: f.fit_order.value.trim(),
+    };
+    const r = await api('POST', '/api/frf/start', body);
+    if (!r.ok) showFrfError(r.data.field || '', r.data.error || String(r.data));
+  };
+  $('frf-stop').onclick = () => api('POST', '/api/frf/stop');
+  $('frf-csv').onclick = async () => {
+    const res = await fetch('/api/frf/csv', { headers: { 'X-Piezoloop-Token': token } });
+    const a = document.createElement('a');
+    a.href = URL.createObjectURL(await res.blob());
+    a.download = 'frf.csv';
+    a.click();
+    URL.revokeObjectURL(a.href);
+  };
+}
+
+function showFrfProgress(p) {
+  const was = state.frf;
+  state.frf = p;
+  state.frfSeen = (state.frfSeen || []).concat([{ state: p.state, phase: p.phase, fraction: p.fraction }]);
+  state.measuring = p.state === 'running';
+  $('frf-progress').value = p.fraction || 0;
+  const pct = `${Math.round(100 * (p.fraction || 0))} %`;
+  const text = {
+    idle: 'no measurement yet',
+    running: `${p.phase} ${p.phase === 'recording' ? pct : ''}`,
+    done: 'measured',
+    failed: 'refused or failed',
+    stopped: 'stopped',
+  };
+  $('frf-state').textContent = text[p.state] || p.state;
+  if (p.state === 'running' && (!was || was.state !== 'running')) for (const e of frfErrors()) e.textContent = '';
+  if (p.error) showFrfError(p.error.field || '', p.error.message);
+  // The forms as the board holds them again (a page opened meanwhile has none).
+  if (was && was.state === 'running' && p.state !== 'running') loadParams();
+  updateButtons();
+}
+
+// The measured lines, ±1 standard deviation (the magnitude's std_dB; in
+// phase the same relative deviation sigma_G/|G| in radians), and the fit.
+function bodeSeries(res) {
+  const degPerDb = (Math.log(10) / 20) * (180 / Math.PI);
+  const sd = res.std_dB;
+  const band = (y, scale) => [y.map((v, i) => (sd[i] == null ? null : v + scale * sd[i])),
+    y.map((v, i) => (sd[i] == null ? null : v - scale * sd[i]))];
+  const fit = res.fit && res.fit.magnitude_dB ? res.fit : null;
+  const none = res.frequency_Hz.map(() => null);
+  return {
+    mag: [res.frequency_Hz, res.magnitude_dB, ...band(res.magnitude_dB, 1), fit ? fit.magnitude_dB : none],
+    phase: [res.frequency_Hz, res.phase_deg, ...band(res.phase_deg, degPerDb), fit ? fit.phase_deg : none],
+  };
+}
+
+function bodePlot(el, data, unit, fitLabel) {
+  const series = [
+    { label: 'f (Hz)' },
+    { label: `measured (${unit})`, stroke: '#06c', width: 1.5, points: { show: true, size: 4 } },
+    { label: '+1 std', stroke: 'rgba(0,102,204,0.35)', width: 1, points: { show: false } },
+    { label: '−1 std', stroke: 'rgba(0,102,204,0.35)', width: 1, points: { show: false } },
+    { label: fitLabel, stroke: '#c22', width: 1.5, dash: [6, 4], points: { show: false } },
+  ];
+  const f = data[0];
+  return new uPlot({
+    width: Math.max(400, el.clientWidth || 800),
+    height: 220,
+    series,
+    bands: [{ series: [2, 3], fill: 'rgba(0,102,204,0.15)' }],
+    // The measured band, not the decades around it.
+    scales: { x: { time: false, distr: 3, range: () => [f[0], f[f.length - 1]] } },
+    legend: { live: false },
+    axes: [{ label: 'Hz' }, { label: unit, size: 60 }],
+  }, data, el);
+}
+
+function showFrfResult(res) {
+  state.frfResult = res;
+  if (!res) return;
+  const d = bodeSeries(res);
+  const fit = res.fit || null;
+  const fitLabel = fit && fit.magnitude_dB ? `fit ${fit.order}` : 'fit';
+  if (bodeMag) bodeMag.destroy();
+  if (bodePhase) bodePhase.destroy();
+  bodeMag = bodePlot($('bode-mag'), d.mag, 'dB (µm/V)', fitLabel);
+  bodePhase = bodePlot($('bode-phase'), d.phase, 'deg', fitLabel);
+  const f = res.frequency_Hz;
+  const fmt = (x, n = 3) => String(Number(Number(x).toPrecision(n)));  // 2000, not 2.00e+3
+  let text = `${res.lines} lines, ${fmt(f[0])} – ${fmt(f[f.length - 1])} Hz, ${res.signal}, ${res.periods} periods ` +
+    `(+ ${res.transient_periods} transient): ${fmt(res.device_s)} s on the board in ${fmt(res.wall_s)} s; ` +
+    `clipped samples ${res.clipped_samples}; limiter trip ${res.limiter_trip}; log hash ${res.log_hash}`;
+  if (fit && fit.magnitude_dB) {
+    const res0 = (fit.resonances || []).map((r) => `${fmt(r.frequency_Hz)} Hz (ζ ${fmt(r.damping, 2)})`).join(', ');
+    text += `. Fit ${fit.order}: weighted rms ${fmt(fit.weighted_rms)}${res0 ? `, resonances ${res0}` : ''}`;
+  }
+  $('frf-summary').textContent = text;
+  const w = $('frf-warnings');
+  w.replaceChildren(...(res.warnings || []).map((t) => { const li = document.createElement('li'); li.textContent = t; return li; }));
+  if (fit && fit.error) showFrfError(fit.error.field, fit.error.message);
+  $('frf-csv').disabled = false;
+}
+
+// What the Bode plots hold, as plain arrays (for the browser test).
+state.bodeData = () => ({
+  mag: bodeMag ? bodeMag.data.map((a) => Array.from(a)) : null,
+  phase: bodePhase ? bodePhase.data.map((a) => Array.from(a)) : null,
+});
+
 // ---- the stream ----------------------------------------------------------------
 
 function connect() {
@@ -443,6 +589,8 @@ function connect() {
     drawFrame(f);
   });
   es.addEventListener('status', (ev) => showStatus(JSON.parse(ev.data)));
+  es.addEventListener('frf', (ev) => showFrfProgress(JSON.parse(ev.data)));
+  es.addEventListener('frf-result', (ev) => showFrfResult(JSON.parse(ev.data)));
   es.onerror = () => { $('device').textContent = 'disconnected: reconnecting…'; };
 }
 
@@ -460,5 +608,6 @@ $('stop').onclick = () => act('/api/stop');
 scopeControls();
 psdControls();
 waveForm();
+frfForm();
 showControl({ controls: false, seat_taken: false });
 connect();

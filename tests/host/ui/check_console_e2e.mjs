@@ -16,12 +16,22 @@
 //     message, the form shows the board's value, and after the console has
 //     ended `piezoloop get limits` reads the unchanged value from the board;
 //   - the frame rate and the host-to-screen latency are printed (a figure,
-//     not a pass/fail check).
+//     not a pass/fail check);
+//   - (device) a frequency response measured from the page: a watcher cannot
+//     start one; a band above rate/2 is refused at to_Hz with the plan's
+//     message and changes nothing on the board; the measurement's progress
+//     shows on the page and on a watcher; every point of the Bode plots
+//     (magnitude, phase, the ±1 std band, the fit) equals the server's result,
+//     exactly, and so does the CSV download; the board's groups are put back;
+//     after the console `piezoloop measure frf` with the same request on the
+//     same board gives the same log hash and the same response, bit for bit
+//     (both restart the emulated stage at rest).
 //
-//   node check_console_e2e.mjs PIEZOLOOP SERVO_ELF CONFIGS_DIR device|scenario [SCREENSHOT.png]
+//   node check_console_e2e.mjs PIEZOLOOP SERVO_ELF CONFIGS_DIR device|scenario [SCOPE.png [BODE.png]]
 // Exit 77 (skipped) without QEMU, the image or /usr/bin/chromium.
 import { spawn, spawnSync } from 'node:child_process';
-import { existsSync } from 'node:fs';
+import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
+import os from 'node:os';
 import { createRequire } from 'node:module';
 import http from 'node:http';
 import net from 'node:net';
@@ -32,7 +42,7 @@ const here = path.dirname(fileURLToPath(import.meta.url));
 const require = createRequire(path.join(here, '../../../host/ui/web/package.json'));
 const { chromium } = require('playwright-core');
 
-const [exe, image, configs, mode = 'device', screenshot] = process.argv.slice(2);
+const [exe, image, configs, mode = 'device', screenshot, bodeShot] = process.argv.slice(2);
 const chromiumPath = '/usr/bin/chromium';
 const qemu = spawnSync('sh', ['-c', 'command -v qemu-system-arm']).status === 0;
 if (!existsSync(image) || !qemu || !existsSync(chromiumPath)) {
@@ -118,9 +128,147 @@ async function refusedLimit(page) {
   check(after === before, 'the form shows the board\'s u_max_V again', `${before} -> ${after}`);
 }
 
+// The measurement the page runs, and `measure frf` repeats after the console.
+const frfRequest = { from_Hz: 50, to_Hz: 2000, amplitude_V: 0.09, bias_V: 3, periods: 4, transient_periods: 1, fit_order: '6/5' };
+
+async function fillFrf(page, r) {
+  for (const [k, v] of Object.entries(r)) await page.fill(`#frf [name="${k}"]`, String(v));
+}
+
+async function frequencyResponse(page, context, url, token) {
+  const watcher = await context.newPage();
+  await watcher.goto(url);
+  await waitFor(watcher, () => window.piezoloop.ready, null, 'a watching page loads');
+  const forced = await watcher.evaluate(async ([t, r]) => {
+    const res = await fetch('/api/frf/start', { method: 'POST', headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' }, body: JSON.stringify(r) });
+    return res.status;
+  }, [token, frfRequest]);
+  check(forced === 409 && await watcher.isDisabled('#frf-start'), 'a watching page cannot start a measurement (409, Measure disabled)', `status ${forced}`);
+
+  // Refused before anything moves: the band above rate / 2.
+  const board = () => page.evaluate(async (t) => {
+    const p = await (await fetch('/api/params', { headers: { 'X-Piezoloop-Token': t } })).json();
+    return { values: p.values, status: window.piezoloop.status.status };
+  }, token);
+  const before = await board();
+  await fillFrf(page, { ...frfRequest, to_Hz: 6000 });
+  await page.click('#frf-start');
+  await waitFor(page, () => document.querySelector('#frf [data-error-for="to_Hz"]').textContent, null, 'the refusal at to_Hz');
+  const refusal = await page.textContent('#frf [data-error-for="to_Hz"]');
+  check(refusal.includes('to_Hz: must be below the Nyquist frequency, rate / 2 = 5000 Hz'), 'to_Hz above rate/2: the plan\'s refusal at to_Hz', refusal);
+  const after = await board();
+  check(JSON.stringify(after.values) === JSON.stringify(before.values) && !after.status.excitation_running &&
+    after.status.armed === before.status.armed && (await page.evaluate(() => window.piezoloop.frf.state)) === 'idle',
+    'the refused request changed nothing (groups, armed, no excitation, no measurement)');
+
+  // The measurement, from rest, with a 6/5 fit.
+  await fillFrf(page, frfRequest);
+  await page.check('#frf [name="restart_stage"]');
+  const t0 = Date.now();
+  await page.click('#frf-start');
+  const finished = await waitFor(page, () => window.piezoloop.frf && ['done', 'failed', 'stopped'].includes(window.piezoloop.frf.state) &&
+    window.piezoloop.frfResult, null, 'the measurement ends', 120000);
+  const wall = (Date.now() - t0) / 1000;
+  const progress = await page.evaluate(() => window.piezoloop.frf);
+  if (!finished || !check(progress.state === 'done', 'the measurement ran from the page', JSON.stringify(progress))) return null;
+  const seen = await page.evaluate(() => window.piezoloop.frfSeen);
+  const watcherSeen = await watcher.evaluate(() => window.piezoloop.frfSeen);
+  const partial = (l) => l.some((p) => p.state === 'running' && p.phase === 'recording' && p.fraction > 0 && p.fraction < 1);
+  check(partial(seen) && partial(watcherSeen), 'its progress shows, on the page and on the watcher (recording, 0 < fraction < 1)',
+    JSON.stringify(seen.map((p) => `${p.phase}:${p.fraction}`)));
+  await waitFor(page, () => !window.piezoloop.status.measuring, null, 'the status after the measurement');
+
+  const server = await page.evaluate(async (t) => (await fetch('/api/frf', { headers: { 'X-Piezoloop-Token': t } })).json(), token);
+  const res = server.result;
+  const same = (a, b) => Array.isArray(a) && Array.isArray(b) && a.length === b.length && a.every((x, i) => x === b[i]);
+  // The band as the page must draw it: magnitude ± std_dB, phase ± the same relative deviation in degrees.
+  const degPerDb = (Math.log(10) / 20) * (180 / Math.PI);
+  const band = (y, k, sign) => y.map((v, i) => (res.std_dB[i] == null ? null : v + sign * k * res.std_dB[i]));
+  const plotted = await page.evaluate(() => window.piezoloop.bodeData());
+  check(res.lines > 30 && same(plotted.mag[0], res.frequency_Hz) && same(plotted.mag[1], res.magnitude_dB) &&
+    same(plotted.phase[1], res.phase_deg), 'the Bode plot\'s measured magnitude and phase are the server\'s lines, exactly',
+    `${res.lines} lines`);
+  check(res.std_dB.every((x) => x !== null && x > 0) && same(plotted.mag[2], band(res.magnitude_dB, 1, 1)) &&
+    same(plotted.mag[3], band(res.magnitude_dB, 1, -1)) && same(plotted.phase[2], band(res.phase_deg, degPerDb, 1)) &&
+    same(plotted.phase[3], band(res.phase_deg, degPerDb, -1)), 'the std band drawn is the server\'s std_dB at every line');
+  check(res.fit && !res.fit.error && same(plotted.mag[4], res.fit.magnitude_dB) && same(plotted.phase[4], res.fit.phase_deg),
+    'the 6/5 fit drawn is the server\'s fit', JSON.stringify(res.fit && (res.fit.error || res.fit.weighted_rms)));
+  // 6/5 fits the Ahmad2020 stage's lines within their noise (|G - fit| about one std on average).
+  check(res.fit && res.fit.weighted_rms < 1.5, 'the 6/5 fit is within the measurement\'s noise (weighted rms < 1.5)', String(res.fit && res.fit.weighted_rms));
+  const watcherResult = await watcher.evaluate(() => window.piezoloop.frfResult);
+  check(JSON.stringify(watcherResult) === JSON.stringify(res), 'the watching page got the same result');
+  const download = page.waitForEvent('download');
+  await page.click('#frf-csv');
+  const csv = readFileSync(await (await download).path(), 'utf8').trim().split('\n');
+  const rows = csv.slice(1).map((l) => l.split(',').map((c) => (c === '' ? null : Number(c))));
+  const col = (k) => rows.map((r) => r[k]);
+  check(csv[0] === 'frequency_Hz,magnitude_dB,phase_deg,std_dB,re_um_per_V,im_um_per_V,fit_magnitude_dB,fit_phase_deg' &&
+    same(col(0), res.frequency_Hz) && same(col(1), res.magnitude_dB) && same(col(2), res.phase_deg) && same(col(3), res.std_dB) &&
+    same(col(4), res.response.map((g) => g[0])) && same(col(5), res.response.map((g) => g[1])) && same(col(6), res.fit.magnitude_dB),
+    'the CSV download holds the server\'s lines, exactly', csv[0]);
+  const afterRun = await board();
+  for (const g of ['feedforward', 'feedback', 'rc', 'limits'])
+    check(JSON.stringify(afterRun.values[g]) === JSON.stringify(before.values[g]), `the board's ${g} group is put back`);
+  check(!afterRun.status.armed && !afterRun.status.excitation_running, 'the loop is left disarmed, no excitation running');
+  // The scope meanwhile: the measurement's own recording (r, y, u of every
+  // tick, e not recorded: nan), between the console's recordings.
+  const drawnBefore = await page.evaluate(() => window.piezoloop.framesDrawn);
+  await waitFor(page, (n) => window.piezoloop.framesDrawn > n + 5, drawnBefore, 'the scope draws again after the measurement');
+  const end = await page.evaluate(() => window.piezoloop.frame.t0_s + window.piezoloop.frame.span_s);
+  const scope = (await page.evaluate(async ([t, e]) => (await fetch(`/api/scope/csv?t0_s=${e - 20}&span_s=20`, { headers: { 'X-Piezoloop-Token': t } })).text(), [token, end]))
+    .trim().split('\n');
+  const head = scope[0].split(',');
+  const srows = scope.slice(1).map((l) => l.split(',').map(Number));
+  const [ie, iu] = [head.indexOf('e_um'), head.indexOf('u_V')];
+  const during = srows.map((r, i) => [r, i]).filter(([r]) => Number.isNaN(r[ie]));
+  const first = during.length ? during[0][1] : -1;
+  const last = during.length ? during[during.length - 1][1] : -1;
+  const ticks = Math.round(res.device_s * res.rate_Hz);
+  const contiguous = during.every(([r], k) => k === 0 || Math.abs((r[0] - during[k - 1][0][0]) * res.rate_Hz - 1) < 1e-6);
+  // The excitation's ticks (the recorder runs a few ms past its end).
+  const uIn = during.slice(0, ticks).every(([r]) => Math.abs(r[iu] - frfRequest.bias_V) <= frfRequest.amplitude_V + 1e-6);
+  check(during.length >= ticks && last - first + 1 === during.length && contiguous && uIn && first > 0 && last < srows.length - 1 &&
+    srows[first][0] > srows[first - 1][0] && srows[last + 1][0] > srows[last][0],
+    'the scope holds the measurement\'s recording, every tick, u within bias ± amplitude over the excitation, between the console\'s own',
+    `${during.length} rows (the run: ${ticks} ticks), rows ${first}..${last} of ${srows.length}, contiguous ${contiguous}, u in band ${uIn}`);
+  console.log(`figure: frequency response ${res.lines} lines ${res.frequency_Hz[0]}-${res.frequency_Hz[res.lines - 1]} Hz, ` +
+    `${res.transient_periods}+${res.periods} periods = ${res.device_s} s on the board, measured in ${res.wall_s.toFixed(2)} s ` +
+    `(${wall.toFixed(1)} s from the click to the plot); std ${Math.min(...res.std_dB).toExponential(2)}..${Math.max(...res.std_dB).toExponential(2)} dB; ` +
+    `fit ${res.fit.order} weighted rms ${res.fit.weighted_rms.toPrecision(3)}; warnings: ${JSON.stringify(res.warnings)}`);
+  if (bodeShot) {
+    await page.locator('#frf-panel').scrollIntoViewIfNeeded();
+    await page.locator('#frf-panel').screenshot({ path: bodeShot });
+  }
+
+  // A longer one stopped half-way: meanwhile the board's other commands are
+  // refused; after the stop the groups are back and the last result stays.
+  await fillFrf(page, { ...frfRequest, periods: 100 });
+  await page.click('#frf-start');
+  await waitFor(page, () => window.piezoloop.frf.state === 'running' && window.piezoloop.frf.phase === 'recording', null, 'the long measurement records');
+  const busy = await page.evaluate(async (t) => {
+    const r = await fetch('/api/arm', { method: 'POST', headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer } });
+    return { status: r.status, body: await r.json() };
+  }, token);
+  check(busy.status === 409 && busy.body.error.includes('measurement is running') && await page.isDisabled('#arm'),
+    'while it runs, Arm is disabled and refused (409)', JSON.stringify(busy));
+  await page.click('#frf-stop');
+  await waitFor(page, () => ['stopped', 'done', 'failed'].includes(window.piezoloop.frf.state), null, 'the stopped measurement ends', 60000);
+  const stopped = await page.evaluate(() => window.piezoloop.frf);
+  check(stopped.state === 'stopped' && stopped.error.message.includes('stopped before the end'), 'Stop measuring stops it', JSON.stringify(stopped));
+  await waitFor(page, () => !window.piezoloop.status.measuring, null, 'the status after the stop');
+  const afterStop = await board();
+  check(['feedforward', 'feedback', 'rc'].every((g) => JSON.stringify(afterStop.values[g]) === JSON.stringify(before.values[g])) &&
+    !afterStop.status.armed && !afterStop.status.excitation_running, 'after the stop the groups are put back, the loop disarmed, no excitation');
+  const kept = await page.evaluate(async (t) => (await (await fetch('/api/frf', { headers: { 'X-Piezoloop-Token': t } })).json()).result, token);
+  check(JSON.stringify(kept) === JSON.stringify(res), 'the last result stays');
+  await watcher.close();
+  return res;
+}
+
 async function main() {
   let device = null;
   let ui;
+  let frf = null;
   if (mode === 'device') {
     const emu = start(['emulate', '--board', 'qemu-m7', '--scenario', scenario]);
     device = JSON.parse((await firstLines(emu, /^\{.*\}\n/))[0]).device;
@@ -313,6 +461,8 @@ async function main() {
     check(!(await page.evaluate(() => window.piezoloop.status.status.wave_running)), 'Stop: the wave stops');
     await page.click('#disarm');
     await waitFor(page, () => window.piezoloop.status.status.armed === false, null, 'disarmed at the end');
+
+    if (mode === 'device') frf = await frequencyResponse(page, context, url, token);
   } finally {
     await browser.close();
   }
@@ -330,6 +480,25 @@ async function main() {
     const limits = run(['--device', device, 'get', 'limits']);
     const held = limits.code === 0 ? JSON.parse(limits.out).u_max_V : NaN;
     check(held === 10, 'the board still holds u_max_V = 10 V after the refused 50', limits.err || String(held));
+  }
+  if (device && frf) {
+    // The same request from the CLI on the same board, its stage restarted at rest too.
+    const dir = mkdtempSync(path.join(os.tmpdir(), 'console-frf-'));
+    const out = path.join(dir, 'frf.json');
+    const r = frfRequest;
+    const cli = run(['--device', device, 'measure', 'frf', '--from-hz', r.from_Hz, '--to-hz', r.to_Hz, '--amplitude-v', r.amplitude_V,
+      '--bias-v', r.bias_V, '--periods', r.periods, '--transient-periods', r.transient_periods, '--restart-stage', '--out', out].map(String));
+    if (check(cli.code === 0, '`piezoloop measure frf` with the same request on the same board', cli.err)) {
+      const j = JSON.parse(readFileSync(out, 'utf8'));
+      check(j.log_hash === frf.log_hash, 'the console\'s measurement has the CLI\'s log hash (the same recording)', `${frf.log_hash} vs ${j.log_hash}`);
+      check(JSON.stringify(j.frequency_Hz) === JSON.stringify(frf.frequency_Hz) && JSON.stringify(j.response) === JSON.stringify(frf.response) &&
+        JSON.stringify(j.std_db) === JSON.stringify(frf.std_dB), 'and the CLI\'s response and std_db at every line, bit for bit');
+      const tf = run(['identify', 'tf', '--frf', out, '--order', r.fit_order]);
+      const model = tf.code === 0 ? JSON.parse(tf.out).model : {};
+      check(JSON.stringify(model.num) === JSON.stringify(frf.fit.model.num) && JSON.stringify(model.den) === JSON.stringify(frf.fit.model.den),
+        '`identify tf --order 6/5` on the CLI\'s response gives the console\'s fitted model, coefficient for coefficient', tf.err);
+    }
+    rmSync(dir, { recursive: true, force: true });
   }
 }
 

@@ -1,0 +1,89 @@
+// The console's frequency-response measurement: the form's request checked
+// and planned as `piezoloop --device ADDR measure frf` plans it, the run on
+// the board in a worker thread (BoardSession::measure_frf), its progress,
+// and the result every page is sent: per line the frequency, the response,
+// its magnitude (dB) and unwrapped phase (deg), the magnitude's standard
+// deviation (dB), and optionally a model fitted to the lines by
+// measure/tf_fit (Sanathanan–Koerner, `identify tf --order N/M`).
+#pragma once
+
+#include <atomic>
+#include <complex>
+#include <vector>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "measure/frf_plan.hpp"
+#include "ui/board_session.hpp"
+
+namespace piezoloop::ui {
+
+// A request refused at one of the form's fields (from_Hz, to_Hz,
+// amplitude_V, bias_V, periods, transient_periods, signal, mode,
+// restart_stage, fit_order; "" for none in particular).
+struct FieldRefusal : std::invalid_argument {
+    FieldRefusal(std::string f, const std::string& message) : std::invalid_argument(message), field(std::move(f)) {}
+    std::string field;
+};
+
+// The form: {from_Hz, to_Hz, amplitude_V, bias_V, periods, transient_periods,
+// signal, mode: "open"|"closed", restart_stage, fit_order: "N/M" or ""}.
+struct FrfForm {
+    measure::FrfRequest request;
+    bool restart_stage = false;
+    int fit_poles = 0, fit_zeros = 0;  // 0 poles: no fit
+};
+FrfForm parse_frf_form(const nlohmann::json& j);
+
+// The phases of g in degrees, unwrapped along the lines from the first (as
+// numpy.unwrap: a step of more than 180 degrees between neighbours is taken
+// as a turn).
+std::vector<double> unwrapped_phase_deg(const std::vector<std::complex<double>>& g);
+
+// A plan's refusal ("--to-hz: must be below ...") with the form's names for
+// the options ("to_Hz: must be below ..."), at the field it names first.
+FieldRefusal form_refusal(const std::string& plan_message);
+
+class FrfJob {
+public:
+    explicit FrfJob(BoardSession& board) : board_(board) {}
+    ~FrfJob();
+    FrfJob(const FrfJob&) = delete;
+    FrfJob& operator=(const FrfJob&) = delete;
+
+    // Checks and plans the request before anything moves (FieldRefusal),
+    // then starts it; BoardBusy while one runs.
+    nlohmann::json start(const nlohmann::json& form);
+    void request_stop() { stop_ = true; }
+    void shutdown();  // stops a running measurement and waits for it
+
+    // {state: idle|running|done|failed|stopped, phase, fraction, request,
+    //  error: {field, message}}: small, sent at every change.
+    nlohmann::json progress_json() const;
+    uint64_t progress_serial() const { return progress_serial_.load(); }
+    // The last result (null before the first).
+    nlohmann::json result_json() const;
+    uint64_t result_serial() const { return result_serial_.load(); }
+    // The result's lines as CSV (frequency_Hz, magnitude_dB, phase_deg,
+    // std_dB, re, im, and the fit's magnitude and phase); "" before the first.
+    std::string result_csv() const;
+
+private:
+    void run(FrfForm form, nlohmann::json request);
+    void set_progress(const std::string& state, const std::string& phase, double fraction);
+
+    BoardSession& board_;
+    std::thread worker_;
+    std::atomic<bool> running_{false}, stop_{false};
+    std::mutex start_m_;
+    mutable std::mutex m_;
+    nlohmann::json progress_ = {{"state", "idle"}};
+    nlohmann::json result_;
+    std::atomic<uint64_t> progress_serial_{1}, result_serial_{1};
+};
+
+}  // namespace piezoloop::ui
