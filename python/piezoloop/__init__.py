@@ -13,9 +13,11 @@ from ._piezoloop import DeviceError, LinkError
 from .commission import commission
 from .device import Device, Recording, connect, devices
 from .emulate import Emulator, emulate
-from .measure import FrequencyResponse, Loops, StepResponse, measure_frf, measure_loops, measure_step
+from .measure import (FrequencyResponse, Loops, MimoFrequencyResponse, StepResponse, analyze_coupling, measure_frf,
+                      measure_loops, measure_step)
 from .simulate import SimRun, sim
 
 __all__ = ["sim", "SimRun", "connect", "devices", "Device", "Recording", "emulate", "Emulator", "design", "measure_frf",
-           "measure_step", "measure_loops", "FrequencyResponse", "StepResponse", "Loops", "commission", "LinkError",
+           "measure_step", "measure_loops", "FrequencyResponse", "StepResponse", "Loops",
+           "MimoFrequencyResponse", "analyze_coupling", "commission", "LinkError",
            "DeviceError"]

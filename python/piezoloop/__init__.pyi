@@ -2,7 +2,7 @@
 # names: _um micrometres, _V volts, _s seconds, _hz hertz.
 import os
 from dataclasses import dataclass
-from typing import Callable, Dict, Optional, Sequence, Union
+from typing import Callable, Dict, Literal, Mapping, Optional, Sequence, Union, overload
 
 import numpy as np
 
@@ -19,13 +19,15 @@ class DeviceError(LinkError):
 @dataclass
 class SimRun:
     signals: Dict[str, np.ndarray]  # tick, t_s, r_um, y_um, e_um, u_V, u_ff_V, u_fb_V, v_piezo_V, x_um
-    metrics: dict                   # the JSON `piezoloop sim` prints
+                                    # (coupled axes: tick, t_s, per axis A r_A_um, y_A_um, u_A_V, p_A_um)
+    metrics: dict                   # the JSON `piezoloop sim` prints (coupled axes: axes, cross_motion_pct)
     log_hash: str                   # as `piezoloop sim --hash`
 
 def sim(scenario: PathLike, case: str, trajectory: str = "triangle", frequency_hz: float = 10.0,
         amplitude_um: Optional[float] = None, duration_s: Optional[float] = None, sample: Optional[str] = None,
         fidelity: str = "float", *, amplitude_v: Optional[float] = None, offset: Optional[str] = None,
-        substeps: int = 10, log_every: int = 0) -> SimRun: ...
+        substeps: int = 10, log_every: int = 0, midpoint_um: Optional[float] = None, axis: Optional[str] = None,
+        hold_um: Union[None, float, Mapping[str, float]] = None) -> SimRun: ...
 
 @dataclass
 class FrequencyResponse:
@@ -41,9 +43,31 @@ class FrequencyResponse:
     def warnings(self) -> list: ...
     def save(self, path: PathLike) -> None: ...
 
+@dataclass
+class MimoFrequencyResponse:
+    frequency_hz: np.ndarray  # the excited lines (L), Hz
+    response: np.ndarray      # complex, L x n x n: [k, i, j] is y_i <- u_j, um/V
+    std: np.ndarray           # L x n x n, one standard deviation of each element (nan with one period)
+    snr_db: np.ndarray        # L x n x n
+    axes: list                # the axes' names, in the matrices' order
+    report: dict              # the JSON `piezoloop measure frf --mimo` prints
+    @property
+    def log_hash(self) -> str: ...
+    def save_csv(self, path: PathLike) -> None: ...
+
+@overload
 def measure_frf(scenario: PathLike, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
                 mode: str = "open", signal: str = "multisine", periods: int = 10, transient_periods: int = 1,
-                case: Optional[str] = None, sample: Optional[str] = None) -> FrequencyResponse: ...
+                case: Optional[str] = None, sample: Optional[str] = None,
+                mimo: Literal[False] = False) -> FrequencyResponse: ...
+@overload
+def measure_frf(scenario: PathLike, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
+                mode: str = "open", signal: str = "multisine", periods: int = 10, transient_periods: int = 1,
+                case: None = None, sample: None = None, mimo: Literal[True],
+                output_matrix: Union[None, Sequence[Sequence[float]], np.ndarray] = None) -> MimoFrequencyResponse: ...
+
+def analyze_coupling(response: Union[MimoFrequencyResponse, PathLike], *,
+                     below_hz: Optional[float] = None) -> dict: ...
 
 @dataclass
 class StepResponse:

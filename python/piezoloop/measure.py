@@ -77,15 +77,86 @@ def check_request(from_hz: float, to_hz: float, amplitude_v: float, mode: str, s
         number(name, v)
 
 
+@dataclass
+class MimoFrequencyResponse:
+    """The n x n frequency response of a stage of coupled axes, as
+    `piezoloop measure frf --mimo` measures it (axis commands, V -> axis
+    readings, um; with an output matrix D the response G D the axes'
+    controllers see).
+
+    frequency_hz: the excited lines (L).
+    response: complex, L x n x n: response[k, i, j] is y_i <- u_j at line k.
+    std: L x n x n, one standard deviation of each element (|G| units; nan
+        with one period).
+    snr_db: L x n x n, 20 log10(|G| / std).
+    axes: the axes' names, in the matrices' order.
+    report: the JSON `piezoloop measure frf --mimo` prints (the summary, the
+        clamped samples, log_hash, ...; not its coupling, see
+        analyze_coupling).
+    """
+    frequency_hz: np.ndarray
+    response: np.ndarray
+    std: np.ndarray
+    snr_db: np.ndarray
+    axes: list
+    report: dict
+
+    @property
+    def log_hash(self) -> str:
+        return self.report["log_hash"]
+
+    def save_csv(self, path: str | os.PathLike) -> None:
+        """The CSV `piezoloop measure frf --mimo --out` writes (17 significant
+        digits: read back exactly), which `piezoloop analyze coupling` reads."""
+        _piezoloop.write_mimo_frf(os.fspath(path), self.frequency_hz, self.response, self.std, self.report["periods"],
+                                  self.report["rate_Hz"])
+
+
+def _output_matrix(value) -> Optional[list]:
+    """An n x n matrix of finite or not numbers as rows; ValueError naming
+    output_matrix when it is not square (the size and the values are the
+    core's to check: n the axes, finite, |m| <= 16, condition <= 1000)."""
+    if value is None:
+        return None
+    try:
+        m = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"output_matrix: a square matrix of numbers, got {value!r}") from None
+    if m.ndim != 2 or m.shape[0] != m.shape[1] or m.shape[0] == 0:
+        raise ValueError(f"output_matrix: must be n x n (n the axes), got shape {m.shape}")
+    return m.tolist()
+
+
 def measure_frf(scenario: str | os.PathLike, from_hz: float, to_hz: float, amplitude_v: float, *,
                 bias_v: float = 0.0, mode: str = "open", signal: str = "multisine", periods: int = 10,
                 transient_periods: int = 1, case: Optional[str] = None,
-                sample: Optional[str] = None) -> FrequencyResponse:
+                sample: Optional[str] = None, mimo: bool = False, output_matrix=None):
     """The frequency response of the scenario's simulated stage, as
     `piezoloop measure frf --scenario`: open loop (no controller, the command
     bias_v + d) or closed loop (mode="closed": the case's controller, d added
     to its output). A request beyond the scenario's limits, Nyquist or the
-    multisine's longest period raises ValueError naming the option."""
+    multisine's longest period raises ValueError naming the option.
+
+    mimo=True: a scenario of coupled axes measured as `measure frf --mimo`
+    (open loop, orthogonal multisines on every axis at once, bias_v on
+    every axis), through output_matrix (n x n rows or array, between axis
+    commands and channels; default the identity): a MimoFrequencyResponse."""
+    if mimo:
+        if case is not None or sample is not None:
+            raise ValueError(f"{'case' if case is not None else 'sample'}: not with mimo=True "
+                             "(open loop on the stage alone)")
+        if mode != "open":
+            raise ValueError("mode: mimo=True measures open loop only")
+        if signal != "multisine":
+            raise ValueError("signal: mimo=True uses orthogonal multisines only")
+        r = _piezoloop.measure_frf_mimo(path("scenario", scenario), number("from_hz", from_hz), number("to_hz", to_hz),
+                                        number("amplitude_v", amplitude_v), number("bias_v", bias_v),
+                                        whole("periods", periods), whole("transient_periods", transient_periods),
+                                        _output_matrix(output_matrix))
+        return MimoFrequencyResponse(frequency_hz=r["frequency_Hz"], response=r["response"], std=r["std"],
+                                     snr_db=r["snr_db"], axes=list(r["report"]["axes"]), report=r["report"])
+    if output_matrix is not None:
+        raise ValueError("output_matrix: only with mimo=True")
     check_request(from_hz, to_hz, amplitude_v, mode, signal)
     if sample not in (None, "float", "q31"):
         raise ValueError(f"sample: {sample!r} is not one of float, q31")
@@ -211,3 +282,28 @@ def measure_loops(scenario: str | os.PathLike, amplitudes_v: Sequence[float], *,
                                  numbers("amplitudes_v", amplitudes_v), _opt("bias_v", bias_v),
                                  number("frequency_hz", frequency_hz), whole("cycles", cycles), shape)
     return loops_from_result(r)
+
+
+def analyze_coupling(response, *, below_hz: Optional[float] = None) -> dict:
+    """How much the axes move each other and the static decoupling that
+    removes it, as `piezoloop analyze coupling FILE` (the same functions):
+    response is a MimoFrequencyResponse or the path of a MIMO FRF CSV (as
+    `measure frf --mimo --out` writes). The JSON the command prints (without
+    its file and text): per pair "yI<-uJ" the coupling |G_ij| / |G_jj| in dB
+    (low_frequency_db over low_frequency_lines_Hz, max_db at max_Hz), the
+    static gain G0, its 1-norm condition, the output matrix
+    D = G0^-1 diag(G0), the coupling left after it (after_static_db,
+    after_lines). below_hz: the low-frequency lines are those at or below it
+    (default the lowest 3)."""
+    if isinstance(response, MimoFrequencyResponse):
+        f_hz, g = response.frequency_hz, response.response
+    elif isinstance(response, (str, os.PathLike)):
+        e = _piezoloop.load_mimo_frf(os.fspath(response))
+        f_hz, g = e["frequency_Hz"], e["response"]
+    else:
+        raise TypeError(f"response: a MimoFrequencyResponse or a CSV path, got {type(response).__name__}")
+    g = np.asarray(g, dtype=complex)
+    if g.ndim != 3:
+        raise ValueError(f"response: must be lines x n x n, got shape {g.shape}")
+    return _piezoloop.analyze_coupling(numbers("frequency_hz", f_hz), g,
+                                       None if below_hz is None else number("below_hz", below_hz))

@@ -26,4 +26,5 @@ PYBIND11_MODULE(_piezoloop, m) {
     piezoloop::py::add_design(m);
     piezoloop::py::add_device(m);
     piezoloop::py::add_measure(m);
+    piezoloop::py::add_measure_mimo(m);
 }
