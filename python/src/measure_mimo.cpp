@@ -22,7 +22,7 @@
 
 #include "bindings.hpp"
 #include "format/number.hpp"
-#include "measure/coupling.hpp"
+#include "measure/coupling_report.hpp"
 #include "measure/mimo_frf_file.hpp"
 #include "measure/mimo_frf_sim.hpp"
 #include "measure/static_decoupling.hpp"
@@ -101,68 +101,16 @@ measure::MimoFrfEstimate estimate_from(const std::vector<double>& f_Hz, const Co
     return e;
 }
 
-std::string pair_name(int i, int j) { return "y" + std::to_string(i + 1) + "<-u" + std::to_string(j + 1); }
-
-json number_or_null(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
-
-json matrix_json(const Eigen::MatrixXd& m) {
-    json rows = json::array();
-    for (Eigen::Index i = 0; i < m.rows(); ++i) {
-        json row = json::array();
-        for (Eigen::Index j = 0; j < m.cols(); ++j) row.push_back(m(i, j));
-        rows.push_back(row);
-    }
-    return rows;
-}
-
-json pairs_json(const measure::Coupling& c) {
-    json out = json::array();
-    for (const measure::CouplingPair& p : c.pairs)
-        out.push_back({{"pair", pair_name(p.output, p.input)},
-                       {"low_frequency_db", number_or_null(p.low_frequency_db)},
-                       {"max_db", number_or_null(p.max_db)},
-                       {"max_Hz", p.max_Hz}});
-    return out;
-}
-
 // The fields `piezoloop analyze coupling` prints (but its file and its
-// "meaning" text), from the same two functions.
-json coupling_report(const measure::MimoFrfEstimate& e, std::optional<double> below_Hz) {
-    if (e.inputs < 2) throw std::invalid_argument("response: coupling needs at least 2 axes (got 1)");
-    if (e.outputs != e.inputs)
-        throw std::invalid_argument("response: coupling needs as many outputs as inputs (inputs=" +
-                                    std::to_string(e.inputs) + ", outputs=" + std::to_string(e.outputs) + ")");
-    if (e.frequency_Hz.empty()) throw std::invalid_argument("response: no lines");
-    if (below_Hz && (!std::isfinite(*below_Hz) || !(*below_Hz > 0.0)))
-        throw std::invalid_argument("below_hz: must be > 0 Hz");
-    measure::Coupling c;
-    measure::StaticDecoupling d;
+// "meaning" text): measure::coupling_report, with Python's argument names.
+json python_coupling_report(const measure::MimoFrfEstimate& e, std::optional<double> below_Hz) {
     try {
-        c = measure::coupling(e.frequency_Hz, e.response, below_Hz);
-        d = measure::static_decoupling(e.frequency_Hz, e.response, below_Hz);
+        return measure::coupling_report(e, below_Hz);
     } catch (const std::invalid_argument& x) {
-        rethrow_renamed(x, "below_Hz", "below_hz");
+        const std::string what = x.what();
+        if (what.rfind("below_Hz", 0) == 0) rethrow_renamed(x, "below_Hz", "below_hz");
+        throw std::invalid_argument("response: " + what);
     }
-    json low = json::array();
-    for (const int k : c.low_lines) low.push_back(e.frequency_Hz[static_cast<std::size_t>(k)]);
-    json after_static = json::array();
-    for (Eigen::Index i = 0; i < d.g0.rows(); ++i)
-        for (Eigen::Index j = 0; j < d.g0.cols(); ++j)
-            if (i != j)
-                after_static.push_back({{"pair", pair_name(static_cast<int>(i), static_cast<int>(j))},
-                                        {"db", number_or_null(d.static_after_db(i, j))}});
-    json out;
-    out["axes"] = e.inputs;
-    out["lines"] = e.frequency_Hz.size();
-    out["band_Hz"] = {e.frequency_Hz.front(), e.frequency_Hz.back()};
-    out["low_frequency_lines_Hz"] = low;
-    out["coupling"] = pairs_json(c);
-    out["static_gain"] = matrix_json(d.g0);
-    out["static_gain_condition_1"] = d.condition_1;
-    out["output_matrix"] = matrix_json(d.output_matrix);
-    out["after_static_db"] = after_static;
-    out["after_lines"] = pairs_json(d.after);
-    return out;
 }
 
 }  // namespace
@@ -234,7 +182,7 @@ void add_measure_mimo(pyb::module_& m) {
         [](const std::vector<double>& f_Hz, const Complex3& g, std::optional<double> below_Hz) {
             const Real3 none({g.ndim() == 3 ? g.shape(0) : 0, g.ndim() == 3 ? g.shape(1) : 0,
                               g.ndim() == 3 ? g.shape(2) : 0});
-            return to_python(coupling_report(estimate_from(f_Hz, g, none, 0, 0.0), below_Hz));
+            return to_python(python_coupling_report(estimate_from(f_Hz, g, none, 0, 0.0), below_Hz));
         },
         pyb::arg("frequency_Hz"), pyb::arg("response"), pyb::arg("below_Hz"));
 }
