@@ -145,14 +145,21 @@ ScanRunResult run_scan(const sim::Scenario& s, const ScanRunOptions& o) {
         throw std::invalid_argument("scenario: a scan needs a stage of two or three axes (plant.axes)");
     // The controllers' realisation check (a report's note, seconds for slow
     // poles) is not needed to run them.
-    sim::BuildOptions build;
-    build.check_realisation = false;
-    const sim::MultiAxisModel m = sim::build_multi_axis_case(s, s.find_case(o.case_name), build);
-    // The scan within each axis's travel, before anything moves.
     ScanConfig cfg = o.scan;
-    cfg.sample_rate_Hz = m.axes[0].model.setup.rate_Hz;
+    cfg.sample_rate_Hz = static_cast<float>(s.rate_Hz);
     ScanGenerator<float> g;
     if (const Status st = g.configure(cfg); !st.ok()) reject("scan", st);
+    // A repetitive controller's period "auto" is the scan's fast motion: a
+    // line (two when bidirectional), a turn of a constant-angular-velocity
+    // spiral (each axis a sinusoid of slowly changing amplitude: the RC
+    // learns from the turn before), else the frame (Lissajous, CLV spiral).
+    const bool cav_spiral = cfg.pattern == ScanPattern::kSpiral && g.line_period_ticks() > 0;
+    const uint32_t rc_period_ticks = cav_spiral ? g.line_period_ticks() : g.repetitive_period_ticks();
+    sim::BuildOptions build;
+    build.check_realisation = false;
+    build.reference_frequency_Hz = s.rate_Hz / static_cast<double>(rc_period_ticks);
+    const sim::MultiAxisModel m = sim::build_multi_axis_case(s, s.find_case(o.case_name), build);
+    // The scan within each axis's travel, before anything moves.
     const double reach = g.reach_um();
     const double centre[2] = {cfg.centre_x_um, cfg.centre_y_um};
     const char* names[2] = {"scan.x", "scan.y"};

@@ -1,0 +1,76 @@
+#!/usr/bin/python3
+"""Tracking of `piezoloop scan` on configs/stages/xy_flexure.json, 20 x 20 um:
+a raster at a tenth of the first mode (75 Hz lines, 96 x 96: the pixel count
+that rounds the line rate nearest 75 Hz, 75.19 Hz) and a spiral at a third of
+it (250 turns a second, 64 x 64: 32 turns), for the cases open_loop,
+pi_notch, scan (PI inverse feedforward) and scan_rc (plus repetitive control
+at the scan's period). The simulator is deterministic (seeded sensor noise),
+so the bounds are the measured figures plus a few percent of themselves
+(compiler and libm differences), and they fail if the feedforward or the RC
+is removed (the orderings). Prints every figure (docs/scan.md's table).
+Usage: check_scan_tracking.py PIEZOLOOP_BINARY CONFIGS_DIR"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+exe, configs = sys.argv[1], sys.argv[2]
+scenario = os.path.join(configs, "stages", "xy_flexure.json")
+passed = failed = 0
+
+
+def check(name, ok, detail=""):
+    global passed, failed
+    if ok:
+        passed += 1
+    else:
+        failed += 1
+        print(f"FAIL {name} {detail}")
+
+
+runs = {"raster": ["--pixels", "96x96", "--line-rate-hz", "75"], "spiral": ["--pixels", "64x64", "--line-rate-hz", "250"]}
+fig = {}
+with tempfile.TemporaryDirectory() as tmp:
+    for pattern, args in runs.items():
+        for case in ("open_loop", "pi_notch", "scan", "scan_rc"):
+            out = os.path.join(tmp, f"{pattern}_{case}")
+            res = subprocess.run([exe, "scan", "--scenario", scenario, "--case", case, "--pattern", pattern,
+                                  "--size-um", "20x20", "--out", out] + args, capture_output=True, text=True)
+            check(f"{pattern} {case}: exit 0", res.returncode == 0, res.stderr)
+            if res.returncode != 0:
+                continue
+            m = json.loads(res.stdout)
+            check(f"{pattern} {case}: complete", m["complete"] is True)
+            t = m["tracking"]
+            fig[pattern, case] = t
+            print(f"{pattern:6} {case:9} line rate {m['line_rate_Hz']:.2f} Hz: x {t['rms_x_percent']:.2f} / "
+                  f"{t['max_x_percent']:.2f} %, y {t['rms_y_percent']:.2f} / {t['max_y_percent']:.2f} % (RMS / max), "
+                  f"pitch measured {m['pitch']['measured_um']:.4f} um")
+
+if len(fig) == 8:
+    rx = lambda p, c: fig[p, c]["rms_x_percent"]
+    ry = lambda p, c: fig[p, c]["rms_y_percent"]
+    # The 1 % target (RMS over the used part of the lines), where met: the
+    # raster's y with scan and scan_rc.
+    check("raster scan_rc: rms y within 1 %", ry("raster", "scan_rc") <= 1.0, ry("raster", "scan_rc"))
+    check("raster scan: rms y within 1 %", ry("raster", "scan") <= 1.0, ry("raster", "scan"))
+    # Not met (docs/scan.md): the raster's x and the spiral. Held at today's
+    # figures (+ ~8 %) so that they do not regress.
+    bounds = {("raster", "scan_rc"): (1.32, 0.20), ("raster", "scan"): (1.72, 0.38),
+              ("spiral", "scan_rc"): (2.80, 1.86), ("spiral", "scan"): (6.95, 4.5)}
+    for (p, c), (bx, by) in bounds.items():
+        check(f"{p} {c}: rms x <= {bx} %", rx(p, c) <= bx, rx(p, c))
+        check(f"{p} {c}: rms y <= {by} %", ry(p, c) <= by, ry(p, c))
+    # The feedforward and the RC each earn their place: removing either
+    # makes x worse by more than the margins above.
+    check("raster: feedforward beats pi_notch on x by 4x", rx("raster", "scan") * 4 < rx("raster", "pi_notch"))
+    check("raster: RC beats scan on x by 20 %", rx("raster", "scan_rc") * 1.2 < rx("raster", "scan"))
+    check("raster: RC beats scan on y", ry("raster", "scan_rc") < ry("raster", "scan"))
+    check("spiral: RC beats scan on x by 2x", rx("spiral", "scan_rc") * 2 < rx("spiral", "scan"))
+    check("spiral: RC beats scan on y by 2x", ry("spiral", "scan_rc") * 2 < ry("spiral", "scan"))
+    check("spiral: scan_rc beats open loop and pi_notch",
+          rx("spiral", "scan_rc") < min(rx("spiral", "open_loop"), rx("spiral", "pi_notch")))
+
+print(f"{passed} passed, {failed} failed")
+sys.exit(1 if failed else 0)
