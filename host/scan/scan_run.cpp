@@ -113,19 +113,23 @@ ScanRunResult run_with(const sim::MultiAxisModel& m, const ScanRunOptions& o) {
         if ((k & 32767u) == 0 && o.progress) o.progress(k, total);
         const bool scanning = !feed.approaching();
         const ScanPoint<T> p = feed.feed(*pipe);
+        // A tick's record pairs its reference with the reading its
+        // controller compares it with (the core's e = r - y): the stage as
+        // the previous step left it, where the probe also is.
+        ScanTick t;
+        if (scanning) {
+            t.commanded_x_um = pos[0].to_physical(p.x);
+            t.commanded_y_um = pos[1].to_physical(p.y);
+            t.measured_x_um = gain[0] == 1.0f ? reading[0] : reading[0] / gain[0];
+            t.measured_y_um = gain[1] == 1.0f ? reading[1] : reading[1] / gain[1];
+            t.true_x_um = stage.position_um(0);
+            t.true_y_um = stage.position_um(1);
+            t.height_nm = probe.read_nm(stage);
+            t.sync = p.sync;
+        }
         tick();
         ++k;
-        if (!scanning) continue;
-        ScanTick t;
-        t.commanded_x_um = pos[0].to_physical(p.x);
-        t.commanded_y_um = pos[1].to_physical(p.y);
-        t.measured_x_um = gain[0] == 1.0f ? reading[0] : reading[0] / gain[0];
-        t.measured_y_um = gain[1] == 1.0f ? reading[1] : reading[1] / gain[1];
-        t.true_x_um = stage.position_um(0);
-        t.true_y_um = stage.position_um(1);
-        t.height_nm = probe.read_nm(stage);
-        t.sync = p.sync;
-        res.ticks.push_back(t);
+        if (scanning) res.ticks.push_back(t);
     }
     res.complete = feed.done();
     res.frames_completed = feed.generator().frames_completed();
