@@ -9,6 +9,7 @@
 #include "app/json_line.hpp"
 #include "app/selftest_cases.hpp"
 #include "app/selftest_report.hpp"
+#include "app/work_fields.hpp"
 #include "board_config.hpp"
 #include "bsp/bsp.hpp"
 #include "piezoloop/board_case.hpp"
@@ -98,22 +99,11 @@ int run_case(ControlLoop& loop, const SelfTestCase& c, const PipelineSetup* setu
     drain_until_stopped(loop, pipe, acc);
     const LoopStatus st = loop.status();
 
-    const char* unit = bsp::config::kWorkUnit;
     const uint32_t overruns = st.late + st.missed;
     const bool within = st.control.max <= bsp::config::kTickBudget;
     begin(j).str("name", c.name).str("sample", kCoreSampleName).uint("loop_rate_Hz", rate_Hz);
     j.uint("ticks", st.ticks).uint("overruns", overruns).uint("late", st.late).uint("missed", st.missed);
-    j.uint({unit, "_per_tick_min"}, st.control.min);
-    j.fixed({unit, "_per_tick_mean"}, static_cast<double>(st.control.mean_tenths()) / 10.0, 1);
-    j.uint({unit, "_per_tick_max"}, st.control.max);
-    j.uint({unit, "_resolution"}, bsp::config::kStopwatchResolution);
-    // The whole controller tick: the reading-independent half before the
-    // ADC read and the recorder after the DAC write included.
-    j.fixed({"tick_", unit, "_mean"}, static_cast<double>(st.whole.mean_tenths()) / 10.0, 1);
-    j.uint({"tick_", unit, "_max"}, st.whole.max);
-    j.uint({"reconfigure_ticks"}, st.reconfigure.count).uint({"reconfigure_", unit, "_max"}, st.reconfigure.max);
-    j.fixed({"plant_", unit, "_per_tick_mean"}, static_cast<double>(st.plant.mean_tenths()) / 10.0, 1);
-    j.uint({"plant_", unit, "_per_tick_max"}, st.plant.max);
+    add_work_fields(j, st.control, st.whole, st.reconfigure, st.plant);
     j.uint("budget", bsp::config::kTickBudget).boolean("within_budget", within);
     // The highest loop rate the whole controller tick allows at the board's
     // CPU clock: one instruction per cycle on the QEMU boards (their nominal

@@ -27,6 +27,7 @@
 #include "app/selftest.hpp"
 #include "app/selftest_axes_cases.hpp"
 #include "app/tick_stats.hpp"
+#include "app/work_fields.hpp"
 #include "board_config.hpp"
 #include "bsp/bsp.hpp"
 
@@ -179,18 +180,10 @@ int run_axes(ControlLoop& loop) {
     const bool within_tick = st.whole.max <= bsp::config::kAxesWholeTickBudget;
     j.str("sample", kCoreSampleName).uint("axes", N).uint("loop_rate_Hz", rate);
     j.uint("ticks", st.ticks).uint("overruns", overruns).uint("late", st.monitor.late()).uint("missed", st.monitor.missed());
-    j.uint({unit, "_per_tick_min"}, st.control.min);
-    j.fixed({unit, "_per_tick_mean"}, static_cast<double>(st.control.mean_tenths()) / 10.0, 1);
-    j.uint({unit, "_per_tick_max"}, st.control.max);
-    j.uint({unit, "_resolution"}, bsp::config::kStopwatchResolution);
-    j.fixed({"tick_", unit, "_mean"}, static_cast<double>(st.whole.mean_tenths()) / 10.0, 1);
-    j.uint({"tick_", unit, "_max"}, st.whole.max);
+    add_work_fields(j, st.control, st.whole, st.reconfigure, st.plant);
     // Per axis: the figures over the axis count.
     j.fixed({unit, "_per_axis_mean"}, static_cast<double>(st.control.mean_tenths()) / 10.0 / N, 1);
     j.fixed({"tick_", unit, "_per_axis_mean"}, static_cast<double>(st.whole.mean_tenths()) / 10.0 / N, 1);
-    j.uint("reconfigure_ticks", st.reconfigure.count).uint({"reconfigure_", unit, "_max"}, st.reconfigure.max);
-    j.fixed({"plant_", unit, "_per_tick_mean"}, static_cast<double>(st.plant.mean_tenths()) / 10.0, 1);
-    j.uint({"plant_", unit, "_per_tick_max"}, st.plant.max);
     j.uint("budget", bsp::config::kAxesTickBudget).boolean("within_budget", within);
     j.uint("tick_budget", bsp::config::kAxesWholeTickBudget).boolean("within_tick_budget", within_tick);
     j.uint("loop_rate_max_Hz", st.whole.max == 0 ? 0 : bsp::config::kCpuClock_Hz / st.whole.max);
