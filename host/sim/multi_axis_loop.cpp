@@ -8,6 +8,7 @@
 #include <string>
 
 #include "piezoloop/approach.hpp"
+#include "piezoloop/axes/emulated_coupled_stage.hpp"
 #include "piezoloop/axes/multi_axis_pipeline.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "sim/coupled_stage_build.hpp"
@@ -63,7 +64,6 @@ MultiAxisRunResult run_n(const MultiAxisModel& m, const MultiAxisRunOptions& o) 
     if (const Status s = pipe->set_output_matrix(output_matrix_of<N>(m)); !s.ok()) reject("output_matrix", s);
     if (const Status s = pipe->set_input_matrix(input_matrix_of<N>(m)); !s.ok()) reject("input_matrix", s);
     std::array<SignalScale, N> pos{}, volt{};
-    std::array<float, N> gain{};
     for (int i = 0; i < N; ++i) {
         const size_t a = static_cast<size_t>(i);
         auto& axis = pipe->axis(i);
@@ -73,14 +73,15 @@ MultiAxisRunResult run_n(const MultiAxisModel& m, const MultiAxisRunOptions& o) 
             if (const Status s = axis.start_wave(axis_wave(m, o, i)); !s.ok()) reject(m.names[a] + ": trajectory", s);
         pos[a] = m.axes[a].model.setup.position;
         volt[a] = m.axes[a].model.setup.voltage;
-        gain[a] = m.stage.axis[a].sensor.gain;
-        if (gain[a] == 0.0f) throw std::invalid_argument(m.names[a] + ": plant.sensor.gain: must be non-zero");
     }
-    CoupledStage stage;
+    // The coupled stage behind the loop's one tick of delay and the
+    // conversions, as the emulated boards run it.
+    auto emu = std::make_unique<EmulatedCoupledStage<T, N>>();
     CoupledStageConfig sc = m.stage;
     for (int i = 0; i < sc.axes; ++i) sc.axis[static_cast<size_t>(i)].rate_Hz = setup.axes[0].rate_Hz;
-    if (const Status s = stage.configure(sc); !s.ok()) reject("plant", s);
-    if (stage.axes() != N) throw std::invalid_argument("plant.axes: the stage and the controller differ in axes");
+    if (sc.axes != N) throw std::invalid_argument("plant.axes: the stage and the controller differ in axes");
+    if (const Status s = emu->configure(sc, pos, volt); !s.ok()) reject("plant", s);
+    const CoupledStage& stage = emu->stage();
     pipe->arm_all();
 
     reference::LogHash hash;
@@ -95,16 +96,14 @@ MultiAxisRunResult run_n(const MultiAxisModel& m, const MultiAxisRunOptions& o) 
         res.log.p_um.resize(N);
     }
 
-    // The LoopStepper of each axis, unrolled across the coupled stage.
-    typename Pipe::Samples y{};
-    for (int i = 0; i < N; ++i) y[static_cast<size_t>(i)] = pos[static_cast<size_t>(i)].template to_sample<T>(0.0f);
-    std::array<float, N> u_V{}, reading{};
+    std::array<float, N> u_V{};
     const auto t0 = std::chrono::steady_clock::now();
     for (uint64_t k = 0; k < o.ticks; ++k) {
         if (k == o.wave_tick && k != 0)
             if (const Status s = pipe->axis(o.driven).start_wave(axis_wave(m, o, o.driven)); !s.ok())
                 reject(m.names[static_cast<size_t>(o.driven)] + ": trajectory", s);
-        const typename Pipe::Samples u = pipe->tick(y);
+        emu->tick(*pipe);
+        const typename Pipe::Samples& u = emu->commands();
         if (o.hash) {
             for (int i = 0; i < N; ++i) {
                 const TickSignals<T>& sig = pipe->axis(i).last();
@@ -114,12 +113,7 @@ MultiAxisRunResult run_n(const MultiAxisModel& m, const MultiAxisRunOptions& o) 
             }
         }
         for (int i = 0; i < N; ++i) u_V[static_cast<size_t>(i)] = volt[static_cast<size_t>(i)].to_physical(u[static_cast<size_t>(i)]);
-        stage.step(u_V.data(), reading.data());
-        for (int i = 0; i < N; ++i) {
-            const size_t a = static_cast<size_t>(i);
-            const float y_um = gain[a] == 1.0f ? reading[a] : reading[a] / gain[a];
-            y[a] = pos[a].template to_sample<T>(y_um);
-        }
+        emu->step();
         const bool in_window = k >= o.window_start;
         const bool logged = o.log_every != 0 && k % o.log_every == 0;
         if (logged) res.log.tick.push_back(k);
