@@ -100,6 +100,20 @@ for why, args, needle in [
                                               os.path.join(tmp, "xyz_single.json")], 2, "--output-matrix:")
     else:
         expect(f"measure frf --mimo: {why}", mimo + args, 2, needle)
+# --output-matrix files that are not an n x n matrix of the stage's axes.
+for why, text, needle in [
+        ("not JSON", "{", "is not JSON"),
+        ("no output_matrix", '{"matrix": [[1]]}', 'has no "output_matrix"'),
+        ("a row too short", '{"output_matrix": [[1, 0, 0], [0, 1], [0, 0, 1]]}', "output_matrix[1]"),
+        ("not a number", '{"output_matrix": [[1, 0, 0], [0, "1", 0], [0, 0, 1]]}', "output_matrix[1][1]"),
+        ("2 x 2 on 3 axes", '{"output_matrix": [[1, 0], [0, 1]]}', "must be 3 x 3"),
+        ("singular", '{"output_matrix": [[1, 1, 0], [1, 1, 0], [0, 0, 1]]}', "output_matrix")]:
+    path = os.path.join(tmp, "matrix.json")
+    with open(path, "w") as f:
+        f.write(text)
+    expect(f"measure frf --mimo --output-matrix: {why}",
+           mimo + ["--scenario", xyz, "--amplitude-v", "0.1", "--bias-v", "5", "--output-matrix", path], 2,
+           "--output-matrix", needle)
 check("multi-axis scenario: nothing written", not any(n.startswith("xyz") for n in os.listdir(tmp)), str(os.listdir(tmp)))
 expect("missing input file (reproduce)", ["reproduce", "ahmad2020", "--out", tmp, "--configs", "/nonexistent"], 2)
 # A malformed --device is bad input, not a link failure (3 is for a board that
