@@ -15,9 +15,10 @@ from .device import Device, Recording, connect, devices
 from .emulate import Emulator, emulate
 from .measure import (FrequencyResponse, Loops, MimoFrequencyResponse, StepResponse, analyze_coupling, measure_frf,
                       measure_loops, measure_step)
+from .scan import ScanImage, ScanResult, scan
 from .simulate import SimRun, sim
 
 __all__ = ["sim", "SimRun", "connect", "devices", "Device", "Recording", "emulate", "Emulator", "design", "measure_frf",
            "measure_step", "measure_loops", "FrequencyResponse", "StepResponse", "Loops",
            "MimoFrequencyResponse", "analyze_coupling", "commission", "LinkError",
-           "DeviceError"]
+           "DeviceError", "scan", "ScanResult", "ScanImage"]

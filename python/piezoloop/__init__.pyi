@@ -30,6 +30,24 @@ def sim(scenario: PathLike, case: str, trajectory: str = "triangle", frequency_h
         hold_um: Union[None, float, Mapping[str, float]] = None) -> SimRun: ...
 
 @dataclass
+class ScanImage:
+    values: np.ndarray      # ny x nx (row j is y); NaN where no pixel fell
+    extent_um: list         # cell edges [x_min, x_max, y_min, y_max]
+    title: str
+    unit: str               # "height (nm)" or "um"
+
+@dataclass
+class ScanResult:
+    ticks: Dict[str, np.ndarray]   # commanded_/measured_/true_x_um, _y_um, height_nm, sync (a row a tick)
+    images: Dict[str, ScanImage]   # image_commanded, image_measured, error_x, error_y
+    figures: dict                  # the JSON `piezoloop scan` prints
+
+def scan(scenario: PathLike, case: Optional[str] = None, pattern: str = "raster", *,
+         size_um: Sequence[float] = (20.0, 20.0), pixels: Sequence[int] = (256, 256), line_rate_hz: float = 50.0,
+         frames: int = 1, sample: str = "grating:pitch=2,height_nm=50",
+         centre_um: Optional[Sequence[float]] = None) -> ScanResult: ...
+
+@dataclass
 class FrequencyResponse:
     frequency_hz: np.ndarray             # the excited lines, Hz
     response: np.ndarray                 # complex G, um/V

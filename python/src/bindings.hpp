@@ -42,6 +42,7 @@ void add_design(pyb::module_& m);
 void add_device(pyb::module_& m);
 void add_measure(pyb::module_& m);
 void add_measure_mimo(pyb::module_& m);
+void add_scan(pyb::module_& m);
 
 // A `measure frf` request from the Python call's arguments (measure.cpp).
 measure::FrfRequest frf_request(double from_Hz, double to_Hz, double amplitude_V, double bias_V,

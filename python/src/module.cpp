@@ -27,4 +27,5 @@ PYBIND11_MODULE(_piezoloop, m) {
     piezoloop::py::add_device(m);
     piezoloop::py::add_measure(m);
     piezoloop::py::add_measure_mimo(m);
+    piezoloop::py::add_scan(m);
 }

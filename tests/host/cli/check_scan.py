@@ -165,7 +165,7 @@ with tempfile.TemporaryDirectory() as tmp:
         res = run(args if args[0] == "--pixels" else ["--pixels", "64x64"] + args, out)
         check(f"refused {args}", res.returncode == 2 and option in res.stderr and not os.path.exists(out),
               f"exit {res.returncode}: {res.stderr.strip()}")
-    single = subprocess.run([exe, "scan", "--scenario", os.path.join(configs, "reference_stage.json"), "--out",
+    single = subprocess.run([exe, "scan", "--scenario", os.path.join(configs, "ahmad2020.json"), "--out",
                              os.path.join(tmp, "single")], capture_output=True, text=True)
     check("single-axis scenario refused", single.returncode == 2 and "--scenario" in single.stderr,
           f"exit {single.returncode}: {single.stderr.strip()}")

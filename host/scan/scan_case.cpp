@@ -1,0 +1,236 @@
+#include "scan/scan_case.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "piezoloop/scan/scan_generator.hpp"
+#include "scan/grating_pitch.hpp"
+#include "scan/sample_spec.hpp"
+#include "scan/scan_metrics.hpp"
+#include "scan/scan_pixels.hpp"
+#include "status_text.hpp"
+
+namespace piezoloop::scan {
+namespace {
+
+// The request's field that sets a generator's field.
+std::string request_field(const char* field) {
+    const std::string f = field ? field : "";
+    for (const char* s : {"size_x_um", "size_y_um", "radius_um"})
+        if (f == s) return "size_um";
+    for (const char* s : {"pixels_per_line", "lines_per_frame", "turns", "turns_per_line"})
+        if (f == s) return "pixels";
+    if (f == "frames") return "frames";
+    if (f == "centre_x_um" || f == "centre_y_um") return "centre_um";
+    return "line_rate_hz";  // rates, frequencies, turnarounds: what the line rate sets
+}
+
+nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+}  // namespace
+
+ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName& name) {
+    auto bad = [&](const std::string& field, const std::string& why) {
+        throw std::invalid_argument(name(field) + ": " + why);
+    };
+    if (s.axes.size() < 2) bad("scenario", "a scan needs a stage of two or three axes (plant.axes)");
+    if (s.cases.empty()) bad("case", "the scenario has no cases");
+    ScanPlan p;
+    p.case_name = r.case_name.empty() ? s.cases.front().name : r.case_name;
+    const sim::CaseSpec* chosen = nullptr;
+    for (const sim::CaseSpec& c : s.cases)
+        if (c.name == p.case_name) chosen = &c;
+    if (chosen == nullptr) {
+        std::string names;
+        for (const sim::CaseSpec& c : s.cases) names += (names.empty() ? "" : ", ") + c.name;
+        bad("case", "'" + p.case_name + "' is not a case of the scenario (" + names + ")");
+    }
+    p.case_label = chosen->label;
+    p.pattern = r.pattern;
+
+    const double w = r.size_x_um, h = r.size_y_um;
+    if (!(w > 0.0 && w <= 1e6) || !(h > 0.0 && h <= 1e6)) bad("size_um", "each size must be in (0, 1e6] um");
+    if (r.pixels_x < 2 || r.pixels_y < 2 || r.pixels_x > 4096 || r.pixels_y > 4096)
+        bad("pixels", "each count must be a whole number in [2, 4096]");
+    if (!(r.line_rate_Hz > 0.0) || !(r.line_rate_Hz <= s.setup.rate_Hz / 4.0))
+        bad("line_rate_hz", "must be in (0, " + std::to_string(s.setup.rate_Hz / 4.0) + "] Hz (the loop rate / 4)");
+    if (r.frames < 1 || r.frames > 1000) bad("frames", "must be in [1, 1000]");
+    try {
+        p.sample = parse_sample_spec(r.sample);
+    } catch (const std::invalid_argument& e) {
+        bad("sample", e.what());
+    }
+
+    ScanConfig& c = p.config;
+    p.pixels_x = r.pixels_x;
+    p.pixels_y = r.pixels_y;
+    const float rate = static_cast<float>(r.line_rate_Hz);
+    c.sample_rate_Hz = s.setup.rate_Hz;
+    c.frames = static_cast<uint32_t>(r.frames);
+    c.pixels_per_line = static_cast<uint32_t>(p.pixels_x);
+    p.extent_x_um = w;
+    p.extent_y_um = h;
+    if (r.pattern == "raster") {
+        c.pattern = ScanPattern::kRaster;
+        c.size_x_um = static_cast<float>(w);
+        c.size_y_um = static_cast<float>(h);
+        c.lines_per_frame = static_cast<uint32_t>(p.pixels_y);
+        c.line_rate_Hz = rate;
+        c.turnaround_s = static_cast<float>(0.1 / r.line_rate_Hz);  // 10 % of a line each
+    } else if (r.pattern == "spiral") {
+        c.pattern = ScanPattern::kSpiral;
+        const double d = std::min(w, h);
+        c.radius_um = static_cast<float>(d / 2.0);
+        c.turns = static_cast<uint32_t>(std::max(1, p.pixels_y / 2));
+        c.turn_rate_Hz = rate;
+        // pi NX pixels a turn (the outer turn's spacing one cell), at most
+        // one every two ticks.
+        const double most = std::floor(s.setup.rate_Hz / (2.0 * r.line_rate_Hz));
+        c.pixels_per_line = static_cast<uint32_t>(std::max(1.0, std::min(std::ceil(M_PI * p.pixels_x), most)));
+        p.extent_x_um = p.extent_y_um = d;
+    } else if (r.pattern == "lissajous") {
+        c.pattern = ScanPattern::kLissajous;
+        c.size_x_um = static_cast<float>(w);
+        c.size_y_um = static_cast<float>(h);
+        c.frequency_x_Hz = rate / 2.0f;  // a line is half a period of x
+        c.frequency_y_Hz = static_cast<float>(r.line_rate_Hz / 2.0 * (p.pixels_y - 1) / p.pixels_y);
+    } else if (r.pattern == "cycloid") {
+        c.pattern = ScanPattern::kCycloid;
+        c.size_x_um = static_cast<float>(w);
+        c.size_y_um = static_cast<float>(h);
+        c.lines_per_frame = static_cast<uint32_t>(p.pixels_y);
+        c.turns_per_line = static_cast<uint32_t>(std::max(1, p.pixels_x / 8));
+        c.radius_um = static_cast<float>(w / c.turns_per_line / 2.0);
+        c.turn_rate_Hz = static_cast<float>(r.line_rate_Hz * c.turns_per_line);
+        p.extent_x_um = w + 2.0 * c.radius_um;
+        p.extent_y_um = h + 2.0 * c.radius_um;
+    } else {
+        bad("pattern", "must be raster, spiral, lissajous or cycloid, got '" + r.pattern + "'");
+    }
+    // The centre: given, or the middle of each axis's travel.
+    const auto tx = axis_travel_um(s, 0), ty = axis_travel_um(s, 1);
+    if (!r.centre_um) {
+        c.centre_x_um = static_cast<float>(0.5 * (tx.first + tx.second));
+        c.centre_y_um = static_cast<float>(0.5 * (ty.first + ty.second));
+    } else {
+        if (!std::isfinite(r.centre_um->first) || !std::isfinite(r.centre_um->second))
+            bad("centre_um", "must be two finite numbers");
+        c.centre_x_um = static_cast<float>(r.centre_um->first);
+        c.centre_y_um = static_cast<float>(r.centre_um->second);
+    }
+    ScanGenerator<float> g(s.setup.position, s.setup.position, s.setup.position);
+    if (const Status st = g.configure(c); !st.ok()) bad(request_field(st.field), describe(st));
+    const double reach = g.reach_um();
+    const std::pair<double, double> travel[2] = {tx, ty};
+    const double centre[2] = {c.centre_x_um, c.centre_y_um};
+    for (int i = 0; i < 2; ++i)
+        if (centre[i] - reach < travel[i].first || centre[i] + reach > travel[i].second) {
+            const std::string field = r.centre_um ? name("size_um") + " / " + name("centre_um") : name("size_um");
+            throw std::invalid_argument(
+                field + ": the scan reaches " + (i == 0 ? "x" : "y") + " in [" + std::to_string(centre[i] - reach) +
+                ", " + std::to_string(centre[i] + reach) + "] um, beyond the axis's travel [" +
+                std::to_string(travel[i].first) + ", " + std::to_string(travel[i].second) + "] um");
+        }
+    return p;
+}
+
+ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::function<bool()> stop_requested,
+                          std::function<void(uint64_t tick, uint64_t total)> progress) {
+    ScanRunOptions o;
+    o.case_name = p.case_name;
+    o.scan = p.config;
+    o.sample = p.sample;
+    o.stop_requested = std::move(stop_requested);
+    o.progress = std::move(progress);
+    ScanOutcome out;
+    out.run = run_scan(s, o);
+    const ScanRunResult& r = out.run;
+    const double rate = s.setup.rate_Hz;
+    const bool raster = p.config.pattern == ScanPattern::kRaster;
+
+    const std::vector<ScanPixel> px = form_pixels(r.ticks);
+    const ScanMetrics m = compute_metrics(r.ticks, px, rate, raster);
+    ScanGenerator<float> g(s.setup.position, s.setup.position, s.setup.position);
+    (void)g.configure(p.config);  // accepted by plan_scan already
+    const double line_Hz = g.line_period_ticks() ? rate / g.line_period_ticks() : 0.0;
+
+    auto pct = [](double v, double size) { return number(100.0 * v / size); };
+    nlohmann::json& j = out.figures;
+    j = {
+        {"scenario", s.name},
+        {"case", p.case_name},
+        {"case_label", p.case_label},
+        {"sample_type", r.q31 ? "q31" : "float"},
+        {"pattern", p.pattern},
+        {"sample", p.sample.describe()},
+        {"centre_um", {p.config.centre_x_um, p.config.centre_y_um}},
+        {"size_um", {p.extent_x_um, p.extent_y_um}},
+        {"image_cells", {p.pixels_x, p.pixels_y}},
+        {"pixels_per_line", p.config.pixels_per_line},
+        {"lines_per_frame", g.lines_per_frame()},
+        {"line_rate_Hz", number(line_Hz)},
+        {"rate_Hz", rate},
+        {"frames_requested", p.config.frames},
+        {"frames_completed", r.frames_completed},
+        {"complete", r.complete},
+        {"approach_ticks", r.approach_ticks},
+        {"ticks", m.ticks},
+        {"used_ticks", m.used_ticks},
+        {"pixels", m.pixels},
+        {"lines", m.lines},
+        {"tracking",
+         {{"rms_x_um", m.rms_error_x_um},
+          {"max_x_um", m.max_error_x_um},
+          {"rms_y_um", m.rms_error_y_um},
+          {"max_y_um", m.max_error_y_um},
+          {"rms_x_percent", pct(m.rms_error_x_um, p.extent_x_um)},
+          {"max_x_percent", pct(m.max_error_x_um, p.extent_x_um)},
+          {"rms_y_percent", pct(m.rms_error_y_um, p.extent_y_um)},
+          {"max_y_percent", pct(m.max_error_y_um, p.extent_y_um)}}},
+        {"used_fraction", number(m.used_fraction)},
+        {"linearity_um", number(m.linearity_um)},
+        {"linearity_percent", pct(m.linearity_um, p.extent_x_um)},
+        {"frame_time_s", m.frame_time_s},
+    };
+
+    // Images of the last frame that has pixels.
+    uint32_t frame = 0;
+    for (const ScanPixel& q : px) frame = std::max(frame, q.frame);
+    j["image_frame"] = frame;
+    try {
+        auto form = [&](Placement where, Quantity what) {
+            ImageGrid im = raster ? raster_grid(px, frame)
+                                  : area_grid(p.config.centre_x_um, p.config.centre_y_um, p.extent_x_um,
+                                              p.extent_y_um, p.pixels_x, p.pixels_y);
+            if (raster) place_by_lines(im, px, frame, where, what);
+            else place_by_cells(im, px, frame, where, what);
+            return im;
+        };
+        const std::string what = p.pattern + " on " + s.name + ", " + p.sample.describe();
+        out.images.push_back({"image_commanded", "at commanded positions\n" + what, "height (nm)", "viridis",
+                              form(Placement::kCommanded, Quantity::kHeight)});
+        out.images.push_back({"image_measured", "at measured positions\n" + what, "height (nm)", "viridis",
+                              form(Placement::kMeasured, Quantity::kHeight)});
+        out.images.push_back({"error_x", "x: commanded - measured", "um", "coolwarm",
+                              form(Placement::kCommanded, Quantity::kErrorX)});
+        out.images.push_back({"error_y", "y: commanded - measured", "um", "coolwarm",
+                              form(Placement::kCommanded, Quantity::kErrorY)});
+        if (p.sample.kind == SurfaceKind::kGrating) {
+            const GratingFit fc = fit_grating(out.images[0].grid), fm = fit_grating(out.images[1].grid);
+            j["pitch"] = {{"sample_um", p.sample.pitch_um},
+                          {"commanded_um", number(fc.pitch_um)},
+                          {"measured_um", number(fm.pitch_um)},
+                          {"commanded_error_percent", number(100.0 * (fc.pitch_um / p.sample.pitch_um - 1.0))},
+                          {"measured_error_percent", number(100.0 * (fm.pitch_um / p.sample.pitch_um - 1.0))},
+                          {"crossings_commanded", fc.crossings},
+                          {"crossings_measured", fm.crossings}};
+        }
+    } catch (const std::invalid_argument& e) {
+        out.images.clear();
+        j["images_skipped"] = e.what();
+    }
+    return out;
+}
+
+}  // namespace piezoloop::scan

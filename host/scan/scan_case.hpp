@@ -1,0 +1,85 @@
+// A scan as a user asks for it (pattern, size, pixels, line rate, frames,
+// sample) on a scenario's case: the request checked and turned into the
+// core's ScanConfig, the scan run on the simulator (scan_run.hpp), and its
+// figures and images. `piezoloop scan` and piezoloop.scan (Python) both run
+// a scan through these functions, so they print the same figures.
+//
+// How a request becomes a ScanConfig (docs/scan.md):
+//   raster     size W x H, NX pixels a line, NY lines a frame at the line
+//              rate, turnarounds of 10 % of a line each;
+//   spiral     diameter min(W, H), NY / 2 turns at the line rate as turns a
+//              second, pi NX pixels a turn (at most one every two ticks);
+//   lissajous  W x H, x at half the line rate, y at (NY - 1) / NY of it;
+//   cycloid    W x H, NY lines, NX / 8 circles a line of diameter W / turns;
+// centred on the given point or the middle of each axis's travel, and
+// refused if it reaches beyond either axis's travel.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "piezoloop/scan/scan_config.hpp"
+#include "scan/sample_surface.hpp"
+#include "scan/scan_image.hpp"
+#include "scan/scan_run.hpp"
+#include "sim/scenario.hpp"
+
+namespace piezoloop::scan {
+
+struct ScanRequest {
+    std::string case_name;  // empty: the scenario's first case
+    std::string pattern = "raster";
+    double size_x_um = 20.0, size_y_um = 20.0;
+    int pixels_x = 256, pixels_y = 256;
+    double line_rate_Hz = 50.0;
+    int frames = 1;
+    std::string sample = "grating:pitch=2,height_nm=50";
+    std::optional<std::pair<double, double>> centre_um;  // default: the middle of each axis's travel
+};
+
+struct ScanPlan {
+    std::string case_name;
+    std::string case_label;
+    std::string pattern;
+    ScanConfig config;
+    SampleSurface sample;
+    double extent_x_um = 0.0, extent_y_um = 0.0;  // the area the image covers
+    int pixels_x = 0, pixels_y = 0;
+};
+
+// What a request's field is called where the user wrote it: the command
+// line's "--size-um", Python's "size_um". Called with the request's field
+// names: scenario, case, pattern, size_um, pixels, line_rate_hz, frames,
+// centre_um, sample.
+using FieldName = std::function<std::string(const std::string& field)>;
+
+// Checks the request against the scenario; throws std::invalid_argument
+// "<field>: <why>" naming the field as `name` spells it.
+ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName& name);
+
+struct ScanImageSpec {
+    std::string file_stem;  // image_commanded, image_measured, error_x, error_y
+    std::string title;
+    std::string clabel;
+    std::string cmap;
+    ImageGrid grid;
+};
+
+struct ScanOutcome {
+    ScanRunResult run;
+    nlohmann::json figures;             // what `piezoloop scan` prints (metrics.json)
+    std::vector<ScanImageSpec> images;  // of the last frame with pixels; empty if they cannot be formed
+};
+
+// Runs the plan and computes its figures and images. stop_requested and
+// progress as in ScanRunOptions (may be empty).
+ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::function<bool()> stop_requested,
+                          std::function<void(uint64_t tick, uint64_t total)> progress);
+
+}  // namespace piezoloop::scan
