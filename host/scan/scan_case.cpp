@@ -1,6 +1,7 @@
 #include "scan/scan_case.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 
@@ -22,6 +23,7 @@ std::string request_field(const char* field) {
     for (const char* s : {"pixels_per_line", "lines_per_frame", "turns", "turns_per_line"})
         if (f == s) return "pixels";
     if (f == "frames") return "frames";
+    if (f == "retrace_speed_factor") return "retrace_speed";
     if (f == "centre_x_um" || f == "centre_y_um") return "centre_um";
     return "line_rate_hz";  // rates, frequencies, turnarounds: what the line rate sets
 }
@@ -56,6 +58,8 @@ ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName
     if (!(r.line_rate_Hz > 0.0) || !(r.line_rate_Hz <= s.setup.rate_Hz / 4.0))
         bad("line_rate_hz", "must be in (0, " + std::to_string(s.setup.rate_Hz / 4.0) + "] Hz (the loop rate / 4)");
     if (r.frames < 1 || r.frames > 1000) bad("frames", "must be in [1, 1000]");
+    if (!(r.retrace_speed >= 1.0 && r.retrace_speed <= 16.0)) bad("retrace_speed", "must be in [1, 16]");
+    if (r.retrace_speed != 1.0 && r.pattern != "raster") bad("retrace_speed", "applies to a raster only");
     try {
         p.sample = parse_sample_spec(r.sample);
     } catch (const std::invalid_argument& e) {
@@ -78,6 +82,7 @@ ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName
         c.lines_per_frame = static_cast<uint32_t>(p.pixels_y);
         c.line_rate_Hz = rate;
         c.turnaround_s = static_cast<float>(0.1 / r.line_rate_Hz);  // 10 % of a line each
+        c.retrace_speed_factor = static_cast<float>(r.retrace_speed);
     } else if (r.pattern == "spiral") {
         c.pattern = ScanPattern::kSpiral;
         const double d = std::min(w, h);
@@ -144,7 +149,11 @@ ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::functi
     o.stop_requested = std::move(stop_requested);
     o.progress = std::move(progress);
     ScanOutcome out;
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point t0 = Clock::now();
     out.run = run_scan(s, o);
+    const Clock::time_point t1 = Clock::now();
+    out.simulate_wall_s = std::chrono::duration<double>(t1 - t0).count();
     const ScanRunResult& r = out.run;
     const double rate = s.setup.rate_Hz;
     const bool raster = p.config.pattern == ScanPattern::kRaster;
@@ -194,6 +203,8 @@ ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::functi
         {"frame_time_s", m.frame_time_s},
     };
 
+    if (raster) j["retrace_speed"] = p.config.retrace_speed_factor;
+
     // Images of the last frame that has pixels.
     uint32_t frame = 0;
     for (const ScanPixel& q : px) frame = std::max(frame, q.frame);
@@ -230,6 +241,7 @@ ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::functi
         out.images.clear();
         j["images_skipped"] = e.what();
     }
+    out.process_wall_s = std::chrono::duration<double>(Clock::now() - t1).count();
     return out;
 }
 

@@ -6,7 +6,9 @@
 //
 // How a request becomes a ScanConfig (docs/scan.md):
 //   raster     size W x H, NX pixels a line, NY lines a frame at the line
-//              rate, turnarounds of 10 % of a line each;
+//              rate, turnarounds of 10 % of a line each, the retrace at
+//              retrace_speed times the trace's speed; a pixel takes whole
+//              ticks, so the line rate run is the nearest that allows;
 //   spiral     diameter min(W, H), NY / 2 turns at the line rate as turns a
 //              second, pi NX pixels a turn (at most one every two ticks);
 //   lissajous  W x H, x at half the line rate, y at (NY - 1) / NY of it;
@@ -38,6 +40,7 @@ struct ScanRequest {
     double size_x_um = 20.0, size_y_um = 20.0;
     int pixels_x = 256, pixels_y = 256;
     double line_rate_Hz = 50.0;
+    double retrace_speed = 1.0;  // raster: retrace speed / trace speed, [1, 16]
     int frames = 1;
     std::string sample = "grating:pitch=2,height_nm=50";
     std::optional<std::pair<double, double>> centre_um;  // default: the middle of each axis's travel
@@ -55,8 +58,8 @@ struct ScanPlan {
 
 // What a request's field is called where the user wrote it: the command
 // line's "--size-um", Python's "size_um". Called with the request's field
-// names: scenario, case, pattern, size_um, pixels, line_rate_hz, frames,
-// centre_um, sample.
+// names: scenario, case, pattern, size_um, pixels, line_rate_hz,
+// retrace_speed, frames, centre_um, sample.
 using FieldName = std::function<std::string(const std::string& field)>;
 
 // Checks the request against the scenario; throws std::invalid_argument
@@ -75,6 +78,8 @@ struct ScanOutcome {
     ScanRunResult run;
     nlohmann::json figures;             // what `piezoloop scan` prints (metrics.json)
     std::vector<ScanImageSpec> images;  // of the last frame with pixels; empty if they cannot be formed
+    double simulate_wall_s = 0.0;       // wall-clock time of the simulation (printed, never compared)
+    double process_wall_s = 0.0;        // of the pixels, figures and images
 };
 
 // Runs the plan and computes its figures and images. stop_requested and

@@ -44,7 +44,7 @@ class ScanResult:
 
 def scan(scenario: PathLike, case: Optional[str] = None, pattern: str = "raster", *,
          size_um: Sequence[float] = (20.0, 20.0), pixels: Sequence[int] = (256, 256), line_rate_hz: float = 50.0,
-         frames: int = 1, sample: str = "grating:pitch=2,height_nm=50",
+         retrace_speed: float = 1.0, frames: int = 1, sample: str = "grating:pitch=2,height_nm=50",
          centre_um: Optional[Sequence[float]] = None) -> ScanResult: ...
 
 @dataclass

@@ -55,7 +55,7 @@ def _pair(name: str, value, default) -> tuple:
 
 def scan(scenario: str | os.PathLike, case: Optional[str] = None, pattern: str = "raster", *,
          size_um: Sequence[float] = (20.0, 20.0), pixels: Sequence[int] = (256, 256), line_rate_hz: float = 50.0,
-         frames: int = 1, sample: str = "grating:pitch=2,height_nm=50",
+         retrace_speed: float = 1.0, frames: int = 1, sample: str = "grating:pitch=2,height_nm=50",
          centre_um: Optional[Sequence[float]] = None) -> ScanResult:
     """Scan `frames` frames of `pattern` ("raster", "spiral", "lissajous",
     "cycloid") on the scenario's stage of two or three axes with its case
@@ -63,7 +63,8 @@ def scan(scenario: str | os.PathLike, case: Optional[str] = None, pattern: str =
     height_nm=50,duty=0.5", "step:x=50,height_nm=50", "dots:pitch=2,
     radius=0.5,height_nm=20"). size_um (W, H), pixels (NX, NY) and
     line_rate_hz (lines a second; spiral: turns a second) as the command
-    line's --size-um, --pixels and --line-rate-hz; centre_um (X, Y), default
+    line's --size-um, --pixels and --line-rate-hz; retrace_speed (raster:
+    the retrace's speed over the trace's, 1 to 16) as --retrace-speed; centre_um (X, Y), default
     the middle of each axis's travel. A request the scan cannot make (beyond
     an axis's travel, a line rate the loop cannot follow, ...) raises
     ValueError naming the argument. The GIL is released while it runs."""
@@ -74,7 +75,8 @@ def scan(scenario: str | os.PathLike, case: Optional[str] = None, pattern: str =
     nx, ny = whole("pixels[0]", px[0]), whole("pixels[1]", px[1])
     centre = None if centre_um is None else _pair("centre_um", centre_um, None)
     r = _piezoloop.scan(path("scenario", scenario), text("case", case, True), text("pattern", pattern), w, h, nx, ny,
-                        number("line_rate_hz", line_rate_hz), whole("frames", frames), text("sample", sample), centre)
+                        number("line_rate_hz", line_rate_hz),
+                        number("retrace_speed", retrace_speed), whole("frames", frames), text("sample", sample), centre)
     images = {k: ScanImage(values=v["values"], extent_um=list(v["extent_um"]), title=v["title"], unit=v["unit"])
               for k, v in r["images"].items()}
     return ScanResult(ticks=dict(r["ticks"]), images=images, figures=r["figures"])

@@ -77,7 +77,7 @@ void add_scan(pyb::module_& m) {
     m.def(
         "scan",
         [](const std::string& scenario, const std::string& case_name, const std::string& pattern, double size_x_um,
-           double size_y_um, int pixels_x, int pixels_y, double line_rate_Hz, int frames, const std::string& sample,
+           double size_y_um, int pixels_x, int pixels_y, double line_rate_Hz, double retrace_speed, int frames, const std::string& sample,
            std::optional<std::pair<double, double>> centre_um) {
             scan::ScanRequest r;
             r.case_name = case_name;
@@ -87,6 +87,7 @@ void add_scan(pyb::module_& m) {
             r.pixels_x = pixels_x;
             r.pixels_y = pixels_y;
             r.line_rate_Hz = line_rate_Hz;
+            r.retrace_speed = retrace_speed;
             r.frames = frames;
             r.sample = sample;
             r.centre_um = centre_um;
@@ -94,7 +95,7 @@ void add_scan(pyb::module_& m) {
         },
         pyb::arg("scenario"), pyb::arg("case_name"), pyb::arg("pattern"), pyb::arg("size_x_um"),
         pyb::arg("size_y_um"), pyb::arg("pixels_x"), pyb::arg("pixels_y"), pyb::arg("line_rate_Hz"),
-        pyb::arg("frames"), pyb::arg("sample"), pyb::arg("centre_um"),
+        pyb::arg("retrace_speed"), pyb::arg("frames"), pyb::arg("sample"), pyb::arg("centre_um"),
         "A scan on the simulator's stage of coupled axes (as `piezoloop scan`): {ticks, images, figures}");
 }
 

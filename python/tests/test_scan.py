@@ -87,6 +87,7 @@ def test_patterns_complete_a_frame(pattern):
     (dict(pattern="zigzag"), "pattern", ValueError),
     (dict(case="nope"), "case", ValueError),
     (dict(frames=0), "frames", ValueError),
+    (dict(retrace_speed=20), "retrace_speed", ValueError),
     (dict(line_rate_hz=6000), "line_rate_hz", ValueError),
     (dict(sample="ruler:pitch=2"), "sample", ValueError),
     (dict(centre_um=(5, 50)), "centre_um", ValueError),

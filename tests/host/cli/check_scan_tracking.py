@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Tracking of `piezoloop scan` on configs/stages/xy_flexure.json, 20 x 20 um:
-a raster at a tenth of the first mode (75 Hz lines, 96 x 96: the pixel count
-that rounds the line rate nearest 75 Hz, 75.19 Hz) and a spiral at a third of
+a 256-line raster at a tenth of the first mode (75 Hz lines, 96 x 256: 96
+pixels a line round the line rate nearest 75 Hz, 75.19 Hz) and a spiral at a third of
 it (250 turns a second, 64 x 64: 32 turns), for the cases open_loop,
 pi_notch, scan (PI inverse feedforward) and scan_rc (plus repetitive control
 at the scan's period). The simulator is deterministic (seeded sensor noise),
@@ -29,7 +29,7 @@ def check(name, ok, detail=""):
         print(f"FAIL {name} {detail}")
 
 
-runs = {"raster": ["--pixels", "96x96", "--line-rate-hz", "75"], "spiral": ["--pixels", "64x64", "--line-rate-hz", "250"]}
+runs = {"raster": ["--pixels", "96x256", "--line-rate-hz", "75"], "spiral": ["--pixels", "64x64", "--line-rate-hz", "250"]}
 fig = {}
 with tempfile.TemporaryDirectory() as tmp:
     for pattern, args in runs.items():
@@ -60,7 +60,7 @@ if len(fig) == 8:
     check("spiral scan_rc: rms y within 1 %", ry("spiral", "scan_rc") <= 1.0, ry("spiral", "scan_rc"))
     # Not met (docs/scan.md): the raster's x without RC and the spiral's x.
     # Held at today's figures (+ ~8 %) so that they do not regress.
-    bounds = {("raster", "scan_rc"): (0.58, 0.20), ("raster", "scan"): (1.16, 0.38),
+    bounds = {("raster", "scan_rc"): (0.55, 0.12), ("raster", "scan"): (1.17, 0.27),
               ("spiral", "scan_rc"): (2.09, 0.92), ("spiral", "scan"): (7.15, 5.33)}
     for (p, c), (bx, by) in bounds.items():
         check(f"{p} {c}: rms x <= {bx} %", rx(p, c) <= bx, rx(p, c))
