@@ -35,6 +35,7 @@ struct ScanArgs {
     std::string size = "20x20";
     std::string pixels = "256x256";
     double line_rate_Hz = 50.0;
+    double retrace_speed = 1.0;
     int frames = 1;
     std::string sample = "grating:pitch=2,height_nm=50";
     std::string centre;
@@ -93,6 +94,7 @@ int run(const ScanArgs& a) {
     req.pixels_x = static_cast<int>(px);
     req.pixels_y = static_cast<int>(py);
     req.line_rate_Hz = a.line_rate_Hz;
+    req.retrace_speed = a.retrace_speed;
     req.frames = a.frames;
     req.sample = a.sample;
     if (!a.centre.empty()) req.centre_um = pair_of("--centre-um", a.centre, ',', "X,Y in um, e.g. 50,50");
@@ -124,9 +126,18 @@ int run(const ScanArgs& a) {
     }
     std::cout << j.dump(1) << "\n";
     const std::size_t ticks = j["ticks"], pixels = j["pixels"];
-    std::fprintf(stderr, "scan: %s, %zu ticks (%.3f s of stage time), %zu pixels; wrote %s\n",
-                 r.run.complete ? "complete" : "stopped early", ticks, static_cast<double>(ticks) / s.setup.rate_Hz,
-                 pixels, dir.c_str());
+    const double stage_s = static_cast<double>(ticks) / s.setup.rate_Hz;
+    std::fprintf(stderr,
+                 "scan: %s, %zu ticks (%.3f s of stage time) simulated in %.3f s (%.0fx real time), %zu pixels, "
+                 "figures and images in %.3f s; wrote %s\n",
+                 r.run.complete ? "complete" : "stopped early", ticks, stage_s, r.simulate_wall_s,
+                 r.simulate_wall_s > 0.0 ? stage_s / r.simulate_wall_s : 0.0, pixels, r.process_wall_s, dir.c_str());
+    const double run_Hz = j["line_rate_Hz"].is_number() ? j["line_rate_Hz"].get<double>() : 0.0;
+    if (plan.config.pattern == ScanPattern::kRaster && std::abs(run_Hz / a.line_rate_Hz - 1.0) > 0.05)
+        std::fprintf(stderr,
+                     "scan: note: lines ran at %.2f Hz, not %.2f Hz: a pixel takes whole ticks of the %.0f Hz loop "
+                     "(a faster --retrace-speed leaves more of a line to the trace)\n",
+                     run_Hz, a.line_rate_Hz, s.setup.rate_Hz);
     if (!r.run.complete)
         throw LostData("scan interrupted (Ctrl-C or SIGTERM): what arrived is written, marked incomplete in "
                        "metrics.json");
@@ -147,6 +158,8 @@ void add_scan(CLI::App& app) {
     cmd->add_option("--size-um", a->size, "scan size WxH in um (spiral: diameter min(W, H)), default 20x20");
     cmd->add_option("--pixels", a->pixels, "image NXxNY (raster: pixels a line x lines), default 256x256");
     cmd->add_option("--line-rate-hz", a->line_rate_Hz, "lines per second (spiral: turns per second), default 50");
+    cmd->add_option("--retrace-speed", a->retrace_speed,
+                    "raster: retrace speed / trace speed, 1 to 16 (default 1: both at the same speed)");
     cmd->add_option("--frames", a->frames, "frames to scan, 1 to 1000 (default 1)");
     cmd->add_option("--sample", a->sample,
                     "grating:pitch=2,height_nm=50,duty=0.5 | step:x=50,height_nm=50 | dots:pitch=2,radius=0.5,height_nm=20");
