@@ -6,13 +6,19 @@
 // (nothing moved), 1 when a safety step stops it, no candidate passes or the
 // verification fails (nothing saved; the report says why). The summary's
 // wall_s is the whole run's wall time (the targets: <= 120 s on an
-// emulated board, <= 20 s on the simulator).
+// emulated board, <= 20 s on the simulator). With --axes, a scenario's
+// coupled axes one by one and then decoupled (cli/commission_axes.hpp).
+#include <cmath>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
+#include "commission_axes.hpp"
 #include "commission_session.hpp"
 #include "device_common.hpp"
 #include "exit_codes.hpp"
@@ -22,10 +28,61 @@ namespace {
 
 struct CommissionArgs {
     CommissionSession session;
+    std::string range;  // UM, or NAME=UM,... per axis (--axes)
+    std::string axes;   // x,y[,z] or all: a stage of coupled axes
     bool no_save = false;
 };
 
+double range_number(const std::string& text) {
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v))
+        throw std::invalid_argument("--range-um: must be a number of um (or NAME=UM,... per axis with --axes), got '" +
+                                    text + "'");
+    return v;
+}
+
+std::vector<std::string> split(const std::string& text) {
+    std::vector<std::string> parts;
+    std::stringstream in(text);
+    for (std::string p; std::getline(in, p, ',');) parts.push_back(p);
+    return parts;
+}
+
+// --axes x,y,z with --range-um UM (every axis) or x=UM,y=UM,z=UM.
+int run_axes(const CommissionArgs& a) {
+    if (!device_address().empty())
+        throw std::invalid_argument("--axes: commissions a scenario's coupled axes on the simulator (--scenario); a "
+                                    "board's link carries one axis");
+    if (a.session.scenario.empty()) throw std::invalid_argument("--axes: needs --scenario");
+    if (a.no_save) throw std::invalid_argument("--no-save: only on a board (--device)");
+    AxesCommission c;
+    c.scenario = a.session.scenario;
+    c.out = a.session.out;
+    c.request = a.session.request;
+    c.axes = split(a.axes);
+    if (a.range.find('=') == std::string::npos) {
+        c.range_every_um = range_number(a.range);
+    } else {
+        for (const std::string& item : split(a.range)) {
+            const std::size_t eq = item.find('=');
+            if (eq == std::string::npos)
+                throw std::invalid_argument("--range-um: NAME=UM for every axis, got '" + item + "'");
+            c.range_um[item.substr(0, eq)] = range_number(item.substr(eq + 1));
+        }
+    }
+    auto say = [](const std::string& line) { std::cerr << "commission: " << line << "\n"; };
+    const StopSignals stop_signals;
+    const nlohmann::json out = interruptible("commission", [&] {
+        return run_axes_commission(c, say, [] { return StopSignals::requested(); });
+    });
+    std::cout << out.dump(1) << "\n";
+    return out["verified"].get<bool>() ? kExitOk : kExitFailure;
+}
+
 int run_commission(CommissionArgs a) {
+    if (!a.axes.empty()) return run_axes(a);
+    a.session.request.range_um = range_number(a.range);
     const bool on_board = a.session.scenario.empty();
     if (on_board && device_address().empty())
         throw std::invalid_argument("--scenario: give a scenario (simulator) or --device ADDR before `commission` (board)");
@@ -58,7 +115,12 @@ void add_commission(CLI::App& app) {
     cmd->add_option("--scenario", a->session.scenario,
                     "simulator: the scenario whose stage is measured (open loop); without it, the board (--device)")
         ->check(CLI::ExistingFile);
-    cmd->add_option("--range-um", a->session.request.range_um, "travel the loop must hold (um)")->required();
+    cmd->add_option("--range-um", a->range,
+                    "travel the loop must hold (um); with --axes one for every axis or NAME=UM,... each")
+        ->required();
+    cmd->add_option("--axes", a->axes,
+                    "a scenario's coupled axes: x,y[,z] (every axis) or all; each commissioned, then decoupled "
+                    "(simulator)");
     cmd->add_option("--target-bandwidth-hz", a->session.request.target_bandwidth_Hz,
                     "crossover to design for (default: a third of the first lightly damped mode, at most rate / 20)");
     cmd->add_flag("--no-save", a->no_save, "board: load and verify, but do not save the result on the board");

@@ -179,9 +179,19 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
         stage = std::make_unique<CommissionedStage>(std::make_unique<hostlink::BoardStage>(*board, o), "--device");
         source = {{"kind", "board"}, {"device", board->address()}, {"board", board->info().board.data()}};
     } else {
-        const sim::Scenario s = sim::load_scenario(a.scenario);
-        sim::require_single_axis(s, "commission");
+        sim::Scenario s = sim::load_scenario(a.scenario);
         source = {{"kind", "simulator"}, {"scenario", s.name}, {"case", ""}};
+        if (s.multi_axis()) {
+            std::string names;
+            for (const sim::AxisSpec& x : s.axes) names += (names.empty() ? "" : ",") + x.name;
+            if (a.axis.empty())
+                throw std::invalid_argument("--axes: the scenario's stage has coupled axes; commission them with --axes " +
+                                            names);
+            s = sim::axis_alone(s, sim::axis_named(s, a.axis, "--axes"));
+            source["axis"] = a.axis;
+        } else if (!a.axis.empty()) {
+            throw std::invalid_argument("--axes: the scenario's stage has one axis (leave --axes out)");
+        }
         stage = std::make_unique<CommissionedStage>(std::make_unique<commission::SimStage>(s), "--scenario");
     }
     commission::Commissioning c;

@@ -187,11 +187,7 @@ MultiAxisModel build_multi_axis_case(const Scenario& s, const CaseSpec& c, const
         m.axes.push_back(build_case(s, c, o));
     } else {
         for (size_t i = 0; i < s.axes.size(); ++i) {
-            // The axis alone, as a single-axis scenario of its own plant.
-            Scenario alone = s;
-            alone.plant = s.axes[i].plant;
-            alone.axes.clear();
-            alone.coupling.clear();
+            const Scenario alone = axis_alone(s, i);
             CaseSpec ac = c.axis_cases.empty() ? c : c.axis_cases[i];
             ac.sample = c.sample;
             m.names.push_back(s.axes[i].name);

@@ -684,6 +684,21 @@ void require_single_axis(const Scenario& s, const std::string& command) {
                                 ": plant.axes " + name_list(s.axes) + ")");
 }
 
+Scenario axis_alone(const Scenario& s, std::size_t axis) {
+    Scenario alone = s;
+    alone.plant = s.axes.at(axis).plant;
+    alone.axes.clear();
+    alone.coupling.clear();
+    return alone;
+}
+
+std::size_t axis_named(const Scenario& s, const std::string& name, const std::string& option) {
+    for (std::size_t i = 0; i < s.axes.size(); ++i)
+        if (s.axes[i].name == name) return i;
+    throw std::invalid_argument(option + ": \"" + name + "\" is not an axis of the stage (axes: " + name_list(s.axes) +
+                                ")");
+}
+
 design::Zpk coupling_model(const CouplingSpec& c) {
     // dc_gain w^2 / (s^2 + 2 zeta w s + w^2): poles -zeta w +- j w sqrt(1 - zeta^2)
     // (underdamped), else two real poles -w (zeta -+ sqrt(zeta^2 - 1)).

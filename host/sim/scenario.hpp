@@ -192,6 +192,17 @@ struct Scenario {
 // stages only so far".
 void require_single_axis(const Scenario& s, const std::string& command);
 
+// Axis `axis` of a stage of coupled axes as a single-axis scenario of its
+// own plant (plant.axes[axis] alone, no coupling path, the same loop and
+// cases). With the other axes holding still this is exactly what that axis
+// sees: a coupling path adds the other axes' motion to its position, and
+// nothing of its motion comes back through them.
+Scenario axis_alone(const Scenario& s, std::size_t axis);
+
+// The index of the axis named `name` in plant.axes; std::invalid_argument
+// "<option>: ..." naming the axes otherwise.
+std::size_t axis_named(const Scenario& s, const std::string& name, const std::string& option);
+
 // One hysteresis object (the plant's, or a case's override).
 HysteresisSpec parse_hysteresis(const Field& f);
 

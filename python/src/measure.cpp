@@ -6,11 +6,14 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <map>
+
 #include <fstream>
 #include <optional>
 #include <string>
 
 #include "bindings.hpp"
+#include "commission_axes.hpp"
 #include "commission_session.hpp"
 #include "device_common.hpp"
 #include "measure/frf_report.hpp"
@@ -171,6 +174,31 @@ void add_measure(pyb::module_& m) {
         },
         pyb::arg("scenario"), pyb::arg("range_um"), pyb::arg("target_bandwidth_Hz"), pyb::arg("out"),
         pyb::arg("progress"));
+
+    // `piezoloop commission --scenario --axes`: the summary JSON.
+    m.def(
+        "commission_axes",
+        [](const std::string& scenario, const std::vector<std::string>& axes,
+           const std::map<std::string, double>& range_um, double range_every_um, double target_bandwidth_Hz,
+           const std::string& out, const pyb::object& progress) {
+            cli::AxesCommission a;
+            a.scenario = scenario;
+            a.axes = axes;
+            a.range_um = range_um;
+            a.range_every_um = range_every_um;
+            a.request.target_bandwidth_Hz = target_bandwidth_Hz;
+            a.out = out;
+            const auto say = progress_lines(progress);
+            nlohmann::json summary;
+            {
+                pyb::gil_scoped_release release;
+                summary = cli::run_axes_commission(a, say, {});
+            }
+            return to_python(summary);
+        },
+        pyb::arg("scenario"), pyb::arg("axes"), pyb::arg("range_um"), pyb::arg("range_every_um"),
+        pyb::arg("target_bandwidth_Hz"),
+        pyb::arg("out"), pyb::arg("progress"));
 
     // Loops.save_csv: the CSV through the command line's writer.
     m.def(

@@ -32,6 +32,31 @@ def test_sim_equals_command_line(tmp_path):
         assert os.path.exists(tmp_path / "py" / name), name
 
 
+def _strip(summary):
+    """A summary without what differs between two runs (paths, wall time)."""
+    if isinstance(summary, dict):
+        return {k: _strip(v) for k, v in summary.items() if k not in VOLATILE}
+    return summary
+
+
+def test_axes_equal_command_line(tmp_path):
+    xy = os.path.join(os.path.dirname(scenario("ahmad2020")), "stages", "xy_flexure.json")
+    s = piezoloop.commission(xy, {"x": 80, "y": 80}, tmp_path / "py", axes=["x", "y"])
+    ref = json.loads(cli("commission", "--scenario", xy, "--axes", "x,y", "--range-um", "80", "--out",
+                         str(tmp_path / "cli")))
+    assert _strip(s) == _strip(ref)
+    assert s["verified"] and s["decoupled"]
+    with pytest.raises(ValueError, match="--axes"):
+        piezoloop.commission(xy, 80, tmp_path / "x")
+    with pytest.raises(ValueError, match="--axes"):
+        piezoloop.commission(xy, 80, tmp_path / "x", axes=["x"])
+    with pytest.raises(TypeError, match="axes"):
+        piezoloop.commission(xy, 80, tmp_path / "x", axes="x,y")
+    with pytest.raises(TypeError, match="range_um"):
+        piezoloop.commission(scenario("ahmad2020"), {"x": 12}, tmp_path / "x")
+    assert not os.path.exists(tmp_path / "x")
+
+
 @pytest.mark.parametrize("kwargs, option", [
     (dict(range_um=1000.0), "--range-um"),
     (dict(range_um=-1.0), "--range-um"),
