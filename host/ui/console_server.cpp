@@ -4,6 +4,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <fstream>
+#include <sstream>
 #include <map>
 #include <mutex>
 #include <stdexcept>
@@ -11,10 +13,13 @@
 
 #include "link/params_schema.hpp"
 #include "ui/access.hpp"
+#include "ui/commission_job.hpp"
 #include "ui/control_seat.hpp"
 #include "ui/frf_job.hpp"
+#include "ui/measurement_job.hpp"
 #include "ui/psd.hpp"
 #include "ui/scope_view.hpp"
+#include "ui/step_loops_job.hpp"
 #include "ui/web_assets.hpp"
 
 namespace piezoloop::ui {
@@ -59,6 +64,10 @@ struct ConsoleServer::Impl {
     httplib::Server server;
     ControlSeat seat;
     FrfJob frf;
+    MeasurementJob step{"a step response"}, loops{"a hysteresis loop measurement"}, commissioning{"commissioning"};
+    // The jobs whose progress and result the stream sends (events NAME and NAME-result).
+    std::vector<std::pair<std::string, MeasurementJob*>> jobs = {
+        {"step", &step}, {"loops", &loops}, {"commission", &commissioning}};
     std::mutex viewers_m;
     std::map<std::string, std::shared_ptr<Viewer>> viewers;
     std::atomic<bool> stopping{false};
@@ -151,6 +160,7 @@ void ConsoleServer::Impl::routes() {
         struct StreamState {
             bool hello_sent = false;
             uint64_t status_serial = 0, frf_serial = 0, frf_result_serial = 0;
+            std::map<std::string, std::pair<uint64_t, uint64_t>> job_serials;  // progress, result
             std::chrono::steady_clock::time_point last_frame{}, last_write{};
         };
         auto state = std::make_shared<StreamState>();
@@ -167,6 +177,7 @@ void ConsoleServer::Impl::routes() {
                     json hello = control_json(id);
                     hello["signals"] = signals;
                     hello["rate_Hz"] = board.history().rate_Hz();
+                    hello["simulator"] = !options.scenario.empty();  // commissioning may run simulated
                     {
                         const std::lock_guard lock(v->m);
                         hello["scope"] = to_json(v->settings);
@@ -208,6 +219,17 @@ void ConsoleServer::Impl::routes() {
                 if (const uint64_t rs = frf.result_serial(); rs != state->frf_result_serial) {
                     state->frf_result_serial = rs;
                     out += sse_event("frf-result", frf.result_json());
+                }
+                for (const auto& [name, job] : jobs) {
+                    auto& [ps, rs] = state->job_serials[name];
+                    if (const uint64_t p = job->progress_serial(); p != ps) {
+                        ps = p;
+                        out += sse_event(name, job->progress_json());
+                    }
+                    if (const uint64_t r = job->result_serial(); r != rs) {
+                        rs = r;
+                        out += sse_event(name + "-result", job->result_json());
+                    }
                 }
                 // A comment now and then: finds a closed connection.
                 if (out.empty() && now - state->last_write > std::chrono::seconds(1)) out = ": idle\n\n";
@@ -321,6 +343,8 @@ void ConsoleServer::Impl::routes() {
     });
     control("/api/stop", [this](const httplib::Request&) {
         // Stop stops a measurement too (its excitation ends, the groups go back).
+        for (const auto& j : jobs)
+            if (j.second->running()) j.second->request_stop();
         if (board.measuring()) {
             frf.request_stop();
             return board.status_json();
@@ -342,6 +366,55 @@ void ConsoleServer::Impl::routes() {
         frf.request_stop();
         return frf.progress_json();
     });
+    // Steps and loops: started by the controlling page only, refused at
+    // their fields before anything moves.
+    const std::pair<std::string, MeasurementJob::Work (*)(BoardSession&, const json&)> starts[] = {
+        {"step", step_work}, {"loops", loops_work}};
+    for (const auto& [name, work] : starts) {
+        MeasurementJob* job = name == "step" ? &step : &loops;
+        control("/api/" + name + "/start", [this, job, work](const httplib::Request& req) {
+            const json form = json::parse(req.body, nullptr, false);
+            if (form.is_discarded()) throw FieldRefusal("", "the request is not JSON");
+            return job->start(form, work(board, form));
+        });
+        control("/api/" + name + "/stop", [job](const httplib::Request&) {
+            job->request_stop();
+            return job->progress_json();
+        });
+        server.Get("/api/" + name, [job](const httplib::Request&, httplib::Response& res) {
+            send_json(res, {{"progress", job->progress_json()}, {"result", job->result_json()}});
+        });
+        server.Get("/api/" + name + "/csv", [job, name](const httplib::Request&, httplib::Response& res) {
+            const json r = job->result_json();
+            const std::string csv = name == "step" ? step_csv(r) : loops_csv(r);
+            if (csv.empty()) return send_json(res, {{"error", "nothing measured yet"}}, 404);
+            res.set_header("Content-Disposition", "attachment; filename=\"" + name + ".csv\"");
+            res.set_content(csv, "text/csv");
+        });
+    }
+
+    control("/api/commission/start", [this](const httplib::Request& req) {
+        const json form = json::parse(req.body, nullptr, false);
+        if (form.is_discarded()) throw FieldRefusal("", "the request is not JSON");
+        return commissioning.start(form, commission_work(board, options.scenario, form));
+    });
+    control("/api/commission/stop", [this](const httplib::Request&) {
+        commissioning.request_stop();
+        return commissioning.progress_json();
+    });
+    server.Get("/api/commission", [this](const httplib::Request&, httplib::Response& res) {
+        send_json(res, {{"progress", commissioning.progress_json()}, {"result", commissioning.result_json()},
+                        {"simulator", !options.scenario.empty()}});
+    });
+    server.Get(R"(/api/commission/figure/([a-z]+\.png))", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string path = commission_figure_path(commissioning.result_json(), req.matches[1]);
+        std::ifstream f(path, std::ios::binary);
+        if (path.empty() || !f) return send_json(res, {{"error", "no such figure in the last commissioning"}}, 404);
+        std::ostringstream body;
+        body << f.rdbuf();
+        res.set_content(body.str(), "image/png");
+    });
+
     server.Get("/api/frf", [this](const httplib::Request&, httplib::Response& res) {
         send_json(res, {{"progress", frf.progress_json()}, {"result", frf.result_json()}});
     });
@@ -394,6 +467,7 @@ void ConsoleServer::serve(const std::function<bool()>& stop_requested) {
     while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     s.stopping = true;
     s.frf.shutdown();  // a running measurement stops, the board's groups put back
+    for (const auto& j : s.jobs) j.second->shutdown();
     s.server.stop();
     listener.join();
 }

@@ -19,6 +19,7 @@ const state = {
   measuring: false,    // a frequency response runs (the board's other commands wait)
   frf: null,           // the measurement's progress: {state, phase, fraction, request, error}
   frfResult: null,     // the last result, as the server sent it
+  jobs: {},            // step, loops: {progress, seen: [progress...], result}
 };
 window.piezoloop = state;  // for the browser tests and the curious
 
@@ -231,7 +232,7 @@ function showStatus(st) {
     ['requests (host)', hl.requests], ['log frames (host)', hl.log_frames],
     ['lost blocks / tick gaps', `${hl.lost_blocks} / ${hl.tick_gaps}`], ['recorder overruns', hl.recorder_overruns],
   ].map(([k, v]) => [k, String(v)]));
-  state.measuring = !!st.measuring || (state.frf && state.frf.state === 'running');
+  state.measuring = !!st.measuring || anyRunning();
   if (st.control) showControl(st.control);
   else updateButtons();
 }
@@ -250,6 +251,7 @@ function updateButtons() {
   const c = state.controls;
   for (const b of document.querySelectorAll('.ctl')) b.disabled = !c || (state.measuring && b.id !== 'stop');
   $('frf-stop').disabled = !c || !state.measuring;
+  for (const b of document.querySelectorAll('.stop-job')) b.disabled = !c || !state.measuring;
   for (const b of document.querySelectorAll('#params button')) b.disabled = !c || state.measuring;
 }
 
@@ -470,7 +472,7 @@ function showFrfProgress(p) {
   const was = state.frf;
   state.frf = p;
   state.frfSeen = (state.frfSeen || []).concat([{ state: p.state, phase: p.phase, fraction: p.fraction }]);
-  state.measuring = p.state === 'running';
+  state.measuring = anyRunning();
   $('frf-progress').value = p.fraction || 0;
   const pct = `${Math.round(100 * (p.fraction || 0))} %`;
   const text = {
@@ -556,6 +558,287 @@ state.bodeData = () => ({
   phase: bodePhase ? bodePhase.data.map((a) => Array.from(a)) : null,
 });
 
+// ---- steps and loops: the board's `measure step` and `measure loops` ----------
+
+function anyRunning() {
+  return (state.frf && state.frf.state === 'running') || Object.values(state.jobs).some((j) => j.progress && j.progress.state === 'running');
+}
+
+// A number as the page shows it: 4 significant digits (scaled first: ms).
+function fig(x, scale = 1) { return x === null || x === undefined ? '–' : String(Number((x * scale).toPrecision(4))); }
+
+function jobErrors(name) { return [...document.querySelectorAll(`#${name} [data-error-for]`)]; }
+
+function showJobError(name, field, message) {
+  const spans = jobErrors(name);
+  const at = spans.find((e) => e.dataset.errorFor === field) || spans.find((e) => e.dataset.errorFor === '');
+  at.textContent = `refused: ${message}`;
+}
+
+// An empty field is not given (the command line's option left out).
+function optionalNumber(input) { return input.value.trim() === '' ? null : Number(input.value); }
+
+function download(path, file) {
+  return async () => {
+    const res = await fetch(path, { headers: { 'X-Piezoloop-Token': token } });
+    const a = document.createElement('a');
+    a.href = URL.createObjectURL(await res.blob());
+    a.download = file;
+    a.click();
+    URL.revokeObjectURL(a.href);
+  };
+}
+
+// The form of job `name`, started with the body `read` makes of it.
+function jobForm(name, read) {
+  const f = $(name);
+  f.onsubmit = async (ev) => {
+    ev.preventDefault();
+    for (const e of jobErrors(name)) e.textContent = '';
+    let body;
+    try {
+      body = read(f);
+    } catch (e) {
+      showJobError(name, e.field || '', e.message);
+      return;
+    }
+    const r = await api('POST', `/api/${name}/start`, body);
+    if (!r.ok) showJobError(name, r.data.field || '', r.data.error || String(r.data));
+  };
+  $(`${name}-stop`).onclick = () => api('POST', `/api/${name}/stop`);
+  if ($(`${name}-csv`)) $(`${name}-csv`).onclick = download(`/api/${name}/csv`, `${name}.csv`);
+}
+
+function showJobProgress(name, p) {
+  const job = state.jobs[name] = state.jobs[name] || { seen: [] };
+  const was = job.progress;
+  job.progress = p;
+  job.seen.push({ state: p.state, phase: p.phase, fraction: p.fraction });
+  state.measuring = anyRunning();
+  $(`${name}-progress`).value = p.fraction || 0;
+  const pct = `${Math.round(100 * (p.fraction || 0))} %`;
+  const text = { idle: $(`${name}-state`).textContent, running: `${p.phase} ${p.phase === 'recording' ? pct : ''}`,
+    done: 'measured', failed: 'refused or failed', stopped: 'stopped' };
+  $(`${name}-state`).textContent = text[p.state] || p.state;
+  if (p.state === 'running' && (!was || was.state !== 'running')) for (const e of jobErrors(name)) e.textContent = '';
+  if (p.error) showJobError(name, p.error.field || '', p.error.message);
+  if (was && was.state === 'running' && p.state !== 'running') loadParams();
+  updateButtons();
+}
+
+function warnings(el, list) {
+  el.replaceChildren(...(list || []).map((t) => { const li = document.createElement('li'); li.textContent = t; return li; }));
+}
+
+// Figures as [label, key, scale, unit]: the text is fig(value, scale), the
+// exact value in data-value.
+function figures(dl, res, rows) {
+  dl.replaceChildren();
+  for (const [label, key, scale, unit] of rows) {
+    const dt = document.createElement('dt');
+    dt.textContent = label;
+    const dd = document.createElement('dd');
+    const v = res[key];
+    dd.dataset.key = key;
+    dd.dataset.value = JSON.stringify(v);
+    dd.textContent = typeof v === 'number' || v === null ? `${fig(v, scale)}${unit ? ` ${unit}` : ''}` : String(v);
+    dl.append(dt, dd);
+  }
+}
+
+let stepPlot = null;
+
+function showStepResult(res) {
+  state.jobs.step = state.jobs.step || { seen: [] };
+  state.jobs.step.result = res;
+  if (!res) return;
+  figures($('step-figures'), res, [
+    ['initial', 'initial_um', 1, 'µm'], ['final', 'final_value_um', 1, 'µm'], ['overshoot', 'overshoot_pct', 1, '%'],
+    ['peak', 'peak_um', 1, 'µm'], ['peak time', 'peak_time_s', 1e3, 'ms'], ['rise 10–90 %', 'rise_time_s', 1e3, 'ms'],
+    ['settling 2 %', 'settling_time_s', 1e3, 'ms'], ['settled', 'settled'], ['clipped samples', 'clipped_samples'],
+    ['limiter trip', 'limiter_trip'], ['log hash', 'log_hash'], ['wall', 'wall_s', 1, 's'],
+  ]);
+  warnings($('step-warnings'), res.warnings);
+  if (stepPlot) stepPlot.destroy();
+  stepPlot = new uPlot({
+    width: Math.max(400, $('step-plot').clientWidth || 800),
+    height: 280,
+    series: [{ label: 't (s)' },
+      { label: 'r (µm)', stroke: '#888', width: 1, scale: 'um' },
+      { label: 'y (µm)', stroke: '#06c', width: 1.5, scale: 'um' },
+      { label: 'u (V)', stroke: '#2a2', width: 1, scale: 'V' }],
+    scales: { x: { time: false } },
+    axes: [{ label: 't (s), 0 at the step' }, { scale: 'um', label: 'µm' }, { scale: 'V', label: 'V', side: 1, grid: { show: false } }],
+  }, [res.time_s, res.reference_um, res.response_um, res.command_V], $('step-plot'));
+  $('step-csv').disabled = false;
+}
+
+// The loops as y against u, one colour per amplitude, on a canvas (x is not
+// monotonic: a line plot of a time series does not fit).
+function drawLoops(canvas, loops) {
+  const g = canvas.getContext('2d');
+  const w = canvas.width;
+  const h = canvas.height;
+  const m = { l: 60, r: 12, t: 12, b: 40 };
+  g.clearRect(0, 0, w, h);
+  const all = (k) => loops.flatMap((l) => l[k]);
+  const range = (v) => { const lo = Math.min(...v); const hi = Math.max(...v); return hi > lo ? [lo, hi] : [lo - 1, hi + 1]; };
+  const [u0, u1] = range(all('u'));
+  const [y0, y1] = range(all('y'));
+  const X = (u) => m.l + (u - u0) / (u1 - u0) * (w - m.l - m.r);
+  const Y = (y) => h - m.b - (y - y0) / (y1 - y0) * (h - m.t - m.b);
+  g.strokeStyle = '#ccd';
+  g.fillStyle = '#556';
+  g.font = '11px sans-serif';
+  for (let i = 0; i <= 5; ++i) {
+    const u = u0 + (u1 - u0) * i / 5;
+    const y = y0 + (y1 - y0) * i / 5;
+    g.beginPath(); g.moveTo(X(u), m.t); g.lineTo(X(u), h - m.b); g.moveTo(m.l, Y(y)); g.lineTo(w - m.r, Y(y)); g.stroke();
+    g.fillText(fig(u), X(u) - 10, h - m.b + 14);
+    g.fillText(fig(y), 4, Y(y) + 4);
+  }
+  g.fillText('u (V)', w / 2, h - 6);
+  g.fillText('y (µm)', m.l + 4, m.t + 10);
+  const colours = ['#06c', '#c60', '#2a2', '#a2a', '#2aa', '#a22'];
+  loops.forEach((l, k) => {
+    g.strokeStyle = colours[k % colours.length];
+    g.beginPath();
+    l.u.forEach((u, i) => (i ? g.lineTo(X(u), Y(l.y[i])) : g.moveTo(X(u), Y(l.y[i]))));
+    g.stroke();
+    g.fillStyle = g.strokeStyle;
+    g.fillText(`${fig(l.amplitude_V)} V`, w - m.r - 50, m.t + 14 * (k + 1));
+  });
+}
+
+function showLoopsResult(res) {
+  state.jobs.loops = state.jobs.loops || { seen: [] };
+  state.jobs.loops.result = res;
+  if (!res) return;
+  const t = $('loops-figures');
+  t.replaceChildren();
+  const head = t.insertRow();
+  for (const h of ['amplitude (V)', 'hysteresis (%)', 'widest gap (%)', 'y min (µm)', 'y max (µm)']) {
+    const th = document.createElement('th'); th.textContent = h; head.append(th);
+  }
+  for (const l of res.loops) {
+    const row = t.insertRow();
+    for (const k of ['amplitude_V', 'hysteresis_pct', 'max_width_pct', 'y_min_um', 'y_max_um']) {
+      const td = row.insertCell();
+      td.dataset.key = k;
+      td.dataset.value = JSON.stringify(l[k]);
+      td.textContent = fig(l[k]);
+    }
+  }
+  warnings($('loops-warnings'), res.warnings);
+  // Each amplitude's samples, in the order recorded.
+  const loops = res.loops.map((l) => ({ amplitude_V: l.amplitude_V, u: [], y: [] }));
+  res.amplitude_V.forEach((a, i) => {
+    const l = loops.find((x) => x.amplitude_V === a);
+    l.u.push(res.u_V[i]);
+    l.y.push(res.y_um[i]);
+  });
+  state.jobs.loops.plotted = loops;
+  drawLoops($('loops-plot'), loops);
+  $('loops-csv').disabled = false;
+}
+
+// What the step plot holds (for the browser test).
+state.stepData = () => (stepPlot ? stepPlot.data.map((a) => Array.from(a)) : null);
+
+function stepLoopsForms() {
+  const step = $('step');
+  const mode = () => { step.className = `measure ${step.mode.value}`; };
+  step.mode.onchange = mode;
+  mode();
+  jobForm('step', (f) => {
+    const open = f.mode.value === 'open';
+    const body = { mode: f.mode.value, duration_s: Number(f.duration_s.value), restart_stage: f.restart_stage.checked };
+    if (open) Object.assign(body, { step_V: optionalNumber(f.step_V), bias_V: optionalNumber(f.bias_V) });
+    else Object.assign(body, { step_um: optionalNumber(f.step_um), from_um: optionalNumber(f.from_um) });
+    return body;
+  });
+  jobForm('loops', (f) => {
+    const amplitudes = f.amplitudes_V.value.split(/[,\s]+/).filter((x) => x !== '').map(Number);
+    return {
+      amplitudes_V: amplitudes,
+      bias_V: optionalNumber(f.bias_V),
+      frequency_Hz: Number(f.frequency_Hz.value),
+      cycles: Number(f.cycles.value),
+      shape: f.shape.value,
+      restart_stage: f.restart_stage.checked,
+    };
+  });
+}
+
+// ---- commissioning: `piezoloop commission` from the page ----------------------
+
+// A table of rows (objects) by columns [heading, key, scale]: each cell's
+// text fig(value, scale) (or the text), the exact value in data-value.
+function table(el, rows, columns) {
+  el.replaceChildren();
+  const head = el.insertRow();
+  for (const [h] of columns) { const th = document.createElement('th'); th.textContent = h; head.append(th); }
+  for (const r of rows) {
+    const tr = el.insertRow();
+    for (const [, key, scale] of columns) {
+      const td = tr.insertCell();
+      const v = key.split('.').reduce((o, k) => (o == null ? o : o[k]), r);
+      td.dataset.key = key;
+      td.dataset.value = JSON.stringify(v === undefined ? null : v);
+      td.textContent = typeof v === 'number' || v === null || v === undefined ? fig(v, scale || 1) : String(v);
+    }
+  }
+}
+
+function showCommissionProgress(p) {
+  showJobProgress('commission', p);
+  const log = $('commission-log');
+  const lines = p.log || [];
+  // The log grows while it runs: only the new lines are added.
+  if (log.children.length > lines.length) log.replaceChildren();
+  for (let i = log.children.length; i < lines.length; ++i) {
+    const li = document.createElement('li');
+    li.textContent = lines[i];
+    log.append(li);
+  }
+  if (p.state === 'running') $('commission-state').textContent = p.phase === 'recording' ?
+    `recording ${Math.round(100 * (p.fraction || 0))} % — ${lines.length ? lines[lines.length - 1] : ''}` : (lines.length ? lines[lines.length - 1] : 'starting');
+}
+
+function showCommissionResult(res) {
+  state.jobs.commission = state.jobs.commission || { seen: [] };
+  state.jobs.commission.result = res;
+  if (!res) return;
+  const v = $('commission-verdict');
+  v.textContent = res.chosen === null ? 'no candidate passed the checks: nothing was loaded' :
+    `chosen: ${res.chosen}; ${res.verified ? 'verified' : `not verified: ${res.verification_failure}`}` +
+    (res.on === 'simulator' ? ' (on the simulated stage; nothing was loaded on the board)' : res.saved ? '; saved on the board' : '; not saved');
+  v.className = res.verified ? 'verified' : 'failed';
+  table($('commission-safety'), res.safety, [['safety step (V)', 'step_V'], ['from (V)', 'from_V'], ['Δy (µm)', 'dy_um'], ['noise (µm)', 'noise_um'], ['gain (µm/V)', 'gain_um_per_V']]);
+  table($('commission-fits'), res.fits, [['model fit', 'order'], ['rms error (%)', 'rms_rel', 100], ['DC gain (µm/V)', 'dc_gain_um_per_V'], ['chosen', 'chosen']]);
+  table($('commission-candidates'), res.candidates, [['candidate', 'name'], ['order', 'order'], ['PM (°)', 'measured_phase_margin_deg'],
+    ['at (Hz)', 'measured_crossover_Hz'], ['GM (dB)', 'measured_gain_margin_db'], ['max|S|', 'measured_max_sensitivity'],
+    ['predicted e_max (%)', 'predicted_10Hz_half_range.e_max_pct'], ['passes', 'passes'], ['refusal', 'refusal']]);
+  table($('commission-verification'), res.verification || [], [['triangle (Hz)', 'frequency_Hz'], ['range (µm)', 'range_um'],
+    ['e_max measured (%)', 'measured.e_max_pct'], ['predicted (%)', 'predicted.e_max_pct'], ['e_rms measured (%)', 'measured.e_rms_pct'],
+    ['predicted (%)', 'predicted.e_rms_pct'], ['trip', 'measured.trip']]);
+  $('commission-figures').replaceChildren(...(res.figures || []).map((name) => {
+    const img = new Image();
+    img.alt = name;
+    // A new result, a new URL (the browser caches none: no-store).
+    img.src = `/api/commission/figure/${name}?token=${encodeURIComponent(token)}&wall=${res.wall_s}`;
+    return img;
+  }));
+  $('commission-report').textContent = res.report_md || '';
+}
+
+function commissionForm() {
+  jobForm('commission', (f) => {
+    const bw = f.target_bandwidth_Hz.value.trim();
+    return { range_um: Number(f.range_um.value), target_bandwidth_Hz: bw === '' ? null : Number(bw), on: f.on.value, save: f.save.checked };
+  });
+}
+
 // ---- the stream ----------------------------------------------------------------
 
 function connect() {
@@ -572,6 +855,9 @@ function connect() {
     $('psd-signal').replaceChildren(...h.signals.map((s) => new Option(`${s.name} (${s.unit})`, s.name)));
     $('psd-signal').value = h.signals.some((s) => s.name === 'y') ? 'y' : h.signals[0].name;
     if (!plot) makePlot();
+    // Commissioning the simulated stage needs the console's --scenario.
+    const sim = document.querySelector('#commission [name="on"] option[value="simulator"]');
+    if (sim && !h.simulator) sim.remove();
     showControl(h);
     loadParams();
     // The first page takes control when nobody has it; later ones watch.
@@ -591,6 +877,12 @@ function connect() {
   es.addEventListener('status', (ev) => showStatus(JSON.parse(ev.data)));
   es.addEventListener('frf', (ev) => showFrfProgress(JSON.parse(ev.data)));
   es.addEventListener('frf-result', (ev) => showFrfResult(JSON.parse(ev.data)));
+  es.addEventListener('step', (ev) => showJobProgress('step', JSON.parse(ev.data)));
+  es.addEventListener('step-result', (ev) => showStepResult(JSON.parse(ev.data)));
+  es.addEventListener('loops', (ev) => showJobProgress('loops', JSON.parse(ev.data)));
+  es.addEventListener('loops-result', (ev) => showLoopsResult(JSON.parse(ev.data)));
+  es.addEventListener('commission', (ev) => showCommissionProgress(JSON.parse(ev.data)));
+  es.addEventListener('commission-result', (ev) => showCommissionResult(JSON.parse(ev.data)));
   es.onerror = () => { $('device').textContent = 'disconnected: reconnecting…'; };
 }
 
@@ -609,5 +901,7 @@ scopeControls();
 psdControls();
 waveForm();
 frfForm();
+stepLoopsForms();
+commissionForm();
 showControl({ controls: false, seat_taken: false });
 connect();
