@@ -2,6 +2,7 @@
 
 #include <httplib.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <fstream>
@@ -81,10 +82,18 @@ struct ConsoleServer::Impl {
         return it == viewers.end() ? nullptr : it->second;
     }
 
+    // This viewer's view of the seat: whether it controls, and a pending
+    // request for the seat (asked by it, or of it) with the seconds left.
     json control_json(const std::string& id) const {
         const auto holder = seat.holder();
-        return {{"viewer", id}, {"controls", holder && *holder == id}, {"seat_taken", holder.has_value()},
-                {"viewers", seat.viewers()}};
+        json j = {{"viewer", id}, {"controls", holder && *holder == id}, {"seat_taken", holder.has_value()},
+                  {"viewers", seat.viewers()}, {"refused", seat.was_refused(id)}, {"request", nullptr}};
+        if (const auto r = seat.request()) {
+            const double left = std::chrono::duration<double>(r->deadline - ControlSeat::Clock::now()).count();
+            j["request"] = {{"from_me", r->from == id}, {"to_me", holder && *holder == id},
+                            {"seconds_left", std::max(0.0, left)}};
+        }
+        return j;
     }
 
     void routes();
@@ -159,7 +168,7 @@ void ConsoleServer::Impl::routes() {
         }
         struct StreamState {
             bool hello_sent = false;
-            uint64_t status_serial = 0, frf_serial = 0, frf_result_serial = 0;
+            uint64_t status_serial = 0, frf_serial = 0, frf_result_serial = 0, seat_serial = 0;
             std::map<std::string, std::pair<uint64_t, uint64_t>> job_serials;  // progress, result
             std::chrono::steady_clock::time_point last_frame{}, last_write{};
         };
@@ -202,6 +211,12 @@ void ConsoleServer::Impl::routes() {
                         out += sse_event("frame", *frame);
                         state->last_frame = now;
                     }
+                }
+                // The seat: a request unanswered in time passes it.
+                seat.expire(ControlSeat::Clock::now());
+                if (const uint64_t ss = seat.serial(); ss != state->seat_serial) {
+                    state->seat_serial = ss;
+                    out += sse_event("control", control_json(id));
                 }
                 const uint64_t serial = board.status_serial();
                 if (serial != state->status_serial) {
@@ -284,6 +299,19 @@ void ConsoleServer::Impl::routes() {
         }
     });
 
+    // The scope's cursors: ?t_s=A&t_s=B, each the nearest sample's time and values.
+    server.Get("/api/scope/cursors", [this](const httplib::Request& req, httplib::Response& res) {
+        try {
+            const std::size_t n = req.get_param_value_count("t_s");
+            if (n < 1 || n > 2) throw std::invalid_argument("t_s: give one or two times (s)");
+            json out = json::array();
+            for (std::size_t i = 0; i < n; ++i) out.push_back(cursor_sample(board.history(), std::stod(req.get_param_value("t_s", i))));
+            send_json(res, {{"cursors", out}});
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", std::string("t_s: ") + e.what()}}, 400);
+        }
+    });
+
     server.Get("/api/scope/psd", [this](const httplib::Request& req, httplib::Response& res) {
         try {
             const std::string name = req.get_param_value("signal");
@@ -316,11 +344,26 @@ void ConsoleServer::Impl::routes() {
         }
     });
 
+    // Takes the free seat, or asks its holder (202: the answer, or the
+    // timeout, comes on the stream).
     server.Post("/api/control/claim", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.get_header_value("X-Piezoloop-Viewer");
-        const bool ok = seat.claim(id);
+        const ControlSeat::Asked a = seat.ask(id, ControlSeat::Clock::now());
         json j = control_json(id);
-        if (!ok) j["error"] = "another page controls the board: this page watches";
+        if (a == ControlSeat::Asked::kRefused)
+            j["error"] = seat.request() ? "another page is asking for control already: this page watches"
+                                        : "unknown viewer: open the live stream first";
+        send_json(res, j, a == ControlSeat::Asked::kTaken ? 200 : a == ControlSeat::Asked::kAsked ? 202 : 409);
+    });
+    // The holder's answer to a request for the seat: {give: true|false}.
+    server.Post("/api/control/answer", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string id = req.get_header_value("X-Piezoloop-Viewer");
+        const json body = json::parse(req.body, nullptr, false);
+        if (!body.is_object() || !body.contains("give") || !body["give"].is_boolean())
+            return send_json(res, {{"error", "give: must be true or false"}}, 400);
+        const bool ok = seat.answer(id, body["give"].get<bool>());
+        json j = control_json(id);
+        if (!ok) j["error"] = "nothing to answer: this page does not control the board, or nobody is asking";
         send_json(res, j, ok ? 200 : 409);
     });
     server.Post("/api/control/release", [this](const httplib::Request& req, httplib::Response& res) {

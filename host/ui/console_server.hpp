@@ -9,7 +9,9 @@
 //   POST /api/scope                 this viewer's scope settings (JSON)
 //   GET  /api/scope/csv?t0_s=&span_s=   the samples of a window as CSV
 //   GET  /api/params                schema of the form groups and their values
-//   POST /api/control/claim|release the control seat
+//   POST /api/control/claim|release the control seat (claim asks its
+//                                   holder when taken); /api/control/answer
+//                                   the holder's {give}; the stream's control
 //   POST /api/arm|disarm|clear-trip|stop, /api/params/GROUP, /api/wave
 //   POST /api/frf/start|stop        a frequency response (ui/frf_job); the
 //                                   stream's frf and frf-result events

@@ -20,6 +20,10 @@ const state = {
   frf: null,           // the measurement's progress: {state, phase, fraction, request, error}
   frfResult: null,     // the last result, as the server sent it
   jobs: {},            // step, loops: {progress, seen: [progress...], result}
+  cursors: {},         // scope cursors A, B: the server's nearest sample {t_s, values}
+  nextCursor: 'A',
+  psdCursors: {},      // spectrum cursors A, B: {bin, f_Hz, density}
+  nextPsdCursor: 'A',
 };
 window.piezoloop = state;  // for the browser tests and the curious
 
@@ -71,7 +75,14 @@ function makePlot() {
       { scale: 'V', label: 'V', side: 1, grid: { show: false } },
     ],
     cursor: { drag: { x: false, y: false } },
+    hooks: { draw: [(u) => drawCursorLines(u, state.cursors, (c) => c.t_s)] },
   }, [[], ...state.signals.map(() => [])], $('plot'));
+  plot.over.addEventListener('click', (ev) => {
+    if (!$('cursors').checked) return;
+    const t = plot.posToVal(ev.offsetX, 'x');
+    setCursor(state.nextCursor, t);
+    state.nextCursor = state.nextCursor === 'A' ? 'B' : 'A';
+  });
   // The server decimates to one min/max pair per pixel column.
   sendScope({ columns: Math.round(plot.bbox.width / devicePixelRatio) || width });
 }
@@ -138,6 +149,13 @@ function scopeControls() {
   $('trigger-signal').onchange = () => sendScope({ trigger_signal: $('trigger-signal').value });
   $('trigger-level').onchange = () => sendScope({ trigger_level: Number($('trigger-level').value) });
   $('edge').onchange = () => sendScope({ edge: $('edge').value });
+  $('cursors').onchange = () => {
+    if ($('cursors').checked) return;
+    state.cursors = {};
+    state.nextCursor = 'A';
+    $('cursor-readout').hidden = true;
+    plot.redraw(false);
+  };
   $('pause').onclick = () => {
     state.paused = !state.paused;
     $('pause').textContent = state.paused ? 'Run' : 'Pause';
@@ -153,6 +171,97 @@ function scopeControls() {
     a.click();
     URL.revokeObjectURL(a.href);
   };
+}
+
+// ---- cursors: two vertical lines, on the scope and on the spectrum ------------
+
+// A number to n significant digits (the readouts' format).
+function sig(x, n) { return x === null || x === undefined ? '–' : String(Number(x.toPrecision(n))); }
+
+function drawCursorLines(u, cursors, at) {
+  const g = u.ctx;
+  g.save();
+  g.lineWidth = 1;
+  g.setLineDash([4, 3]);
+  for (const [name, colour] of [['A', '#d0a'], ['B', '#0ad']]) {
+    const c = cursors[name];
+    if (!c || at(c) === null) continue;
+    const x = u.valToPos(at(c), 'x', true);
+    if (x < u.bbox.left || x > u.bbox.left + u.bbox.width) continue;
+    g.strokeStyle = colour;
+    g.beginPath();
+    g.moveTo(x, u.bbox.top);
+    g.lineTo(x, u.bbox.top + u.bbox.height);
+    g.stroke();
+    g.fillStyle = colour;
+    g.fillText(name, x + 3, u.bbox.top + 12);
+  }
+  g.restore();
+}
+
+// A readout table: rows [label, [[key, value, text], ...]], each cell with
+// its exact value in data-value.
+function readout(el, head, rows) {
+  el.hidden = false;
+  el.replaceChildren();
+  const h = el.insertRow();
+  for (const t of head) { const th = document.createElement('th'); th.textContent = t; h.append(th); }
+  for (const [label, cells] of rows) {
+    const tr = el.insertRow();
+    const th = document.createElement('th');
+    th.textContent = label;
+    tr.append(th);
+    for (const [key, value, text] of cells) {
+      const td = tr.insertCell();
+      td.dataset.key = key;
+      td.dataset.value = JSON.stringify(value === undefined ? null : value);
+      td.textContent = text;
+    }
+  }
+}
+
+// Scope cursor `name` at time t: the server's nearest recorded sample.
+async function setCursor(name, t) {
+  const r = await api('GET', `/api/scope/cursors?t_s=${t}`);
+  if (!r.ok) { $('scope-error').textContent = r.data.error; return; }
+  state.cursors[name] = r.data.cursors[0];
+  showCursors();
+  plot.redraw(false);
+}
+
+function showCursors() {
+  const { A, B } = state.cursors;
+  const names = state.signals.map((s) => s.name);
+  const head = ['', 't (s)', ...state.signals.map((s) => `${s.name} (${s.unit})`)];
+  const row = (c) => [['t_s', c ? c.t_s : null, c && c.t_s !== null ? sig(c.t_s, 9) : '–'],
+    ...names.map((n) => { const v = c && c.values ? c.values[n] : null; return [n, v, sig(v, 7)]; })];
+  const rows = [['A', row(A)], ['B', row(B)]];
+  if (A && B && A.t_s !== null && B.t_s !== null) {
+    const dt = B.t_s - A.t_s;
+    rows.push(['B − A', [['dt_s', dt, `${sig(dt, 6)} s (${dt !== 0 ? sig(1 / Math.abs(dt), 6) : '–'} Hz)`],
+      ...names.map((n) => { const a = A.values[n]; const b = B.values[n]; const d = a === null || b === null ? null : b - a; return [n, d, sig(d, 7)]; })]]);
+  }
+  readout($('cursor-readout'), head, rows);
+}
+
+// Spectrum cursor `name` at frequency f: the nearest bin of the spectrum shown.
+function setPsdCursor(name, f) {
+  const p = state.psd;
+  if (!p) return;
+  let k = 1;
+  for (let i = 1; i < p.frequency_Hz.length; ++i) if (Math.abs(p.frequency_Hz[i] - f) < Math.abs(p.frequency_Hz[k] - f)) k = i;
+  state.psdCursors[name] = { bin: k, f_Hz: p.frequency_Hz[k], density: p.density[k] };
+  showPsdCursors();
+  if (psdPlot) psdPlot.redraw(false);
+}
+
+function showPsdCursors() {
+  const { A, B } = state.psdCursors;
+  const unit = state.psd ? state.psd.unit : '';
+  const row = (c) => [['f_Hz', c ? c.f_Hz : null, c ? sig(c.f_Hz, 6) : '–'], ['density', c ? c.density : null, c ? sig(c.density, 4) : '–']];
+  const rows = [['A', row(A)], ['B', row(B)]];
+  if (A && B) rows.push(['B − A', [['df_Hz', B.f_Hz - A.f_Hz, sig(B.f_Hz - A.f_Hz, 6)], ['ratio_dB', 10 * Math.log10(B.density / A.density), `${sig(10 * Math.log10(B.density / A.density), 4)} dB`]]]);
+  readout($('psd-cursor-readout'), ['', 'f (Hz)', `PSD (${unit})`], rows);
 }
 
 // ---- spectrum: Welch PSD of a signal over the window on screen ----------------
@@ -179,11 +288,26 @@ async function updatePsd() {
     series: [{ label: 'f (Hz)' }, { label: `${signal} PSD (${r.data.unit})`, stroke: '#06c', width: 1, spanGaps: true }],
     scales: { x: { time: false, distr: 3 }, y: { distr: 3 } },
     axes: [{ label: 'Hz' }, { label: r.data.unit, size: 70, values: (u, vals) => vals.map((v) => (v == null ? '' : v.toExponential(0))) }],
+    hooks: { draw: [(u) => drawCursorLines(u, state.psdCursors, (c) => c.f_Hz)] },
   }, [x, y], $('psd-plot'));
+  psdPlot.over.addEventListener('click', (ev) => {
+    if (!$('psd-cursors').checked) return;
+    setPsdCursor(state.nextPsdCursor, psdPlot.posToVal(ev.offsetX, 'x'));
+    state.nextPsdCursor = state.nextPsdCursor === 'A' ? 'B' : 'A';
+  });
+  // A new spectrum: the cursors keep their frequencies, with its values.
+  for (const n of ['A', 'B']) if (state.psdCursors[n]) setPsdCursor(n, state.psdCursors[n].f_Hz);
 }
 
 function psdControls() {
   $('psd-update').onclick = updatePsd;
+  $('psd-cursors').onchange = () => {
+    if ($('psd-cursors').checked) return;
+    state.psdCursors = {};
+    state.nextPsdCursor = 'A';
+    $('psd-cursor-readout').hidden = true;
+    if (psdPlot) psdPlot.redraw(false);
+  };
   setInterval(() => { if ($('psd-follow').checked && !state.paused) updatePsd(); }, 500);
 }
 
@@ -239,7 +363,16 @@ function showStatus(st) {
 
 function showControl(c) {
   state.controls = c.controls;
-  $('seat').textContent = c.controls ? 'you control the board' : (c.seat_taken ? 'watching (another page controls)' : 'watching');
+  state.control = c;
+  const req = c.request || null;
+  // The deadline by this page's clock (the server sends the seconds left).
+  state.seatDeadline = req ? Date.now() + 1000 * req.seconds_left : null;
+  $('seat-request').hidden = !(req && req.to_me);
+  $('seat').textContent = c.controls ? 'you control the board' : req && req.from_me ? 'asking the controlling page for control…' :
+    (c.seat_taken ? 'watching (another page controls)' : 'watching');
+  if (c.refused) $('action-error').textContent = 'the controlling page kept control: this page watches';
+  else if (req && req.from_me) $('action-error').textContent = '';
+  seatCountdown();
   $('seat').className = c.controls ? 'seat controls' : 'seat';
   $('claim').hidden = c.controls;
   $('release').hidden = !c.controls;
@@ -875,6 +1008,7 @@ function connect() {
     drawFrame(f);
   });
   es.addEventListener('status', (ev) => showStatus(JSON.parse(ev.data)));
+  es.addEventListener('control', (ev) => showControl(JSON.parse(ev.data)));
   es.addEventListener('frf', (ev) => showFrfProgress(JSON.parse(ev.data)));
   es.addEventListener('frf-result', (ev) => showFrfResult(JSON.parse(ev.data)));
   es.addEventListener('step', (ev) => showJobProgress('step', JSON.parse(ev.data)));
@@ -886,11 +1020,23 @@ function connect() {
   es.onerror = () => { $('device').textContent = 'disconnected: reconnecting…'; };
 }
 
+function seatCountdown() {
+  const left = state.seatDeadline === null ? null : Math.max(0, Math.ceil((state.seatDeadline - Date.now()) / 1000));
+  const text = left === null ? '' : `(it passes in ${left} s without an answer)`;
+  $('seat-request-left').textContent = text;
+  if (state.control && state.control.request && state.control.request.from_me) $('seat').textContent = `asking the controlling page for control… ${text}`;
+}
+setInterval(seatCountdown, 500);
+
+// Takes the free seat, or asks the controlling page for it (HTTP 202: its
+// answer, or the timeout, comes on the stream).
 async function claim() {
   const r = await api('POST', '/api/control/claim');
   showControl(r.data);
-  $('action-error').textContent = r.ok ? '' : r.data.error;
+  if (r.status === 409) $('action-error').textContent = r.data.error;
 }
+$('give').onclick = async () => showControl((await api('POST', '/api/control/answer', { give: true })).data);
+$('keep').onclick = async () => showControl((await api('POST', '/api/control/answer', { give: false })).data);
 $('claim').onclick = claim;
 $('release').onclick = async () => showControl((await api('POST', '/api/control/release')).data);
 $('arm').onclick = () => act('/api/arm');

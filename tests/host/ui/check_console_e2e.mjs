@@ -556,17 +556,36 @@ async function main() {
     await watcher.goto(url);
     await waitFor(watcher, () => window.piezoloop.ready, null, 'the second page loads');
     check(await page.evaluate(() => window.piezoloop.controls), 'the first page took the free control seat');
+    // Taking control: the watcher asks, the controlling page is asked and
+    // keeps it (the timeout that passes the seat is checked in test_control_seat).
     await watcher.click('#claim');
-    await watcher.waitForTimeout(300);
-    check(!(await watcher.evaluate(() => window.piezoloop.controls)) &&
-      (await watcher.textContent('#action-error')).includes('another page controls'),
-      'the second page\'s claim is refused: it watches');
+    await waitFor(page, () => !document.getElementById('seat-request').hidden, null, 'the controlling page is asked');
+    check(await page.isVisible('#seat-request') && (await watcher.textContent('#seat')).includes('asking the controlling page') &&
+      /passes in \d+ s/.test(await page.textContent('#seat-request-left')),
+      'a watcher asks for control: the controlling page is asked (with the seconds left), the watcher says it is asking');
+    await page.click('#keep');
+    await waitFor(watcher, () => document.getElementById('action-error').textContent.includes('kept control'), null, 'the refusal on the watcher');
+    check(!(await watcher.evaluate(() => window.piezoloop.controls)) && await page.evaluate(() => window.piezoloop.controls) &&
+      (await watcher.textContent('#action-error')).includes('kept control') && !(await page.isVisible('#seat-request')),
+      'Keep control: the watcher is refused and watches, the controlling page keeps the seat');
     const forced = await watcher.evaluate(async (t) => {
       const r = await fetch('/api/arm', { method: 'POST', headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer } });
       return r.status;
     }, token);
     check(forced === 409, 'a command from the watching page is refused (409)', `status ${forced}`);
     check(await watcher.isDisabled('#arm'), 'the watching page\'s Arm button is disabled');
+    // Asked again, the controlling page gives the seat; then it takes it back once freed.
+    await watcher.click('#claim');
+    await waitFor(page, () => !document.getElementById('seat-request').hidden, null, 'asked again');
+    await page.click('#give');
+    await waitFor(watcher, () => window.piezoloop.controls, null, 'the watcher controls');
+    await waitFor(page, () => !window.piezoloop.controls, null, 'the first page watches');
+    check(await watcher.evaluate(() => window.piezoloop.controls) && !(await page.evaluate(() => window.piezoloop.controls)) &&
+      await page.isDisabled('#arm') && !(await watcher.isDisabled('#arm')), 'Give control: the asking page controls, the other watches');
+    await watcher.click('#release');
+    await page.click('#claim');
+    await waitFor(page, () => window.piezoloop.controls, null, 'the first page controls again');
+    check(await page.evaluate(() => window.piezoloop.controls), 'a freed seat is taken at once by the page that claims it');
 
     // ---- arm / disarm round trip ----
     await page.click('#arm');
@@ -653,6 +672,29 @@ async function main() {
       return u !== null && f.series.y.length === 2 * f.columns;
     });
     check(plotHolds, 'the plot holds two points per pixel column');
+    // Two cursors on the paused plot: each the server's nearest recorded
+    // sample, which is the exported row at its time; the readout shows them.
+    await page.check('#cursors');
+    const over = await page.locator('#plot .u-over').boundingBox();
+    await page.mouse.click(over.x + over.width * 0.3, over.y + over.height / 2);
+    await waitFor(page, () => window.piezoloop.cursors.A, null, 'cursor A');
+    await page.mouse.click(over.x + over.width * 0.7, over.y + over.height / 2);
+    await waitFor(page, () => window.piezoloop.cursors.B && document.querySelectorAll('#cursor-readout tr').length === 4, null, 'cursor B');
+    const cursors = await page.evaluate(() => window.piezoloop.cursors);
+    const rowAt = (c) => rows.find((r) => Math.abs(r[0] - c.t_s) < 0.5 / rate);
+    const sig = (x, n) => (x === null || x === undefined ? '–' : String(Number(x.toPrecision(n))));
+    const onRow = (c) => { const r = rowAt(c); return r && names.every((n, k) => Math.fround(r[k + 1]) === c.values[n]); };
+    const expectTimes = shown.t0_s + 0.3 * shown.span_s;
+    check(cursors.A && cursors.B && onRow(cursors.A) && onRow(cursors.B) && Math.abs(cursors.A.t_s - expectTimes) < 0.02 * shown.span_s &&
+      cursors.B.t_s > cursors.A.t_s, 'the cursors are the recorded samples where the plot was clicked (the exported rows at their times)',
+      JSON.stringify(cursors));
+    const cells = await page.$$eval('#cursor-readout td', (tds) => tds.map((d) => ({ key: d.dataset.key, value: JSON.parse(d.dataset.value), text: d.textContent })));
+    const dtc = cursors.B.t_s - cursors.A.t_s;
+    const wantCells = [cursors.A, cursors.B].flatMap((c) => [{ key: 't_s', value: c.t_s, text: sig(c.t_s, 9) }, ...names.map((n) => ({ key: n, value: c.values[n], text: sig(c.values[n], 7) }))])
+      .concat([{ key: 'dt_s', value: dtc, text: `${sig(dtc, 6)} s (${sig(1 / dtc, 6)} Hz)` },
+        ...names.map((n) => { const d = cursors.B.values[n] - cursors.A.values[n]; return { key: n, value: d, text: sig(d, 7) }; })]);
+    check(JSON.stringify(cells) === JSON.stringify(wantCells), 'the readout shows each cursor\'s time and values, Δt and the differences, as the server sent them',
+      JSON.stringify(cells).slice(0, 400));
     const dt = rows.slice(1).map((r, i) => r[0] - rows[i][0]);
     check(dt.every((d) => Math.abs(d * rate - 1) < 1e-6), 'the exported window has no tick gap (one sample per loop tick)');
     const r = rows.map((row) => row[1 + names.indexOf('r')]);
@@ -675,6 +717,17 @@ async function main() {
       const d = psd.density.slice(1);
       const top = psd.frequency_Hz[1 + d.indexOf(Math.max(...d))];
       check(psd.segments === 1 && Math.abs(top - 20) < psd.frequency_Hz[1] / 2, 'the spectrum of y peaks at the wave\'s 20 Hz (the bin nearest it)', `${psd.segments} segments, peak at ${top} Hz`);
+      // Two cursors on the spectrum: bins of the server's estimate, and Δf.
+      await page.check('#psd-cursors');
+      const box = await page.locator('#psd-plot .u-over').boundingBox();
+      await page.mouse.click(box.x + box.width * 0.25, box.y + box.height / 2);
+      await page.mouse.click(box.x + box.width * 0.6, box.y + box.height / 2);
+      await waitFor(page, () => window.piezoloop.psdCursors.B && document.querySelectorAll('#psd-cursor-readout tr').length === 4, null, 'the spectrum cursors');
+      const pc = await page.evaluate(() => window.piezoloop.psdCursors);
+      const pcells = await page.$$eval('#psd-cursor-readout td', (tds) => tds.map((d) => JSON.parse(d.dataset.value)));
+      const okBins = ['A', 'B'].every((n) => pc[n] && pc[n].f_Hz === psd.frequency_Hz[pc[n].bin] && pc[n].density === psd.density[pc[n].bin]);
+      check(okBins && pc.B.bin > pc.A.bin && JSON.stringify(pcells.slice(0, 5)) === JSON.stringify([pc.A.f_Hz, pc.A.density, pc.B.f_Hz, pc.B.density, pc.B.f_Hz - pc.A.f_Hz]),
+        'the spectrum\'s cursors are bins of the server\'s estimate, with Δf between them', JSON.stringify(pc));
     }
 
     if (screenshot) await page.screenshot({ path: screenshot, fullPage: false });
