@@ -262,7 +262,6 @@ async function frequencyResponse(page, context, url, token) {
   const kept = await page.evaluate(async (t) => (await (await fetch('/api/frf', { headers: { 'X-Piezoloop-Token': t } })).json()).result, token);
   check(JSON.stringify(kept) === JSON.stringify(res), 'the last result stays');
   await watcher.close();
-  console.log(`figure: the commissioning checks took ${((Date.now() - started) / 1000).toFixed(1)} s`);
   return res;
 }
 
