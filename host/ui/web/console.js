@@ -384,7 +384,8 @@ function updateButtons() {
   const c = state.controls;
   for (const b of document.querySelectorAll('.ctl')) b.disabled = !c || (state.measuring && b.id !== 'stop');
   $('frf-stop').disabled = !c || !state.measuring;
-  for (const b of document.querySelectorAll('.stop-job')) b.disabled = !c || !state.measuring;
+  // Each measurement's own stop, while it runs on the board.
+  for (const b of document.querySelectorAll('.stop-job')) b.disabled = !c || !holdsBoard(state.jobs[b.id.replace(/-stop$/, '')]);
   for (const b of document.querySelectorAll('#params button')) b.disabled = !c || state.measuring;
 }
 
@@ -693,8 +694,13 @@ state.bodeData = () => ({
 
 // ---- steps and loops: the board's `measure step` and `measure loops` ----------
 
+// A job that holds the board (commissioning the simulated stage does not).
+function holdsBoard(j) {
+  return j && j.progress && j.progress.state === 'running' && !(j.progress.request && j.progress.request.on === 'simulator');
+}
+
 function anyRunning() {
-  return (state.frf && state.frf.state === 'running') || Object.values(state.jobs).some((j) => j.progress && j.progress.state === 'running');
+  return (state.frf && state.frf.state === 'running') || Object.values(state.jobs).some(holdsBoard);
 }
 
 // A number as the page shows it: 4 significant digits (scaled first: ms).
