@@ -18,6 +18,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -141,11 +142,9 @@ int run_step(const StepArgs& a) {
     const json out = measure::step_report(r, run, t.source);
     write_text("--out", a.out, out.dump(1) + "\n");
     if (!a.csv.empty()) {
-        std::string text = "t,r,u,y\n";
-        for (std::size_t i = 0; i < run.y_um.size(); ++i)
-            text += format::significant(run.time_s[i], 9) + "," + format::significant(run.r_um[i], 9) + "," +
-                    format::significant(run.u_V[i], 9) + "," + format::significant(run.y_um[i], 9) + "\n";
-        write_text("--csv", a.csv, text);
+        std::ostringstream text;
+        measure::write_step_csv(text, run);
+        write_text("--csv", a.csv, text.str());
     }
     json summary = out;
     for (const char* k : {"time_s", "reference_um", "command_V", "response_um", "definitions", "units"}) summary.erase(k);

@@ -122,6 +122,7 @@ int run_ui(const UiArgs& a) {
     ui::ConsoleOptions o;
     o.bind_address = a.bind;
     o.port = a.port;
+    o.scenario = a.scenario;
     ui::ConsoleServer server(board, o);
     const int port = server.bind();
     std::string url = server.url();

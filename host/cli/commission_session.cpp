@@ -176,6 +176,7 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
         recorder = board->get<link::RecorderParams>();
         hostlink::MeasureOptions o;
         o.stop_requested = stop_requested;
+        o.progress = a.recording_progress;
         stage = std::make_unique<CommissionedStage>(std::make_unique<hostlink::BoardStage>(*board, o), "--device");
         source = {{"kind", "board"}, {"device", board->address()}, {"board", board->info().board.data()}};
     } else {
@@ -251,6 +252,19 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     const auto& fit = c.fits[static_cast<std::size_t>(c.chosen_fit)];
     out["model"] = {{"order", std::to_string(fit.poles) + "/" + std::to_string(fit.zeros)}, {"rms_rel", fit.rms_rel}};
     out["hysteresis"] = c.hysteresis_note;
+    json safety = json::array();
+    for (const auto& st : c.safety)
+        safety.push_back({{"step_V", st.step_V}, {"from_V", st.from_V}, {"dy_um", st.dy_um}, {"noise_um", st.noise_um},
+                          {"gain_um_per_V", st.gain_um_per_V}});
+    out["safety"] = safety;
+    json fits = json::array();
+    for (std::size_t i = 0; i < c.fits.size(); ++i)
+        fits.push_back({{"order", std::to_string(c.fits[i].poles) + "/" + std::to_string(c.fits[i].zeros)},
+                        {"rms_rel", c.fits[i].rms_rel},
+                        {"dc_gain_um_per_V", c.fits[i].dc_gain_um_per_V},
+                        {"chosen", static_cast<int>(i) == c.chosen_fit}});
+    out["fits"] = fits;
+    out["log"] = c.log;
     if (c.uncertainty)
         out["uncertainty_weight"] = {{"r0", c.uncertainty->r0},
                                      {"corner_Hz", c.uncertainty->wz_rad_s / (2.0 * std::numbers::pi)},

@@ -21,10 +21,13 @@ struct CommissionSession {
     std::string out;       // directory for the files
     bool save = true;      // board: save the verified result (`save`)
     commission::CommissionRequest request;
+    // Board: each recording's fraction received, as it arrives (may be empty).
+    std::function<void(double)> recording_progress;
 };
 
 // Runs it on `board` (nullptr: the scenario's stage) and returns the summary
-// JSON `piezoloop commission` prints ("verified" says whether it is kept).
+// JSON `piezoloop commission` prints ("verified" says whether it is kept;
+// "log" the steps and decisions, "safety" and "fits" the report's tables).
 // Each step's line goes to `progress` (may be empty). Throws as commission::commission does, with a board left
 // disarmed.
 nlohmann::json run_commission_session(hostlink::Client* board, const CommissionSession& s,

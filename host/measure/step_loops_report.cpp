@@ -113,6 +113,13 @@ json loops_report(const LoopsRequest& r, const LoopsRun& run, const json& source
     return out;
 }
 
+void write_step_csv(std::ostream& out, const StepRun& run) {
+    out << "t,r,u,y\n";
+    for (std::size_t i = 0; i < run.y_um.size(); ++i)
+        out << format::significant(run.time_s[i], 9) << ',' << format::significant(run.r_um[i], 9) << ','
+            << format::significant(run.u_V[i], 9) << ',' << format::significant(run.y_um[i], 9) << '\n';
+}
+
 void write_loops_csv(std::ostream& out, const LoopsRun& run) {
     out << "t,u,y,v,x,amplitude_V\n";
     for (std::size_t i = 0; i < run.y_um.size(); ++i) {

@@ -35,6 +35,10 @@ StepRequest step_request(const StepInput& o, const MeasureBounds& b, std::option
 // limiter's report, the warnings and the log hash.
 nlohmann::json step_report(const StepRequest& r, const StepRun& run, const nlohmann::json& source);
 
+// The response as the CSV `measure step --csv` writes: t, r, u, y (s, um,
+// V, um), 9 significant digits.
+void write_step_csv(std::ostream& out, const StepRun& run);
+
 // The loops' request; base_V defaults to max(0, u_min).
 LoopsRequest loops_request(const std::vector<double>& amplitudes_V, std::optional<double> base_V,
                            double frequency_Hz, int cycles, const std::string& shape, const MeasureBounds& b);

@@ -169,7 +169,47 @@ measure::FrfPlan BoardSession::plan_frf(const measure::FrfRequest& r) {
 }
 
 hostlink::DeviceFrfRun BoardSession::measure_frf(const measure::FrfRequest& r, hostlink::MeasureOptions o) {
-    if (measuring_.exchange(true)) throw BoardBusy("a frequency response measurement is running already");
+    hostlink::DeviceFrfRun run;
+    measure(std::move(o), [&](hostlink::Client& c, const hostlink::MeasureOptions& mo) { run = hostlink::run_frf_device(c, r, mo); });
+    return run;
+}
+
+measure::MeasureBounds BoardSession::measure_bounds() {
+    return locked([](hostlink::Client& c) { return hostlink::board_bounds(c); });
+}
+
+double BoardSession::setpoint_um() {
+    return locked([](hostlink::Client& c) { return static_cast<double>(c.status().r_um); });
+}
+
+measure::StepRun BoardSession::measure_step(const measure::StepRequest& r, hostlink::MeasureOptions o) {
+    measure::StepRun run;
+    measure(std::move(o), [&](hostlink::Client& c, const hostlink::MeasureOptions& mo) { run = hostlink::run_step_device(c, r, mo); });
+    return run;
+}
+
+measure::LoopsRun BoardSession::measure_loops(const measure::LoopsRequest& r, hostlink::MeasureOptions o) {
+    measure::LoopsRun run;
+    measure(std::move(o), [&](hostlink::Client& c, const hostlink::MeasureOptions& mo) { run = hostlink::run_loops_device(c, r, mo); });
+    return run;
+}
+
+json BoardSession::commission(cli::CommissionSession s, const std::function<void(const std::string&)>& note,
+                              const std::function<bool()>& stop_requested) {
+    json out;
+    hostlink::MeasureOptions o;
+    o.progress = s.recording_progress;
+    o.stop_requested = stop_requested;
+    measure(std::move(o), [&](hostlink::Client& c, const hostlink::MeasureOptions& mo) {
+        s.recording_progress = mo.progress;
+        out = cli::run_commission_session(&c, s, note, stop_requested);
+    });
+    return out;
+}
+
+void BoardSession::measure(hostlink::MeasureOptions o,
+                           const std::function<void(hostlink::Client&, const hostlink::MeasureOptions&)>& body) {
+    if (measuring_.exchange(true)) throw BoardBusy("a measurement is running already");
     const std::lock_guard lock(link_);
     // The console's recording up to here; the measurement's frames go into
     // the history as they arrive (its recording is the log's from the
@@ -179,15 +219,23 @@ hostlink::DeviceFrfRun BoardSession::measure_frf(const measure::FrfRequest& r, h
     client_.log().drop_front(console_frames);
     bool started = false;
     std::size_t taken = 0;
+    uint32_t first_raw = 0;
     auto last_status = std::chrono::steady_clock::now();
     const std::function<void(double)> report = o.progress;
     o.progress = [&](double f) {
-        if (!started) {
+        // A measurement of several recordings (loops: one per amplitude)
+        // clears the log for each: a new recording, after the last (the
+        // frames of the one before that came after its last report are
+        // not in the history).
+        const hostlink::LogCollector& log = client_.log();
+        if (!started || log.size() < taken || log.first_tick_raw() != first_raw) {
             started = true;
             new_recording_ = true;
+            taken = 0;
+            first_raw = log.first_tick_raw();
         }
         append_log_frames(taken);
-        taken = client_.log().size();
+        taken = log.size();
         if (std::chrono::steady_clock::now() - last_status >= 200ms) {
             poll_status_locked();
             last_status = std::chrono::steady_clock::now();
@@ -198,7 +246,8 @@ hostlink::DeviceFrfRun BoardSession::measure_frf(const measure::FrfRequest& r, h
     // console's recorder back, the status read.
     auto finish = [&] {
         try {
-            append_log_frames(taken);
+            if (started && client_.log().size() >= taken && client_.log().first_tick_raw() == first_raw)
+                append_log_frames(taken);
             arm_console_recorder();
             measuring_ = false;
             poll_status_locked();
@@ -211,9 +260,8 @@ hostlink::DeviceFrfRun BoardSession::measure_frf(const measure::FrfRequest& r, h
         measuring_ = false;
     };
     try {
-        hostlink::DeviceFrfRun run = hostlink::run_frf_device(client_, r, o);
+        body(client_, o);
         finish();
-        return run;
     } catch (...) {
         finish();
         throw;

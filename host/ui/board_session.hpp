@@ -4,10 +4,10 @@
 // (arm, disarm, parameters, waves) between its reads. The board's recorder
 // runs continuously, r, y, e, u (as many as the board records), for as long
 // as the console runs; its recorder group is the console's, not a form's.
-// A frequency-response measurement takes the link and the recorder over for
-// its run (measure_frf): the history then gets the measurement's r, y and u
-// (e is not recorded meanwhile: a gap), the status is polled between its
-// reads, other requests are refused (BoardBusy), and the console's
+// A measurement (frequency response, step, loops) takes the link and the
+// recorder over for its run: the history then gets the measurement's r, y
+// and u (e is not recorded meanwhile: a gap), the status is polled between
+// its reads, other requests are refused (BoardBusy), and the console's
 // recording is re-armed after it.
 #pragma once
 
@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "commission_session.hpp"
 #include "link/client.hpp"
 #include "link/measure_session.hpp"
 #include "ui/sample_history.hpp"
@@ -85,6 +86,19 @@ public:
     hostlink::DeviceFrfRun measure_frf(const measure::FrfRequest& r, hostlink::MeasureOptions o);
     bool measuring() const { return measuring_.load(); }
 
+    // Steps and loops (hostlink::board_bounds, run_step_device,
+    // run_loops_device), as measure_frf; the board's bounds and the setpoint
+    // it holds (a closed-loop step starts there) for their requests.
+    measure::MeasureBounds measure_bounds();
+    double setpoint_um();
+    measure::StepRun measure_step(const measure::StepRequest& r, hostlink::MeasureOptions o);
+    measure::LoopsRun measure_loops(const measure::LoopsRequest& r, hostlink::MeasureOptions o);
+    // `piezoloop commission` on the board (cli::run_commission_session), as
+    // a measurement: its recordings into the history, s.recording_progress
+    // called with the link held.
+    nlohmann::json commission(cli::CommissionSession s, const std::function<void(const std::string&)>& note,
+                              const std::function<bool()>& stop_requested);
+
     // Groups the parameter forms offer (not the recorder: the scope's).
     static const std::vector<std::string>& form_groups();
 
@@ -98,9 +112,13 @@ private:
     void poll_status();
     void poll_status_locked();  // the link's lock held
     void arm_console_recorder();  // the link's lock held
+    // Runs `body` with the link held and the recorder taken over, its
+    // recording(s) into the history as they arrive.
+    void measure(hostlink::MeasureOptions o,
+                 const std::function<void(hostlink::Client&, const hostlink::MeasureOptions&)>& body);
     template <class F>
     auto locked(F f) {
-        if (measuring_) throw BoardBusy("a frequency response measurement is running: stop it first");
+        if (measuring_) throw BoardBusy("a measurement is running: stop it first");
         const std::lock_guard lock(link_);
         return f(client_);
     }

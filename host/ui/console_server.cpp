@@ -2,8 +2,11 @@
 
 #include <httplib.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <fstream>
+#include <sstream>
 #include <map>
 #include <mutex>
 #include <stdexcept>
@@ -11,10 +14,13 @@
 
 #include "link/params_schema.hpp"
 #include "ui/access.hpp"
+#include "ui/commission_job.hpp"
 #include "ui/control_seat.hpp"
 #include "ui/frf_job.hpp"
+#include "ui/measurement_job.hpp"
 #include "ui/psd.hpp"
 #include "ui/scope_view.hpp"
+#include "ui/step_loops_job.hpp"
 #include "ui/web_assets.hpp"
 
 namespace piezoloop::ui {
@@ -59,6 +65,10 @@ struct ConsoleServer::Impl {
     httplib::Server server;
     ControlSeat seat;
     FrfJob frf;
+    MeasurementJob step{"a step response"}, loops{"a hysteresis loop measurement"}, commissioning{"commissioning"};
+    // The jobs whose progress and result the stream sends (events NAME and NAME-result).
+    std::vector<std::pair<std::string, MeasurementJob*>> jobs = {
+        {"step", &step}, {"loops", &loops}, {"commission", &commissioning}};
     std::mutex viewers_m;
     std::map<std::string, std::shared_ptr<Viewer>> viewers;
     std::atomic<bool> stopping{false};
@@ -72,10 +82,18 @@ struct ConsoleServer::Impl {
         return it == viewers.end() ? nullptr : it->second;
     }
 
+    // This viewer's view of the seat: whether it controls, and a pending
+    // request for the seat (asked by it, or of it) with the seconds left.
     json control_json(const std::string& id) const {
         const auto holder = seat.holder();
-        return {{"viewer", id}, {"controls", holder && *holder == id}, {"seat_taken", holder.has_value()},
-                {"viewers", seat.viewers()}};
+        json j = {{"viewer", id}, {"controls", holder && *holder == id}, {"seat_taken", holder.has_value()},
+                  {"viewers", seat.viewers()}, {"refused", seat.was_refused(id)}, {"request", nullptr}};
+        if (const auto r = seat.request()) {
+            const double left = std::chrono::duration<double>(r->deadline - ControlSeat::Clock::now()).count();
+            j["request"] = {{"from_me", r->from == id}, {"to_me", holder && *holder == id},
+                            {"seconds_left", std::max(0.0, left)}};
+        }
+        return j;
     }
 
     void routes();
@@ -150,7 +168,8 @@ void ConsoleServer::Impl::routes() {
         }
         struct StreamState {
             bool hello_sent = false;
-            uint64_t status_serial = 0, frf_serial = 0, frf_result_serial = 0;
+            uint64_t status_serial = 0, frf_serial = 0, frf_result_serial = 0, seat_serial = 0;
+            std::map<std::string, std::pair<uint64_t, uint64_t>> job_serials;  // progress, result
             std::chrono::steady_clock::time_point last_frame{}, last_write{};
         };
         auto state = std::make_shared<StreamState>();
@@ -167,6 +186,7 @@ void ConsoleServer::Impl::routes() {
                     json hello = control_json(id);
                     hello["signals"] = signals;
                     hello["rate_Hz"] = board.history().rate_Hz();
+                    hello["simulator"] = !options.scenario.empty();  // commissioning may run simulated
                     {
                         const std::lock_guard lock(v->m);
                         hello["scope"] = to_json(v->settings);
@@ -192,6 +212,12 @@ void ConsoleServer::Impl::routes() {
                         state->last_frame = now;
                     }
                 }
+                // The seat: a request unanswered in time passes it.
+                seat.expire(ControlSeat::Clock::now());
+                if (const uint64_t ss = seat.serial(); ss != state->seat_serial) {
+                    state->seat_serial = ss;
+                    out += sse_event("control", control_json(id));
+                }
                 const uint64_t serial = board.status_serial();
                 if (serial != state->status_serial) {
                     state->status_serial = serial;
@@ -208,6 +234,17 @@ void ConsoleServer::Impl::routes() {
                 if (const uint64_t rs = frf.result_serial(); rs != state->frf_result_serial) {
                     state->frf_result_serial = rs;
                     out += sse_event("frf-result", frf.result_json());
+                }
+                for (const auto& [name, job] : jobs) {
+                    auto& [ps, rs] = state->job_serials[name];
+                    if (const uint64_t p = job->progress_serial(); p != ps) {
+                        ps = p;
+                        out += sse_event(name, job->progress_json());
+                    }
+                    if (const uint64_t r = job->result_serial(); r != rs) {
+                        rs = r;
+                        out += sse_event(name + "-result", job->result_json());
+                    }
                 }
                 // A comment now and then: finds a closed connection.
                 if (out.empty() && now - state->last_write > std::chrono::seconds(1)) out = ": idle\n\n";
@@ -262,6 +299,19 @@ void ConsoleServer::Impl::routes() {
         }
     });
 
+    // The scope's cursors: ?t_s=A&t_s=B, each the nearest sample's time and values.
+    server.Get("/api/scope/cursors", [this](const httplib::Request& req, httplib::Response& res) {
+        try {
+            const std::size_t n = req.get_param_value_count("t_s");
+            if (n < 1 || n > 2) throw std::invalid_argument("t_s: give one or two times (s)");
+            json out = json::array();
+            for (std::size_t i = 0; i < n; ++i) out.push_back(cursor_sample(board.history(), std::stod(req.get_param_value("t_s", i))));
+            send_json(res, {{"cursors", out}});
+        } catch (const std::exception& e) {
+            send_json(res, {{"error", std::string("t_s: ") + e.what()}}, 400);
+        }
+    });
+
     server.Get("/api/scope/psd", [this](const httplib::Request& req, httplib::Response& res) {
         try {
             const std::string name = req.get_param_value("signal");
@@ -294,11 +344,26 @@ void ConsoleServer::Impl::routes() {
         }
     });
 
+    // Takes the free seat, or asks its holder (202: the answer, or the
+    // timeout, comes on the stream).
     server.Post("/api/control/claim", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string id = req.get_header_value("X-Piezoloop-Viewer");
-        const bool ok = seat.claim(id);
+        const ControlSeat::Asked a = seat.ask(id, ControlSeat::Clock::now());
         json j = control_json(id);
-        if (!ok) j["error"] = "another page controls the board: this page watches";
+        if (a == ControlSeat::Asked::kRefused)
+            j["error"] = seat.request() ? "another page is asking for control already: this page watches"
+                                        : "unknown viewer: open the live stream first";
+        send_json(res, j, a == ControlSeat::Asked::kTaken ? 200 : a == ControlSeat::Asked::kAsked ? 202 : 409);
+    });
+    // The holder's answer to a request for the seat: {give: true|false}.
+    server.Post("/api/control/answer", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string id = req.get_header_value("X-Piezoloop-Viewer");
+        const json body = json::parse(req.body, nullptr, false);
+        if (!body.is_object() || !body.contains("give") || !body["give"].is_boolean())
+            return send_json(res, {{"error", "give: must be true or false"}}, 400);
+        const bool ok = seat.answer(id, body["give"].get<bool>());
+        json j = control_json(id);
+        if (!ok) j["error"] = "nothing to answer: this page does not control the board, or nobody is asking";
         send_json(res, j, ok ? 200 : 409);
     });
     server.Post("/api/control/release", [this](const httplib::Request& req, httplib::Response& res) {
@@ -321,6 +386,8 @@ void ConsoleServer::Impl::routes() {
     });
     control("/api/stop", [this](const httplib::Request&) {
         // Stop stops a measurement too (its excitation ends, the groups go back).
+        for (const auto& j : jobs)
+            if (j.second->running()) j.second->request_stop();
         if (board.measuring()) {
             frf.request_stop();
             return board.status_json();
@@ -342,6 +409,55 @@ void ConsoleServer::Impl::routes() {
         frf.request_stop();
         return frf.progress_json();
     });
+    // Steps and loops: started by the controlling page only, refused at
+    // their fields before anything moves.
+    const std::pair<std::string, MeasurementJob::Work (*)(BoardSession&, const json&)> starts[] = {
+        {"step", step_work}, {"loops", loops_work}};
+    for (const auto& [name, work] : starts) {
+        MeasurementJob* job = name == "step" ? &step : &loops;
+        control("/api/" + name + "/start", [this, job, work](const httplib::Request& req) {
+            const json form = json::parse(req.body, nullptr, false);
+            if (form.is_discarded()) throw FieldRefusal("", "the request is not JSON");
+            return job->start(form, work(board, form));
+        });
+        control("/api/" + name + "/stop", [job](const httplib::Request&) {
+            job->request_stop();
+            return job->progress_json();
+        });
+        server.Get("/api/" + name, [job](const httplib::Request&, httplib::Response& res) {
+            send_json(res, {{"progress", job->progress_json()}, {"result", job->result_json()}});
+        });
+        server.Get("/api/" + name + "/csv", [job, name](const httplib::Request&, httplib::Response& res) {
+            const json r = job->result_json();
+            const std::string csv = name == "step" ? step_csv(r) : loops_csv(r);
+            if (csv.empty()) return send_json(res, {{"error", "nothing measured yet"}}, 404);
+            res.set_header("Content-Disposition", "attachment; filename=\"" + name + ".csv\"");
+            res.set_content(csv, "text/csv");
+        });
+    }
+
+    control("/api/commission/start", [this](const httplib::Request& req) {
+        const json form = json::parse(req.body, nullptr, false);
+        if (form.is_discarded()) throw FieldRefusal("", "the request is not JSON");
+        return commissioning.start(form, commission_work(board, options.scenario, form));
+    });
+    control("/api/commission/stop", [this](const httplib::Request&) {
+        commissioning.request_stop();
+        return commissioning.progress_json();
+    });
+    server.Get("/api/commission", [this](const httplib::Request&, httplib::Response& res) {
+        send_json(res, {{"progress", commissioning.progress_json()}, {"result", commissioning.result_json()},
+                        {"simulator", !options.scenario.empty()}});
+    });
+    server.Get(R"(/api/commission/figure/([a-z]+\.png))", [this](const httplib::Request& req, httplib::Response& res) {
+        const std::string path = commission_figure_path(commissioning.result_json(), req.matches[1]);
+        std::ifstream f(path, std::ios::binary);
+        if (path.empty() || !f) return send_json(res, {{"error", "no such figure in the last commissioning"}}, 404);
+        std::ostringstream body;
+        body << f.rdbuf();
+        res.set_content(body.str(), "image/png");
+    });
+
     server.Get("/api/frf", [this](const httplib::Request&, httplib::Response& res) {
         send_json(res, {{"progress", frf.progress_json()}, {"result", frf.result_json()}});
     });
@@ -394,6 +510,7 @@ void ConsoleServer::serve(const std::function<bool()>& stop_requested) {
     while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
     s.stopping = true;
     s.frf.shutdown();  // a running measurement stops, the board's groups put back
+    for (const auto& j : s.jobs) j.second->shutdown();
     s.server.stop();
     listener.join();
 }

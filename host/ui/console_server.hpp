@@ -9,11 +9,19 @@
 //   POST /api/scope                 this viewer's scope settings (JSON)
 //   GET  /api/scope/csv?t0_s=&span_s=   the samples of a window as CSV
 //   GET  /api/params                schema of the form groups and their values
-//   POST /api/control/claim|release the control seat
+//   POST /api/control/claim|release the control seat (claim asks its
+//                                   holder when taken); /api/control/answer
+//                                   the holder's {give}; the stream's control
 //   POST /api/arm|disarm|clear-trip|stop, /api/params/GROUP, /api/wave
 //   POST /api/frf/start|stop        a frequency response (ui/frf_job); the
 //                                   stream's frf and frf-result events
 //   GET  /api/frf, /api/frf/csv     its progress and last result
+//   POST /api/step|loops/start|stop a step response, hysteresis loops
+//                                   (ui/step_loops_job); events step,
+//                                   step-result, loops, loops-result
+//   GET  /api/step|loops[/csv]      their progress and last result
+//   POST /api/commission/start|stop commissioning (ui/commission_job)
+//   GET  /api/commission, /api/commission/figure/NAME.png
 // The viewer id goes in the X-Piezoloop-Viewer header, the token in
 // X-Piezoloop-Token (or ?token= where a header cannot be set).
 #pragma once
@@ -29,6 +37,7 @@ namespace piezoloop::ui {
 struct ConsoleOptions {
     std::string bind_address = "127.0.0.1";
     int port = 0;  // 0: a free one
+    std::string scenario;  // `ui --scenario`: its stage may also be commissioned simulated
 };
 
 class ConsoleServer {

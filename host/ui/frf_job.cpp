@@ -14,7 +14,8 @@ using nlohmann::json;
 
 namespace {
 
-// The plan's option names and the form's fields.
+// The plan's option names and the form's fields ("--transient-periods"
+// before "--periods": replaced whole).
 constexpr std::pair<const char*, const char*> kOptionFields[] = {
     {"--transient-periods", "transient_periods"},
     {"--from-hz", "from_Hz"},
@@ -188,17 +189,7 @@ FrfForm parse_frf_form(const json& j) {
     return f;
 }
 
-FieldRefusal form_refusal(const std::string& plan_message) {
-    std::string m = plan_message, field;
-    for (const auto& [option, name] : kOptionFields) {
-        const std::string o = option;
-        if (field.empty() && m.rfind(o, 0) == 0 && m.size() > o.size() && (m[o.size()] == ':' || m[o.size()] == ' '))
-            field = name;
-        // "--transient-periods" comes before "--periods" in the table: replaced whole.
-        for (auto p = m.find(o); p != std::string::npos; p = m.find(o, p)) m.replace(p, o.size(), name);
-    }
-    return FieldRefusal(field, m);
-}
+FieldRefusal form_refusal(const std::string& plan_message) { return renamed_refusal(plan_message, kOptionFields); }
 
 FrfJob::~FrfJob() { shutdown(); }
 

@@ -19,16 +19,9 @@
 
 #include "measure/frf_plan.hpp"
 #include "ui/board_session.hpp"
+#include "ui/field_refusal.hpp"
 
 namespace piezoloop::ui {
-
-// A request refused at one of the form's fields (from_Hz, to_Hz,
-// amplitude_V, bias_V, periods, transient_periods, signal, mode,
-// restart_stage, fit_order; "" for none in particular).
-struct FieldRefusal : std::invalid_argument {
-    FieldRefusal(std::string f, const std::string& message) : std::invalid_argument(message), field(std::move(f)) {}
-    std::string field;
-};
 
 // The form: {from_Hz, to_Hz, amplitude_V, bias_V, periods, transient_periods,
 // signal, mode: "open"|"closed", restart_stage, fit_order: "N/M" or ""}.

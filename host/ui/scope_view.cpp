@@ -165,4 +165,19 @@ std::string window_csv(const SampleHistory& h, double t0_s, double span_s) {
     return out;
 }
 
+nlohmann::json cursor_sample(const SampleHistory& h, double t_s) {
+    const double tick = 1.0 / h.rate_Hz();
+    const SampleWindow w = h.window(t_s - tick, 2.0 * tick + tick / 2);
+    std::optional<std::size_t> best;
+    for (std::size_t i = 0; i < w.t_s.size(); ++i)
+        if (!best || std::abs(w.t_s[i] - t_s) < std::abs(w.t_s[*best] - t_s)) best = i;
+    if (!best || std::abs(w.t_s[*best] - t_s) > tick) return {{"t_s", nullptr}};
+    nlohmann::json values = nlohmann::json::object();
+    for (std::size_t k = 0; k < h.signals().size(); ++k) {
+        const float v = w.values[k][*best];
+        values[h.signals()[k].name] = std::isfinite(v) ? nlohmann::json(static_cast<double>(v)) : nlohmann::json(nullptr);
+    }
+    return {{"t_s", w.t_s[*best]}, {"values", values}};
+}
+
 }  // namespace piezoloop::ui

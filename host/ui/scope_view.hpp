@@ -61,4 +61,8 @@ private:
 // every float32 survives the round trip).
 std::string window_csv(const SampleHistory& h, double t0_s, double span_s);
 
+// A cursor at t_s: the recorded sample nearest it within one tick, {t_s, values: {name: value}} (the board's floats,
+// null where a signal was not recorded); {t_s: null} without one.
+nlohmann::json cursor_sample(const SampleHistory& h, double t_s);
+
 }  // namespace piezoloop::ui

@@ -19,6 +19,11 @@ const state = {
   measuring: false,    // a frequency response runs (the board's other commands wait)
   frf: null,           // the measurement's progress: {state, phase, fraction, request, error}
   frfResult: null,     // the last result, as the server sent it
+  jobs: {},            // step, loops: {progress, seen: [progress...], result}
+  cursors: {},         // scope cursors A, B: the server's nearest sample {t_s, values}
+  nextCursor: 'A',
+  psdCursors: {},      // spectrum cursors A, B: {bin, f_Hz, density}
+  nextPsdCursor: 'A',
 };
 window.piezoloop = state;  // for the browser tests and the curious
 
@@ -70,7 +75,14 @@ function makePlot() {
       { scale: 'V', label: 'V', side: 1, grid: { show: false } },
     ],
     cursor: { drag: { x: false, y: false } },
+    hooks: { draw: [(u) => drawCursorLines(u, state.cursors, (c) => c.t_s)] },
   }, [[], ...state.signals.map(() => [])], $('plot'));
+  plot.over.addEventListener('click', (ev) => {
+    if (!$('cursors').checked) return;
+    const t = plot.posToVal(ev.offsetX, 'x');
+    setCursor(state.nextCursor, t);
+    state.nextCursor = state.nextCursor === 'A' ? 'B' : 'A';
+  });
   // The server decimates to one min/max pair per pixel column.
   sendScope({ columns: Math.round(plot.bbox.width / devicePixelRatio) || width });
 }
@@ -137,6 +149,13 @@ function scopeControls() {
   $('trigger-signal').onchange = () => sendScope({ trigger_signal: $('trigger-signal').value });
   $('trigger-level').onchange = () => sendScope({ trigger_level: Number($('trigger-level').value) });
   $('edge').onchange = () => sendScope({ edge: $('edge').value });
+  $('cursors').onchange = () => {
+    if ($('cursors').checked) return;
+    state.cursors = {};
+    state.nextCursor = 'A';
+    $('cursor-readout').hidden = true;
+    plot.redraw(false);
+  };
   $('pause').onclick = () => {
     state.paused = !state.paused;
     $('pause').textContent = state.paused ? 'Run' : 'Pause';
@@ -152,6 +171,97 @@ function scopeControls() {
     a.click();
     URL.revokeObjectURL(a.href);
   };
+}
+
+// ---- cursors: two vertical lines, on the scope and on the spectrum ------------
+
+// A number to n significant digits (the readouts' format).
+function sig(x, n) { return x === null || x === undefined ? '–' : String(Number(x.toPrecision(n))); }
+
+function drawCursorLines(u, cursors, at) {
+  const g = u.ctx;
+  g.save();
+  g.lineWidth = 1;
+  g.setLineDash([4, 3]);
+  for (const [name, colour] of [['A', '#d0a'], ['B', '#0ad']]) {
+    const c = cursors[name];
+    if (!c || at(c) === null) continue;
+    const x = u.valToPos(at(c), 'x', true);
+    if (x < u.bbox.left || x > u.bbox.left + u.bbox.width) continue;
+    g.strokeStyle = colour;
+    g.beginPath();
+    g.moveTo(x, u.bbox.top);
+    g.lineTo(x, u.bbox.top + u.bbox.height);
+    g.stroke();
+    g.fillStyle = colour;
+    g.fillText(name, x + 3, u.bbox.top + 12);
+  }
+  g.restore();
+}
+
+// A readout table: rows [label, [[key, value, text], ...]], each cell with
+// its exact value in data-value.
+function readout(el, head, rows) {
+  el.hidden = false;
+  el.replaceChildren();
+  const h = el.insertRow();
+  for (const t of head) { const th = document.createElement('th'); th.textContent = t; h.append(th); }
+  for (const [label, cells] of rows) {
+    const tr = el.insertRow();
+    const th = document.createElement('th');
+    th.textContent = label;
+    tr.append(th);
+    for (const [key, value, text] of cells) {
+      const td = tr.insertCell();
+      td.dataset.key = key;
+      td.dataset.value = JSON.stringify(value === undefined ? null : value);
+      td.textContent = text;
+    }
+  }
+}
+
+// Scope cursor `name` at time t: the server's nearest recorded sample.
+async function setCursor(name, t) {
+  const r = await api('GET', `/api/scope/cursors?t_s=${t}`);
+  if (!r.ok) { $('scope-error').textContent = r.data.error; return; }
+  state.cursors[name] = r.data.cursors[0];
+  showCursors();
+  plot.redraw(false);
+}
+
+function showCursors() {
+  const { A, B } = state.cursors;
+  const names = state.signals.map((s) => s.name);
+  const head = ['', 't (s)', ...state.signals.map((s) => `${s.name} (${s.unit})`)];
+  const row = (c) => [['t_s', c ? c.t_s : null, c && c.t_s !== null ? sig(c.t_s, 9) : '–'],
+    ...names.map((n) => { const v = c && c.values ? c.values[n] : null; return [n, v, sig(v, 7)]; })];
+  const rows = [['A', row(A)], ['B', row(B)]];
+  if (A && B && A.t_s !== null && B.t_s !== null) {
+    const dt = B.t_s - A.t_s;
+    rows.push(['B − A', [['dt_s', dt, `${sig(dt, 6)} s (${dt !== 0 ? sig(1 / Math.abs(dt), 6) : '–'} Hz)`],
+      ...names.map((n) => { const a = A.values[n]; const b = B.values[n]; const d = a === null || b === null ? null : b - a; return [n, d, sig(d, 7)]; })]]);
+  }
+  readout($('cursor-readout'), head, rows);
+}
+
+// Spectrum cursor `name` at frequency f: the nearest bin of the spectrum shown.
+function setPsdCursor(name, f) {
+  const p = state.psd;
+  if (!p) return;
+  let k = 1;
+  for (let i = 1; i < p.frequency_Hz.length; ++i) if (Math.abs(p.frequency_Hz[i] - f) < Math.abs(p.frequency_Hz[k] - f)) k = i;
+  state.psdCursors[name] = { bin: k, f_Hz: p.frequency_Hz[k], density: p.density[k] };
+  showPsdCursors();
+  if (psdPlot) psdPlot.redraw(false);
+}
+
+function showPsdCursors() {
+  const { A, B } = state.psdCursors;
+  const unit = state.psd ? state.psd.unit : '';
+  const row = (c) => [['f_Hz', c ? c.f_Hz : null, c ? sig(c.f_Hz, 6) : '–'], ['density', c ? c.density : null, c ? sig(c.density, 4) : '–']];
+  const rows = [['A', row(A)], ['B', row(B)]];
+  if (A && B) rows.push(['B − A', [['df_Hz', B.f_Hz - A.f_Hz, sig(B.f_Hz - A.f_Hz, 6)], ['ratio_dB', 10 * Math.log10(B.density / A.density), `${sig(10 * Math.log10(B.density / A.density), 4)} dB`]]]);
+  readout($('psd-cursor-readout'), ['', 'f (Hz)', `PSD (${unit})`], rows);
 }
 
 // ---- spectrum: Welch PSD of a signal over the window on screen ----------------
@@ -178,11 +288,26 @@ async function updatePsd() {
     series: [{ label: 'f (Hz)' }, { label: `${signal} PSD (${r.data.unit})`, stroke: '#06c', width: 1, spanGaps: true }],
     scales: { x: { time: false, distr: 3 }, y: { distr: 3 } },
     axes: [{ label: 'Hz' }, { label: r.data.unit, size: 70, values: (u, vals) => vals.map((v) => (v == null ? '' : v.toExponential(0))) }],
+    hooks: { draw: [(u) => drawCursorLines(u, state.psdCursors, (c) => c.f_Hz)] },
   }, [x, y], $('psd-plot'));
+  psdPlot.over.addEventListener('click', (ev) => {
+    if (!$('psd-cursors').checked) return;
+    setPsdCursor(state.nextPsdCursor, psdPlot.posToVal(ev.offsetX, 'x'));
+    state.nextPsdCursor = state.nextPsdCursor === 'A' ? 'B' : 'A';
+  });
+  // A new spectrum: the cursors keep their frequencies, with its values.
+  for (const n of ['A', 'B']) if (state.psdCursors[n]) setPsdCursor(n, state.psdCursors[n].f_Hz);
 }
 
 function psdControls() {
   $('psd-update').onclick = updatePsd;
+  $('psd-cursors').onchange = () => {
+    if ($('psd-cursors').checked) return;
+    state.psdCursors = {};
+    state.nextPsdCursor = 'A';
+    $('psd-cursor-readout').hidden = true;
+    if (psdPlot) psdPlot.redraw(false);
+  };
   setInterval(() => { if ($('psd-follow').checked && !state.paused) updatePsd(); }, 500);
 }
 
@@ -231,14 +356,23 @@ function showStatus(st) {
     ['requests (host)', hl.requests], ['log frames (host)', hl.log_frames],
     ['lost blocks / tick gaps', `${hl.lost_blocks} / ${hl.tick_gaps}`], ['recorder overruns', hl.recorder_overruns],
   ].map(([k, v]) => [k, String(v)]));
-  state.measuring = !!st.measuring || (state.frf && state.frf.state === 'running');
+  state.measuring = !!st.measuring || anyRunning();
   if (st.control) showControl(st.control);
   else updateButtons();
 }
 
 function showControl(c) {
   state.controls = c.controls;
-  $('seat').textContent = c.controls ? 'you control the board' : (c.seat_taken ? 'watching (another page controls)' : 'watching');
+  state.control = c;
+  const req = c.request || null;
+  // The deadline by this page's clock (the server sends the seconds left).
+  state.seatDeadline = req ? Date.now() + 1000 * req.seconds_left : null;
+  $('seat-request').hidden = !(req && req.to_me);
+  $('seat').textContent = c.controls ? 'you control the board' : req && req.from_me ? 'asking the controlling page for control…' :
+    (c.seat_taken ? 'watching (another page controls)' : 'watching');
+  if (c.refused) $('action-error').textContent = 'the controlling page kept control: this page watches';
+  else if (req && req.from_me) $('action-error').textContent = '';
+  seatCountdown();
   $('seat').className = c.controls ? 'seat controls' : 'seat';
   $('claim').hidden = c.controls;
   $('release').hidden = !c.controls;
@@ -250,6 +384,8 @@ function updateButtons() {
   const c = state.controls;
   for (const b of document.querySelectorAll('.ctl')) b.disabled = !c || (state.measuring && b.id !== 'stop');
   $('frf-stop').disabled = !c || !state.measuring;
+  // Each measurement's own stop, while it runs on the board.
+  for (const b of document.querySelectorAll('.stop-job')) b.disabled = !c || !holdsBoard(state.jobs[b.id.replace(/-stop$/, '')]);
   for (const b of document.querySelectorAll('#params button')) b.disabled = !c || state.measuring;
 }
 
@@ -470,7 +606,7 @@ function showFrfProgress(p) {
   const was = state.frf;
   state.frf = p;
   state.frfSeen = (state.frfSeen || []).concat([{ state: p.state, phase: p.phase, fraction: p.fraction }]);
-  state.measuring = p.state === 'running';
+  state.measuring = anyRunning();
   $('frf-progress').value = p.fraction || 0;
   const pct = `${Math.round(100 * (p.fraction || 0))} %`;
   const text = {
@@ -556,6 +692,292 @@ state.bodeData = () => ({
   phase: bodePhase ? bodePhase.data.map((a) => Array.from(a)) : null,
 });
 
+// ---- steps and loops: the board's `measure step` and `measure loops` ----------
+
+// A job that holds the board (commissioning the simulated stage does not).
+function holdsBoard(j) {
+  return j && j.progress && j.progress.state === 'running' && !(j.progress.request && j.progress.request.on === 'simulator');
+}
+
+function anyRunning() {
+  return (state.frf && state.frf.state === 'running') || Object.values(state.jobs).some(holdsBoard);
+}
+
+// A number as the page shows it: 4 significant digits (scaled first: ms).
+function fig(x, scale = 1) { return x === null || x === undefined ? '–' : String(Number((x * scale).toPrecision(4))); }
+
+function jobErrors(name) { return [...document.querySelectorAll(`#${name} [data-error-for]`)]; }
+
+function showJobError(name, field, message) {
+  const spans = jobErrors(name);
+  const at = spans.find((e) => e.dataset.errorFor === field) || spans.find((e) => e.dataset.errorFor === '');
+  at.textContent = `refused: ${message}`;
+}
+
+// An empty field is not given (the command line's option left out).
+function optionalNumber(input) { return input.value.trim() === '' ? null : Number(input.value); }
+
+function download(path, file) {
+  return async () => {
+    const res = await fetch(path, { headers: { 'X-Piezoloop-Token': token } });
+    const a = document.createElement('a');
+    a.href = URL.createObjectURL(await res.blob());
+    a.download = file;
+    a.click();
+    URL.revokeObjectURL(a.href);
+  };
+}
+
+// The form of job `name`, started with the body `read` makes of it.
+function jobForm(name, read) {
+  const f = $(name);
+  f.onsubmit = async (ev) => {
+    ev.preventDefault();
+    for (const e of jobErrors(name)) e.textContent = '';
+    let body;
+    try {
+      body = read(f);
+    } catch (e) {
+      showJobError(name, e.field || '', e.message);
+      return;
+    }
+    const r = await api('POST', `/api/${name}/start`, body);
+    if (!r.ok) showJobError(name, r.data.field || '', r.data.error || String(r.data));
+  };
+  $(`${name}-stop`).onclick = () => api('POST', `/api/${name}/stop`);
+  if ($(`${name}-csv`)) $(`${name}-csv`).onclick = download(`/api/${name}/csv`, `${name}.csv`);
+}
+
+function showJobProgress(name, p) {
+  const job = state.jobs[name] = state.jobs[name] || { seen: [] };
+  const was = job.progress;
+  job.progress = p;
+  job.seen.push({ state: p.state, phase: p.phase, fraction: p.fraction });
+  state.measuring = anyRunning();
+  $(`${name}-progress`).value = p.fraction || 0;
+  const pct = `${Math.round(100 * (p.fraction || 0))} %`;
+  const text = { idle: $(`${name}-state`).textContent, running: `${p.phase} ${p.phase === 'recording' ? pct : ''}`,
+    done: 'measured', failed: 'refused or failed', stopped: 'stopped' };
+  $(`${name}-state`).textContent = text[p.state] || p.state;
+  if (p.state === 'running' && (!was || was.state !== 'running')) for (const e of jobErrors(name)) e.textContent = '';
+  if (p.error) showJobError(name, p.error.field || '', p.error.message);
+  if (was && was.state === 'running' && p.state !== 'running') loadParams();
+  updateButtons();
+}
+
+function warnings(el, list) {
+  el.replaceChildren(...(list || []).map((t) => { const li = document.createElement('li'); li.textContent = t; return li; }));
+}
+
+// Figures as [label, key, scale, unit]: the text is fig(value, scale), the
+// exact value in data-value.
+function figures(dl, res, rows) {
+  dl.replaceChildren();
+  for (const [label, key, scale, unit] of rows) {
+    const dt = document.createElement('dt');
+    dt.textContent = label;
+    const dd = document.createElement('dd');
+    const v = res[key];
+    dd.dataset.key = key;
+    dd.dataset.value = JSON.stringify(v);
+    dd.textContent = typeof v === 'number' || v === null ? `${fig(v, scale)}${unit ? ` ${unit}` : ''}` : String(v);
+    dl.append(dt, dd);
+  }
+}
+
+let stepPlot = null;
+
+function showStepResult(res) {
+  state.jobs.step = state.jobs.step || { seen: [] };
+  state.jobs.step.result = res;
+  if (!res) return;
+  figures($('step-figures'), res, [
+    ['initial', 'initial_um', 1, 'µm'], ['final', 'final_value_um', 1, 'µm'], ['overshoot', 'overshoot_pct', 1, '%'],
+    ['peak', 'peak_um', 1, 'µm'], ['peak time', 'peak_time_s', 1e3, 'ms'], ['rise 10–90 %', 'rise_time_s', 1e3, 'ms'],
+    ['settling 2 %', 'settling_time_s', 1e3, 'ms'], ['settled', 'settled'], ['clipped samples', 'clipped_samples'],
+    ['limiter trip', 'limiter_trip'], ['log hash', 'log_hash'], ['wall', 'wall_s', 1, 's'],
+  ]);
+  warnings($('step-warnings'), res.warnings);
+  if (stepPlot) stepPlot.destroy();
+  stepPlot = new uPlot({
+    width: Math.max(400, $('step-plot').clientWidth || 800),
+    height: 280,
+    series: [{ label: 't (s)' },
+      { label: 'r (µm)', stroke: '#888', width: 1, scale: 'um' },
+      { label: 'y (µm)', stroke: '#06c', width: 1.5, scale: 'um' },
+      { label: 'u (V)', stroke: '#2a2', width: 1, scale: 'V' }],
+    scales: { x: { time: false } },
+    axes: [{ label: 't (s), 0 at the step' }, { scale: 'um', label: 'µm' }, { scale: 'V', label: 'V', side: 1, grid: { show: false } }],
+  }, [res.time_s, res.reference_um, res.response_um, res.command_V], $('step-plot'));
+  $('step-csv').disabled = false;
+}
+
+// The loops as y against u, one colour per amplitude, on a canvas (x is not
+// monotonic: a line plot of a time series does not fit).
+function drawLoops(canvas, loops) {
+  const g = canvas.getContext('2d');
+  const w = canvas.width;
+  const h = canvas.height;
+  const m = { l: 60, r: 12, t: 12, b: 40 };
+  g.clearRect(0, 0, w, h);
+  const all = (k) => loops.flatMap((l) => l[k]);
+  const range = (v) => { const lo = Math.min(...v); const hi = Math.max(...v); return hi > lo ? [lo, hi] : [lo - 1, hi + 1]; };
+  const [u0, u1] = range(all('u'));
+  const [y0, y1] = range(all('y'));
+  const X = (u) => m.l + (u - u0) / (u1 - u0) * (w - m.l - m.r);
+  const Y = (y) => h - m.b - (y - y0) / (y1 - y0) * (h - m.t - m.b);
+  g.strokeStyle = '#ccd';
+  g.fillStyle = '#556';
+  g.font = '11px sans-serif';
+  for (let i = 0; i <= 5; ++i) {
+    const u = u0 + (u1 - u0) * i / 5;
+    const y = y0 + (y1 - y0) * i / 5;
+    g.beginPath(); g.moveTo(X(u), m.t); g.lineTo(X(u), h - m.b); g.moveTo(m.l, Y(y)); g.lineTo(w - m.r, Y(y)); g.stroke();
+    g.fillText(fig(u), X(u) - 10, h - m.b + 14);
+    g.fillText(fig(y), 4, Y(y) + 4);
+  }
+  g.fillText('u (V)', w / 2, h - 6);
+  g.fillText('y (µm)', m.l + 4, m.t + 10);
+  const colours = ['#06c', '#c60', '#2a2', '#a2a', '#2aa', '#a22'];
+  loops.forEach((l, k) => {
+    g.strokeStyle = colours[k % colours.length];
+    g.beginPath();
+    l.u.forEach((u, i) => (i ? g.lineTo(X(u), Y(l.y[i])) : g.moveTo(X(u), Y(l.y[i]))));
+    g.stroke();
+    g.fillStyle = g.strokeStyle;
+    g.fillText(`${fig(l.amplitude_V)} V`, w - m.r - 50, m.t + 14 * (k + 1));
+  });
+}
+
+function showLoopsResult(res) {
+  state.jobs.loops = state.jobs.loops || { seen: [] };
+  state.jobs.loops.result = res;
+  if (!res) return;
+  const t = $('loops-figures');
+  t.replaceChildren();
+  const head = t.insertRow();
+  for (const h of ['amplitude (V)', 'hysteresis (%)', 'widest gap (%)', 'y min (µm)', 'y max (µm)']) {
+    const th = document.createElement('th'); th.textContent = h; head.append(th);
+  }
+  for (const l of res.loops) {
+    const row = t.insertRow();
+    for (const k of ['amplitude_V', 'hysteresis_pct', 'max_width_pct', 'y_min_um', 'y_max_um']) {
+      const td = row.insertCell();
+      td.dataset.key = k;
+      td.dataset.value = JSON.stringify(l[k]);
+      td.textContent = fig(l[k]);
+    }
+  }
+  warnings($('loops-warnings'), res.warnings);
+  // Each amplitude's samples, in the order recorded.
+  const loops = res.loops.map((l) => ({ amplitude_V: l.amplitude_V, u: [], y: [] }));
+  res.amplitude_V.forEach((a, i) => {
+    const l = loops.find((x) => x.amplitude_V === a);
+    l.u.push(res.u_V[i]);
+    l.y.push(res.y_um[i]);
+  });
+  state.jobs.loops.plotted = loops;
+  drawLoops($('loops-plot'), loops);
+  $('loops-csv').disabled = false;
+}
+
+// What the step plot holds (for the browser test).
+state.stepData = () => (stepPlot ? stepPlot.data.map((a) => Array.from(a)) : null);
+
+function stepLoopsForms() {
+  const step = $('step');
+  const mode = () => { step.className = `measure ${step.mode.value}`; };
+  step.mode.onchange = mode;
+  mode();
+  jobForm('step', (f) => {
+    const open = f.mode.value === 'open';
+    const body = { mode: f.mode.value, duration_s: Number(f.duration_s.value), restart_stage: f.restart_stage.checked };
+    if (open) Object.assign(body, { step_V: optionalNumber(f.step_V), bias_V: optionalNumber(f.bias_V) });
+    else Object.assign(body, { step_um: optionalNumber(f.step_um), from_um: optionalNumber(f.from_um) });
+    return body;
+  });
+  jobForm('loops', (f) => {
+    const amplitudes = f.amplitudes_V.value.split(/[,\s]+/).filter((x) => x !== '').map(Number);
+    return {
+      amplitudes_V: amplitudes,
+      bias_V: optionalNumber(f.bias_V),
+      frequency_Hz: Number(f.frequency_Hz.value),
+      cycles: Number(f.cycles.value),
+      shape: f.shape.value,
+      restart_stage: f.restart_stage.checked,
+    };
+  });
+}
+
+// ---- commissioning: `piezoloop commission` from the page ----------------------
+
+// A table of rows (objects) by columns [heading, key, scale]: each cell's
+// text fig(value, scale) (or the text), the exact value in data-value.
+function table(el, rows, columns) {
+  el.replaceChildren();
+  const head = el.insertRow();
+  for (const [h] of columns) { const th = document.createElement('th'); th.textContent = h; head.append(th); }
+  for (const r of rows) {
+    const tr = el.insertRow();
+    for (const [, key, scale] of columns) {
+      const td = tr.insertCell();
+      const v = key.split('.').reduce((o, k) => (o == null ? o : o[k]), r);
+      td.dataset.key = key;
+      td.dataset.value = JSON.stringify(v === undefined ? null : v);
+      td.textContent = typeof v === 'number' || v === null || v === undefined ? fig(v, scale || 1) : String(v);
+    }
+  }
+}
+
+function showCommissionProgress(p) {
+  showJobProgress('commission', p);
+  const log = $('commission-log');
+  const lines = p.log || [];
+  // The log grows while it runs: only the new lines are added.
+  if (log.children.length > lines.length) log.replaceChildren();
+  for (let i = log.children.length; i < lines.length; ++i) {
+    const li = document.createElement('li');
+    li.textContent = lines[i];
+    log.append(li);
+  }
+  if (p.state === 'running') $('commission-state').textContent = p.phase === 'recording' ?
+    `recording ${Math.round(100 * (p.fraction || 0))} % — ${lines.length ? lines[lines.length - 1] : ''}` : (lines.length ? lines[lines.length - 1] : 'starting');
+}
+
+function showCommissionResult(res) {
+  state.jobs.commission = state.jobs.commission || { seen: [] };
+  state.jobs.commission.result = res;
+  if (!res) return;
+  const v = $('commission-verdict');
+  v.textContent = res.chosen === null ? 'no candidate passed the checks: nothing was loaded' :
+    `chosen: ${res.chosen}; ${res.verified ? 'verified' : `not verified: ${res.verification_failure}`}` +
+    (res.on === 'simulator' ? ' (on the simulated stage; nothing was loaded on the board)' : res.saved ? '; saved on the board' : '; not saved');
+  v.className = res.verified ? 'verified' : 'failed';
+  table($('commission-safety'), res.safety, [['safety step (V)', 'step_V'], ['from (V)', 'from_V'], ['Δy (µm)', 'dy_um'], ['noise (µm)', 'noise_um'], ['gain (µm/V)', 'gain_um_per_V']]);
+  table($('commission-fits'), res.fits, [['model fit', 'order'], ['rms error (%)', 'rms_rel', 100], ['DC gain (µm/V)', 'dc_gain_um_per_V'], ['chosen', 'chosen']]);
+  table($('commission-candidates'), res.candidates, [['candidate', 'name'], ['order', 'order'], ['PM (°)', 'measured_phase_margin_deg'],
+    ['at (Hz)', 'measured_crossover_Hz'], ['GM (dB)', 'measured_gain_margin_db'], ['max|S|', 'measured_max_sensitivity'],
+    ['predicted e_max (%)', 'predicted_10Hz_half_range.e_max_pct'], ['passes', 'passes'], ['refusal', 'refusal']]);
+  table($('commission-verification'), res.verification || [], [['triangle (Hz)', 'frequency_Hz'], ['range (µm)', 'range_um'],
+    ['e_max measured (%)', 'measured.e_max_pct'], ['predicted (%)', 'predicted.e_max_pct'], ['e_rms measured (%)', 'measured.e_rms_pct'],
+    ['predicted (%)', 'predicted.e_rms_pct'], ['trip', 'measured.trip']]);
+  $('commission-figures').replaceChildren(...(res.figures || []).map((name) => {
+    const img = new Image();
+    img.alt = name;
+    // A new result, a new URL (the browser caches none: no-store).
+    img.src = `/api/commission/figure/${name}?token=${encodeURIComponent(token)}&wall=${res.wall_s}`;
+    return img;
+  }));
+  $('commission-report').textContent = res.report_md || '';
+}
+
+function commissionForm() {
+  jobForm('commission', (f) => {
+    const bw = f.target_bandwidth_Hz.value.trim();
+    return { range_um: Number(f.range_um.value), target_bandwidth_Hz: bw === '' ? null : Number(bw), on: f.on.value, save: f.save.checked };
+  });
+}
+
 // ---- the stream ----------------------------------------------------------------
 
 function connect() {
@@ -572,6 +994,9 @@ function connect() {
     $('psd-signal').replaceChildren(...h.signals.map((s) => new Option(`${s.name} (${s.unit})`, s.name)));
     $('psd-signal').value = h.signals.some((s) => s.name === 'y') ? 'y' : h.signals[0].name;
     if (!plot) makePlot();
+    // Commissioning the simulated stage needs the console's --scenario.
+    const sim = document.querySelector('#commission [name="on"] option[value="simulator"]');
+    if (sim && !h.simulator) sim.remove();
     showControl(h);
     loadParams();
     // The first page takes control when nobody has it; later ones watch.
@@ -589,16 +1014,35 @@ function connect() {
     drawFrame(f);
   });
   es.addEventListener('status', (ev) => showStatus(JSON.parse(ev.data)));
+  es.addEventListener('control', (ev) => showControl(JSON.parse(ev.data)));
   es.addEventListener('frf', (ev) => showFrfProgress(JSON.parse(ev.data)));
   es.addEventListener('frf-result', (ev) => showFrfResult(JSON.parse(ev.data)));
+  es.addEventListener('step', (ev) => showJobProgress('step', JSON.parse(ev.data)));
+  es.addEventListener('step-result', (ev) => showStepResult(JSON.parse(ev.data)));
+  es.addEventListener('loops', (ev) => showJobProgress('loops', JSON.parse(ev.data)));
+  es.addEventListener('loops-result', (ev) => showLoopsResult(JSON.parse(ev.data)));
+  es.addEventListener('commission', (ev) => showCommissionProgress(JSON.parse(ev.data)));
+  es.addEventListener('commission-result', (ev) => showCommissionResult(JSON.parse(ev.data)));
   es.onerror = () => { $('device').textContent = 'disconnected: reconnecting…'; };
 }
 
+function seatCountdown() {
+  const left = state.seatDeadline === null ? null : Math.max(0, Math.ceil((state.seatDeadline - Date.now()) / 1000));
+  const text = left === null ? '' : `(it passes in ${left} s without an answer)`;
+  $('seat-request-left').textContent = text;
+  if (state.control && state.control.request && state.control.request.from_me) $('seat').textContent = `asking the controlling page for control… ${text}`;
+}
+setInterval(seatCountdown, 500);
+
+// Takes the free seat, or asks the controlling page for it (HTTP 202: its
+// answer, or the timeout, comes on the stream).
 async function claim() {
   const r = await api('POST', '/api/control/claim');
   showControl(r.data);
-  $('action-error').textContent = r.ok ? '' : r.data.error;
+  if (r.status === 409) $('action-error').textContent = r.data.error;
 }
+$('give').onclick = async () => showControl((await api('POST', '/api/control/answer', { give: true })).data);
+$('keep').onclick = async () => showControl((await api('POST', '/api/control/answer', { give: false })).data);
 $('claim').onclick = claim;
 $('release').onclick = async () => showControl((await api('POST', '/api/control/release')).data);
 $('arm').onclick = () => act('/api/arm');
@@ -609,5 +1053,7 @@ scopeControls();
 psdControls();
 waveForm();
 frfForm();
+stepLoopsForms();
+commissionForm();
 showControl({ controls: false, seat_taken: false });
 connect();

@@ -42,7 +42,7 @@ const here = path.dirname(fileURLToPath(import.meta.url));
 const require = createRequire(path.join(here, '../../../host/ui/web/package.json'));
 const { chromium } = require('playwright-core');
 
-const [exe, image, configs, mode = 'device', screenshot, bodeShot] = process.argv.slice(2);
+const [exe, image, configs, mode = 'device', screenshot, bodeShot, loopsShot, commissionShot] = process.argv.slice(2);
 const chromiumPath = '/usr/bin/chromium';
 const qemu = spawnSync('sh', ['-c', 'command -v qemu-system-arm']).status === 0;
 if (!existsSync(image) || !qemu || !existsSync(chromiumPath)) {
@@ -265,10 +265,255 @@ async function frequencyResponse(page, context, url, token) {
   return res;
 }
 
+// The step and the loops the page measures, and `measure step | loops` repeats after the console.
+const stepRequest = { mode: 'open', step_V: 1, bias_V: 3, duration_s: 0.05 };
+const loopsRequest = { amplitudes_V: '2, 4', frequency_Hz: 20, cycles: 2 };
+
+// The page's number format (console.js fig): 4 significant digits, scaled first.
+const fig = (x, scale = 1) => (x === null || x === undefined ? '–' : String(Number((x * scale).toPrecision(4))));
+
+async function fillForm(page, form, r) {
+  for (const [k, v] of Object.entries(r)) {
+    const sel = `#${form} [name="${k}"]`;
+    if (await page.evaluate((q) => document.querySelector(q).tagName, sel) === 'SELECT') await page.selectOption(sel, String(v));
+    else await page.fill(sel, String(v));
+  }
+}
+
+// Runs job `name` from the page (restart at rest), waits for its end; its
+// progress seen on the page and on the watcher.
+async function measureJob(page, watcher, name) {
+  await page.check(`#${name} [name="restart_stage"]`);
+  const t0 = Date.now();
+  await page.click(`#${name}-start`);
+  const finished = await waitFor(page, (n) => { const j = window.piezoloop.jobs[n]; return j && j.progress && ['done', 'failed', 'stopped'].includes(j.progress.state) && j.result; },
+    name, `the ${name} measurement ends`, 120000);
+  const wall = (Date.now() - t0) / 1000;
+  const job = await page.evaluate((n) => window.piezoloop.jobs[n], name);
+  if (!finished || !check(job.progress.state === 'done', `the ${name} measurement ran from the page`, JSON.stringify(job.progress))) return null;
+  const watcherSeen = await watcher.evaluate((n) => window.piezoloop.jobs[n].seen, name);
+  const partial = (l) => l.some((p) => p.state === 'running' && p.phase === 'recording' && p.fraction > 0 && p.fraction < 1);
+  check(partial(job.seen) && partial(watcherSeen), `its progress shows, on the page and on the watcher (recording, 0 < fraction < 1)`,
+    JSON.stringify(job.seen.map((p) => `${p.phase}:${p.fraction}`)));
+  await waitFor(page, () => !window.piezoloop.status.measuring, null, `the status after the ${name} measurement`);
+  const server = await page.evaluate(async ([t, n]) => (await fetch(`/api/${n}`, { headers: { 'X-Piezoloop-Token': t } })).json(), [token(page), name]);
+  const watcherResult = await watcher.evaluate((n) => window.piezoloop.jobs[n].result, name);
+  check(JSON.stringify(watcherResult) === JSON.stringify(server.result), `the watching page got the same ${name} result`);
+  return { res: server.result, wall };
+}
+function token(page) { return new URL(page.url()).searchParams.get('token'); }
+
+async function csvOf(page, button) {
+  const download = page.waitForEvent('download');
+  await page.click(button);
+  const lines = readFileSync(await (await download).path(), 'utf8').trim().split('\n');
+  return { head: lines[0], rows: lines.slice(1).map((l) => l.split(',').map(Number)) };
+}
+
+async function stepsAndLoops(page, context, url) {
+  const started = Date.now();
+  const t = token(page);
+  const watcher = await context.newPage();
+  await watcher.goto(url);
+  await waitFor(watcher, () => window.piezoloop.ready, null, 'a watching page loads');
+  const forced = await watcher.evaluate(async ([tk, r]) => {
+    const res = await fetch('/api/step/start', { method: 'POST', headers: { 'X-Piezoloop-Token': tk, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' }, body: JSON.stringify(r) });
+    return res.status;
+  }, [t, stepRequest]);
+  check(forced === 409 && await watcher.isDisabled('#step-start') && await watcher.isDisabled('#loops-start'),
+    'a watching page cannot start a step (409; Measure disabled for steps and loops)', `status ${forced}`);
+
+  const board = () => page.evaluate(async (tk) => {
+    const p = await (await fetch('/api/params', { headers: { 'X-Piezoloop-Token': tk } })).json();
+    return { values: p.values, status: window.piezoloop.status.status };
+  }, t);
+  const before = await board();
+  // Refused before anything moves: 3 V + 8 V passes the 10 V command limit.
+  await fillForm(page, 'step', { ...stepRequest, step_V: 8 });
+  await page.click('#step-start');
+  await waitFor(page, () => document.querySelector('#step [data-error-for="step_V"]').textContent, null, 'the refusal at step_V');
+  const refusal = await page.textContent('#step [data-error-for="step_V"]');
+  check(refusal.includes('step_V: from 3 V the step must end within the board\'s command limits'), 'a step past the command limit: the plan\'s refusal at step_V', refusal);
+  await fillForm(page, 'loops', { ...loopsRequest, amplitudes_V: '2, 12' });
+  await page.click('#loops-start');
+  await waitFor(page, () => document.querySelector('#loops [data-error-for="amplitudes_V"]').textContent, null, 'the refusal at amplitudes_V');
+  const loopsRefusal = await page.textContent('#loops [data-error-for="amplitudes_V"]');
+  check(loopsRefusal.includes('amplitudes_V: each must be in (0, '), 'a loop past the command limit: the plan\'s refusal at amplitudes_V', loopsRefusal);
+  const after = await board();
+  check(JSON.stringify(after.values) === JSON.stringify(before.values) && !after.status.excitation_running &&
+    after.status.armed === before.status.armed &&
+    (await page.evaluate(() => ['step', 'loops'].every((n) => window.piezoloop.jobs[n].progress.state === 'idle' && !window.piezoloop.jobs[n].result))),
+    'the refused requests changed nothing (groups, armed, no excitation, no measurement)');
+
+  // ---- the step ----
+  await fillForm(page, 'step', stepRequest);
+  const step = await measureJob(page, watcher, 'step');
+  if (step) {
+    const res = step.res;
+    const plotted = await page.evaluate(() => window.piezoloop.stepData());
+    const same = (a, b) => Array.isArray(a) && Array.isArray(b) && a.length === b.length && a.every((x, i) => x === b[i]);
+    check(res.time_s.length > 500 && same(plotted[0], res.time_s) && same(plotted[1], res.reference_um) && same(plotted[2], res.response_um) &&
+      same(plotted[3], res.command_V), 'the step plot\'s t, r, y, u are the server\'s samples, exactly', `${res.time_s.length} samples`);
+    const shown = await page.$$eval('#step-figures dd', (dds) => dds.map((d) => ({ key: d.dataset.key, value: JSON.parse(d.dataset.value), text: d.textContent })));
+    const scale = { peak_time_s: 1e3, rise_time_s: 1e3, settling_time_s: 1e3 };
+    const bad = shown.filter((d) => JSON.stringify(d.value) !== JSON.stringify(res[d.key]) ||
+      !d.text.startsWith(typeof res[d.key] === 'number' ? fig(res[d.key], scale[d.key] || 1) : String(res[d.key])));
+    check(shown.length >= 12 && bad.length === 0 && ['overshoot_pct', 'rise_time_s', 'settling_time_s', 'initial_um', 'final_value_um'].every((k) => shown.some((d) => d.key === k)),
+      'every step figure shown is the server\'s (overshoot, rise, settling, initial, final, peak, ...)', JSON.stringify(bad));
+    // The open-loop step of 1 V moves the Ahmad2020 stage by about its gain (µm/V), the command steps by 1 V.
+    const u = res.command_V;
+    check(u[0] === 3 && u[u.length - 1] === 4 && res.final_value_um - res.initial_um > 0.5 && res.rise_time_s > 0,
+      'the step: u from 3 V to 4 V, y rises', `y ${res.initial_um} -> ${res.final_value_um}, rise ${res.rise_time_s}`);
+    const csv = await csvOf(page, '#step-csv');
+    check(csv.head === 't,r,u,y' && csv.rows.length === res.time_s.length && csv.rows.every((r, i) => Math.fround(r[3]) === Math.fround(res.response_um[i]) && Math.fround(r[2]) === Math.fround(res.command_V[i])),
+      'the step CSV holds the server\'s samples (the board\'s float32 values)');
+    console.log(`figure: step ${stepRequest.step_V} V from ${stepRequest.bias_V} V open loop: y ${res.initial_um.toFixed(4)} -> ${res.final_value_um.toFixed(4)} µm, ` +
+      `overshoot ${fig(res.overshoot_pct)} %, rise ${fig(res.rise_time_s, 1e3)} ms, settling ${fig(res.settling_time_s, 1e3)} ms; ` +
+      `${res.wall_s.toFixed(2)} s measured, ${step.wall.toFixed(1)} s from the click to the plot; warnings ${JSON.stringify(res.warnings)}`);
+  }
+
+  // ---- the loops ----
+  await fillForm(page, 'loops', loopsRequest);
+  const loops = await measureJob(page, watcher, 'loops');
+  if (loops) {
+    const res = loops.res;
+    const plotted = await page.evaluate(() => window.piezoloop.jobs.loops.plotted);
+    const amps = [2, 4];
+    const exact = amps.every((a, k) => {
+      const idx = res.amplitude_V.map((x, i) => [x, i]).filter(([x]) => x === a).map(([, i]) => i);
+      const p = plotted[k];
+      return p && p.amplitude_V === a && idx.length > 500 && p.u.length === idx.length &&
+        idx.every((i, j) => p.u[j] === res.u_V[i] && p.y[j] === res.y_um[i]);
+    });
+    check(plotted.length === 2 && exact, 'each loop drawn (y against u) is the server\'s samples of its amplitude, exactly',
+      JSON.stringify(plotted.map((p) => [p.amplitude_V, p.u.length])));
+    const cells = await page.$$eval('#loops-figures td', (tds) => tds.map((d) => ({ key: d.dataset.key, value: JSON.parse(d.dataset.value), text: d.textContent })));
+    const want = res.loops.flatMap((l) => ['amplitude_V', 'hysteresis_pct', 'max_width_pct', 'y_min_um', 'y_max_um'].map((k) => ({ key: k, value: l[k], text: fig(l[k]) })));
+    check(JSON.stringify(cells) === JSON.stringify(want), 'every loop figure shown is the server\'s (hysteresis, widest gap, y range)', JSON.stringify(cells));
+    // The Ahmad2020 stage is hysteretic (its Dahl model): each loop opens.
+    check(res.loops.every((l) => l.hysteresis_pct > 0.5 && l.max_width_pct > 0.5 && l.y_max_um > l.y_min_um),
+      'each loop opens (hysteresis and widest gap > 0.5 %)', JSON.stringify(res.loops));
+    const csv = await csvOf(page, '#loops-csv');
+    check(csv.head === 't,u,y,v,x,amplitude_V' && csv.rows.length === res.y_um.length && csv.rows.every((r, i) => Math.fround(r[1]) === Math.fround(res.u_V[i]) && Math.fround(r[2]) === Math.fround(res.y_um[i]) && r[5] === res.amplitude_V[i]),
+      'the loops CSV (identify pi\'s columns) holds the server\'s samples');
+    console.log(`figure: loops ${loopsRequest.amplitudes_V} V at ${loopsRequest.frequency_Hz} Hz, ${loopsRequest.cycles} cycles: hysteresis ` +
+      `${res.loops.map((l) => `${fig(l.hysteresis_pct)} % (widest ${fig(l.max_width_pct)} %)`).join(', ')}; ` +
+      `${res.wall_s.toFixed(2)} s measured, ${loops.wall.toFixed(1)} s from the click to the plot`);
+    if (loopsShot) {
+      await page.locator('#loops-panel').scrollIntoViewIfNeeded();
+      await page.locator('#loops-panel').screenshot({ path: loopsShot });
+    }
+  }
+  const afterRuns = await board();
+  check(['feedforward', 'feedback', 'rc', 'limits'].every((g) => JSON.stringify(afterRuns.values[g]) === JSON.stringify(before.values[g])) &&
+    !afterRuns.status.armed && !afterRuns.status.excitation_running, 'after the step and the loops the groups are put back, the loop disarmed');
+  await watcher.close();
+  console.log(`figure: the step and loops checks took ${((Date.now() - started) / 1000).toFixed(1)} s`);
+  return { step: step && step.res, loops: loops && loops.res };
+}
+
+// Commissioning from the page on the scenario's stage, simulated (`ui
+// --scenario`; on the emulated board it takes half a minute); the board's
+// path is checked up to commission's own refusal of a range beyond the
+// travel, before anything moves.
+const commissionRequest = { range_um: 12 };
+
+async function commissionFromPage(page, context, url) {
+  const started = Date.now();
+  const t = token(page);
+  const watcher = await context.newPage();
+  await watcher.goto(url);
+  await waitFor(watcher, () => window.piezoloop.ready, null, 'a watching page loads');
+  const forced = await watcher.evaluate(async ([tk]) => {
+    const res = await fetch('/api/commission/start', { method: 'POST', headers: { 'X-Piezoloop-Token': tk, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' }, body: JSON.stringify({ range_um: 12, on: 'simulator' }) });
+    return res.status;
+  }, [t]);
+  check(forced === 409 && await watcher.isDisabled('#commission-start'), 'a watching page cannot commission (409, the button disabled)', `status ${forced}`);
+
+  const board = () => page.evaluate(async (tk) => {
+    const p = await (await fetch('/api/params', { headers: { 'X-Piezoloop-Token': tk } })).json();
+    return { values: p.values, status: window.piezoloop.status.status };
+  }, t);
+  const before = await board();
+  // The form's own check, then commission's on the board: a range beyond the travel, before anything moves.
+  await page.selectOption('#commission [name="on"]', 'board');
+  await page.fill('#commission [name="range_um"]', '-1');
+  await page.click('#commission-start');
+  await waitFor(page, () => document.querySelector('#commission [data-error-for="range_um"]').textContent, null, 'the refusal at range_um');
+  const own = await page.textContent('#commission [data-error-for="range_um"]');
+  check(own.includes('range_um: must be a number > 0'), 'range_um -1: refused at range_um', own);
+  await page.fill('#commission [name="range_um"]', '5000');
+  await page.click('#commission-start');
+  await waitFor(page, () => { const j = window.piezoloop.jobs.commission; return j && j.progress && j.progress.state === 'failed'; }, null, 'commission refuses 5000 µm');
+  const travel = await page.textContent('#commission [data-error-for="range_um"]');
+  check(/range_um: 5000 um is beyond the board's travel/.test(travel), 'range_um 5000 on the board: commission\'s refusal at range_um', travel);
+  await waitFor(page, () => !window.piezoloop.status.measuring, null, 'the status after the refusal');
+  const after = await board();
+  check(JSON.stringify(after.values) === JSON.stringify(before.values) && !after.status.excitation_running && !after.status.wave_running &&
+    after.status.armed === before.status.armed, 'the refused commissioning changed nothing on the board (groups, armed, no excitation)');
+
+  // The simulated stage, commissioned from the page.
+  await page.selectOption('#commission [name="on"]', 'simulator');
+  await page.fill('#commission [name="range_um"]', String(commissionRequest.range_um));
+  const t0 = Date.now();
+  await page.click('#commission-start');
+  const finished = await waitFor(page, () => { const j = window.piezoloop.jobs.commission; return j && j.progress && ['done', 'failed', 'stopped'].includes(j.progress.state) && j.progress.request.on === 'simulator' && j.result; },
+    null, 'commissioning ends', 180000);
+  const wall = (Date.now() - t0) / 1000;
+  const job = await page.evaluate(() => window.piezoloop.jobs.commission);
+  if (!finished || !check(job.progress.state === 'done', 'commissioning ran from the page', JSON.stringify(job.progress))) return null;
+  const server = await page.evaluate(async (tk) => (await fetch('/api/commission', { headers: { 'X-Piezoloop-Token': tk } })).json(), t);
+  const res = server.result;
+  const shownLog = await page.$$eval('#commission-log li', (lis) => lis.map((l) => l.textContent));
+  const watcherLog = await watcher.$$eval('#commission-log li', (lis) => lis.map((l) => l.textContent));
+  check(res.log.length > 10 && JSON.stringify(shownLog) === JSON.stringify(res.log) && JSON.stringify(watcherLog) === JSON.stringify(res.log),
+    'its steps and decisions, as they were made, are the server\'s log, on the page and on the watcher', `${shownLog.length} lines, server ${res.log.length}`);
+  check(job.seen.filter((p) => p.state === 'running').length > 3, 'its progress showed while it ran', String(job.seen.length));
+  const cells = (id) => page.$$eval(`#${id} td`, (tds) => tds.map((d) => ({ key: d.dataset.key, value: JSON.parse(d.dataset.value), text: d.textContent })));
+  const pick = (r, key) => key.split('.').reduce((o, k) => (o == null ? o : o[k]), r);
+  const want = (rows, cols) => rows.flatMap((r) => cols.map(([k, sc]) => {
+    const v = pick(r, k);
+    return { key: k, value: v === undefined ? null : v, text: typeof v === 'number' || v == null ? fig(v, sc || 1) : String(v) };
+  }));
+  const tables = {
+    'commission-safety': [res.safety, [['step_V'], ['from_V'], ['dy_um'], ['noise_um'], ['gain_um_per_V']]],
+    'commission-fits': [res.fits, [['order'], ['rms_rel', 100], ['dc_gain_um_per_V'], ['chosen']]],
+    'commission-candidates': [res.candidates, [['name'], ['order'], ['measured_phase_margin_deg'], ['measured_crossover_Hz'], ['measured_gain_margin_db'],
+      ['measured_max_sensitivity'], ['predicted_10Hz_half_range.e_max_pct'], ['passes'], ['refusal']]],
+    'commission-verification': [res.verification, [['frequency_Hz'], ['range_um'], ['measured.e_max_pct'], ['predicted.e_max_pct'], ['measured.e_rms_pct'], ['predicted.e_rms_pct'], ['measured.trip']]],
+  };
+  for (const [id, [rows, cols]] of Object.entries(tables)) {
+    const shown = await cells(id);
+    check(rows.length > 0 && JSON.stringify(shown) === JSON.stringify(want(rows, cols)), `every figure of the ${id.replace('commission-', '')} table is the server's`,
+      JSON.stringify(shown).slice(0, 300));
+  }
+  const verdict = await page.textContent('#commission-verdict');
+  check(res.chosen && verdict.includes(`chosen: ${res.chosen}`) && verdict.includes(res.verified ? 'verified' : 'not verified'), 'the verdict names the chosen candidate and the verification', verdict);
+  const report = await page.textContent('#commission-report');
+  check(report === res.report_md && report.includes('# piezoloop commission'), 'the page holds the server\'s report.md');
+  const images = await page.$$eval('#commission-figures img', (imgs) => imgs.map((i) => ({ alt: i.alt, ok: i.complete && i.naturalWidth > 0 })));
+  await waitFor(page, () => [...document.querySelectorAll('#commission-figures img')].every((i) => i.complete), null, 'the figures load');
+  const loaded = await page.$$eval('#commission-figures img', (imgs) => imgs.map((i) => ({ alt: i.alt, ok: i.naturalWidth > 0 })));
+  check(res.figures.length === images.length && loaded.every((i) => i.ok) && (res.figures.length === 4 || res.report_md.includes('The figures could not be drawn')),
+    'the report\'s figures are shown (frf, loops, candidates, verification), or the report says why not', JSON.stringify(loaded));
+  console.log(`figure: commissioning ${commissionRequest.range_um} µm of the simulated stage from the page: chosen ${res.chosen}, ` +
+    `verified ${res.verified}, bandwidth ${fig(res.bandwidth_Hz)} Hz, ${res.log.length} steps logged; ${res.wall_s.toFixed(1)} s on the server, ` +
+    `${wall.toFixed(1)} s from the click to the result`);
+  if (commissionShot) {
+    await page.locator('#commission-panel').scrollIntoViewIfNeeded();
+    await page.locator('#commission-panel').screenshot({ path: commissionShot });
+  }
+  await watcher.close();
+  console.log(`figure: the commissioning checks took ${((Date.now() - started) / 1000).toFixed(1)} s`);
+  return res;
+}
+
 async function main() {
   let device = null;
   let ui;
   let frf = null;
+  let stepLoops = null;
+  let commissioned = null;
   if (mode === 'device') {
     const emu = start(['emulate', '--board', 'qemu-m7', '--scenario', scenario]);
     device = JSON.parse((await firstLines(emu, /^\{.*\}\n/))[0]).device;
@@ -310,17 +555,36 @@ async function main() {
     await watcher.goto(url);
     await waitFor(watcher, () => window.piezoloop.ready, null, 'the second page loads');
     check(await page.evaluate(() => window.piezoloop.controls), 'the first page took the free control seat');
+    // Taking control: the watcher asks, the controlling page is asked and
+    // keeps it (the timeout that passes the seat is checked in test_control_seat).
     await watcher.click('#claim');
-    await watcher.waitForTimeout(300);
-    check(!(await watcher.evaluate(() => window.piezoloop.controls)) &&
-      (await watcher.textContent('#action-error')).includes('another page controls'),
-      'the second page\'s claim is refused: it watches');
+    await waitFor(page, () => !document.getElementById('seat-request').hidden, null, 'the controlling page is asked');
+    check(await page.isVisible('#seat-request') && (await watcher.textContent('#seat')).includes('asking the controlling page') &&
+      /passes in \d+ s/.test(await page.textContent('#seat-request-left')),
+      'a watcher asks for control: the controlling page is asked (with the seconds left), the watcher says it is asking');
+    await page.click('#keep');
+    await waitFor(watcher, () => document.getElementById('action-error').textContent.includes('kept control'), null, 'the refusal on the watcher');
+    check(!(await watcher.evaluate(() => window.piezoloop.controls)) && await page.evaluate(() => window.piezoloop.controls) &&
+      (await watcher.textContent('#action-error')).includes('kept control') && !(await page.isVisible('#seat-request')),
+      'Keep control: the watcher is refused and watches, the controlling page keeps the seat');
     const forced = await watcher.evaluate(async (t) => {
       const r = await fetch('/api/arm', { method: 'POST', headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer } });
       return r.status;
     }, token);
     check(forced === 409, 'a command from the watching page is refused (409)', `status ${forced}`);
     check(await watcher.isDisabled('#arm'), 'the watching page\'s Arm button is disabled');
+    // Asked again, the controlling page gives the seat; then it takes it back once freed.
+    await watcher.click('#claim');
+    await waitFor(page, () => !document.getElementById('seat-request').hidden, null, 'asked again');
+    await page.click('#give');
+    await waitFor(watcher, () => window.piezoloop.controls, null, 'the watcher controls');
+    await waitFor(page, () => !window.piezoloop.controls, null, 'the first page watches');
+    check(await watcher.evaluate(() => window.piezoloop.controls) && !(await page.evaluate(() => window.piezoloop.controls)) &&
+      await page.isDisabled('#arm') && !(await watcher.isDisabled('#arm')), 'Give control: the asking page controls, the other watches');
+    await watcher.click('#release');
+    await page.click('#claim');
+    await waitFor(page, () => window.piezoloop.controls, null, 'the first page controls again');
+    check(await page.evaluate(() => window.piezoloop.controls), 'a freed seat is taken at once by the page that claims it');
 
     // ---- arm / disarm round trip ----
     await page.click('#arm');
@@ -407,6 +671,29 @@ async function main() {
       return u !== null && f.series.y.length === 2 * f.columns;
     });
     check(plotHolds, 'the plot holds two points per pixel column');
+    // Two cursors on the paused plot: each the server's nearest recorded
+    // sample, which is the exported row at its time; the readout shows them.
+    await page.check('#cursors');
+    const over = await page.locator('#plot .u-over').boundingBox();
+    await page.mouse.click(over.x + over.width * 0.3, over.y + over.height / 2);
+    await waitFor(page, () => window.piezoloop.cursors.A, null, 'cursor A');
+    await page.mouse.click(over.x + over.width * 0.7, over.y + over.height / 2);
+    await waitFor(page, () => window.piezoloop.cursors.B && document.querySelectorAll('#cursor-readout tr').length === 4, null, 'cursor B');
+    const cursors = await page.evaluate(() => window.piezoloop.cursors);
+    const rowAt = (c) => rows.find((r) => Math.abs(r[0] - c.t_s) < 0.5 / rate);
+    const sig = (x, n) => (x === null || x === undefined ? '–' : String(Number(x.toPrecision(n))));
+    const onRow = (c) => { const r = rowAt(c); return r && names.every((n, k) => Math.fround(r[k + 1]) === c.values[n]); };
+    const expectTimes = shown.t0_s + 0.3 * shown.span_s;
+    check(cursors.A && cursors.B && onRow(cursors.A) && onRow(cursors.B) && Math.abs(cursors.A.t_s - expectTimes) < 0.02 * shown.span_s &&
+      cursors.B.t_s > cursors.A.t_s, 'the cursors are the recorded samples where the plot was clicked (the exported rows at their times)',
+      JSON.stringify(cursors));
+    const cells = await page.$$eval('#cursor-readout td', (tds) => tds.map((d) => ({ key: d.dataset.key, value: JSON.parse(d.dataset.value), text: d.textContent })));
+    const dtc = cursors.B.t_s - cursors.A.t_s;
+    const wantCells = [cursors.A, cursors.B].flatMap((c) => [{ key: 't_s', value: c.t_s, text: sig(c.t_s, 9) }, ...names.map((n) => ({ key: n, value: c.values[n], text: sig(c.values[n], 7) }))])
+      .concat([{ key: 'dt_s', value: dtc, text: `${sig(dtc, 6)} s (${sig(1 / dtc, 6)} Hz)` },
+        ...names.map((n) => { const d = cursors.B.values[n] - cursors.A.values[n]; return { key: n, value: d, text: sig(d, 7) }; })]);
+    check(JSON.stringify(cells) === JSON.stringify(wantCells), 'the readout shows each cursor\'s time and values, Δt and the differences, as the server sent them',
+      JSON.stringify(cells).slice(0, 400));
     const dt = rows.slice(1).map((r, i) => r[0] - rows[i][0]);
     check(dt.every((d) => Math.abs(d * rate - 1) < 1e-6), 'the exported window has no tick gap (one sample per loop tick)');
     const r = rows.map((row) => row[1 + names.indexOf('r')]);
@@ -429,6 +716,17 @@ async function main() {
       const d = psd.density.slice(1);
       const top = psd.frequency_Hz[1 + d.indexOf(Math.max(...d))];
       check(psd.segments === 1 && Math.abs(top - 20) < psd.frequency_Hz[1] / 2, 'the spectrum of y peaks at the wave\'s 20 Hz (the bin nearest it)', `${psd.segments} segments, peak at ${top} Hz`);
+      // Two cursors on the spectrum: bins of the server's estimate, and Δf.
+      await page.check('#psd-cursors');
+      const box = await page.locator('#psd-plot .u-over').boundingBox();
+      await page.mouse.click(box.x + box.width * 0.25, box.y + box.height / 2);
+      await page.mouse.click(box.x + box.width * 0.6, box.y + box.height / 2);
+      await waitFor(page, () => window.piezoloop.psdCursors.B && document.querySelectorAll('#psd-cursor-readout tr').length === 4, null, 'the spectrum cursors');
+      const pc = await page.evaluate(() => window.piezoloop.psdCursors);
+      const pcells = await page.$$eval('#psd-cursor-readout td', (tds) => tds.map((d) => JSON.parse(d.dataset.value)));
+      const okBins = ['A', 'B'].every((n) => pc[n] && pc[n].f_Hz === psd.frequency_Hz[pc[n].bin] && pc[n].density === psd.density[pc[n].bin]);
+      check(okBins && pc.B.bin > pc.A.bin && JSON.stringify(pcells.slice(0, 5)) === JSON.stringify([pc.A.f_Hz, pc.A.density, pc.B.f_Hz, pc.B.density, pc.B.f_Hz - pc.A.f_Hz]),
+        'the spectrum\'s cursors are bins of the server\'s estimate, with Δf between them', JSON.stringify(pc));
     }
 
     if (screenshot) await page.screenshot({ path: screenshot, fullPage: false });
@@ -463,6 +761,8 @@ async function main() {
     await waitFor(page, () => window.piezoloop.status.status.armed === false, null, 'disarmed at the end');
 
     if (mode === 'device') frf = await frequencyResponse(page, context, url, token);
+    if (mode === 'device') stepLoops = await stepsAndLoops(page, context, url);
+    if (mode === 'scenario') commissioned = await commissionFromPage(page, context, url);
   } finally {
     await browser.close();
   }
@@ -497,6 +797,51 @@ async function main() {
       const model = tf.code === 0 ? JSON.parse(tf.out).model : {};
       check(JSON.stringify(model.num) === JSON.stringify(frf.fit.model.num) && JSON.stringify(model.den) === JSON.stringify(frf.fit.model.den),
         '`identify tf --order 6/5` on the CLI\'s response gives the console\'s fitted model, coefficient for coefficient', tf.err);
+    }
+    rmSync(dir, { recursive: true, force: true });
+  }
+
+  if (commissioned) {
+    // The same commissioning from the CLI: the simulator's run, figure for figure.
+    const dir = mkdtempSync(path.join(os.tmpdir(), 'console-commission-'));
+    const c = run(['commission', '--scenario', scenario, '--range-um', String(commissionRequest.range_um), '--out', dir]);
+    if (check(c.code === 0 || c.code === 1, '`piezoloop commission --scenario` with the same request', c.err)) {
+      const j = JSON.parse(c.out);
+      const same = ['chosen', 'verified', 'candidates', 'fits', 'safety', 'verification', 'log', 'bandwidth_Hz', 'model', 'centre_um']
+        .filter((k) => JSON.stringify(j[k]) !== JSON.stringify(commissioned[k]));
+      check(same.length === 0, 'the console\'s commissioning is the CLI\'s: chosen, candidates, fits, safety steps, verification and log, bit for bit',
+        `differ: ${same.join(', ')}`);
+    }
+    rmSync(dir, { recursive: true, force: true });
+  }
+  if (device && stepLoops && stepLoops.step) {
+    // The same step and loops from the CLI on the same board, restarted at rest too.
+    const dir = mkdtempSync(path.join(os.tmpdir(), 'console-step-'));
+    const s = stepRequest;
+    const out = path.join(dir, 'step.json');
+    const cli = run(['--device', device, 'measure', 'step', '--step-v', s.step_V, '--bias-v', s.bias_V, '--duration-s', s.duration_s,
+      '--restart-stage', '--out', out].map(String));
+    if (check(cli.code === 0, '`piezoloop measure step` with the same request on the same board', cli.err)) {
+      const j = JSON.parse(readFileSync(out, 'utf8'));
+      const st = stepLoops.step;
+      check(j.log_hash === st.log_hash && ['initial_um', 'final_value_um', 'overshoot_pct', 'peak_um', 'rise_time_s', 'settling_time_s'].every((k) => j[k] === st[k]) &&
+        JSON.stringify(j.response_um) === JSON.stringify(st.response_um), 'the console\'s step has the CLI\'s log hash, response and figures, bit for bit',
+        `${st.log_hash} vs ${j.log_hash}`);
+    }
+    if (stepLoops.loops) {
+      const l = loopsRequest;
+      const lj = path.join(dir, 'loops.json');
+      const lc = run(['--device', device, 'measure', 'loops', '--amplitudes-v', l.amplitudes_V.replace(/\s/g, ''), '--frequency-hz', l.frequency_Hz,
+        '--cycles', l.cycles, '--restart-stage', '--out', path.join(dir, 'loops.csv'), '--json', lj].map(String));
+      if (check(lc.code === 0, '`piezoloop measure loops` with the same request on the same board', lc.err)) {
+        const j = JSON.parse(readFileSync(lj, 'utf8'));
+        // The first amplitude starts at rest on both; the next ones start from
+        // where the one before left the stage after the host's pause between
+        // them, which differs from run to run.
+        check(JSON.stringify(j.loops[0]) === JSON.stringify(stepLoops.loops.loops[0]) && j.loops.length === stepLoops.loops.loops.length,
+          'the console\'s first loop (from rest) has the CLI\'s figures, bit for bit',
+          `${JSON.stringify(j.loops)} vs ${JSON.stringify(stepLoops.loops.loops)}`);
+      }
     }
     rmSync(dir, { recursive: true, force: true });
   }

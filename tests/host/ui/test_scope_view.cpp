@@ -118,5 +118,33 @@ TEST(UiScopeView, SettingsOutOfRangeAreRefusedNamingTheKey) {
     EXPECT_EQ(merge_scope_settings({{"edge", "falling"}, {"span_s", 0.2}}, s, h).span_s, 0.2);
 }
 
+// A cursor takes the sample nearest its time, none beyond a tick from every
+// sample; a value not recorded (NaN) is null.
+TEST(UiScopeCursor, TheNearestSampleAndItsValues) {
+    SampleHistory h({{"r", "um"}, {"u", "V"}}, kRate_Hz, 1000);
+    for (uint64_t k = 0; k < 100; ++k) {
+        const float r = 0.25f * static_cast<float>(k), u = k == 50 ? NAN : -static_cast<float>(k);
+        const float values[] = {r, u};
+        h.append(k < 60 ? k : k + 20, values, 0);  // a gap of 20 ticks after tick 59
+    }
+    const double tick = 1.0 / kRate_Hz;
+    const auto at = [&](double t) { return cursor_sample(h, t); };
+    nlohmann::json c = at(10.3 * tick);
+    EXPECT_DOUBLE_EQ(c["t_s"].get<double>(), 10 * tick);
+    EXPECT_EQ(c["values"]["r"], 2.5);
+    EXPECT_EQ(c["values"]["u"], -10.0);
+    EXPECT_DOUBLE_EQ(at(10.7 * tick)["t_s"].get<double>(), 11 * tick);
+    EXPECT_DOUBLE_EQ(at(10.49 * tick)["t_s"].get<double>(), 10 * tick);
+    EXPECT_DOUBLE_EQ(at(10.51 * tick)["t_s"].get<double>(), 11 * tick);
+    EXPECT_TRUE(at(50 * tick)["values"]["u"].is_null());
+    EXPECT_EQ(at(50 * tick)["values"]["r"], 12.5);
+    EXPECT_DOUBLE_EQ(at(59.9 * tick)["t_s"].get<double>(), 59 * tick);  // the last before the gap
+    EXPECT_TRUE(at(60.4 * tick)["t_s"].is_null());  // 1.4 ticks from it: none
+    EXPECT_TRUE(at(70 * tick)["t_s"].is_null());   // inside the gap, 10 ticks from any sample
+    EXPECT_TRUE(at(-5 * tick)["t_s"].is_null());   // before the record
+    EXPECT_DOUBLE_EQ(at(79.6 * tick)["t_s"].get<double>(), 80 * tick);  // the first after the gap
+    EXPECT_EQ(at(79.6 * tick)["values"]["r"], 15.0);                      // k = 60
+}
+
 }  // namespace
 }  // namespace piezoloop::ui

@@ -1,0 +1,117 @@
+#include "ui/commission_job.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace piezoloop::ui {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr std::pair<const char*, const char*> kCommissionFields[] = {
+    {"--range-um", "range_um"}, {"--target-bandwidth-hz", "target_bandwidth_Hz"}, {"--no-save", "save"}, {"--scenario", "on"}};
+
+constexpr const char* kFigures[] = {"frf.png", "loops.png", "candidates.png", "verification.png"};
+
+std::string fresh_directory() {
+    std::string t = (std::filesystem::temp_directory_path() / "piezoloop-console-commission-XXXXXX").string();
+    if (mkdtemp(t.data()) == nullptr) throw std::runtime_error("cannot create a directory for the report in " + t);
+    return t;
+}
+
+std::string read_text(const std::filesystem::path& p) {
+    std::ifstream f(p);
+    std::ostringstream s;
+    s << f.rdbuf();
+    return s.str();
+}
+
+}  // namespace
+
+CommissionForm parse_commission_form(const json& j, const std::string& scenario) {
+    if (!j.is_object()) throw FieldRefusal("", "the request must be a JSON object");
+    CommissionForm f;
+    bool range = false;
+    for (auto it = j.begin(); it != j.end(); ++it) {
+        const std::string& k = it.key();
+        const json& v = it.value();
+        if (k == "range_um") {
+            if (!v.is_number() || !(v.get<double>() > 0.0) || !std::isfinite(v.get<double>()))
+                throw FieldRefusal("range_um", "range_um: must be a number > 0 (um)");
+            f.request.range_um = v.get<double>();
+            range = true;
+        } else if (k == "target_bandwidth_Hz") {
+            if (v.is_null()) continue;
+            if (!v.is_number() || !(v.get<double>() >= 0.0) || !std::isfinite(v.get<double>()))
+                throw FieldRefusal("target_bandwidth_Hz", "target_bandwidth_Hz: must be a number >= 0 (Hz; 0 or empty: automatic)");
+            f.request.target_bandwidth_Hz = v.get<double>();
+        } else if (k == "save") {
+            if (!v.is_boolean()) throw FieldRefusal("save", "save: must be true or false");
+            f.save = v.get<bool>();
+        } else if (k == "on") {
+            const std::string on = v.is_string() ? v.get<std::string>() : "";
+            if (on != "board" && on != "simulator") throw FieldRefusal("on", "on: must be board or simulator");
+            f.simulator = on == "simulator";
+        } else {
+            throw FieldRefusal("", k + ": unknown field (range_um, target_bandwidth_Hz, save, on)");
+        }
+    }
+    if (!range) throw FieldRefusal("range_um", "range_um: required");
+    if (f.simulator && scenario.empty())
+        throw FieldRefusal("on", "on: the simulator needs the console started with --scenario (its stage is simulated)");
+    return f;
+}
+
+FieldRefusal commission_refusal(const std::string& message) { return renamed_refusal(message, kCommissionFields); }
+
+MeasurementJob::Work commission_work(BoardSession& board, const std::string& scenario, const json& form) {
+    const CommissionForm f = parse_commission_form(form, scenario);
+    // The board must be free now (not a refusal after the click's reply).
+    if (!f.simulator) (void)board.measure_bounds();
+    return [&board, f, scenario, form](const MeasurementJob::Context& job) {
+        cli::CommissionSession s;
+        s.request = f.request;
+        s.save = f.save && !f.simulator;
+        s.out = fresh_directory();
+        if (f.simulator) s.scenario = scenario;
+        const auto note = [&](const std::string& line) {
+            job.note(line);
+            job.report("commissioning", 0.0);
+        };
+        json out;
+        try {
+            if (f.simulator) {
+                out = cli::run_commission_session(nullptr, s, note, job.stop_requested);
+            } else {
+                s.recording_progress = [&](double x) { job.report("recording", x); };
+                out = board.commission(s, note, job.stop_requested);
+            }
+        } catch (const FieldRefusal&) {
+            throw;
+        } catch (const std::invalid_argument& e) {
+            throw commission_refusal(e.what());
+        }
+        out["request"] = form;
+        out["on"] = f.simulator ? "simulator" : "board";
+        out["out"] = s.out;
+        out["report_md"] = read_text(std::filesystem::path(s.out) / "report.md");
+        json figures = json::array();
+        for (const char* name : kFigures)
+            if (std::filesystem::exists(std::filesystem::path(s.out) / name)) figures.push_back(name);
+        out["figures"] = figures;
+        return out;
+    };
+}
+
+std::string commission_figure_path(const json& result, const std::string& name) {
+    if (result.is_null() || !result.contains("out") || !result.contains("figures")) return "";
+    for (const json& f : result["figures"])
+        if (f == name) return (std::filesystem::path(result["out"].get<std::string>()) / name).string();
+    return "";
+}
+
+}  // namespace piezoloop::ui
