@@ -33,6 +33,7 @@ struct UiArgs {
     int port = 0;
     bool open = false;
     double history_s = 20.0;
+    int seat_answer_s = 10;
 };
 
 // `piezoloop emulate` as a child process: its board address, stopped with
@@ -123,6 +124,7 @@ int run_ui(const UiArgs& a) {
     o.bind_address = a.bind;
     o.port = a.port;
     o.scenario = a.scenario;
+    o.seat_answer_s = a.seat_answer_s;
     ui::ConsoleServer server(board, o);
     const int port = server.bind();
     std::string url = server.url();
@@ -157,6 +159,10 @@ void add_ui(CLI::App& app) {
                     "the network)");
     cmd->add_option("--history-s", a->history_s, "seconds of the board's signals kept for the scope, 1 to 600")
         ->check(CLI::Range(1.0, 600.0));
+    cmd->add_option("--seat-answer-s", a->seat_answer_s,
+                    "seconds the controlling page has to answer another page's request for control before it "
+                    "passes, 1 to 600 (default 10)")
+        ->check(CLI::Range(1, 600));
     cmd->add_flag("--open", a->open, "open the console in the default browser (xdg-open)");
     cmd->callback([a] { guarded([&] { return run_ui(*a); }); });
 }

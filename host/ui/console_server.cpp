@@ -74,7 +74,8 @@ struct ConsoleServer::Impl {
     std::atomic<bool> stopping{false};
     int port = 0;
 
-    Impl(BoardSession& b, ConsoleOptions o) : board(b), options(std::move(o)), frf(b) {}
+    Impl(BoardSession& b, ConsoleOptions o)
+        : board(b), options(std::move(o)), seat(std::chrono::seconds(options.seat_answer_s)), frf(b) {}
 
     std::shared_ptr<Viewer> viewer(const std::string& id) {
         const std::lock_guard lock(viewers_m);

@@ -38,6 +38,7 @@ struct ConsoleOptions {
     std::string bind_address = "127.0.0.1";
     int port = 0;  // 0: a free one
     std::string scenario;  // `ui --scenario`: its stage may also be commissioned simulated
+    int seat_answer_s = 10;  // how long a controlling page has to answer a request for the seat
 };
 
 class ConsoleServer {

@@ -53,7 +53,7 @@ ControlSeat::Asked ControlSeat::ask(const std::string& viewer, Clock::time_point
     }
     if (request_ && request_->from != viewer) return Asked::kRefused;
     if (!request_) {
-        request_ = Request{viewer, now + kAnswerTimeout};
+        request_ = Request{viewer, now + answer_timeout_};
         changed();
     }
     return Asked::kAsked;

@@ -5,8 +5,8 @@
 // (the tab is closed or the network drops), or when its holder releases it.
 //
 // A watcher may ask for the seat while another page holds it: the holder's
-// page is asked and gives it or keeps it; without an answer within
-// kAnswerTimeout the seat passes to the asker (an unattended page does not
+// page is asked and gives it or keeps it; without an answer within the
+// answer timeout (kAnswerTimeout unless given) the seat passes to the asker (an unattended page does not
 // keep everyone else from stopping the stage). One request at a time; a
 // holder that leaves meanwhile leaves the seat to the asker.
 #pragma once
@@ -25,6 +25,8 @@ class ControlSeat {
 public:
     using Clock = std::chrono::steady_clock;
     static constexpr std::chrono::seconds kAnswerTimeout{10};
+
+    explicit ControlSeat(std::chrono::seconds answer_timeout = kAnswerTimeout) : answer_timeout_(answer_timeout) {}
 
     struct Request {
         std::string from;
@@ -64,6 +66,7 @@ public:
 private:
     void changed() { ++serial_; }  // m_ held
 
+    const std::chrono::seconds answer_timeout_;
     mutable std::mutex m_;
     std::set<std::string> viewers_;
     std::optional<std::string> holder_;

@@ -519,9 +519,9 @@ async function main() {
     device = JSON.parse((await firstLines(emu, /^\{.*\}\n/))[0]).device;
     const set = run(['--device', device, 'set', '--scenario', scenario, '--case', 'dahl_ff_K']);
     if (!check(set.code === 0, 'the Ahmad2020 controller is set on the emulated board', set.err)) return;
-    ui = start(['--device', device, 'ui']);
+    ui = start(['--device', device, 'ui', '--seat-answer-s', '120']);
   } else {
-    ui = start(['ui', '--scenario', scenario, '--case', 'dahl_ff_K']);
+    ui = start(['ui', '--scenario', scenario, '--case', 'dahl_ff_K', '--seat-answer-s', '120']);
   }
   const started = await firstLines(ui, /console of tcp:127\.0\.0\.1:(\d+) at\s+(http:\/\/127\.0\.0\.1:\d+\/\?token=[0-9a-f]{32})/);
   const boardPort = Number(started[1]);
@@ -564,6 +564,8 @@ async function main() {
       'a watcher asks for control: the controlling page is asked (with the seconds left), the watcher says it is asking');
     await page.click('#keep');
     await waitFor(watcher, () => document.getElementById('action-error').textContent.includes('kept control'), null, 'the refusal on the watcher');
+    // The controlling page closes its request when the next seat state reaches it (its own stream).
+    await waitFor(page, () => document.getElementById('seat-request').hidden, null, 'the request closed on the controlling page');
     check(!(await watcher.evaluate(() => window.piezoloop.controls)) && await page.evaluate(() => window.piezoloop.controls) &&
       (await watcher.textContent('#action-error')).includes('kept control') && !(await page.isVisible('#seat-request')),
       'Keep control: the watcher is refused and watches, the controlling page keeps the seat');
