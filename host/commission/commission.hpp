@@ -47,8 +47,12 @@
 //      reference, and with that and a reference pre-filter (a notch at each
 //      lightly damped mode of the fit in the measured band, ζ < 0.2, the two
 //      lowest); with strong hysteresis (kStrongHysteresisSpread) also with
-//      the inverse in series after the feedback. The lowest e_max is chosen
-//      (within kPredictionTie, the one listed first).
+//      the inverse in series after the feedback, which are first designed
+//      on the stage as measured through the inverse (ThroughInverse): the
+//      first passing one closes the loop on the stage, the closed loop's
+//      response gives the stage's gain through the inverse, and each series
+//      candidate is divided by it and checked again. The lowest e_max is
+//      chosen (within kPredictionTie, the one listed first).
 //   8. verification on the stage: the chosen controller loaded, a triangle
 //      over half the range at 10 Hz (the check), the closed loop's frequency
 //      response (d at the command, 2 % of the span; its T gives the achieved
