@@ -31,7 +31,7 @@
 // one small least-squares problem per grid point. LM then runs from the
 // three best grid points and the lowest output error wins.
 //
-// Where the model starts (StartState): the model's state depends on the
+// Where the model starts (DahlStartState): the model's state depends on the
 // whole history of its path, and with alpha1 ~ 0 (the only case in which a
 // loop persists over many periods, dahl.hpp) it never forgets it: no
 // warm-up, however long, makes the start irrelevant. A record that begins
