@@ -197,6 +197,21 @@ json dead_zone_json(const d::DeadZoneMap& m) {
     return {{"thresholds", m.thresholds}, {"weights", m.weights}, {"slopes", m.slopes()}};
 }
 
+// --first-fitted: 'auto' (returned as `automatic`) or a sample index.
+std::size_t first_fitted_option(const std::string& text, std::size_t automatic) {
+    if (text == "auto") return automatic;
+    std::size_t pos = 0;
+    long long v = -1;
+    try {
+        v = std::stoll(text, &pos);
+    } catch (const std::exception&) {
+        pos = 0;
+    }
+    if (pos != text.size() || v < 0)
+        throw std::invalid_argument("first-fitted: '" + text + "' must be 'auto' or a sample index >= 0");
+    return static_cast<std::size_t>(v);
+}
+
 int run_pi(const PiArgs& a) {
     FitProgress progress("identify pi");
     const d::CsvData csv = read_data(a.data, progress);
@@ -205,21 +220,7 @@ int run_pi(const PiArgs& a) {
     d::PiFitOptions o = a.options;
     o.grid = a.grid == "shan" ? d::ThresholdGrid::kShan : d::ThresholdGrid::kUniform;
     o.fit_offset = !a.no_offset;
-    if (a.first_fitted == "auto") {
-        o.first_fitted = d::PiFitOptions::kAutoFirstFitted;
-    } else {
-        std::size_t pos = 0;
-        long long v = -1;
-        try {
-            v = std::stoll(a.first_fitted, &pos);
-        } catch (const std::exception&) {
-            pos = 0;
-        }
-        if (pos != a.first_fitted.size() || v < 0)
-            throw std::invalid_argument("first-fitted: '" + a.first_fitted +
-                                        "' must be 'auto' or a sample index >= 0");
-        o.first_fitted = static_cast<std::size_t>(v);
-    }
+    o.first_fitted = first_fitted_option(a.first_fitted, d::PiFitOptions::kAutoFirstFitted);
     o.input_name = a.data.input;
     o.output_name = a.data.output;
     o.progress = std::ref(progress);
@@ -322,6 +323,9 @@ struct DahlArgs {
     int max_evaluations = 4000;
     bool no_offset = false;
     double max_nrmse_percent = 10.0;
+    std::string first_fitted = "auto";
+    std::string start_state = "estimated";
+    double holdout = 0.0;
 };
 
 json dahl_json(const d::DahlParamsD& p) {
@@ -339,6 +343,9 @@ int run_dahl(const DahlArgs& a) {
     o.max_evaluations = a.max_evaluations;
     o.fit_offset = !a.no_offset;
     o.max_nrmse_percent = a.max_nrmse_percent;
+    o.first_fitted = first_fitted_option(a.first_fitted, d::DahlFitOptions::kAutoFirstFitted);
+    o.start_state = a.start_state == "virgin" ? d::DahlStartState::kVirgin : d::DahlStartState::kEstimated;
+    o.holdout = a.holdout;
     o.input_name = a.data.input;
     o.output_name = a.data.output;
     if (!a.start.empty()) {
@@ -358,10 +365,18 @@ int run_dahl(const DahlArgs& a) {
     out["gamma_a_held"] = true;
     out["offset_fitted"] = o.fit_offset;
     out["offset_um"] = r.offset;
+    out["first_fitted"] = r.first_fitted;
+    out["start_state"] = a.start_state;
+    out["virgin_V"] = r.virgin_V ? json(*r.virgin_V) : json(nullptr);
+    out["virgin_V_std_error"] = r.virgin_V_std_error ? json(*r.virgin_V_std_error) : json(nullptr);
     out["fit"] = {{"rms_error", r.rms_error},
                   {"max_error", r.max_error},
                   {"nrmse_percent", r.nrmse_percent},
-                  {"samples", v.size()}};
+                  {"samples", r.fitted_samples}};
+    out["validation"] = r.validation_samples > 0
+                            ? errors_json({r.validation_rms_error, r.validation_max_error, r.validation_nrmse_percent,
+                                           r.validation_samples})
+                            : json(nullptr);
     out["poor_fit"] = r.poor_fit;
     out["max_nrmse_percent"] = o.max_nrmse_percent;
     out["lm"] = {{"termination", r.termination},
@@ -369,10 +384,16 @@ int run_dahl(const DahlArgs& a) {
                  {"starts", r.starts},
                  {"jacobian_condition", r.jacobian_condition}};
     std::cout << out.dump(1) << "\n";
-    std::cerr << "identify dahl: offset " << r.offset << " (output at voltage 0 from the virgin state); NRMSE "
-              << r.nrmse_percent << " %\n";
+    const bool validated = r.validation_samples > 0;
+    std::cerr << "identify dahl: offset " << r.offset << " (output at voltage 0 from the virgin state)";
+    if (r.virgin_V) std::cerr << "; the model starts from the virgin state at " << *r.virgin_V << " V";
+    std::cerr << "; NRMSE " << r.nrmse_percent << " % on samples " << r.first_fitted << ".." << r.validated_from - 1;
+    if (validated)
+        std::cerr << ", " << r.validation_nrmse_percent << " % held out (from sample " << r.validated_from << ")";
+    std::cerr << "\n";
     if (r.poor_fit) {
-        warn_poor_fit("Dahl model", r.nrmse_percent, o.max_nrmse_percent, false);
+        warn_poor_fit("Dahl model", validated ? r.validation_nrmse_percent : r.nrmse_percent, o.max_nrmse_percent,
+                      validated);
         return kExitFailure;
     }
     return kExitOk;
@@ -391,6 +412,18 @@ void add_dahl(CLI::App* parent) {
         ->check(CLI::Range(10, 1000000))
         ->capture_default_str();
     cmd->add_flag("--no-offset", a->no_offset, "no output offset: x = the Dahl plant's output");
+    cmd->add_option("--first-fitted", a->first_fitted,
+                    "first sample in the fit: auto (the input's first turning point) or an index")
+        ->capture_default_str();
+    cmd->add_option("--start-state", a->start_state,
+                    "the model's state at the first fitted sample: estimated (from the virgin state at a fitted "
+                    "voltage, moved straight there) or virgin (from the virgin state at sample 0, the samples "
+                    "before the first fitted one running the model)")
+        ->check(CLI::IsMember({"estimated", "virgin"}))
+        ->capture_default_str();
+    cmd->add_option("--holdout", a->holdout, "fraction of the record, at its end, kept out of the fit to validate it")
+        ->check(CLI::Range(0.0, 0.9))
+        ->capture_default_str();
     cmd->add_option("--max-nrmse", a->max_nrmse_percent,
                     "NRMSE (%) above which the fit is flagged poor and the exit code is 1")
         ->check(CLI::PositiveNumber)

@@ -95,6 +95,54 @@ json candidate_json(const commission::Candidate& k) {
             {"controller", k.passes ? design::to_json(k.controller) : json()}};
 }
 
+std::string margins_text(const design::MeasuredLoop& m) {
+    return (m.phase_margin ? fmt(m.phase_margin->value, 3) + "° at " + fmt(m.phase_margin->f_Hz, 3) + " Hz" : "–") +
+           " / " + (m.gain_margin ? fmt(m.gain_margin->value, 3) + " dB" : "–") + " / " + fmt(m.max_sensitivity, 3);
+}
+
+std::string through_inverse_md(const commission::ThroughInverse& ti, const std::vector<commission::Candidate>& candidates) {
+    std::string t = "\n## Through the inverse in series (closed loop with `" + ti.probe +
+                    "`)\n\nIts check triangle on the stage: e_max " + fmt(ti.probe_measured.e_max_pct, 3) +
+                    " % (predicted " + fmt(ti.probe_predicted.e_max_pct, 3) + " %). " + ti.note + ".\n";
+    if (ti.before.empty()) return t;
+    t += "\n| candidate | PM / GM / max\\|S\\| as designed on the unit-gain model | after dividing by the measured gain |\n"
+         "|---|---|---|\n";
+    for (const auto& [name, before] : ti.before)
+        for (const auto& k : candidates)
+            if (k.name == name)
+                t += "| " + name + " | " + margins_text(before) + " | " + margins_text(k.measured) +
+                     (k.passes ? "" : " (refused: " + k.refusal + ")") + " |\n";
+    return t;
+}
+
+json through_inverse_json(const commission::ThroughInverse& ti, const std::vector<commission::Candidate>& candidates) {
+    json before = json::array();
+    for (const auto& [name, m] : ti.before) {
+        json after;
+        for (const auto& k : candidates)
+            if (k.name == name)
+                after = {{"phase_margin_deg", k.measured.phase_margin ? json(k.measured.phase_margin->value) : json()},
+                         {"gain_margin_db", k.measured.gain_margin ? json(k.measured.gain_margin->value) : json()},
+                         {"max_sensitivity", k.measured.max_sensitivity}};
+        before.push_back({{"candidate", name},
+                          {"designed_on_unit_gain",
+                           {{"phase_margin_deg", m.phase_margin ? json(m.phase_margin->value) : json()},
+                            {"gain_margin_db", m.gain_margin ? json(m.gain_margin->value) : json()},
+                            {"max_sensitivity", m.max_sensitivity}}},
+                          {"on_measured_gain", after}});
+    }
+    return {{"probe", ti.probe},
+            {"probe_measured", tracking_json(ti.probe_measured)},
+            {"probe_predicted", tracking_json(ti.probe_predicted)},
+            {"probe_max_sensitivity", ti.probe_max_sensitivity},
+            {"probe_max_sensitivity_Hz", ti.probe_max_sensitivity_Hz},
+            {"lines", ti.f_Hz.size()},
+            {"gain_magnitude", ti.gain_magnitude},
+            {"gain_phase_deg", ti.gain_phase_deg},
+            {"note", ti.note},
+            {"margins", before}};
+}
+
 std::string report_md(const CommissionSession& a, const std::string& stage, double rate_Hz,
                       const commission::Commissioning& c, const std::string& kept) {
     std::string t = "# piezoloop commission\n\n";
@@ -131,6 +179,7 @@ std::string report_md(const CommissionSession& a, const std::string& stage, doub
              " | " + (k.predicted ? fmt(k.predicted->e_max_pct, 3) + " %" : "–") + " | " +
              (static_cast<int>(i) == c.chosen ? "**chosen**" : k.passes ? "passes" : "refused: " + k.refusal) + " |\n";
     }
+    if (c.through_inverse) t += through_inverse_md(*c.through_inverse, c.candidates);
     if (c.chosen < 0) return t + "\nNo candidate passed the checks on the measurement: nothing was loaded or kept.\n";
     t += "\n## Verification on the stage (feedback alone, triangles about " + fmt(c.centre_um) +
          " µm)\n\nClosed-loop bandwidth (|T| at -3 dB) measured on the stage: " +
@@ -273,6 +322,7 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     json cands = json::array();
     for (const auto& k : c.candidates) cands.push_back(candidate_json(k));
     out["candidates"] = cands;
+    if (c.through_inverse) out["through_inverse"] = through_inverse_json(*c.through_inverse, c.candidates);
     out["chosen"] = c.chosen >= 0 ? json(c.candidates[static_cast<std::size_t>(c.chosen)].name) : json();
     out["report"] = (dir / "report.md").string();
     out["verified"] = c.verified();

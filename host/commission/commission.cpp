@@ -150,6 +150,114 @@ std::vector<design::cplx> complementary_sensitivity(const design::MeasuredLoop& 
     return t;
 }
 
+double median(std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const std::size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Step 6b (ThroughInverse in commission.hpp). The probe runs the check
+// triangle, which loads it, then the closed loop's response is measured
+// (d at the command, d_V peak) and, on the lines where 1/S - 1 is well
+// conditioned, the linearised stage over the unit-gain model is L / (G K)
+// times the fit's DC gain. The inverse is static, so the dynamics through
+// it are the measured ones (the open-loop lines) and what the measurement
+// adds is the inverse's gain as the loop drives it: each series candidate,
+// designed on the unit-gain model, is divided by the median of its
+// magnitude (the same loop shape on the measured linearised stage) and
+// checked again on the open-loop lines times the measured gain (with its
+// phase). The identified stage runs the same two runs, so that it carries
+// on as the stage does.
+void measure_through_inverse(StageAccess& stage, SimStage& identified, Commissioning& c, const ModelFit& fit,
+                             double rate_Hz, double d_V, const TrackRequest& check, double predicted_centre_um,
+                             const Say& say) {
+    int probe = -1;
+    for (std::size_t i = 0; i < c.candidates.size() && probe < 0; ++i)
+        if (c.candidates[i].series && c.candidates[i].passes) probe = static_cast<int>(i);
+    if (probe < 0) return;
+    ThroughInverse t;
+    const Candidate& p = c.candidates[static_cast<std::size_t>(probe)];
+    t.probe = p.name;
+    TrackRequest predicted_check = check;
+    predicted_check.centre_um = predicted_centre_um;
+    t.probe_predicted = identified.track(p.loaded(), predicted_check);
+    t.probe_measured = stage.track(p.loaded(), check);
+    say("through the inverse: " + p.name + " closes the loop: " + num(check.frequency_Hz) + " Hz triangle over " +
+        num(check.range_um) + " um, e_max " + num(t.probe_measured.e_max_pct) + " % (predicted " +
+        num(t.probe_predicted.e_max_pct) + " %)");
+    if (t.probe_measured.trip != "none") {
+        t.note = "the loop through the inverse tripped the limiter (" + t.probe_measured.trip +
+                 ") on its first triangle: the candidates with the inverse in series are refused";
+        for (Candidate& k : c.candidates)
+            if (k.series) {
+                k.passes = false;
+                k.refusal = "the loop through the inverse tripped the limiter on its first triangle";
+            }
+        say("through the inverse: " + t.note);
+        c.through_inverse = t;
+        return;
+    }
+    t.request = c.frf_request;
+    t.request.closed = true;
+    t.request.amplitude_V = d_V;
+    t.frf = stage.frf(t.request);
+    (void)identified.frf(t.request);
+    const measure::FrfRun& m = *t.frf;
+    const design::Zpk kd = sim::discretise(p.controller, rate_Hz, "tustin", 0.0, false, "controller");
+    const std::vector<design::cplx> kr = design::freqresp(kd, design::hz_to_rad_s(m.estimate.frequency_Hz));
+    std::vector<double> mags, phases;
+    for (std::size_t i = 0; i < m.estimate.frequency_Hz.size(); ++i) {
+        if (!(m.estimate.snr_db[i] >= 20.0) || i >= m.sensitivity.size()) continue;
+        if (std::abs(m.sensitivity[i]) > t.probe_max_sensitivity) {
+            t.probe_max_sensitivity = std::abs(m.sensitivity[i]);
+            t.probe_max_sensitivity_Hz = m.estimate.frequency_Hz[i];
+        }
+        const design::cplx l = 1.0 / m.sensitivity[i] - 1.0;
+        if (!(std::abs(l) >= 0.2 && std::abs(l) <= 5.0)) continue;
+        const design::cplx g = l / (m.estimate.response[i] * kr[i]) * fit.dc_gain_um_per_V;
+        if (!std::isfinite(g.real()) || !std::isfinite(g.imag())) continue;
+        t.f_Hz.push_back(m.estimate.frequency_Hz[i]);
+        t.gain.push_back(g);
+        mags.push_back(std::abs(g));
+        phases.push_back(std::arg(g) * 180.0 / std::numbers::pi);
+    }
+    if (t.f_Hz.size() < 3) {
+        t.note = "only " + std::to_string(t.f_Hz.size()) + " lines of the closed loop through the inverse have SNR >= "
+                 "20 dB and 0.2 <= |L| <= 5: the series candidates stay designed on the unit-gain model";
+        say("through the inverse: " + t.note);
+        c.through_inverse = t;
+        return;
+    }
+    t.gain_magnitude = median(mags);
+    t.gain_phase_deg = median(phases);
+    const auto [lo, hi] = std::minmax_element(mags.begin(), mags.end());
+    t.note = "the probe's loop has max|S| " + num(t.probe_max_sensitivity) + " at " + num(t.probe_max_sensitivity_Hz) +
+             " Hz as measured; the stage through the inverse has " + num(t.gain_magnitude) + "x the unit-gain model's gain (" +
+             num(*lo) + " .. " + num(*hi) + " on " + std::to_string(t.f_Hz.size()) + " lines, " +
+             num(t.f_Hz.front()) + " .. " + num(t.f_Hz.back()) + " Hz; median phase " + num(t.gain_phase_deg) +
+             " deg): the series candidates' gains are divided by " + num(t.gain_magnitude);
+    say("through the inverse: " + t.note);
+    // The open-loop lines as the loop sees them through the inverse.
+    measure::FrfRun through = c.frf;
+    const design::cplx kappa = std::polar(t.gain_magnitude, t.gain_phase_deg * std::numbers::pi / 180.0);
+    for (design::cplx& g : through.estimate.response) g *= kappa / fit.dc_gain_um_per_V;
+    for (Candidate& k : c.candidates) {
+        if (!k.series || !k.passes) continue;
+        const design::Zpk kd_before = sim::discretise(k.controller, rate_Hz, "tustin", 0.0, false, "controller");
+        t.before.emplace_back(k.name, design::measured_loop(through.estimate.frequency_Hz, through.estimate.response, kd_before));
+        k.controller.gain /= t.gain_magnitude;
+        k.method += "; its gain divided by " + num(t.gain_magnitude) + ", the stage's gain through the inverse as measured";
+        check_on_measurement(k, through, rate_Hz);
+        const design::MeasuredLoop& b = t.before.back().second;
+        say(k.name + " through the inverse: PM " +
+            (b.phase_margin ? num(b.phase_margin->value) : std::string("-")) + " deg, max|S| " + num(b.max_sensitivity) +
+            " as designed on the unit-gain model; PM " +
+            (k.measured.phase_margin ? num(k.measured.phase_margin->value) : std::string("-")) + " deg, max|S| " +
+            num(k.measured.max_sensitivity) + " on the measured gain");
+    }
+    c.through_inverse = t;
+}
+
 // The hysteresis and the travel: one loop over the whole command span (the
 // large signal: a strongly hysteretic stage moves much further than its
 // small-signal slope says), a monotone PI fit. A loop that reaches the
@@ -601,11 +709,21 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         }
     }
 
-    // 7. Predicted tracking of the passing ones; the best is chosen.
-    // Each from the same state of the identified stage (at rest), so that
-    // the order of the candidates does not matter.
-    const TrackRequest check{10.0, 0.5 * r.range_um, predicted_centre_um};
+    // 6b. With the inverse in series: the stage as the loop sees it through
+    // the inverse, measured, and the series candidates designed on it. The
+    // identified stage runs the same two runs (its state after them is
+    // where its verification starts).
     const sim::CarriedStage at_rest = identified.state();
+    measure_through_inverse(stage, identified, c, fit, loop.rate_Hz, 0.02 * span,
+                            {10.0, 0.5 * r.range_um, c.centre_um}, predicted_centre_um, note);
+    const sim::CarriedStage before_verification = identified.state();
+
+    // 7. Predicted tracking of the passing ones; the best is chosen.
+    // Each from the same state of the identified stage (at rest after the
+    // frequency response, whether a loop through the inverse ran after it
+    // or not), so that neither the order of the candidates nor that run
+    // changes the choice.
+    const TrackRequest check{10.0, 0.5 * r.range_um, predicted_centre_um};
     for (std::size_t i = 0; i < c.candidates.size(); ++i) {
         Candidate& k = c.candidates[i];
         say(c, k.name + ": " + (k.passes ? "passes the measured checks" : "refused: " + k.refusal));
@@ -660,7 +778,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         }
         c.verification.push_back(v);
     };
-    identified.set_state(at_rest);
+    identified.set_state(before_verification);
     verify({10.0, 0.5 * r.range_um, c.centre_um});
 
     // The closed loop's response on the stage: d at the command, 2 % of the

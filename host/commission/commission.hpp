@@ -47,8 +47,12 @@
 //      reference, and with that and a reference pre-filter (a notch at each
 //      lightly damped mode of the fit in the measured band, ζ < 0.2, the two
 //      lowest); with strong hysteresis (kStrongHysteresisSpread) also with
-//      the inverse in series after the feedback. The lowest e_max is chosen
-//      (within kPredictionTie, the one listed first).
+//      the inverse in series after the feedback, which are first designed
+//      on the stage as measured through the inverse (ThroughInverse): the
+//      first passing one closes the loop on the stage, the closed loop's
+//      response gives the stage's gain through the inverse, and each series
+//      candidate is divided by it and checked again. The lowest e_max is
+//      chosen (within kPredictionTie, the one listed first).
 //   8. verification on the stage: the chosen controller loaded, a triangle
 //      over half the range at 10 Hz (the check), the closed loop's frequency
 //      response (d at the command, 2 % of the span; its T gives the achieved
@@ -136,6 +140,31 @@ struct Verification {
     TrackingRun predicted, measured;
 };
 
+// The stage as the loop sees it through the inverse in series (strong
+// hysteresis; commission.cpp, step 6b). The core runs the inverse in series
+// only after a feedback, so the response through it is measured in closed
+// loop, with the first passing series candidate (the probe) closing it:
+// with d at the command, S = U / D and L = 1/S - 1 = G P^-1' K, where G =
+// Y / U is the same run's plant and P^-1' the inverse's gain as the loop
+// drives it. gain = L / (G K) times the open-loop fit's DC gain is the
+// linearised stage over the unit-gain model the candidates were designed
+// on: 1 when the fitted inverse undoes the stage's slope exactly.
+struct ThroughInverse {
+    std::string probe;                            // the candidate that closed the loop
+    TrackingRun probe_measured, probe_predicted;  // its check triangle (loads it), on the stage and predicted
+    measure::FrfRequest request;
+    std::optional<measure::FrfRun> frf;           // the closed loop through the inverse
+    double probe_max_sensitivity = 0.0, probe_max_sensitivity_Hz = 0.0;  // max |S| measured (SNR >= 20 dB)
+    std::vector<double> f_Hz;                     // the lines used: SNR >= 20 dB and 0.2 <= |L| <= 5
+    std::vector<design::cplx> gain;               // on those lines
+    double gain_magnitude = 1.0, gain_phase_deg = 0.0;  // their medians
+    std::string note;                             // what was done, or why nothing was
+    // Each series candidate's loop on the lines through the inverse as it
+    // was designed (on the unit-gain model), before its gain is divided by
+    // gain_magnitude; the candidate's `measured` is after.
+    std::vector<std::pair<std::string, design::MeasuredLoop>> before;
+};
+
 struct Commissioning {
     std::vector<SafetyStep> safety;
     double gain_um_per_V = 0.0;
@@ -159,6 +188,7 @@ struct Commissioning {
     double target_bandwidth_Hz = 0.0;
     double centre_um = 0.0;      // the displacement at mid-span: every triangle's centre
     IdentifiedStage identified;
+    std::optional<ThroughInverse> through_inverse;  // strong hysteresis with a passing series candidate
     std::vector<Candidate> candidates;
     int chosen = -1;             // index into candidates; -1: none passes
     double bandwidth_Hz = 0.0;   // the chosen loop's: |T| = |L / (1 + L)| falls below -3 dB on the open-loop lines

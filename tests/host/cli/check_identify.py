@@ -238,6 +238,32 @@ if out:
     check("dahl offset", out["offset_fitted"] is True and abs(out["offset_um"]) < 1e-6 and out["poor_fit"] is False,
           str(out["offset_um"]))
 
+# The real recording starts mid-loop (1.8 V, after a rest at 0 V): the
+# default fit starts at the first turning point with the model's start
+# estimated (the virgin state at a fitted voltage). Figures on 2026-11-27:
+# 2.52 % fitted, 2.69 % held out, offset -119.22 um against the authors'
+# -118.90 um, virgin at -0.19 V; from the virgin state at the first sample
+# the fit is refused (alpha2's standard error), as it was before.
+if os.path.exists(os.path.join(real, "Model_Vi_Do.dat")):
+    res = run("identify", "dahl", "--data", dat, "--columns", "v=1,x=5", "--holdout", "0.25")
+    out = ok_json("dahl real recording", res)
+    if out:
+        # Held-out NRMSE within 3 % (the PI model's is 2.5 %); the offset as
+        # for identify pi within 1 % of the authors'; the start at the rest
+        # before the record (0 V) within 0.5 V, 14 % of the command span.
+        check("dahl real held-out NRMSE <= 3 %", out["validation"]["nrmse_percent"] <= 3.0 and not out["poor_fit"],
+              json.dumps(out["validation"]))
+        check("dahl real offset within 1 %", abs(out["offset_um"] - reference) <= 0.01 * abs(reference),
+              f'{out["offset_um"]} vs {reference}')
+        check("dahl real start", out["first_fitted"] == 50 and abs(out["virgin_V"]) <= 0.5, json.dumps(out["virgin_V"]))
+        print(f'     real recording, Dahl: fit {out["fit"]["nrmse_percent"]:.2f} %, held out '
+              f'{out["validation"]["nrmse_percent"]:.2f} %, offset {out["offset_um"]:.3f} um, virgin at '
+              f'{out["virgin_V"]:.3f} V')
+    expect_error("dahl real from the virgin state",
+                 run("identify", "dahl", "--data", dat, "--columns", "v=1,x=5", "--first-fitted", "0",
+                     "--start-state", "virgin"),
+                 "v: the data cannot identify the Dahl parameters", "start_state estimated")
+
 # ------------------------------------------------------------------ reduce
 b = json.load(open(f"{golden_dir}/ident_balred.json"))
 hsv_ref = b["cases"][0]["hsv"]  # Janaideh2016 D(s)
@@ -288,6 +314,14 @@ expect_error("operators range", run("identify", "pi", "--data", set15_csv, "--op
 expect_error("dahl start", run("identify", "dahl", "--data", dahl_csv, "--input", "v_V", "--output", "x_um",
                                "--start", "1,2,3"), "start: needs 5 values")
 expect_error("dahl columns", run("identify", "dahl", "--data", dahl_csv), "v: no such column")
+expect_error("dahl first-fitted", run("identify", "dahl", "--data", dahl_csv, "--input", "v_V", "--output", "x_um",
+                                      "--first-fitted", "soon"), "first-fitted")
+expect_error("dahl holdout range", run("identify", "dahl", "--data", dahl_csv, "--input", "v_V", "--output", "x_um",
+                                        "--holdout", "0.95"), "--holdout")
+expect_error("dahl start state", run("identify", "dahl", "--data", dahl_csv, "--input", "v_V", "--output", "x_um",
+                                      "--start-state", "rest"), "--start-state")
+expect_error("dahl first-fitted beyond", run("identify", "dahl", "--data", dahl_csv, "--input", "v_V", "--output",
+                                             "x_um", "--first-fitted", "100000"), "first_fitted: 100000 is not below")
 expect_error("columns syntax", run("identify", "pi", "--data", off_csv, "--columns", "u=0,y=2"), "columns: 'u=0'")
 expect_error("columns twice", run("identify", "pi", "--data", off_csv, "--columns", "u=1,u=2"), "named twice")
 expect_error("first-fitted", run("identify", "pi", "--data", off_csv, "--first-fitted", "soon"), "first-fitted")
