@@ -81,9 +81,12 @@ for name, args in [
                      "--out", os.path.join(tmp, "xyz_frf.json")]),
         ("measure", ["measure", "step", "--scenario", xyz, "--step-v", "1", "--out", os.path.join(tmp, "xyz_step.json")]),
         ("measure", ["measure", "loops", "--scenario", xyz, "--amplitudes-v", "1,2", "--out", os.path.join(tmp, "xyz.csv")]),
-        ("commission", ["commission", "--scenario", xyz, "--range-um", "10", "--out", os.path.join(tmp, "xyz_commission")]),
         ("emulate", ["emulate", "--scenario", xyz, "--board", "qemu-m7"])]:
     expect(f"multi-axis scenario ({' '.join(args[:2])})", args, 2, f"multi-axis scenario: {name} {multi}")
+# commission on a stage of axes commissions them all (--axes), and says so.
+expect("multi-axis scenario (commission without --axes)",
+       ["commission", "--scenario", xyz, "--range-um", "10", "--out", os.path.join(tmp, "xyz_commission")], 2,
+       "--axes: the scenario's stage has coupled axes; commission them with --axes x,y,z")
 # measure frf --mimo: what it cannot measure, refused before anything runs.
 mimo = ["measure", "frf", "--mimo", "--from-hz", "20", "--to-hz", "2000", "--out", os.path.join(tmp, "xyz_mimo.csv")]
 for why, args, needle in [
