@@ -1,6 +1,5 @@
 #include "ui/frf_job.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 
@@ -191,16 +190,7 @@ FrfForm parse_frf_form(const json& j) {
 
 FieldRefusal form_refusal(const std::string& plan_message) { return renamed_refusal(plan_message, kOptionFields); }
 
-FrfJob::~FrfJob() { shutdown(); }
-
-void FrfJob::shutdown() {
-    stop_ = true;
-    if (worker_.joinable()) worker_.join();
-}
-
 json FrfJob::start(const json& form) {
-    const std::lock_guard lock(start_m_);  // one start at a time (a double click)
-    if (running_) throw BoardBusy("a frequency response measurement is running: stop it first");
     const FrfForm f = parse_frf_form(form);
     try {
         (void)board_.plan_frf(f.request);
@@ -209,96 +199,40 @@ json FrfJob::start(const json& form) {
     } catch (const std::invalid_argument& e) {
         throw form_refusal(e.what());
     }
-    if (worker_.joinable()) worker_.join();
-    running_ = true;
-    stop_ = false;
-    {
-        const std::lock_guard l(m_);
-        progress_["request"] = form;
-    }
-    set_progress("running", "starting", 0.0);
-    worker_ = std::thread([this, f, form] { run(f, form); });
-    return progress_json();
-}
-
-void FrfJob::set_progress(const std::string& state, const std::string& phase, double fraction) {
-    {
-        const std::lock_guard lock(m_);
-        progress_["state"] = state;
-        progress_["phase"] = phase;
-        progress_["fraction"] = fraction;
-        if (state == "running" && phase == "starting") progress_.erase("error");
-    }
-    ++progress_serial_;
-}
-
-void FrfJob::run(FrfForm f, json request) {
-    hostlink::MeasureOptions o;
-    o.restart_stage = f.restart_stage;
-    o.stop_requested = [this] { return stop_.load(); };
-    auto last = std::chrono::steady_clock::now() - std::chrono::seconds(1);
-    o.progress = [&](double x) {
-        // At most ten reports a second; the end of the recording always.
-        const auto now = std::chrono::steady_clock::now();
-        if (x < 1.0 && now - last < std::chrono::milliseconds(100)) return;
-        last = now;
-        set_progress("running", x < 1.0 ? "recording" : "estimating", x);
-    };
-    auto fail = [&](const std::string& state, const std::string& field, const std::string& message) {
-        {
-            const std::lock_guard lock(m_);
-            progress_["error"] = {{"field", field}, {"message", message}};
+    return job_.start(form, [this, f, form](const MeasurementJob::Context& c) {
+        hostlink::MeasureOptions o;
+        o.restart_stage = f.restart_stage;
+        o.stop_requested = c.stop_requested;
+        o.progress = [&](double x) { c.report(x < 1.0 ? "recording" : "estimating", x); };
+        try {
+            const double rate_Hz = board_.history().rate_Hz();
+            const hostlink::DeviceFrfRun d = board_.measure_frf(f.request, o);
+            if (f.fit_poles > 0) c.report("fitting", 1.0);
+            return result_json_of(f, form, d, rate_Hz);
+        } catch (const hostlink::DeviceError& e) {
+            // The restart flag is the form's restart_stage.
+            if (e.field() == "flags" && f.restart_stage)
+                throw FieldRefusal("restart_stage", std::string("the board refused: ") + e.what());
+            throw;
+        } catch (const std::invalid_argument& e) {
+            throw form_refusal(e.what());
         }
-        set_progress(state, "", 0.0);
-    };
-    try {
-        const double rate_Hz = board_.history().rate_Hz();
-        const hostlink::DeviceFrfRun d = board_.measure_frf(f.request, o);
-        if (f.fit_poles > 0) set_progress("running", "fitting", 1.0);
-        json result = result_json_of(f, request, d, rate_Hz);
-        {
-            const std::lock_guard lock(m_);
-            result_ = std::move(result);
-        }
-        ++result_serial_;
-        set_progress("done", "", 1.0);
-    } catch (const hostlink::DeviceError& e) {
-        const std::string field = e.field() == "flags" && f.restart_stage ? "restart_stage" : "";
-        fail("failed", field, std::string("the board refused: ") + e.what());
-    } catch (const std::invalid_argument& e) {
-        const FieldRefusal r = form_refusal(e.what());
-        fail("failed", r.field, r.what());
-    } catch (const std::exception& e) {
-        if (stop_) fail("stopped", "", "stopped before the end: the board's groups were put back, the loop left disarmed");
-        else fail("failed", "", e.what());
-    }
-    running_ = false;
-    ++progress_serial_;
-}
-
-json FrfJob::progress_json() const {
-    const std::lock_guard lock(m_);
-    return progress_;
-}
-
-json FrfJob::result_json() const {
-    const std::lock_guard lock(m_);
-    return result_;
+    });
 }
 
 std::string FrfJob::result_csv() const {
-    const std::lock_guard lock(m_);
-    if (result_.is_null()) return "";
-    const bool fit = result_.contains("fit") && result_["fit"].contains("magnitude_dB");
+    const json result = job_.result_json();
+    if (result.is_null()) return "";
+    const bool fit = result.contains("fit") && result["fit"].contains("magnitude_dB");
     std::string out = "frequency_Hz,magnitude_dB,phase_deg,std_dB,re_um_per_V,im_um_per_V";
     if (fit) out += ",fit_magnitude_dB,fit_phase_deg";
     out += "\n";
     auto cell = [](const json& v) { return v.is_number() ? g17(v.get<double>()) : std::string(); };
-    for (std::size_t i = 0; i < result_["frequency_Hz"].size(); ++i) {
-        out += cell(result_["frequency_Hz"][i]) + "," + cell(result_["magnitude_dB"][i]) + "," +
-               cell(result_["phase_deg"][i]) + "," + cell(result_["std_dB"][i]) + "," + cell(result_["response"][i][0]) +
-               "," + cell(result_["response"][i][1]);
-        if (fit) out += "," + cell(result_["fit"]["magnitude_dB"][i]) + "," + cell(result_["fit"]["phase_deg"][i]);
+    for (std::size_t i = 0; i < result["frequency_Hz"].size(); ++i) {
+        out += cell(result["frequency_Hz"][i]) + "," + cell(result["magnitude_dB"][i]) + "," +
+               cell(result["phase_deg"][i]) + "," + cell(result["std_dB"][i]) + "," + cell(result["response"][i][0]) +
+               "," + cell(result["response"][i][1]);
+        if (fit) out += "," + cell(result["fit"]["magnitude_dB"][i]) + "," + cell(result["fit"]["phase_deg"][i]);
         out += "\n";
     }
     return out;

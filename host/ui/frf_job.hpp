@@ -7,19 +7,17 @@
 // measure/tf_fit (Sanathanan–Koerner, `identify tf --order N/M`).
 #pragma once
 
-#include <atomic>
 #include <complex>
-#include <vector>
-#include <mutex>
-#include <stdexcept>
+#include <cstdint>
 #include <string>
-#include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "measure/frf_plan.hpp"
 #include "ui/board_session.hpp"
 #include "ui/field_refusal.hpp"
+#include "ui/measurement_job.hpp"
 
 namespace piezoloop::ui {
 
@@ -44,39 +42,26 @@ FieldRefusal form_refusal(const std::string& plan_message);
 class FrfJob {
 public:
     explicit FrfJob(BoardSession& board) : board_(board) {}
-    ~FrfJob();
-    FrfJob(const FrfJob&) = delete;
-    FrfJob& operator=(const FrfJob&) = delete;
 
     // Checks and plans the request before anything moves (FieldRefusal),
     // then starts it; BoardBusy while one runs.
     nlohmann::json start(const nlohmann::json& form);
-    void request_stop() { stop_ = true; }
-    void shutdown();  // stops a running measurement and waits for it
+    void request_stop() { job_.request_stop(); }
+    void shutdown() { job_.shutdown(); }  // stops a running measurement and waits for it
 
-    // {state: idle|running|done|failed|stopped, phase, fraction, request,
-    //  error: {field, message}}: small, sent at every change.
-    nlohmann::json progress_json() const;
-    uint64_t progress_serial() const { return progress_serial_.load(); }
-    // The last result (null before the first).
-    nlohmann::json result_json() const;
-    uint64_t result_serial() const { return result_serial_.load(); }
+    // As MeasurementJob's: {state, phase, fraction, request, log, error},
+    // sent at every change, and the last result (null before the first).
+    nlohmann::json progress_json() const { return job_.progress_json(); }
+    uint64_t progress_serial() const { return job_.progress_serial(); }
+    nlohmann::json result_json() const { return job_.result_json(); }
+    uint64_t result_serial() const { return job_.result_serial(); }
     // The result's lines as CSV (frequency_Hz, magnitude_dB, phase_deg,
     // std_dB, re, im, and the fit's magnitude and phase); "" before the first.
     std::string result_csv() const;
 
 private:
-    void run(FrfForm form, nlohmann::json request);
-    void set_progress(const std::string& state, const std::string& phase, double fraction);
-
     BoardSession& board_;
-    std::thread worker_;
-    std::atomic<bool> running_{false}, stop_{false};
-    std::mutex start_m_;
-    mutable std::mutex m_;
-    nlohmann::json progress_ = {{"state", "idle"}};
-    nlohmann::json result_;
-    std::atomic<uint64_t> progress_serial_{1}, result_serial_{1};
+    MeasurementJob job_{"a frequency response measurement"};
 };
 
 }  // namespace piezoloop::ui
