@@ -323,25 +323,29 @@ constexpr void describe(V& v, G& g) {
             g.on_client_loss);
 }
 
+// Every element of the matrices travels (and is shown in JSON): the arrays'
+// element counts are constants, not fields.
 template <class V, GroupRef<InputMatrixParams> G>
 constexpr void describe(V& v, G& g) {
-    v.count(u8("axis_count", "the board's axis count (hello)").range(1, kMaxGroupAxes).limit_critical(), g.axis_count);
+    std::size_t gains = kMaxGroupAxes * kMaxGroupAxes, offsets = kMaxGroupAxes;
+    v.value(u8("axis_count", "the board's axis count (hello)").range(1, kMaxGroupAxes).limit_critical(), g.axis_count);
     v.values(f32("gain", "1",
                  "y_axis = gain * reading + offset_um; row-major 3x3, |element| <= 16, condition number <= 1000")
                  .limit_critical(),
-             g.gain, g.axis_count, Travel::kAll);
-    v.values(f32("offset_um", "um", "axis offsets, |offset| <= 1000 um").limit_critical(), g.offset_um, g.axis_count,
+             g.gain, gains, Travel::kAll);
+    v.values(f32("offset_um", "um", "axis offsets, |offset| <= 1000 um").limit_critical(), g.offset_um, offsets,
              Travel::kAll);
 }
 
 template <class V, GroupRef<OutputMatrixParams> G>
 constexpr void describe(V& v, G& g) {
-    v.count(u8("axis_count", "the board's axis count (hello)").range(1, kMaxGroupAxes).limit_critical(), g.axis_count);
+    std::size_t gains = kMaxGroupAxes * kMaxGroupAxes;
+    v.value(u8("axis_count", "the board's axis count (hello)").range(1, kMaxGroupAxes).limit_critical(), g.axis_count);
     v.values(f32("gain", "1",
                  "u_channel = gain * u_axis, then the channel limits; row-major 3x3, |element| <= 16, condition "
                  "number <= 1000")
                  .limit_critical(),
-             g.gain, g.axis_count, Travel::kAll);
+             g.gain, gains, Travel::kAll);
 }
 
 // ---- dispatch by group id ------------------------------------------------------
