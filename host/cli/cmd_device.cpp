@@ -50,24 +50,57 @@ json read_json_arg(const std::string& arg) {
     }
 }
 
-json get_group(Client& c, link::ParamGroup g) {
+json get_group(Client& c, link::ParamGroup g, uint8_t axis = 0) {
     json out;
-    params::with_group(g, [&](auto tag) { out = hostlink::to_json(c.get<typename decltype(tag)::type>()); });
+    params::with_group(g, [&](auto tag) { out = hostlink::to_json(c.get<typename decltype(tag)::type>(axis)); });
+    return out;
+}
+
+// A group of the --axis (kAllAxes: {"x": ..., "y": ...}); a board group
+// (recorder, link, matrices) as it is.
+json get_group_of(Client& c, link::ParamGroup g, int axis) {
+    if (axis != kAllAxes || link::board_group(g)) return get_group(c, g, static_cast<uint8_t>(axis < 0 ? 0 : axis));
+    json out;
+    for (int a = 0; a < c.axis_count(); ++a) out[axis_name(a)] = get_group(c, g, static_cast<uint8_t>(a));
     return out;
 }
 
 // Merges j onto the board's group and sends it unless nothing changed (an
 // unconfigured recorder read back by `get all` cannot be sent as it is).
 template <class G>
-void merge_and_set(Client& c, const json& j) {
-    const G current = c.get<G>();
+void merge_and_set(Client& c, const json& j, uint8_t axis) {
+    const G current = c.get<G>(axis);
     G g = current;
     hostlink::merge_json(j, g);
-    if (!(g == current)) c.set(g);
+    if (!(g == current)) c.set(g, axis);
 }
 
-void set_group(Client& c, link::ParamGroup g, const json& j) {
-    params::with_group(g, [&](auto tag) { merge_and_set<typename decltype(tag)::type>(c, j); });
+void set_group(Client& c, link::ParamGroup g, const json& j, uint8_t axis) {
+    params::with_group(g, [&](auto tag) { merge_and_set<typename decltype(tag)::type>(c, j, axis); });
+}
+
+// The --axis option of the device commands.
+void add_axis_option(CLI::App* cmd, std::string& axis, bool all) {
+    cmd->add_option("--axis", axis,
+                    all ? "x | y | z | all (default: the only axis; required on a multi-axis board)"
+                        : "x | y | z (default: the only axis; required on a multi-axis board)");
+}
+
+// One axis's entries of the status (its axes block).
+json axis_status(const link::StatusReply& st, int a) {
+    return {{"axis", axis_name(a)},
+            {"armed", st.axis_armed[a]},
+            {"tripped", st.axis_tripped[a]},
+            {"trip_reason", trip_reason_name(static_cast<TripReason>(st.axis_trip_reason[a]))},
+            {"wave_running", st.axis_wave_running[a]},
+            {"excitation_running", st.axis_excitation_running[a]},
+            {"swaps", st.axis_swaps[a]},
+            {"r_um", st.axis_r_um[a]},
+            {"y_um", st.axis_y_um[a]},
+            {"u_V", st.axis_u_V[a]},
+            {"channel_u_V", st.channel_u_V[a]},
+            {"channel_clamped", st.channel_clamped[a]},
+            {"channel_slew_limited", st.channel_slew_limited[a]}};
 }
 
 // Groups in the order a session sends them: limits first (the limiter is
@@ -75,41 +108,59 @@ void set_group(Client& c, link::ParamGroup g, const json& j) {
 const link::ParamGroup kGroupOrder[] = {link::ParamGroup::kLimits, link::ParamGroup::kFeedforward,
                                         link::ParamGroup::kFeedback, link::ParamGroup::kRepetitive,
                                         link::ParamGroup::kTrajectory, link::ParamGroup::kRecorder,
-                                        link::ParamGroup::kLink};
+                                        link::ParamGroup::kLink, link::ParamGroup::kInputMatrix,
+                                        link::ParamGroup::kOutputMatrix};
 
 // ---- status / get / set -------------------------------------------------------
 
 void add_status(CLI::App& app) {
+    auto axis = std::make_shared<std::string>();
     CLI::App* cmd = app.add_subcommand("status", "Board identity, limits and live status as JSON (needs --device)");
-    cmd->callback([] {
-        guarded([] {
+    add_axis_option(cmd, *axis, true);
+    cmd->callback([axis] {
+        guarded([&] {
             Client c = open_device();
-            print({{"device", c.address()}, {"hello", hostlink::to_json(c.info())}, {"status", hostlink::to_json(c.status())}});
+            const int a = resolve_axis(*axis, c.axis_count(), true);
+            const link::StatusReply st = c.status();
+            json out = {{"device", c.address()}, {"hello", hostlink::to_json(c.info())}, {"status", hostlink::to_json(st)}};
+            if (a == kAllAxes) {
+                out["axes"] = json::array();
+                for (int i = 0; i < c.axis_count(); ++i) out["axes"].push_back(axis_status(st, i));
+            } else if (c.axis_count() > 1 || !axis->empty()) {
+                out["axis"] = axis_status(st, a);
+            }
+            print(out);
         });
     });
 }
 
 void add_get(CLI::App& app) {
     auto group = std::make_shared<std::string>();
+    auto axis = std::make_shared<std::string>();
     CLI::App* cmd = app.add_subcommand("get", "Read a parameter group (or all) from the board as JSON (needs --device)");
-    cmd->add_option("group", *group, "feedforward | feedback | rc | limits | trajectory | recorder | all")->required();
-    cmd->callback([group] {
+    cmd->add_option("group", *group,
+                    "feedforward | feedback | rc | limits | trajectory | recorder | link | input_matrix | "
+                    "output_matrix | all")
+        ->required();
+    add_axis_option(cmd, *axis, true);
+    cmd->callback([group, axis] {
         guarded([&] {
             if (*group != "all") (void)hostlink::parse_group(*group);
             Client c = open_device();
+            const int a = resolve_axis(*axis, c.axis_count(), true);
             if (*group == "all") {
                 json out;
-                for (const link::ParamGroup g : kGroupOrder) out[link::group_name(g)] = get_group(c, g);
+                for (const link::ParamGroup g : kGroupOrder) out[link::group_name(g)] = get_group_of(c, g, a);
                 print(out);
             } else {
-                print(get_group(c, hostlink::parse_group(*group)));
+                print(get_group_of(c, hostlink::parse_group(*group), a));
             }
         });
     });
 }
 
 struct SetArgs {
-    std::string group, json_arg, scenario, case_name;
+    std::string group, json_arg, scenario, case_name, axis;
     double frequency_Hz = 0.0;
 };
 
@@ -129,9 +180,11 @@ void add_set(CLI::App& app) {
     cmd->add_option("--case", a->case_name, "case of the scenario");
     cmd->add_option("--frequency-hz", a->frequency_Hz, "reference frequency (RC period \"auto\")")
         ->check(CLI::Range(1e-6, 1e6));
+    add_axis_option(cmd, a->axis, false);
     cmd->callback([a] {
         guarded([&] {
             if (!a->scenario.empty()) {
+                if (!a->axis.empty()) throw std::invalid_argument("--axis: not with --scenario (it sets the case's axes)");
                 if (a->case_name.empty()) throw std::invalid_argument("--scenario needs --case");
                 if (!a->json_arg.empty() || !a->group.empty())
                     throw std::invalid_argument("give either GROUP --json or --scenario --case, not both");
@@ -153,10 +206,15 @@ void add_set(CLI::App& app) {
                 todo.emplace_back(hostlink::parse_group(a->group), j);
             }
             Client c = open_device();
+            // Board groups alone need no axis.
+            bool board_only = true;
+            for (const auto& [g, v] : todo) board_only = board_only && link::board_group(g);
+            const auto axis = static_cast<uint8_t>(board_only && a->axis.empty() ? 0 : resolve_axis(a->axis, c.axis_count(), false));
             json out = {{"device", c.address()}, {"set", json::object()}};
+            if (c.axis_count() > 1 && !board_only) out["axis"] = axis_name(axis);
             for (const auto& [g, v] : todo) {
-                set_group(c, g, v);
-                out["set"][link::group_name(g)] = get_group(c, g);
+                set_group(c, g, v, axis);
+                out["set"][link::group_name(g)] = get_group(c, g, axis);
             }
             print(out);
         });
@@ -257,10 +315,12 @@ void add_wave(CLI::App& app) {
     struct Args {
         WaveRequest w;
         bool no_start = false, stop = false, arm = false;
+        std::string axis;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand("wave", "Set the board's reference wave and start it (needs --device)");
     add_wave_options(cmd, a->w, false);
+    add_axis_option(cmd, a->axis, false);
     cmd->add_flag("--no-start", a->no_start, "only set the trajectory group");
     cmd->add_flag("--arm", a->arm, "arm the loop at the wave's first tick (it must be disarmed)");
     cmd->add_flag("--stop", a->stop, "stop the running wave (the setpoint holds)");
@@ -268,21 +328,24 @@ void add_wave(CLI::App& app) {
         guarded([&] {
             if (!a->stop) check_wave_request(a->w);  // before the board is contacted
             Client c = open_device();
+            const auto axis = static_cast<uint8_t>(resolve_axis(a->axis, c.axis_count(), false));
             if (a->stop) {
-                c.stop_wave();
-                print({{"device", c.address()}, {"wave_running", c.status().wave_running}});
+                c.stop_wave(axis);
+                print({{"device", c.address()}, {"wave_running", c.status().axis_wave_running[axis]}});
                 return;
             }
             const link::TrajectoryParams p = wave_params(a->w, c.info().loop_rate_Hz);
-            c.set(p);
+            c.set(p, axis);
             if (!a->no_start) {
-                if (c.status().wave_running) c.stop_wave();
+                if (c.status().axis_wave_running[axis]) c.stop_wave(axis);
                 // A wave started from the command line runs on after it exits.
-                c.start_wave(hostlink::wave_flag::kDetached | (a->arm ? hostlink::wave_flag::kArm : 0));
+                c.start_wave(hostlink::wave_flag::kDetached | (a->arm ? hostlink::wave_flag::kArm : 0), axis);
             }
             const link::StatusReply st = c.status();
-            print({{"device", c.address()}, {"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>())},
-                   {"wave_running", st.wave_running}, {"armed", st.armed}});
+            json out = {{"device", c.address()}, {"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>(axis))},
+                        {"wave_running", st.axis_wave_running[axis]}, {"armed", st.axis_armed[axis]}};
+            if (c.axis_count() > 1) out["axis"] = axis_name(axis);
+            print(out);
         });
     });
 }
@@ -311,7 +374,7 @@ std::vector<float> generate_setpoints(const link::TrajectoryParams& p, double ra
 
 void add_stream(CLI::App& app) {
     struct Args {
-        std::string file, column;
+        std::string file, column, axis;
         WaveRequest w;
         double duration_s = 0.0;
         std::optional<double> prefill;
@@ -326,6 +389,7 @@ void add_stream(CLI::App& app) {
     cmd->add_option("--duration-s", a->duration_s, "length of a generated stream")->check(CLI::Range(1e-6, 1e5));
     cmd->add_option("--prefill", a->prefill,
                     "setpoints buffered before the tick consumes, 0 to 32768 (default: the FIFO, or all)");
+    add_axis_option(cmd, a->axis, false);
     cmd->callback([a] {
         guarded([&] {
             if (a->file.empty() == !(a->w.amplitude_um > 0.0))
@@ -336,11 +400,12 @@ void add_stream(CLI::App& app) {
             std::vector<float> sp;
             if (!a->file.empty()) sp = hostlink::read_setpoints_csv(a->file, a->column);
             Client c = open_device(5000);
+            const auto axis = static_cast<uint8_t>(resolve_axis(a->axis, c.axis_count(), false));
             const double rate = c.info().loop_rate_Hz;
             if (sp.empty()) sp = generate_setpoints(wave_params(a->w, rate), rate, a->duration_s);
             const uint16_t prefill = options::stream_prefill(a->prefill, c.info().setpoint_capacity, sp.size());
             ProgressBar bar("stream");
-            const hostlink::StreamResult r = c.stream(sp, prefill, [&](double f) { bar.update(f); });
+            const hostlink::StreamResult r = c.stream(sp, prefill, [&](double f) { bar.update(f); }, axis);
             bar.done();
             print({{"device", c.address()},
                    {"setpoints", sp.size()},
@@ -365,7 +430,7 @@ struct RecordArgs {
     double duration_s = 0.0;
     uint32_t decimation = 1;
     bool start_wave = false, restart_stage = false;
-    std::string out, plot;
+    std::string out, plot, axis;
     WaveRequest w;
     bool wave_given = false;
     double stall_s = 5.0;
@@ -386,6 +451,7 @@ int run_record(const RecordArgs& a) {
     o.out_csv = a.out;
 
     Client c = open_device(5000);
+    o.axis = static_cast<uint8_t>(resolve_axis(a.axis, c.axis_count(), false));
     if (a.wave_given) o.wave = wave_params(a.w, c.info().loop_rate_Hz);
     ProgressBar bar("record");
     o.progress = [&](double f) { bar.update(f); };
@@ -423,6 +489,7 @@ void add_record(CLI::App& app) {
     cmd->add_option("--out", a->out, "CSV file: t_s and one column per signal with its unit");
     cmd->add_option("--plot", a->plot, "draw r, y, e and u to a PNG (tools/plot_sim.py)");
     cmd->add_option("--stall-s", a->stall_s, "give up when no frames arrive for this long, 0.1 to 3600 s");
+    add_axis_option(cmd, a->axis, false);
     WaveRequest& w = a->w;
     // Checked by check_wave_request (device_common), as the Python module's.
     auto* t = cmd->add_option("--trajectory", w.trajectory,

@@ -15,6 +15,26 @@
 
 namespace piezoloop::cli {
 
+const char* axis_name(int axis) {
+    static constexpr const char* kNames[] = {"x", "y", "z"};
+    return axis >= 0 && axis < 3 ? kNames[axis] : "?";
+}
+
+int resolve_axis(const std::string& axis, unsigned count, bool all_allowed) {
+    std::string choices;
+    for (unsigned i = 0; i < count && i < 3; ++i) choices += std::string(i == 0 ? "" : "|") + axis_name(static_cast<int>(i));
+    if (all_allowed && count > 1) choices += "|all";
+    if (axis.empty()) {
+        if (count <= 1) return 0;
+        throw std::invalid_argument("--axis: this board has " + std::to_string(count) + " axes: give --axis " + choices);
+    }
+    if (axis == "all" && all_allowed) return count <= 1 ? 0 : kAllAxes;
+    for (unsigned i = 0; i < count && i < 3; ++i)
+        if (axis == axis_name(static_cast<int>(i))) return static_cast<int>(i);
+    throw std::invalid_argument("--axis: '" + axis + "' is not an axis of this board (" + std::to_string(count) +
+                                " axes): " + choices);
+}
+
 std::string& device_address() {
     static std::string address;
     return address;

@@ -24,6 +24,15 @@ std::string& device_address();
 // without --device, hostlink::LinkError when the board cannot be reached).
 hostlink::Client open_device(int timeout_ms = 3000);
 
+// --axis x|y|z|all on a board of `count` axes: the axis index, or kAllAxes
+// for "all" (only where `all_allowed`). Empty: the only axis of a
+// single-axis board; on a multi-axis board std::invalid_argument naming the
+// choices (exit 2), as for a name the board has not got.
+inline constexpr int kAllAxes = -1;
+int resolve_axis(const std::string& axis, unsigned count, bool all_allowed);
+// "x", "y", "z" for axis 0, 1, 2.
+const char* axis_name(int axis);
+
 // `measure`: true for a board (--device given, no --scenario), false for the
 // simulator (--scenario, no --device); std::invalid_argument naming the
 // option otherwise, and for --case (simulator only) or --restart-stage

@@ -213,7 +213,11 @@ link::StatusReply Client::status() { return request<link::StatusReply>(link::Get
 void Client::arm() { expect_ack(link::Arm{}); }
 void Client::disarm() { expect_ack(link::Disarm{}); }
 void Client::clear_trip() { expect_ack(link::ClearTrip{}); }
-void Client::stop_wave() { expect_ack(link::StopWave{}); }
+void Client::stop_wave(uint8_t axis) {
+    link::StopWave m;
+    m.axis = axis;
+    expect_ack(m);
+}
 
 namespace {
 // Lengthens the per-request timeout for one request.
@@ -227,9 +231,10 @@ struct LongerTimeout {
 };
 }  // namespace
 
-void Client::start_excitation(const ExcitationConfig& c, uint8_t flags) {
+void Client::start_excitation(const ExcitationConfig& c, uint8_t flags, uint8_t axis) {
     if (flags & wave_flag::kArmRecorder) log_.clear();
     link::StartExcitation m;
+    m.axis = axis;
     m.flags = flags;
     m.config = c;
     // A multisine's period is tabulated before the reply: N K table steps
@@ -238,7 +243,11 @@ void Client::start_excitation(const ExcitationConfig& c, uint8_t flags) {
     expect_ack(m);
 }
 
-void Client::stop_excitation() { expect_ack(link::StopExcitation{}); }
+void Client::stop_excitation(uint8_t axis) {
+    link::StopExcitation m;
+    m.axis = axis;
+    expect_ack(m);
+}
 
 void Client::save() {
     LongerTimeout t(options_, kStorageTimeout);
@@ -253,10 +262,11 @@ void Client::forget() {
     expect_ack(link::Forget{});
 }
 
-void Client::start_wave(uint8_t flags) {
+void Client::start_wave(uint8_t flags, uint8_t axis) {
     if (flags & wave_flag::kArmRecorder) log_.clear();
     link::StartWave m;
-    m.flags = flags;  // 0 travels as the empty body
+    m.flags = flags;
+    m.axis = axis;
     expect_ack(m);
 }
 
@@ -266,9 +276,10 @@ void Client::recorder_arm() {
 }
 void Client::recorder_stop() { expect_ack(link::RecorderStop{}); }
 
-link::SetpointAck Client::stream_start(uint16_t prefill) {
+link::SetpointAck Client::stream_start(uint16_t prefill, uint8_t axis) {
     link::StreamStart m;
     m.prefill = prefill;
+    m.axis = axis;
     const link::SetpointAck a = request<link::SetpointAck>(m);
     next_block_seq_ = a.next_block_seq;
     return a;
@@ -292,7 +303,8 @@ void Client::stream_stop(bool drain) {
     expect_ack(m);
 }
 
-StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const std::function<void(double)>& progress) {
+StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const std::function<void(double)>& progress,
+                            uint8_t axis) {
     const auto t0 = steady_clock::now();
     const double rate = info().loop_rate_Hz > 0.0f ? info().loop_rate_Hz : 100000.0;
     // Checked before anything moves, as the board checks each block: a bad
@@ -302,7 +314,7 @@ StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const s
             throw std::invalid_argument("setpoint " + std::to_string(j) + ": " + std::to_string(sp[j]) +
                                         " um: must be finite and within +-1e6 um");
     StreamResult res;
-    link::SetpointAck ack = stream_start(prefill);
+    link::SetpointAck ack = stream_start(prefill, axis);
     // Whatever ends the stream early (a refused block, a lost link, Ctrl-C
     // turned into an exception) closes it on the board, so no stream is left
     // behind (the board's client timeout would close it too, later).
@@ -373,18 +385,26 @@ StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const s
     return res;
 }
 
+// A log channel id is axis * kSignalCount + signal (docs/protocol.md, LogBlock).
 const char* signal_name(uint8_t id) {
-    return id < kSignalCount ? piezoloop::signal_name(static_cast<SignalId>(id)) : "?";
+    return id < link::kMaxLinkAxes * kSignalCount ? piezoloop::signal_name(static_cast<SignalId>(id % kSignalCount))
+                                                   : "?";
 }
 
 // d is recorded in volts: the measurements add it at the command.
-const char* signal_unit(uint8_t id) { return id <= 2 ? "um" : "V"; }
+const char* signal_unit(uint8_t id) { return id % kSignalCount <= 2 ? "um" : "V"; }
 
 double log_sample_physical(uint32_t raw, uint8_t id, link::SampleFormat format, const link::HelloReply& hello) {
     if (format == link::SampleFormat::kFloat32) return static_cast<double>(std::bit_cast<float>(raw));
     // The core's own conversion (SignalScale::to_physical, in float), so a
     // Q31 record prints the values `piezoloop sim --sample q31` prints.
-    const SignalScale scale{id <= 2 ? hello.position_full_scale_um : hello.voltage_full_scale_V};
+    // Axis 0's full scales are the hello's first ones; every axis's follow.
+    const std::size_t axis = id / kSignalCount;
+    const bool position = id % kSignalCount <= 2;
+    float fs = position ? hello.position_full_scale_um : hello.voltage_full_scale_V;
+    if (axis > 0 && axis < hello.axis_count && axis < link::kMaxLinkAxes)
+        fs = position ? hello.axis_position_full_scale_um[axis] : hello.axis_voltage_full_scale_V[axis];
+    const SignalScale scale{fs};
     return static_cast<double>(scale.to_physical(Q31::from_raw(static_cast<int32_t>(raw))));
 }
 

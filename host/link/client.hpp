@@ -45,8 +45,8 @@ private:
 std::string describe(const link::ErrorReply& e);
 const char* request_name(uint8_t type);
 
-// StartWave flags (the optional flags byte of StartWave; all act at the
-// wave's first tick).
+// StartWave flags (the flags byte of StartWave; all act at the wave's first
+// tick).
 namespace wave_flag {
 inline constexpr uint8_t kArm = link::StartWave::kArmLoop;               // arm the loop
 inline constexpr uint8_t kArmRecorder = link::StartWave::kArmRecorder;   // arm the recorder
@@ -91,10 +91,16 @@ public:
 
     link::StatusReply status();
 
+    // The board's axis count (hello; 1 for a single-axis board).
+    uint8_t axis_count() { return info().axis_count; }
+
+    // A group of `axis` (an axis's group) or of the board (recorder, link,
+    // matrices: axis 0 whatever `axis` says).
     template <class G>
-    G get() {
+    G get(uint8_t axis = 0) {
         link::GetParams m;
         m.group = G::kGroup;
+        m.axis = link::board_group(G::kGroup) ? uint8_t{0} : axis;
         return request<link::ParamsReply<G>>(m).value;
     }
     // SetParams, retried while the device answers busy (previous set not
@@ -102,11 +108,12 @@ public:
     // The group is checked against its declaration first (the check the
     // board runs): std::invalid_argument naming the field, nothing sent.
     template <class G>
-    void set(const G& v) {
+    void set(const G& v, uint8_t axis = 0) {
         params::FieldCheck check;
         if (const Status s = check.check(v); !s.ok()) throw std::invalid_argument(describe(s));
         link::SetParams<G> m;
         m.value = v;
+        m.axis = link::board_group(G::kGroup) ? uint8_t{0} : axis;
         const auto deadline = std::chrono::steady_clock::now() + options_.timeout;
         for (;;) {
             try {
@@ -135,21 +142,24 @@ public:
     // start_excitation waits at least this long: the board tabulates a
     // multisine's period before it replies.
     static constexpr std::chrono::milliseconds kExcitationTimeout{30000};
-    void start_wave(uint8_t flags = 0);  // flags: wave_flag::*, sent only if non-zero
-    void stop_wave();
-    // An excitation at the next tick (flags: wave_flag::*, the same bits);
-    // the board's loop rate replaces c.sample_rate_Hz.
-    void start_excitation(const ExcitationConfig& c, uint8_t flags = 0);
-    void stop_excitation();
+    // The axis's trajectory group (flags: wave_flag::*; arm and restart act
+    // on every axis).
+    void start_wave(uint8_t flags = 0, uint8_t axis = 0);
+    void stop_wave(uint8_t axis = 0);
+    // An excitation of one axis at the next tick (flags: wave_flag::*, the
+    // same bits); the board's loop rate replaces c.sample_rate_Hz.
+    void start_excitation(const ExcitationConfig& c, uint8_t flags = 0, uint8_t axis = 0);
+    void stop_excitation(uint8_t axis = 0);
 
-    link::SetpointAck stream_start(uint16_t prefill);
+    // A setpoint stream to one axis.
+    link::SetpointAck stream_start(uint16_t prefill, uint8_t axis = 0);
     // One Setpoints block (<= 120 values) with the next block_seq.
     link::SetpointAck send_setpoints(std::span<const float> setpoints_um);
     void stream_stop(bool drain);
     // Streams every setpoint, keeping the FIFO filled by the free counts of
     // the SetpointAcks (and status when it is full), then drains.
     StreamResult stream(std::span<const float> setpoints_um, uint16_t prefill,
-                        const std::function<void(double)>& progress = {});
+                        const std::function<void(double)>& progress = {}, uint8_t axis = 0);
 
     void recorder_arm();   // also clears the log collector
     void recorder_stop();

@@ -217,6 +217,8 @@ json to_json(const link::LimitsParams& g) { return group_json(g); }
 json to_json(const link::TrajectoryParams& g) { return group_json(g); }
 json to_json(const link::RecorderParams& g) { return group_json(g); }
 json to_json(const link::LinkParams& g) { return group_json(g); }
+json to_json(const link::InputMatrixParams& g) { return group_json(g); }
+json to_json(const link::OutputMatrixParams& g) { return group_json(g); }
 
 void merge_json(const json& j, link::FeedforwardParams& g) { merge_group(j, g); }
 void merge_json(const json& j, link::FeedbackParams& g) { merge_group(j, g); }
@@ -225,6 +227,8 @@ void merge_json(const json& j, link::LimitsParams& g) { merge_group(j, g); }
 void merge_json(const json& j, link::TrajectoryParams& g) { merge_group(j, g); }
 void merge_json(const json& j, link::RecorderParams& g) { merge_group(j, g); }
 void merge_json(const json& j, link::LinkParams& g) { merge_group(j, g); }
+void merge_json(const json& j, link::InputMatrixParams& g) { merge_group(j, g); }
+void merge_json(const json& j, link::OutputMatrixParams& g) { merge_group(j, g); }
 
 namespace {
 

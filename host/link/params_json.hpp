@@ -21,6 +21,8 @@ nlohmann::json to_json(const link::LimitsParams& g);
 nlohmann::json to_json(const link::TrajectoryParams& g);
 nlohmann::json to_json(const link::RecorderParams& g);
 nlohmann::json to_json(const link::LinkParams& g);
+nlohmann::json to_json(const link::InputMatrixParams& g);
+nlohmann::json to_json(const link::OutputMatrixParams& g);
 nlohmann::json to_json(const link::HelloReply& h);
 nlohmann::json to_json(const link::StatusReply& s);
 
@@ -31,6 +33,8 @@ void merge_json(const nlohmann::json& j, link::LimitsParams& g);
 void merge_json(const nlohmann::json& j, link::TrajectoryParams& g);
 void merge_json(const nlohmann::json& j, link::RecorderParams& g);
 void merge_json(const nlohmann::json& j, link::LinkParams& g);
+void merge_json(const nlohmann::json& j, link::InputMatrixParams& g);
+void merge_json(const nlohmann::json& j, link::OutputMatrixParams& g);
 
 // "feedforward", "feedback", "rc", "limits", "trajectory", "recorder" -> group;
 // throws std::invalid_argument listing the names for anything else.

@@ -116,6 +116,8 @@ json group_schema(const char* doc) {
     params::describe(w, g);
     w.root["description"] = doc;
     w.root["groupId"] = static_cast<int>(G::kGroup);
+    // An axis's group names its axis (0 = x, 1 = y, 2 = z); a board group axis 0.
+    w.root["perAxis"] = !params::board_group(G::kGroup);
     return w.root;
 }
 
@@ -174,10 +176,11 @@ std::string group_table() {
     const G g{};
     params::describe(w, g);
     const params::LayoutSize size = params::layout_size<G>();
-    std::string size_text = std::to_string(size.fixed + 1);  // + the group id byte
+    std::string size_text = std::to_string(size.fixed + 2);  // + the group id and axis bytes
     if (size.per_count != 0) size_text += " + " + std::to_string(size.per_count) + "·count";
     return "**" + std::to_string(static_cast<int>(G::kGroup)) + " " + params::group_name(G::kGroup) + "** (" + size_text +
-           " bytes with the group id)\n\n| field | wire | unit | allowed | limit-critical | description |\n"
+           " bytes with the group id and the axis; " + (params::board_group(G::kGroup) ? "the board's" : "per axis") +
+           ")\n\n| field | wire | unit | allowed | limit-critical | description |\n"
            "|---|---|---|---|---|---|\n" +
            w.rows + "\n";
 }
@@ -193,12 +196,17 @@ json parameter_schema() {
     groups["trajectory"] = group_schema<link::TrajectoryParams>("the wave generator (its rate is the loop rate)");
     groups["recorder"] = group_schema<link::RecorderParams>("the signal recorder");
     groups["link"] = group_schema<link::LinkParams>("what the board does when its client goes silent");
+    groups["input_matrix"] =
+        group_schema<link::InputMatrixParams>("sensor readings -> axis positions, with offsets (multi-axis boards)");
+    groups["output_matrix"] =
+        group_schema<link::OutputMatrixParams>("axis commands -> actuator channels (static decoupling)");
     return {{"$schema", "https://json-schema.org/draft/2020-12/schema"},
             {"title", "piezoloop parameter groups"},
             {"description",
              "Parameter groups of a piezoloop board (GetParams / SetParams), as `piezoloop --device ADDR get|set` "
-             "reads and writes them. Ranges that depend on the board (loop rate, hard limits, capacities) are in its "
-             "hello reply. limitCritical fields change only while the loop is disarmed."},
+             "reads and writes them. Ranges that depend on the board (loop rate, hard limits, capacities, the axis "
+             "count) are in its hello reply. perAxis groups exist once per axis (--axis x|y|z), the others once per "
+             "board. limitCritical fields change only while the loop is disarmed."},
             {"type", "object"},
             {"properties", groups},
             {"additionalProperties", false}};
@@ -207,7 +215,8 @@ json parameter_schema() {
 std::string parameter_tables_markdown() {
     return group_table<link::FeedforwardParams>() + group_table<link::FeedbackParams>() +
            group_table<link::RepetitiveParams>() + group_table<link::LimitsParams>() +
-           group_table<link::TrajectoryParams>() + group_table<link::RecorderParams>() + group_table<link::LinkParams>();
+           group_table<link::TrajectoryParams>() + group_table<link::RecorderParams>() + group_table<link::LinkParams>() +
+           group_table<link::InputMatrixParams>() + group_table<link::OutputMatrixParams>();
 }
 
 }  // namespace piezoloop::hostlink

@@ -31,7 +31,11 @@ link::RecorderParams recorder_params(const RecordOptions& o, const link::HelloRe
     std::vector<uint8_t> ch = o.signals;
     for (uint8_t s = 0; s < kSignalCount && ch.size() < h.recorder_channels; ++s)
         if (!has(ch, s)) ch.push_back(s);
-    for (std::size_t i = 0; i < ch.size(); ++i) rec.channels[i] = ch[i];
+    for (std::size_t i = 0; i < ch.size(); ++i) {
+        rec.channels[i] = ch[i];
+        rec.axes[i] = o.axis;
+    }
+    rec.trigger_axis = o.axis;
     rec.decimation = o.decimation;
     rec.mode = RecordMode::kContinuous;
     rec.trigger = TriggerMode::kImmediate;
@@ -53,8 +57,9 @@ uint64_t approach_ticks_as(const link::HelloReply& h, const link::TrajectoryPara
     return n <= 1 ? 0 : n - 1;
 }
 uint64_t approach_ticks(const link::HelloReply& h, const link::StatusReply& st, const link::TrajectoryParams& w,
-                        bool restart) {
-    const float from_um = restart ? 0.0f : (st.armed ? st.r_um : st.y_um);
+                        bool restart, uint8_t axis) {
+    const std::size_t a = axis < link::kMaxLinkAxes ? axis : 0;
+    const float from_um = restart ? 0.0f : (st.armed ? st.axis_r_um[a] : st.axis_y_um[a]);
     return h.sample_format == link::SampleFormat::kQ31 ? approach_ticks_as<Q31>(h, w, from_um)
                                                        : approach_ticks_as<float>(h, w, from_um);
 }
@@ -199,9 +204,11 @@ RecordResult record(Client& c, const RecordOptions& o) {
     std::unique_ptr<CsvFile> file;
     if (!o.out_csv.empty()) file = std::make_unique<CsvFile>(o.out_csv);
 
-    if (o.wave) c.set(*o.wave);
+    if (o.axis >= h.axis_count)
+        throw std::invalid_argument("--axis: this board has " + std::to_string(h.axis_count) + " axes");
+    if (o.wave) c.set(*o.wave, o.axis);
     c.set(recorder_params(o, h));
-    r.wave = c.get<link::TrajectoryParams>();
+    r.wave = c.get<link::TrajectoryParams>(o.axis);
     link::StatusReply st = c.status();
     if (o.excitation) {
         if (o.restart_stage && st.armed) {
@@ -212,9 +219,9 @@ RecordResult record(Client& c, const RecordOptions& o) {
         uint8_t flags = wave_flag::kArmRecorder;
         if (!st.armed) flags |= wave_flag::kArm;
         if (o.restart_stage) flags |= wave_flag::kRestartStage;
-        c.start_excitation(*o.excitation, flags);
+        c.start_excitation(*o.excitation, flags, o.axis);
     } else if (o.start_wave) {
-        if (st.wave_running) c.stop_wave();
+        if (st.axis_wave_running[o.axis]) c.stop_wave(o.axis);
         if (o.restart_stage && st.armed) {
             c.disarm();
             r.notes.push_back("disarmed to restart the loop from rest with the wave");
@@ -223,14 +230,14 @@ RecordResult record(Client& c, const RecordOptions& o) {
         uint8_t flags = wave_flag::kArmRecorder;
         if (!st.armed) flags |= wave_flag::kArm;
         if (o.restart_stage) flags |= wave_flag::kRestartStage;
-        r.approach_ticks = approach_ticks(h, st, r.wave, o.restart_stage);
+        r.approach_ticks = approach_ticks(h, st, r.wave, o.restart_stage, o.axis);
         r.expected_frames = static_cast<std::size_t>(
             std::llround((o.duration_s * r.rate_Hz + static_cast<double>(r.approach_ticks)) / o.decimation));
-        c.start_wave(flags);
+        c.start_wave(flags, o.axis);
     } else {
         c.recorder_arm();
     }
-    r.wave_running = o.start_wave || st.wave_running;
+    r.wave_running = o.start_wave || st.axis_wave_running[o.axis];
 
     const uint64_t last_tick = (r.expected_frames - 1) * o.decimation;
     collect(c, o, last_tick, r);
@@ -243,11 +250,13 @@ RecordResult record(Client& c, const RecordOptions& o) {
 
     // Frames within the requested duration, in physical units.
     while (r.frames < log.size() && log.tick(r.frames) <= last_tick) ++r.frames;
+    // The log's channel ids are axis * kSignalCount + signal.
+    const auto channel_id = [&](uint8_t id) { return static_cast<uint8_t>(o.axis * kSignalCount + id); };
     std::vector<int> cols;
     for (const uint8_t id : o.signals) {
         int k = -1;
         for (std::size_t i = 0; i < log.channel_count(); ++i)
-            if (log.channels()[i] == id) k = static_cast<int>(i);
+            if (log.channels()[i] == channel_id(id)) k = static_cast<int>(i);
         if (r.frames > 0 && k < 0)
             throw LinkError("the log blocks do not carry signal " + std::string(signal_name(id)));
         cols.push_back(k);
@@ -257,7 +266,7 @@ RecordResult record(Client& c, const RecordOptions& o) {
     for (std::size_t i = 0; i < r.frames; ++i) {
         r.t_s[i] = static_cast<double>(log.tick(i)) / r.rate_Hz;
         for (std::size_t k = 0; k < o.signals.size(); ++k)
-            r.values[k][i] = log_sample_physical(log.raw(i)[cols[k]], o.signals[k], log.format(), h);
+            r.values[k][i] = log_sample_physical(log.raw(i)[cols[k]], channel_id(o.signals[k]), log.format(), h);
     }
     // log_hash: the fold of `piezoloop sim --hash` (r, y, u bit patterns of
     // each frame, in the board's sample type) over the recorded frames.

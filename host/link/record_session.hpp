@@ -27,6 +27,7 @@ std::vector<uint8_t> parse_signal_list(const std::string& list);
 
 struct RecordOptions {
     std::vector<uint8_t> signals;                // recorded and written, in this order
+    uint8_t axis = 0;                            // the axis of the signals, the wave and the excitation
     double duration_s = 0.0;                     // device time
     uint32_t decimation = 1;                     // keep every N-th tick
     std::optional<link::TrajectoryParams> wave;  // set before recording (not started)

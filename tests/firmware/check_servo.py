@@ -44,7 +44,7 @@ import time
 import zlib
 
 PROFILE_ADDRESS = 0x003FFC00  # common/piezoloop/emulation_profile.hpp
-VERSION = 4
+VERSION = 5
 
 T_HELLO, T_STATUS, T_GET, T_SET, T_ARM, T_DISARM = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 T_START_WAVE, T_STOP_WAVE, T_REC_ARM, T_REC_STOP = 0x08, 0x09, 0x0D, 0x0E
@@ -165,11 +165,16 @@ def text(b):
     return b.split(b"\0", 1)[0].decode("ascii", "replace")
 
 
+HELLO_FMT = "<B16s16s32sfIBfffffHHBIBBHII"  # then axis_count and 5 f32 per axis
+
+
 def parse_hello(b):
-    f = struct.unpack("<B16s16s32sfIBfffffHHBIBBHII", b)
+    n = struct.calcsize(HELLO_FMT)
+    f = struct.unpack(HELLO_FMT, b[:n])
+    axes = b[n]
     return dict(protocol=f[0], board=text(f[1]), version=text(f[2]), serial=text(f[3]), rate=f[4], caps=f[5],
                 fmt=f[6], hard_min=f[7], hard_max=f[8], pos_fs=f[10], volt_fs=f[11], rec_channels=f[14],
-                rec_capacity=f[15], exc_capacity=f[20])
+                rec_capacity=f[15], exc_capacity=f[20], axes=axes, size_ok=len(b) == n + 1 + 20 * axes)
 
 
 STATUS_FMT = "<7B3I3IffI" + "IHIII" + "10I" + "3f" + "BII" + "B16s32sh96s"  # ... excitation, storage block
@@ -178,7 +183,8 @@ STORAGE_STATES = ["absent", "empty", "applied", "ignored_corrupt", "ignored_othe
 
 
 def parse_status(b):
-    f = struct.unpack(STATUS_FMT, b)
+    n = struct.calcsize(STATUS_FMT)
+    f = struct.unpack(STATUS_FMT, b[:n])  # then the axes block (axis_count and 41 bytes per axis)
     names = ["armed", "tripped", "trip_reason", "wave_running", "streaming", "swap_pending", "recorder_state",
              "faults", "tick_count", "swaps", "overruns", "time_min", "time_max", "time_mean", "counter_Hz",
              "board_faults", "setpoint_underruns", "setpoint_free", "setpoint_next_seq", "recorder_overruns",
@@ -208,7 +214,7 @@ def parse_log(b):
 
 
 def limits_body(u_min, u_max, slew, trip):
-    return struct.pack("<Bffff", G_LIMITS, u_min, u_max, slew, trip)
+    return struct.pack("<BBffff", G_LIMITS, 0, u_min, u_max, slew, trip)  # group, axis 0, the limits
 
 
 def free_port():
@@ -301,15 +307,16 @@ def session(elf, machine, profile, body):
 def recorded_run(link, check, rate, amplitude, offset, freq, seconds):
     """Trajectory + recorder (r, y, e, u), StartWave flags 7, `seconds` of log
     blocks; checks the stream and returns (logs, log bytes, wall seconds)."""
-    traj = struct.pack("<BBfffIfffH", G_TRAJECTORY, 0, amplitude, offset, freq, 0, 0.0, 0.1, 0.5, 0)
+    traj = struct.pack("<BBBfffIfffH", G_TRAJECTORY, 0, 0, amplitude, offset, freq, 0, 0.0, 0.1, 0.5, 0)
     check(link.request(T_SET, traj)[0] == R_ACK, f"trajectory set (sine {amplitude} um, {freq} Hz, offset {offset} um)")
-    rec = struct.pack("<BB8sIBBBfII", G_RECORDER, 4, bytes([0, 1, 2, 3, 0, 0, 0, 0]), 1, 1, 0, 0, 0.0, 0, 0)
+    rec = struct.pack("<BBB8s8sIBBBBfII", G_RECORDER, 0, 4, bytes([0, 1, 2, 3, 0, 0, 0, 0]), bytes(8), 1, 1, 0, 0, 0,
+                      0.0, 0, 0)
     check(link.request(T_SET, rec)[0] == R_ACK, "recorder set (r, y, e, u, every tick, continuous)")
     with link.lock:
         link.logs.clear()
         link.log_bytes = 0
     st = parse_status(link.request(T_STATUS)[1])
-    t, b = link.request(T_START_WAVE, bytes([0x07]))
+    t, b = link.request(T_START_WAVE, bytes([0, 0x07]))  # axis 0, flags 7
     check(t == R_ACK, f"StartWave flags 7 (arm loop, arm recorder, restart stage): {hex(t)}")
     t_start = time.time()
     target = int(seconds * rate)
@@ -371,7 +378,7 @@ def profile_checks(elf, machine, replay):
         # A PID loop around the profile's stage (the controller host_servo_replay assumes).
         check(link.request(T_SET, limits_body(-10.0, 10.0, 2e5, 0.0))[0] == R_ACK, "limits set")
         # group 2 (feedback), kind 2 (PID), sos_count 0, kMaxControllerSections = 4 sections, PID.
-        fb = struct.pack("<BBB", 2, 2, 0) + struct.pack("<20d", *([1.0, 0.0, 0.0, 0.0, 0.0] * 4)) + \
+        fb = struct.pack("<BBBB", 2, 0, 2, 0) + struct.pack("<20d", *([1.0, 0.0, 0.0, 0.0, 0.0] * 4)) + \
             struct.pack("<6f", 0.5, 3000.0, 0.0, 5000.0, -10.0, 10.0)
         t, b = link.request(T_SET, fb)
         check(t == R_ACK, f"feedback PID set {parse_error(b) if t == R_ERROR else ''}")
@@ -445,6 +452,7 @@ def run_checks(link, check, machine, seconds, replay=None):
     board = {"mps2-an500": "qemu-m7", "mps2-an385": "qemu-m3"}.get(machine)
     check(h["protocol"] == VERSION and (board is None or h["board"] == board), f"protocol {VERSION}, board name")
     check(h["rec_channels"] == 4 and h["fmt"] == (1 if q31 else 0), "4 recorder channels, sample format")
+    check(h["axes"] == 1 and h["size_ok"], "one axis, the hello's axes block")
     rate = h["rate"]
     s0 = parse_status(link.request(T_STATUS)[1])
     time.sleep(0.05)
@@ -471,13 +479,13 @@ def run_checks(link, check, machine, seconds, replay=None):
     check(t == R_ERROR and e.get("code") == 1, f"unknown type -> error unknown_type: {e}")
     t, b = link.request(T_STATUS, version=7)
     check(t == R_ERROR and parse_error(b)["code"] == 2, "wrong header version -> error bad_version")
-    t, b = link.request(T_GET, bytes([G_LIMITS]))
+    t, b = link.request(T_GET, bytes([G_LIMITS, 0]))
     limits_before = b
     t, b = link.request(T_SET, limits_body(-10.0, math.nan, 2e5, 0.0))
     e = parse_error(b) if t == R_ERROR else {}
     check(t == R_ERROR and e.get("code") == ERR_INVALID and e.get("field") == "u_max_V",
           f"NaN limit -> invalid_param naming u_max_V: {e}")
-    t, b = link.request(T_START_WAVE, bytes([0x10]))
+    t, b = link.request(T_START_WAVE, bytes([0, 0x10]))
     e = parse_error(b) if t == R_ERROR else {}
     check(t == R_ERROR and e.get("code") == ERR_MALFORMED and e.get("field") == "flags",
           f"StartWave unknown flag bit -> malformed naming flags: {e}")
@@ -492,7 +500,7 @@ def run_checks(link, check, machine, seconds, replay=None):
     # period (2^24 - 1) x 257 exceeds 2^32 - 1. Flags: arm loop; point:
     # the reference (0.1 um).
     def excitation(signal, n, k2, order, hold):
-        return struct.pack("<BBBffIIIffBII", 1, signal, 1, 0.1, 0.0, n, 1, k2, 0.0, 0.0, order, hold, 1)
+        return struct.pack("<BBBBffIIIffBII", 0, 1, signal, 1, 0.1, 0.0, n, 1, k2, 0.0, 0.0, order, hold, 1)
     for body, field in ((excitation(0, 1000, 0x80000000, 10, 1), "last_bin"),
                         (excitation(0, 1000, 0x80000000 + 300, 10, 1), "last_bin"),
                         (excitation(2, 0, 1, 24, 257), "prbs_hold")):
@@ -502,7 +510,7 @@ def run_checks(link, check, machine, seconds, replay=None):
               f"StartExcitation with sizes that wrap -> invalid_param naming {field}: {t} {e}")
     s_exc = parse_status(link.request(T_STATUS, timeout=2.0)[1])
     check(not s_exc["armed"] and not s_exc["excitation_running"], "the refused excitations started nothing")
-    t, b = link.request(T_GET, bytes([G_LIMITS]))
+    t, b = link.request(T_GET, bytes([G_LIMITS, 0]))
     check(b == limits_before, "limits read back unchanged")
     s2 = parse_status(link.request(T_STATUS)[1])
     check(s2["bad_crc"] > c0["bad_crc"] and s2["oversize"] > c0["oversize"] and s2["truncated"] > c0["truncated"]

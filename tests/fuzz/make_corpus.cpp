@@ -73,7 +73,8 @@ int main(int argc, char** argv) {
     // One valid frame per request type.
     write("hello", frame(Hello{}));
     write("status", frame(GetStatus{}));
-    for (int g = 1; g <= 6; ++g) write("get_" + std::to_string(g), frame(GetParams{static_cast<ParamGroup>(g)}));
+    for (int g = 1; g <= params::kGroupCount; ++g)
+        write("get_" + std::to_string(g), frame(GetParams{static_cast<ParamGroup>(g)}));
     write("set_ff", frame(SetParams<FeedforwardParams>{ff}));
     write("set_fb", frame(SetParams<FeedbackParams>{fb}));
     write("set_rc", frame(SetParams<RepetitiveParams>{rc}));
@@ -81,10 +82,28 @@ int main(int argc, char** argv) {
     write("set_wave", frame(SetParams<TrajectoryParams>{wave}));
     write("set_table", frame(SetParams<TrajectoryParams>{table}));
     write("set_recorder", frame(SetParams<RecorderParams>{rec}));
+    InputMatrixParams in;
+    in.offset_um[0] = 0.5f;
+    write("set_input_matrix", frame(SetParams<InputMatrixParams>{in}));
+    OutputMatrixParams out;
+    out.axis_count = 3;
+    out.gain[1] = -0.04f;
+    out.gain[3] = 0.02f;
+    write("set_output_matrix", frame(SetParams<OutputMatrixParams>{out}));
     write("arm", frame(Arm{}));
     write("disarm", frame(Disarm{}));
     write("clear_trip", frame(ClearTrip{}));
     write("start_wave", frame(StartWave{}));
+    StartWave wave_z{StartWave::kArmLoop};
+    wave_z.axis = 2;
+    write("start_wave_axis_2", frame(wave_z));
+    SetParams<LimitsParams> lim_y{lim};
+    lim_y.axis = 1;
+    write("set_limits_axis_1", frame(lim_y));
+    write("get_limits_axis_3", frame(GetParams{ParamGroup::kLimits, 3}));
+    StreamStart stream_y{20};
+    stream_y.axis = 1;
+    write("stream_start_axis_1", frame(stream_y));
     write("stop_wave", frame(StopWave{}));
     write("stream_start", frame(StreamStart{20}));
     write("setpoints", frame(sp));
@@ -121,6 +140,14 @@ int main(int argc, char** argv) {
                                   frame(SetParams<RecorderParams>{rec}), frame(Save{}), frame(Forget{}), frame(Load{}),
                                   frame(Save{}), frame(SetParams<FeedbackParams>{fb}), frame(Load{}), frame(Arm{}),
                                   frame(Save{}), frame(GetStatus{})}), 0x30);
+    RecorderParams rec_axes = rec;
+    rec_axes.axes = {0, 1, 2, 0, 0, 0, 0, 0};
+    rec_axes.trigger_axis = 1;
+    StopWave stop_z;
+    stop_z.axis = 2;
+    write("session_axes", cat({frame(SetParams<LimitsParams>{lim}), frame(lim_y), frame(SetParams<RecorderParams>{rec_axes}),
+                               frame(SetParams<OutputMatrixParams>{out}), frame(wave_z), frame(GetStatus{}),
+                               frame(SetParams<InputMatrixParams>{in}), frame(stop_z), frame(Disarm{})}), 0x09);
     write("session_armed_limits", cat({frame(Arm{}), frame(SetParams<LimitsParams>{LimitsParams{{-5.0f, 5.0f, 1.0e5f, 0.0f}}}),
                                        frame(SetParams<FeedbackParams>{FeedbackParams{FeedbackKind::kPid, 0, {}, {}}})}), 0x01);
 

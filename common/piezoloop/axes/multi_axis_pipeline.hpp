@@ -10,7 +10,8 @@
 //                                      excitation and limiter, unchanged
 //     u_channel = channel limits(M_out u_axis)   (channel_output.hpp)
 //                                      -> the DACs
-//   end_tick():   every axis's end_tick() (recorder, counters)
+//   end_tick():   the board's recorder, then every axis's end_tick()
+//                 (its own recorder, counters)
 // tick(readings) runs the three in order. Reading j is sensor j's, in axis
 // j's position scale (float: µm); channel i's command is in axis i's voltage
 // scale (float: V).
@@ -26,6 +27,11 @@
 // limits within their channels', both matrix stages are skipped, so every
 // axis computes exactly what a Pipeline on its own computes, bit for bit: a
 // single-axis MultiAxisPipeline is today's Pipeline.
+//
+// The board's recorder (recorder()) records any signal of any axis: its
+// signal index i is signal i % kSignalCount of axis i / kSignalCount, at the
+// tick index of axis 0 (every axis counts the same ticks). Each axis's own
+// recorder records that axis's signals, as a Pipeline's does.
 //
 // The matrices are limit-critical: set_input_matrix and set_output_matrix
 // validate first (a refused matrix changes nothing) and are refused while
@@ -60,6 +66,8 @@ class MultiAxisPipeline {
 public:
     using AxisPipeline = Pipeline<T, RcCapacity, RecChannels, RecCapacity, ExcCapacity>;
     using Samples = std::array<T, N>;
+    using RecorderType = Recorder<T, RecChannels, RecCapacity, N * kSignalCount>;
+    using SampleType = T;
 
     explicit MultiAxisPipeline(const MultiAxisSetup<N>& setup)
         : MultiAxisPipeline(setup, std::make_index_sequence<N>{}) {}
@@ -146,6 +154,13 @@ public:
         return channels_.apply(u_axis_);
     }
     void end_tick() {
+        recorder_.push_from(axes_[0].tick_count(), [this](uint8_t i) {
+            const TickSignals<T>& s = axes_[i / kSignalCount].last();
+            T v;
+            __builtin_memcpy(&v, reinterpret_cast<const unsigned char*>(&s) + (i % kSignalCount) * sizeof(T),
+                             sizeof(T));
+            return v;
+        });
         for (auto& a : axes_) a.end_tick();
     }
     Samples tick(const Samples& readings) {
@@ -154,6 +169,12 @@ public:
         end_tick();
         return u;
     }
+
+    // The board's recorder: (axis, signal) channels (see the top of the file).
+    RecorderType& recorder() { return recorder_; }
+    const RecorderType& recorder() const { return recorder_; }
+    uint32_t tick_count() const { return axes_[0].tick_count(); }
+    static constexpr int axis_count() { return N; }
 
     // The last tick's axis commands (after each axis's limiter) and channel
     // commands (the DAC values). Each axis's position is axis(i).last().y.
@@ -198,6 +219,7 @@ private:
     }
 
     std::array<AxisPipeline, N> axes_;
+    RecorderType recorder_{};
     ChannelOutput<T, N> channels_;
     std::array<SignalScale, N> position_;
     Status setup_status_{};

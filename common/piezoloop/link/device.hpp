@@ -1,8 +1,17 @@
 // Device side of the link: decodes requests from the byte stream, answers
-// them, and applies them to a Pipeline<T>. No heap; the same code runs in the
-// firmware main loop and in host tests. The device dispatches; what it does
-// with parameter groups is link/param_policy.hpp, the setpoint FIFO
-// link/setpoint_stream.hpp, the recorder's blocks link/log_stream.hpp.
+// them, and applies them to a Pipeline<T> (one axis), or to the N axes of a
+// MultiAxisPipeline<T, N> (MultiAxis = true). No heap; the same code runs in
+// the firmware main loop and in host tests. The device dispatches; what it
+// does with an axis's parameter groups is link/param_policy.hpp, with the
+// board's (recorder, link, matrices) link/board_policy.hpp, the setpoint
+// FIFO link/setpoint_stream.hpp, the recorder's blocks link/log_stream.hpp.
+//
+// Axes: the axis-scoped requests (GetParams / SetParams of an axis's group,
+// StartWave / StopWave, StartExcitation / StopExcitation, StreamStart) name
+// their axis; one at or beyond the axis count is refused (invalid_param,
+// field "axis") and changes nothing. Arm, Disarm and ClearTrip act on every
+// axis at one tick boundary; the recorder is the board's and records
+// (axis, signal) channels; the setpoint stream feeds one axis at a time.
 //
 // Contexts (as in the firmware):
 //   main loop: receive(), poll_log(), set_tick_stats()   -- one thread
@@ -27,7 +36,10 @@
 #include <cstdint>
 #include <span>
 #include <type_traits>
+#include <utility>
 
+#include "piezoloop/axes/multi_axis_pipeline.hpp"
+#include "piezoloop/link/board_policy.hpp"
 #include "piezoloop/link/framing.hpp"
 #include "piezoloop/link/log_stream.hpp"
 #include "piezoloop/link/messages.hpp"
@@ -63,19 +75,36 @@ struct DeviceHooks {
 };
 
 template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024,
-          std::size_t SetpointCapacity = 1024, std::size_t ExcCapacity = 1024>
+          std::size_t SetpointCapacity = 1024, std::size_t ExcCapacity = 1024, int N = 1, bool MultiAxis = (N > 1)>
 class Device {
     static_assert(is_sample_type_v<T>, "Device<T>: T is float or Q31");
+    static_assert(N >= 1 && N <= kMaxAxes, "Device: 1 to 3 axes");
+    static_assert(MultiAxis || N == 1, "Device: more than one axis needs a MultiAxisPipeline");
     static constexpr bool kFloat = std::is_same_v<T, float>;
 
 public:
+    static constexpr int kAxes = N;
+    // An axis's pipeline (the single one, or each of the multi-axis pipeline's).
     using PipelineType = Pipeline<T, RcCapacity, RecChannels, RecCapacity, ExcCapacity>;
-    using RecorderType = typename PipelineType::RecorderType;
+    using MultiType = MultiAxisPipeline<T, N, RcCapacity, RecChannels, RecCapacity, ExcCapacity>;
+    using RecorderType =
+        std::conditional_t<MultiAxis, typename MultiType::RecorderType, typename PipelineType::RecorderType>;
     using LogStreamType = LogStream<T, RecorderType, RecChannels>;
     static constexpr std::size_t kFramesPerBlock = LogStreamType::kFramesPerBlock;
 
     Device(PipelineType& pipeline, const DeviceInfo& info = {}, const DeviceHooks& hooks = {})
-        : pipeline_(pipeline), info_(info), hooks_(hooks), policy_(pipeline, hooks.mask_tick) {}
+        requires(!MultiAxis)
+        : axes_{&pipeline},
+          multi_(nullptr),
+          recorder_(pipeline.recorder()),
+          info_(info),
+          hooks_(hooks),
+          policies_{ParamPolicy<PipelineType>(pipeline)},
+          board_(pipeline.recorder(), {&pipeline.setup()}, nullptr, hooks.mask_tick) {}
+
+    Device(MultiType& multi, const DeviceInfo& info = {}, const DeviceHooks& hooks = {})
+        requires(MultiAxis)
+        : Device(multi, info, hooks, std::make_index_sequence<N>{}) {}
 
     // ---- main loop ----------------------------------------------------------
 
@@ -91,11 +120,11 @@ public:
         if (payload.size() < kHeaderSize) { LinkCounters::inc(counters().truncated); return; }
         const FrameHeader h = parse_header(payload);
         const std::span<const uint8_t> body = payload.subspan(kHeaderSize);
-        last_frame_tick_ = pipeline_.tick_count();  // the client is alive
+        last_frame_tick_ = axes_[0]->tick_count();  // the client is alive
         if (h.type == static_cast<uint8_t>(MsgType::kHello)) {
             // A client opens its session with Hello: what the previous
             // session's client started is lost with it (see client loss).
-            if (client_bound_ && policy_.client_timeout_ticks() != 0 && bound_run_active()) lose_client();
+            if (client_bound_ && board_.client_timeout_ticks() != 0 && bound_run_active()) lose_client();
             // Any version: the reply tells the client which one we speak.
             reply(make_hello(), h.seq, send);
             return;
@@ -113,62 +142,68 @@ public:
             }
             case MsgType::kGetParams: {
                 GetParams m;
-                if (decode(h, body, m, send)) get_params(h, m.group, send);
+                if (decode(h, body, m, send)) get_params(h, m, send);
                 return;
             }
             case MsgType::kSetParams: set_params(h, body, send); return;
             case MsgType::kArm: {
                 Arm m;
                 if (!decode(h, body, m, send)) return;
-                if (pipeline_.limiter().tripped())
-                    return fail(h, ErrorCode::kTripped,
-                                in_group("limits", error("trip", trip_reason_name(pipeline_.limiter().trip_reason()))),
-                                send);
-                pipeline_.arm();
+                if (const int a = tripped_axis(); a >= 0) return fail(h, ErrorCode::kTripped, trip_status(a), send);
+                arm_all();
                 return ack(h, send);
             }
             case MsgType::kDisarm: {
                 Disarm m;
                 if (!decode(h, body, m, send)) return;
-                pipeline_.disarm();
+                disarm_all();
                 return ack(h, send);
             }
             case MsgType::kClearTrip: {
                 ClearTrip m;
                 if (!decode(h, body, m, send)) return;
-                if (pipeline_.armed())
+                if (any_armed())
                     return fail(h, ErrorCode::kArmed, in_group("limits", error("trip", "clear the trip only while disarmed")), send);
+                int failed = -1;
                 mask(true);
-                const bool cleared = pipeline_.limiter().clear_trip();
+                for (int a = 0; a < N; ++a)
+                    if (axes_[a]->limiter().tripped() && !axes_[a]->limiter().clear_trip() && failed < 0) failed = a;
+                if constexpr (MultiAxis) multi_->clear_channel_trips();
                 mask(false);
-                if (!cleared)
+                if (failed >= 0)
                     return fail(h, ErrorCode::kTripped,
-                                in_group("limits", error("trip", "cannot clear: limits not configured or hard limits invalid")), send);
+                                in_group("limits", error("trip", N > 1 ? failed : -1,
+                                                         "cannot clear: limits not configured or hard limits invalid")),
+                                send);
                 return ack(h, send);
             }
             case MsgType::kStartWave: start_wave(h, body, send); return;
             case MsgType::kStartExcitation: start_excitation(h, body, send); return;
             case MsgType::kStopExcitation: {
                 StopExcitation m;
-                if (!decode(h, body, m, send)) return;
-                pipeline_.stop_excitation();
+                if (!decode(h, body, m, send) || !check_axis(h, m.axis, send)) return;
+                axes_[m.axis]->stop_excitation();
                 return ack(h, send);
             }
             case MsgType::kStopWave: {
                 StopWave m;
-                if (!decode(h, body, m, send)) return;
-                pipeline_.stop_wave();
+                if (!decode(h, body, m, send) || !check_axis(h, m.axis, send)) return;
+                axes_[m.axis]->stop_wave();
                 return ack(h, send);
             }
             case MsgType::kStreamStart: {
                 StreamStart m;
-                if (!decode(h, body, m, send)) return;
-                if (pipeline_.wave_running())
+                if (!decode(h, body, m, send) || !check_axis(h, m.axis, send)) return;
+                if (axes_[m.axis]->wave_running())
                     return fail(h, ErrorCode::kBusy, error("stream", "a wave is running: stop it first"), send);
+                if (stream_.open() && m.axis != stream_axis_)
+                    return fail(h, ErrorCode::kBusy, error("stream", "a stream to another axis is open: stop it first"),
+                                send);
                 if (m.prefill > SetpointCapacity)
                     return fail(h, ErrorCode::kInvalidParam, error("prefill", "must be <= the setpoint capacity (hello)"), send);
                 // Running with an empty FIFO counts underruns from now on:
                 // a client that wants none sends prefill > 0.
+                stream_axis_ = m.axis;
                 stream_.start(m.prefill);
                 bind_client(true);
                 return reply(stream_.ack(), h.seq, send);
@@ -184,7 +219,7 @@ public:
                 RecorderArm m;
                 if (!decode(h, body, m, send)) return;
                 mask(true);
-                const bool armed = pipeline_.recorder().arm();
+                const bool armed = recorder_.arm();
                 mask(false);
                 if (!armed)
                     return fail(h, ErrorCode::kNotConfigured, in_group("recorder", error("channels", "set the recorder group first")), send);
@@ -198,7 +233,7 @@ public:
                 RecorderStop m;
                 if (!decode(h, body, m, send)) return;
                 mask(true);
-                pipeline_.recorder().stop();
+                recorder_.stop();
                 mask(false);
                 return ack(h, send);
             }
@@ -215,7 +250,7 @@ public:
     template <class Send>
     bool poll_log(Send&& send) {
         watch_client();
-        return log_.poll(pipeline_.recorder(), std::span<uint8_t>(tx_), send);
+        return log_.poll(recorder_, std::span<uint8_t>(tx_), send);
     }
 
     // The stored set at boot: validated and applied as Load does (the loop
@@ -238,7 +273,10 @@ public:
     LinkCounters& counters() { return decoder_.counters(); }
     const LinkCounters& counters() const { return decoder_.counters(); }
     FrameDecoder& decoder() { return decoder_; }
-    PipelineType& pipeline() { return pipeline_; }
+    // Axis 0's pipeline (a single-axis device's only one), and axis i's.
+    PipelineType& pipeline() { return *axes_[0]; }
+    PipelineType& axis(int i) { return *axes_[i]; }
+    RecorderType& recorder() { return recorder_; }
 
     // ---- tick -----------------------------------------------------------------
 
@@ -246,7 +284,7 @@ public:
     // right before Pipeline::begin_tick() (or tick()). Bounded time, never fails.
     void on_tick() {
         T setpoint;
-        if (stream_.on_tick(setpoint)) pipeline_.set_setpoint(setpoint);
+        if (stream_.on_tick(setpoint)) axes_[stream_axis_]->set_setpoint(setpoint);
     }
 
     // ---- state, for host tests and the firmware -------------------------------
@@ -255,8 +293,8 @@ public:
     uint32_t setpoint_underruns() const { return stream_.underruns(); }
     std::size_t setpoint_free() const { return stream_.free_slots(); }
     // The parameters a GetParams returns: the newest accepted set.
-    const PipelineParams& params() const { return policy_.params(); }
-    const TrajectoryParams& trajectory() const { return policy_.wave(); }
+    const PipelineParams& params(int axis = 0) const { return policies_[axis].params(); }
+    const TrajectoryParams& trajectory(int axis = 0) const { return policies_[axis].wave(); }
 
     HelloReply make_hello() const {
         HelloReply r;
@@ -264,11 +302,11 @@ public:
         set_text(r.board, info_.board);
         set_text(r.firmware_version, info_.firmware_version);
         set_text(r.serial, info_.serial);
-        const PipelineSetup& s = pipeline_.setup();
+        const PipelineSetup& s = axes_[0]->setup();
         r.loop_rate_Hz = s.rate_Hz;
         r.capabilities = (kFloat ? cap::kFloat : cap::kQ31) | cap::kDahl | cap::kRepetitive | cap::kSetpointStream |
                          cap::kRecorder | cap::kWaveTable | cap::kExcitation |
-                         (hooks_.storage != nullptr ? cap::kStorage : 0u);
+                         (hooks_.storage != nullptr ? cap::kStorage : 0u) | (MultiAxis ? cap::kAxisMatrices : 0u);
         r.sample_format = kFloat ? SampleFormat::kFloat32 : SampleFormat::kQ31;
         r.hard_u_min_V = s.hard.u_min_V;
         r.hard_u_max_V = s.hard.u_max_V;
@@ -280,38 +318,70 @@ public:
         r.recorder_capacity = static_cast<uint32_t>(RecCapacity);
         r.rc_capacity = static_cast<uint32_t>(RcCapacity);
         r.excitation_capacity = static_cast<uint32_t>(ExcCapacity);
+        r.axis_count = static_cast<uint8_t>(N);
+        for (int a = 0; a < N; ++a) {
+            const PipelineSetup& x = axes_[a]->setup();
+            r.axis_hard_u_min_V[a] = x.hard.u_min_V;
+            r.axis_hard_u_max_V[a] = x.hard.u_max_V;
+            r.axis_hard_slew_max_V_per_s[a] = x.hard.slew_max_V_per_s;
+            r.axis_position_full_scale_um[a] = x.position.full_scale;
+            r.axis_voltage_full_scale_V[a] = x.voltage.full_scale;
+        }
         return r;
     }
 
     StatusReply make_status() const {
         StatusReply r;
-        const auto& lim = pipeline_.limiter();
-        r.armed = pipeline_.armed();
+        const PipelineType& p0 = *axes_[0];
+        const auto& lim = p0.limiter();
+        r.armed = p0.armed();
         r.tripped = lim.tripped();
         r.trip_reason = lim.trip_reason();
-        r.wave_running = pipeline_.wave_running();
+        r.wave_running = p0.wave_running();
         r.streaming = streaming();
-        r.swap_pending = pipeline_.swap_pending();
-        r.recorder_state = pipeline_.recorder().state();
-        r.tick_count = pipeline_.tick_count();
-        r.swaps = pipeline_.swaps();
+        r.swap_pending = any_swap_pending();
+        r.recorder_state = recorder_.state();
+        r.tick_count = p0.tick_count();
+        r.swaps = p0.swaps();
         r.tick = tick_stats_;
         r.setpoint_underruns = setpoint_underruns();
         r.setpoint_free = static_cast<uint16_t>(setpoint_free());
         r.setpoint_next_seq = stream_.next_block_seq();
-        r.recorder_overruns = pipeline_.recorder().overruns();
+        r.recorder_overruns = recorder_.overruns();
         r.log_blocks = log_.blocks_sent();
         r.link = counters();
-        const auto& last = pipeline_.last();
-        const PipelineSetup& s = pipeline_.setup();
-        r.r_um = s.position.to_physical(last.r);
-        r.y_um = s.position.to_physical(last.y);
-        r.u_V = s.voltage.to_physical(last.u);
-        r.excitation_running = pipeline_.excitation_running();
-        r.excitation_ticks = pipeline_.excitation_ticks();
-        r.excitation_clipped = pipeline_.excitation_clipped_samples();
         uint32_t f = 0;
-        if (lim.trip_reason() == TripReason::kInvalidHardLimits) f |= fault::kHardLimitsInvalid;
+        r.axis_count = static_cast<uint8_t>(N);
+        for (int a = 0; a < N; ++a) {
+            const PipelineType& p = *axes_[a];
+            const auto& last = p.last();
+            const PipelineSetup& s = p.setup();
+            r.axis_armed[a] = p.armed();
+            r.axis_tripped[a] = p.limiter().tripped();
+            r.axis_trip_reason[a] = static_cast<uint8_t>(p.limiter().trip_reason());
+            r.axis_wave_running[a] = p.wave_running();
+            r.axis_excitation_running[a] = p.excitation_running();
+            r.axis_swaps[a] = p.swaps();
+            r.axis_excitation_ticks[a] = p.excitation_ticks();
+            r.axis_excitation_clipped[a] = p.excitation_clipped_samples();
+            r.axis_r_um[a] = s.position.to_physical(last.r);
+            r.axis_y_um[a] = s.position.to_physical(last.y);
+            r.axis_u_V[a] = s.voltage.to_physical(last.u);
+            if constexpr (MultiAxis) {
+                r.channel_u_V[a] = s.voltage.to_physical(multi_->channel_commands()[a]);
+                r.channel_clamped[a] = multi_->channel_clamped_samples(a);
+                r.channel_slew_limited[a] = multi_->channel_slew_limited_samples(a);
+            } else {
+                r.channel_u_V[a] = r.axis_u_V[a];  // no channel stage: the channel is the axis
+            }
+            if (p.limiter().trip_reason() == TripReason::kInvalidHardLimits) f |= fault::kHardLimitsInvalid;
+        }
+        r.r_um = r.axis_r_um[0];
+        r.y_um = r.axis_y_um[0];
+        r.u_V = r.axis_u_V[0];
+        r.excitation_running = p0.excitation_running();
+        r.excitation_ticks = p0.excitation_ticks();
+        r.excitation_clipped = p0.excitation_clipped_samples();
         if (tick_stats_.overruns != 0) f |= fault::kTickOverrun;
         if (r.setpoint_underruns != 0) f |= fault::kSetpointUnderrun;
         if (r.recorder_overruns != 0) f |= fault::kRecorderOverrun;
@@ -328,6 +398,62 @@ public:
     }
 
 private:
+    template <std::size_t... I>
+    Device(MultiType& multi, const DeviceInfo& info, const DeviceHooks& hooks, std::index_sequence<I...>)
+        : axes_{&multi.axis(static_cast<int>(I))...},
+          multi_(&multi),
+          recorder_(multi.recorder()),
+          info_(info),
+          hooks_(hooks),
+          policies_{ParamPolicy<PipelineType>(multi.axis(static_cast<int>(I)))...},
+          board_(multi.recorder(), {&multi.axis(static_cast<int>(I)).setup()...}, &multi, hooks.mask_tick) {}
+
+    // ---- every axis -------------------------------------------------------------
+
+    bool any_armed() const {
+        for (const PipelineType* p : axes_)
+            if (p->armed()) return true;
+        return false;
+    }
+    bool any_swap_pending() const {
+        for (const PipelineType* p : axes_)
+            if (p->swap_pending()) return true;
+        return false;
+    }
+    bool any_running() const {
+        for (const PipelineType* p : axes_)
+            if (p->wave_running() || p->excitation_running()) return true;
+        return false;
+    }
+    int tripped_axis() const {
+        for (int a = 0; a < N; ++a)
+            if (axes_[a]->limiter().tripped()) return a;
+        return -1;
+    }
+    Status trip_status(int a) const {
+        return in_group("limits", error("trip", N > 1 ? a : -1, trip_reason_name(axes_[a]->limiter().trip_reason())));
+    }
+    // Every axis at one tick boundary (on one axis, the pipeline's own
+    // request already is).
+    void arm_all() {
+        if constexpr (N > 1) mask(true);
+        for (PipelineType* p : axes_) p->arm();
+        if constexpr (N > 1) mask(false);
+    }
+    void disarm_all() {
+        if constexpr (N > 1) mask(true);
+        for (PipelineType* p : axes_) p->disarm();
+        if constexpr (N > 1) mask(false);
+    }
+
+    // An axis index of a request; false once it has replied.
+    template <class Send>
+    bool check_axis(const FrameHeader& h, uint8_t axis, Send& send) {
+        if (axis < N) return true;
+        fail(h, ErrorCode::kInvalidParam, error("axis", axis_range_message<N>()), send);
+        return false;
+    }
+
     // ---- client loss --------------------------------------------------------
     // A setpoint stream, or a wave or an excitation started without the
     // detached flag, is the client's. A stream that has been sent no
@@ -344,23 +470,23 @@ private:
     void bind_client(bool bound) {
         client_bound_ = bound;
         client_lost_ = false;
-        stream_fed_tick_ = pipeline_.tick_count();
+        stream_fed_tick_ = axes_[0]->tick_count();
     }
 
     void watch_client() {
         if (!client_bound_) return;
-        const uint32_t now = pipeline_.tick_count();
+        const uint32_t now = axes_[0]->tick_count();
         uint32_t since = 0;
         if (stream_.open()) {
             if (stream_.draining()) return;  // the client said it is done
             since = stream_fed_tick_;
-        } else if (pipeline_.wave_running() || pipeline_.excitation_running()) {
+        } else if (any_running()) {
             since = last_frame_tick_;
         } else {
             client_bound_ = false;  // ended on its own
             return;
         }
-        const uint32_t timeout = policy_.client_timeout_ticks();
+        const uint32_t timeout = board_.client_timeout_ticks();
         if (timeout == 0 || now - since < timeout) return;
         lose_client();
     }
@@ -368,14 +494,16 @@ private:
     // A bound stream (not draining), wave or excitation still running.
     bool bound_run_active() const {
         if (stream_.open()) return !stream_.draining();
-        return pipeline_.wave_running() || pipeline_.excitation_running();
+        return any_running();
     }
 
     void lose_client() {
         stream_.stop(false);
-        pipeline_.stop_wave();
-        pipeline_.stop_excitation();
-        if (policy_.link().on_client_loss == params::ClientLossAction::kDisarm) pipeline_.disarm();
+        for (PipelineType* p : axes_) {
+            p->stop_wave();
+            p->stop_excitation();
+        }
+        if (board_.link().on_client_loss == params::ClientLossAction::kDisarm) disarm_all();
         client_bound_ = false;
         client_lost_ = true;
     }
@@ -432,14 +560,17 @@ private:
         if (!decode(h, body, m, send)) return;
         const uint8_t f = m.flags;
         if (!check_flags(h, f, "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage", send)) return;
-        if (!policy_.wave_set())
+        if (!check_axis(h, m.axis, send)) return;
+        PipelineType& p = *axes_[m.axis];
+        const ParamPolicy<PipelineType>& policy = policies_[m.axis];
+        if (!policy.wave_set())
             return fail(h, ErrorCode::kNotConfigured, in_group("trajectory", error("waveform", "set the trajectory group first")), send);
-        if (stream_.open())
+        if (stream_.open() && stream_axis_ == m.axis)
             return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a setpoint stream is running: stop it first")), send);
-        if (pipeline_.wave_running())
+        if (p.wave_running())
             return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a wave is running: stop it first")), send);
         if (!check_arm_flags(h, f, send)) return;
-        start_at_tick(h, f, [&] { return pipeline_.start_wave(policy_.wave_config()); }, send);
+        start_at_tick(h, f, [&] { return p.start_wave(policy.wave_config()); }, send);
     }
 
     // StartExcitation: as StartWave, with the excitation in place of the
@@ -453,19 +584,21 @@ private:
         if (!check_flags(h, f, "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage, bit3 detached",
                          send))
             return;
-        if (pipeline_.excitation_running())
+        if (!check_axis(h, m.axis, send)) return;
+        PipelineType& p = *axes_[m.axis];
+        if (p.excitation_running())
             return fail(h, ErrorCode::kBusy, in_group("excitation", error("signal", "an excitation is running: stop it first")), send);
-        if ((f & StartExcitation::kArmLoop) == 0 && !pipeline_.armed())
+        if ((f & StartExcitation::kArmLoop) == 0 && !p.armed())
             return fail(h, ErrorCode::kNotConfigured, error("flags", "the loop is disarmed: d is applied only while armed (bit0)"), send);
         if (!check_arm_flags(h, f, send)) return;
         ExcitationConfig c = m.config;
-        c.sample_rate_Hz = pipeline_.setup().rate_Hz;
+        c.sample_rate_Hz = p.setup().rate_Hz;
         // Configured (a multisine tabulated) with the tick running: only
         // the start itself is in the masked section.
-        if (const Status s = pipeline_.prepare_excitation(c); !s.ok())
+        if (const Status s = p.prepare_excitation(c); !s.ok())
             return fail(h, ErrorCode::kInvalidParam, s, send);
         start_at_tick(h, f, [&] {
-            pipeline_.run_excitation();
+            p.run_excitation();
             return ok_status();
         }, send);
     }
@@ -491,17 +624,16 @@ private:
     template <class Send>
     bool check_arm_flags(const FrameHeader& h, uint8_t f, Send& send) {
         if ((f & StartWave::kArmLoop) != 0) {
-            if (pipeline_.limiter().tripped()) {
-                fail(h, ErrorCode::kTripped,
-                     in_group("limits", error("trip", trip_reason_name(pipeline_.limiter().trip_reason()))), send);
+            if (const int a = tripped_axis(); a >= 0) {
+                fail(h, ErrorCode::kTripped, trip_status(a), send);
                 return false;
             }
-            if (pipeline_.armed()) {
+            if (any_armed()) {
                 fail(h, ErrorCode::kArmed, error("flags", "arm loop (bit0): the loop is armed; disarm first"), send);
                 return false;
             }
         }
-        if ((f & StartWave::kArmRecorder) != 0 && !pipeline_.recorder().configured()) {
+        if ((f & StartWave::kArmRecorder) != 0 && !recorder_.configured()) {
             fail(h, ErrorCode::kNotConfigured, in_group("recorder", error("channels", "set the recorder group first")), send);
             return false;
         }
@@ -519,14 +651,15 @@ private:
                 return fail(h, ErrorCode::kUnsupported, error("flags", "restart stage (bit2): the stage could not restart"), send);
             }
             // A wave's approach starts where the restarted stage is.
-            pipeline_.stage_restarted();
+            for (PipelineType* p : axes_) p->stage_restarted();
         }
         if (const Status s = start(); !s.ok()) {
             mask(false);
             return fail(h, ErrorCode::kInvalidParam, s, send);
         }
-        if ((f & StartWave::kArmLoop) != 0) pipeline_.arm();
-        if ((f & StartWave::kArmRecorder) != 0) (void)pipeline_.recorder().arm();  // configured: cannot fail
+        if ((f & StartWave::kArmLoop) != 0)
+            for (PipelineType* p : axes_) p->arm();
+        if ((f & StartWave::kArmRecorder) != 0) (void)recorder_.arm();  // configured: cannot fail
         mask(false);
         if ((f & StartWave::kArmRecorder) != 0) log_.restart();
         bind_client((f & StartWave::kDetached) == 0);
@@ -535,11 +668,33 @@ private:
 
     // ---- parameter groups -----------------------------------------------------
 
+    // A group's axis: below the axis count, and 0 for a board group; false
+    // once it has replied.
     template <class Send>
-    void get_params(const FrameHeader& h, ParamGroup g, Send& send) {
-        const bool known = params::with_group(g, [&](auto tag) {
+    bool check_group_axis(const FrameHeader& h, ParamGroup g, uint8_t axis, Send& send) {
+        if (board_group(g) && axis != 0) {
+            fail(h, ErrorCode::kInvalidParam,
+                 in_group(group_name(g), error("axis", "a board group (recorder, link, input_matrix, output_matrix): must be 0")),
+                 send);
+            return false;
+        }
+        return check_axis(h, axis, send);
+    }
+
+    template <class G>
+    G get_group(uint8_t axis) const {
+        if constexpr (board_group(G::kGroup)) return board_.template get<G>();
+        else return policies_[axis].template get<G>();
+    }
+
+    template <class Send>
+    void get_params(const FrameHeader& h, const GetParams& m, Send& send) {
+        const bool known = params::with_group(m.group, [&](auto tag) {
             using G = typename decltype(tag)::type;
-            reply(ParamsReply<G>{policy_.template get<G>()}, h.seq, send);
+            if (!check_group_axis(h, m.group, m.axis, send)) return;
+            ParamsReply<G> r{get_group<G>(m.axis)};
+            r.axis = m.axis;
+            reply(r, h.seq, send);
         });
         if (!known) fail(h, ErrorCode::kBadGroup, error("group", "unknown parameter group"), send);
     }
@@ -558,12 +713,17 @@ private:
     void set_group(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
         SetParams<G> m;
         if (!decode(h, body, m, send)) return;
-        const Status s = policy_.set(m.value);
-        if (s.ok()) {
+        if (!check_group_axis(h, G::kGroup, m.axis, send)) return;
+        if constexpr (board_group(G::kGroup)) {
+            const Status s = board_.set(m.value);
+            if (!s.ok()) return fail(h, board_.code(), s, send);
             if constexpr (G::kGroup == ParamGroup::kRecorder) log_.drop_pending();
-            return ack(h, send);
+        } else {
+            ParamPolicy<PipelineType>& policy = policies_[m.axis];
+            const Status s = policy.set(m.value);
+            if (!s.ok()) return fail(h, policy.code(), s, send);
         }
-        fail(h, policy_.code(), s, send);
+        ack(h, send);
     }
 
     // ---- storage ----------------------------------------------------------------
@@ -585,21 +745,40 @@ private:
             case StorageState::kEmpty: return {c.state, in_group("storage", c.why), ErrorCode::kNotConfigured};
             default: return {c.state, in_group("storage", c.why), ErrorCode::kStorage};
         }
-        if (const Status s = check_set(stored_); !s.ok()) return {StorageState::kRejected, s, policy_.code()};
-        if (const Status s = policy_.set_all(stored_); !s.ok()) return {StorageState::kRejected, s, policy_.code()};
+        if (const Status s = check_set(stored_); !s.ok()) return {StorageState::kRejected, s, check_code_};
+        if (any_swap_pending())
+            return {StorageState::kRejected,
+                    error("params", "previous parameter set not yet swapped in; retry after one tick"), ErrorCode::kBusy};
+        // Checked as a whole: only a matrix waiting to be taken over can
+        // still refuse it, and the board goes first so that changes nothing.
+        if (const Status s = board_.set_all(stored_); !s.ok()) return {StorageState::kRejected, s, board_.code()};
+        for (int a = 0; a < N; ++a)
+            if (const Status s = policies_[a].set_all(stored_.axes[a]); !s.ok())
+                return {StorageState::kRejected, s, policies_[a].code()};
         if (stored_.has_recorder) log_.drop_pending();
         return {StorageState::kApplied, ok_status(), ErrorCode::kNone};
     }
 
     // The one check of a whole set: Save refuses to store, and Load and the
     // load at boot refuse to apply, a set that fails it. On error
-    // policy_.code() is the reply's code.
+    // check_code_ is the reply's code.
     Status check_set(const storage::StoredParams& v) {
-        if (!(v.loop_rate_Hz == pipeline_.setup().rate_Hz)) {
-            policy_.note_code(ErrorCode::kInvalidParam);
+        check_code_ = ErrorCode::kInvalidParam;
+        if (!(v.loop_rate_Hz == axes_[0]->setup().rate_Hz))
             return in_group("storage", error("loop_rate_Hz", "the set was saved at another loop rate than this board runs (hello)"));
+        if (v.axis_count != N)
+            return in_group("storage", error("axis_count", "the set was saved on a board with another axis count (hello)"));
+        for (int a = 0; a < N; ++a) {
+            if (const Status s = policies_[a].check_all(v.axes[a]); !s.ok()) {
+                check_code_ = policies_[a].code();
+                return s;
+            }
         }
-        return policy_.check_all(v);
+        if (const Status s = board_.check_all(v); !s.ok()) {
+            check_code_ = board_.code();
+            return s;
+        }
+        return ok_status();
     }
 
     // The texts are copied at once: a Status may point into a buffer that
@@ -629,15 +808,19 @@ private:
             return fail(h, ErrorCode::kUnsupported,
                         error("storage", "this board has no parameter storage (emulated boards: emulate --storage FILE)"),
                         send);
-        if (pipeline_.armed())
+        if (any_armed())
             return fail(h, ErrorCode::kArmed, error("storage", "save, load and forget only while disarmed"), send);
         switch (static_cast<MsgType>(h.type)) {
             case MsgType::kSave: {
-                policy_.all(stored_);
+                stored_ = storage::StoredParams{};
+                stored_.loop_rate_Hz = axes_[0]->setup().rate_Hz;
+                stored_.axis_count = static_cast<uint8_t>(N);
+                for (int a = 0; a < N; ++a) policies_[a].all(stored_.axes[a]);
+                board_.all(stored_);
                 set_text(stored_.firmware_version, info_.firmware_version);
                 // A set the board would refuse at its next boot is not
                 // stored: the record stays as it was.
-                if (const Status s = check_set(stored_); !s.ok()) return fail(h, policy_.code(), s, send);
+                if (const Status s = check_set(stored_); !s.ok()) return fail(h, check_code_, s, send);
                 const std::size_t n = storage::encode_stored_params(stored_, hooks_.storage->scratch());
                 if (n == 0)
                     return fail(h, ErrorCode::kStorage, error("storage", "the record does not fit the storage"), send);
@@ -666,9 +849,9 @@ private:
         if (!decode(h, body, m, send)) return;
         int bad = -1;
         using Refusal = typename SetpointStream<T, SetpointCapacity>::Refusal;
-        switch (stream_.push(m, pipeline_.setup().position, bad)) {
+        switch (stream_.push(m, axes_[stream_axis_]->setup().position, bad)) {
             case Refusal::kNone:
-                stream_fed_tick_ = pipeline_.tick_count();
+                stream_fed_tick_ = axes_[0]->tick_count();
                 return reply(stream_.ack(), h.seq, send);
             case Refusal::kNotOpen:
                 return fail(h, ErrorCode::kNotConfigured, error("stream", "no stream open: send StreamStart first"), send);
@@ -681,13 +864,18 @@ private:
         }
     }
 
-    PipelineType& pipeline_;
+    std::array<PipelineType*, N> axes_;
+    std::conditional_t<MultiAxis, MultiType*, void*> multi_;  // the matrices and channels (MultiAxis)
+    RecorderType& recorder_;
     DeviceInfo info_;
     DeviceHooks hooks_;
     FrameDecoder decoder_{};
     std::array<uint8_t, kMaxFrameSize> tx_{};
     TickStats tick_stats_{};
-    ParamPolicy<PipelineType> policy_;
+    std::array<ParamPolicy<PipelineType>, N> policies_;
+    BoardPolicy<T, N, RecorderType, std::conditional_t<MultiAxis, MultiType, void>> board_;
+    ErrorCode check_code_ = ErrorCode::kInvalidParam;  // of check_set's last error
+    uint8_t stream_axis_ = 0;  // the axis the setpoint stream feeds
     uint32_t last_frame_tick_ = 0;
     uint32_t stream_fed_tick_ = 0;  // tick of the last setpoint block accepted
     bool client_bound_ = false;

@@ -57,6 +57,7 @@ public:
         b.format = std::is_same_v<T, float> ? SampleFormat::kFloat32 : SampleFormat::kQ31;
         b.frame_count = static_cast<uint8_t>(n);
         b.flags = (last && st == RecorderState::kDone) ? LogBlock::kFlagLast : 0;
+        // The recorder's signal index, axis * kSignalCount + signal (link/board_policy.hpp).
         for (std::size_t c = 0; c < Channels; ++c) b.channels[c] = rec.config().channels[c];
         for (std::size_t i = 0; i < n; ++i)
             for (std::size_t c = 0; c < Channels; ++c) b.samples[i * Channels + c] = sample_bits(frames_[i].value[c]);

@@ -50,7 +50,12 @@ namespace piezoloop::link {
 // excitation's state and the storage block.
 // Version 4: the feedforward group ends with the reference pre-filter
 // (prefilter_count and up to two sections).
-inline constexpr uint8_t kProtocolVersion = 4;
+// Version 5: axes. HelloReply ends with the axis count and each axis's hard
+// limits and full scales, StatusReply with each axis's state and each
+// channel's clamps; the axis-scoped requests carry axis:u8; the recorder's
+// channels are (axis, signal) pairs; the input_matrix and output_matrix
+// groups; StartWave's body is always axis and flags.
+inline constexpr uint8_t kProtocolVersion = 5;
 
 enum class MsgType : uint8_t {
     // Requests, host -> device.
@@ -99,20 +104,21 @@ struct MessageTypeDoc {
 inline constexpr std::array<MessageTypeDoc, 26> kMessageTypes = {{
     {MsgType::kHello, "Hello", "empty", "HelloReply"},
     {MsgType::kGetStatus, "GetStatus", "empty", "StatusReply"},
-    {MsgType::kGetParams, "GetParams", "group:u8", "ParamsReply"},
-    {MsgType::kSetParams, "SetParams", "group:u8 + group layout", "Ack / Error"},
+    {MsgType::kGetParams, "GetParams", "group:u8, axis:u8", "ParamsReply"},
+    {MsgType::kSetParams, "SetParams", "group:u8, axis:u8 + group layout", "Ack / Error"},
     {MsgType::kArm, "Arm", "empty", "Ack / Error(tripped)"},
     {MsgType::kDisarm, "Disarm", "empty", "Ack"},
     {MsgType::kClearTrip, "ClearTrip", "empty", "Ack / Error(armed, tripped)"},
-    {MsgType::kStartWave, "StartWave", "empty, or u8 flags (runs the trajectory group; see below)", "Ack / Error"},
-    {MsgType::kStopWave, "StopWave", "empty", "Ack"},
-    {MsgType::kStreamStart, "StreamStart", "prefill:u16", "SetpointAck"},
+    {MsgType::kStartWave, "StartWave", "axis:u8, flags:u8 (runs the axis's trajectory group; see below)",
+     "Ack / Error"},
+    {MsgType::kStopWave, "StopWave", "axis:u8", "Ack / Error(invalid_param)"},
+    {MsgType::kStreamStart, "StreamStart", "axis:u8, prefill:u16", "SetpointAck"},
     {MsgType::kSetpoints, "Setpoints", "SetpointBlock", "SetpointAck / Error"},
     {MsgType::kStreamStop, "StreamStop", "drain:bool", "Ack"},
     {MsgType::kRecorderArm, "RecorderArm", "empty", "Ack / Error(not_configured)"},
     {MsgType::kRecorderStop, "RecorderStop", "empty", "Ack"},
     {MsgType::kStartExcitation, "StartExcitation", "see below", "Ack / Error"},
-    {MsgType::kStopExcitation, "StopExcitation", "empty", "Ack"},
+    {MsgType::kStopExcitation, "StopExcitation", "axis:u8", "Ack / Error(invalid_param)"},
     {MsgType::kSave, "Save", "empty", "Ack / Error(unsupported, armed, invalid_param, storage)"},
     {MsgType::kLoad, "Load", "empty",
      "Ack / Error(unsupported, armed, not_configured, storage, invalid_param, busy)"},
@@ -120,7 +126,7 @@ inline constexpr std::array<MessageTypeDoc, 26> kMessageTypes = {{
     {MsgType::kAck, "Ack", "request_type:u8", ""},
     {MsgType::kHelloReply, "HelloReply", "see below", ""},
     {MsgType::kStatusReply, "StatusReply", "see below", ""},
-    {MsgType::kParamsReply, "ParamsReply", "group:u8 + group layout", ""},
+    {MsgType::kParamsReply, "ParamsReply", "group:u8, axis:u8 + group layout", ""},
     {MsgType::kSetpointAck, "SetpointAck", "see below", ""},
     {MsgType::kLogBlock, "LogBlock", "see below", ""},
     {MsgType::kError, "Error", "see below", ""},
@@ -174,6 +180,7 @@ inline constexpr uint32_t kRecorder = 1u << 5;
 inline constexpr uint32_t kWaveTable = 1u << 6;       // kSteps / kTable waveforms
 inline constexpr uint32_t kExcitation = 1u << 7;      // StartExcitation / StopExcitation, signal d
 inline constexpr uint32_t kStorage = 1u << 8;         // Save / Load / Forget: the board keeps a parameter set
+inline constexpr uint32_t kAxisMatrices = 1u << 9;    // input_matrix / output_matrix groups take any valid matrix
 }  // namespace cap
 
 enum class SampleFormat : uint8_t { kFloat32 = 0, kQ31 = 1 };
@@ -184,6 +191,7 @@ inline constexpr std::size_t kGroupTextSize = 16;     // error reply texts
 inline constexpr std::size_t kFieldTextSize = 32;
 inline constexpr std::size_t kMessageTextSize = 96;
 inline constexpr std::size_t kMaxSetpointsPerBlock = 120;
+inline constexpr std::size_t kMaxLinkAxes = params::kMaxGroupAxes;  // axes a layout carries
 inline constexpr std::size_t kLogBlockHeader = 28;    // body bytes before the samples
 // Samples per log block: 480 bytes of samples whatever the channel count.
 constexpr std::size_t log_frames_per_block(std::size_t channels) {
@@ -195,9 +203,12 @@ constexpr std::size_t log_frames_per_block(std::size_t channels) {
 // ---- parameter groups ------------------------------------------------------
 // Declared once, with their layouts, in params/groups.hpp.
 
+using params::board_group;
 using params::FeedbackParams;
 using params::FeedforwardParams;
 using params::group_name;
+using params::InputMatrixParams;
+using params::OutputMatrixParams;
 using params::kMaxLogChannels;
 using params::kMaxWaveTable;
 using params::LimitsParams;
@@ -225,16 +236,26 @@ using GetStatus = EmptyMessage<MsgType::kGetStatus>;
 using Arm = EmptyMessage<MsgType::kArm>;
 using Disarm = EmptyMessage<MsgType::kDisarm>;
 using ClearTrip = EmptyMessage<MsgType::kClearTrip>;
-using StopWave = EmptyMessage<MsgType::kStopWave>;
 using RecorderArm = EmptyMessage<MsgType::kRecorderArm>;
 using RecorderStop = EmptyMessage<MsgType::kRecorderStop>;
-using StopExcitation = EmptyMessage<MsgType::kStopExcitation>;
 
-// Runs the trajectory group's wave. The body is optional (empty = flags 0,
-// as in the first clients): flags make the wave's first sample, the loop's
-// arm, the recorder's arm and a restart of the emulated stage happen at the
-// same tick boundary, so the first recorded frame is the wave's tick 0 with
-// the loop freshly armed and the stage at rest (how `piezoloop sim` starts).
+// Requests whose body is the axis they act on (0 .. axis_count - 1, hello).
+template <MsgType Type>
+struct AxisMessage {
+    static constexpr MsgType kType = Type;
+    uint8_t axis = 0;
+    bool operator==(const AxisMessage&) const = default;
+    void write(Writer& w) const { w.u8(axis); }
+    void read(Reader& r) { axis = r.u8(); }
+};
+using StopWave = AxisMessage<MsgType::kStopWave>;
+using StopExcitation = AxisMessage<MsgType::kStopExcitation>;
+
+// Runs the trajectory group's wave of one axis. The flags make the wave's
+// first sample, the arm of every axis, the recorder's arm and a restart of
+// the emulated stage happen at the same tick boundary, so the first recorded
+// frame is the wave's tick 0 with the loop freshly armed and the stage at
+// rest (how `piezoloop sim` starts).
 struct StartWave {
     static constexpr MsgType kType = MsgType::kStartWave;
     static constexpr uint8_t kArmLoop = 1u << 0;       // arm the loop (refused if already armed)
@@ -243,18 +264,14 @@ struct StartWave {
     static constexpr uint8_t kDetached = 1u << 3;      // the wave runs on when the client goes silent
     static constexpr uint8_t kKnownFlags = kArmLoop | kArmRecorder | kRestartStage | kDetached;
     uint8_t flags = 0;
+    uint8_t axis = 0;  // first on the wire
     bool operator==(const StartWave&) const = default;
-    // Flags 0 travel as the empty body, byte for byte the old message, and
-    // only so: a body byte 0 is left unread (too long, malformed), which
-    // keeps one encoding per value.
     void write(Writer& w) const {
-        if (flags != 0) w.u8(flags);
+        w.u8(axis);
+        w.u8(flags);
     }
     void read(Reader& r) {
-        flags = 0;
-        if (r.remaining() == 0) return;
-        Reader probe = r;
-        if (probe.u8() == 0) return;
+        axis = r.u8();
         flags = r.u8();
     }
 };
@@ -270,6 +287,7 @@ template <class V, params::GroupRef<StartExcitation> M>
 constexpr void describe(V& v, M& m) {
     using namespace params;
     auto& c = m.config;
+    v.value(u8("axis", "the axis excited, 0..axis_count-1 (hello)"), m.axis);
     v.value(u8("flags", "StartWave's bits (arm loop, arm recorder, restart stage, detached)"), m.flags);
     v.value(u8("signal", "0 multisine, 1 log sweep, 2 PRBS, 3 step, 4 triangle, 5 raised cosine"), c.signal);
     v.value(u8("point", "0 command (V), 1 reference (um); other values malformed"), c.point);
@@ -298,9 +316,10 @@ struct StartExcitation {
     static constexpr uint8_t kKnownFlags = StartWave::kKnownFlags;
     uint8_t flags = 0;
     ExcitationConfig config{};  // sample_rate_Hz is not sent
+    uint8_t axis = 0;           // first on the wire
     bool operator==(const StartExcitation& o) const {
         const ExcitationConfig &a = config, &b = o.config;
-        return flags == o.flags && a.signal == b.signal && a.point == b.point && a.amplitude == b.amplitude &&
+        return axis == o.axis && flags == o.flags && a.signal == b.signal && a.point == b.point && a.amplitude == b.amplitude &&
                a.offset == b.offset && a.period_samples == b.period_samples && a.first_bin == b.first_bin &&
                a.last_bin == b.last_bin && a.f1_Hz == b.f1_Hz && a.f2_Hz == b.f2_Hz &&
                a.prbs_order == b.prbs_order && a.prbs_hold == b.prbs_hold && a.periods == b.periods;
@@ -312,27 +331,40 @@ struct StartExcitation {
     }
 };
 
+// The group id, then the axis: an axis's group (limits, feedforward,
+// feedback, rc, trajectory) names its axis, a board group (recorder, link,
+// input_matrix, output_matrix) axis 0.
 struct GetParams {
     static constexpr MsgType kType = MsgType::kGetParams;
     ParamGroup group = ParamGroup::kLimits;
+    uint8_t axis = 0;
     bool operator==(const GetParams&) const = default;
-    void write(Writer& w) const { w.u8(static_cast<uint8_t>(group)); }
-    void read(Reader& r) { group = static_cast<ParamGroup>(r.u8()); }
+    void write(Writer& w) const {
+        w.u8(static_cast<uint8_t>(group));
+        w.u8(axis);
+    }
+    void read(Reader& r) {
+        group = static_cast<ParamGroup>(r.u8());
+        axis = r.u8();
+    }
 };
 
 // SetParams<G> (request) and ParamsReply<G> (reply to GetParams): the group
-// id, then the group's layout.
+// id, the axis (as GetParams'), then the group's layout.
 template <MsgType Type, class G>
 struct GroupMessage {
     static constexpr MsgType kType = Type;
     G value{};
+    uint8_t axis = 0;  // second on the wire
     bool operator==(const GroupMessage&) const = default;
     void write(Writer& w) const {
         w.u8(static_cast<uint8_t>(G::kGroup));
+        w.u8(axis);
         params::write_group(w, value);
     }
     void read(Reader& r) {
         if (r.u8() != static_cast<uint8_t>(G::kGroup)) r.mark_bad();
+        axis = r.u8();
         params::read_group(r, value);
     }
 };
@@ -342,12 +374,20 @@ template <class G> using ParamsReply = GroupMessage<MsgType::kParamsReply, G>;
 // Group id of a SetParams / ParamsReply body (0 if empty).
 constexpr uint8_t body_group(std::span<const uint8_t> body) { return body.empty() ? 0 : body[0]; }
 
+// The stream feeds one axis's setpoint (the others keep theirs).
 struct StreamStart {
     static constexpr MsgType kType = MsgType::kStreamStart;
     uint16_t prefill = 0;  // setpoints buffered before the tick starts consuming
+    uint8_t axis = 0;      // first on the wire
     bool operator==(const StreamStart&) const = default;
-    void write(Writer& w) const { w.u16(prefill); }
-    void read(Reader& r) { prefill = r.u16(); }
+    void write(Writer& w) const {
+        w.u8(axis);
+        w.u16(prefill);
+    }
+    void read(Reader& r) {
+        axis = r.u8();
+        prefill = r.u16();
+    }
 };
 
 struct StreamStop {
@@ -489,6 +529,17 @@ constexpr void describe(V& v, M& m) {
     v.value(u32("excitation_capacity", "samples",
                 "longest multisine period, samples (16384 on the QEMU boards, 4096 on the STM32)"),
             m.excitation_capacity);
+    // The axes: the fields above are axis 0's, these every axis's.
+    v.count(u8("axis_count", "axes the board runs, 1..3 (axis:u8 of the requests is below it)"), m.axis_count);
+    v.values(f32("axis_hard_u_min_V", "V", "each axis's (and its channel's) hard limits"), m.axis_hard_u_min_V,
+             m.axis_count, Travel::kCount);
+    v.values(f32("axis_hard_u_max_V", "V", "..."), m.axis_hard_u_max_V, m.axis_count, Travel::kCount);
+    v.values(f32("axis_hard_slew_max_V_per_s", "V/s", "..."), m.axis_hard_slew_max_V_per_s, m.axis_count,
+             Travel::kCount);
+    v.values(f32("axis_position_full_scale_um", "um", "each axis's Q31 full scale of r, y, e"),
+             m.axis_position_full_scale_um, m.axis_count, Travel::kCount);
+    v.values(f32("axis_voltage_full_scale_V", "V", "each axis's Q31 full scale of u, u_ff, u_fb, u_rc"),
+             m.axis_voltage_full_scale_V, m.axis_count, Travel::kCount);
 }
 
 struct HelloReply {
@@ -512,6 +563,9 @@ struct HelloReply {
     uint16_t max_wave_table = static_cast<uint16_t>(kMaxWaveTable);
     uint32_t rc_capacity = 0;  // largest RC period, samples
     uint32_t excitation_capacity = 0;  // longest multisine period, samples
+    uint8_t axis_count = 1;
+    std::array<float, kMaxLinkAxes> axis_hard_u_min_V{}, axis_hard_u_max_V{}, axis_hard_slew_max_V_per_s{};
+    std::array<float, kMaxLinkAxes> axis_position_full_scale_um{}, axis_voltage_full_scale_V{};
     bool operator==(const HelloReply&) const = default;
 
     void write(Writer& w) const { params::write_group(w, *this); }
@@ -628,6 +682,32 @@ constexpr void describe(V& v, M& m) {
     v.text(text("storage_field", "... field"), m.storage_field);
     v.value(i16("storage_index", "1", "... index"), m.storage_index);
     v.text(text("storage_message", "... message"), m.storage_message);
+    // The axes block: the fields above that belong to an axis (armed,
+    // tripped, trip_reason, wave_running, excitation_*, r_um, y_um, u_V)
+    // are axis 0's; these are every axis's, and each actuator channel's.
+    v.count(u8("axis_count", "axes, as in the hello"), m.axis_count);
+    v.values(boolean("axis_armed", "each axis armed"), m.axis_armed, m.axis_count, Travel::kCount);
+    v.values(boolean("axis_tripped", "each axis's limiter tripped"), m.axis_tripped, m.axis_count, Travel::kCount);
+    v.values(u8("axis_trip_reason", "as trip_reason"), m.axis_trip_reason, m.axis_count, Travel::kCount);
+    v.values(boolean("axis_wave_running", "each axis's wave runs"), m.axis_wave_running, m.axis_count,
+             Travel::kCount);
+    v.values(boolean("axis_excitation_running", "each axis's excitation runs"), m.axis_excitation_running,
+             m.axis_count, Travel::kCount);
+    v.values(u32("axis_swaps", "1", "parameter sets swapped in"), m.axis_swaps, m.axis_count, Travel::kCount);
+    v.values(u32("axis_excitation_ticks", "ticks", "as excitation_ticks"), m.axis_excitation_ticks, m.axis_count,
+             Travel::kCount);
+    v.values(u32("axis_excitation_clipped", "ticks", "as excitation_clipped"), m.axis_excitation_clipped,
+             m.axis_count, Travel::kCount);
+    v.values(f32("axis_r_um", "um", "last tick's reference"), m.axis_r_um, m.axis_count, Travel::kCount);
+    v.values(f32("axis_y_um", "um", "last tick's position (after the input matrix)"), m.axis_y_um, m.axis_count,
+             Travel::kCount);
+    v.values(f32("axis_u_V", "V", "last tick's axis command"), m.axis_u_V, m.axis_count, Travel::kCount);
+    v.values(f32("channel_u_V", "V", "last tick's channel command (after the output matrix and the channel limits)"),
+             m.channel_u_V, m.axis_count, Travel::kCount);
+    v.values(u32("channel_clamped", "ticks", "ticks the channel limiter clamped to its hard range"),
+             m.channel_clamped, m.axis_count, Travel::kCount);
+    v.values(u32("channel_slew_limited", "ticks", "ticks the channel limiter slew-limited"), m.channel_slew_limited,
+             m.axis_count, Travel::kCount);
 }
 
 struct StatusReply {
@@ -664,6 +744,13 @@ struct StatusReply {
     int16_t storage_index = -1;
     std::array<char, kMessageTextSize> storage_message{};
     // ---- end of the storage block
+    // ---- axes block (protocol 5)
+    uint8_t axis_count = 1;
+    std::array<bool, kMaxLinkAxes> axis_armed{}, axis_tripped{}, axis_wave_running{}, axis_excitation_running{};
+    std::array<uint8_t, kMaxLinkAxes> axis_trip_reason{};
+    std::array<uint32_t, kMaxLinkAxes> axis_swaps{}, axis_excitation_ticks{}, axis_excitation_clipped{};
+    std::array<float, kMaxLinkAxes> axis_r_um{}, axis_y_um{}, axis_u_V{}, channel_u_V{};
+    std::array<uint32_t, kMaxLinkAxes> channel_clamped{}, channel_slew_limited{};
     bool operator==(const StatusReply&) const = default;
 
     void write(Writer& w) const { params::write_group(w, *this); }
@@ -688,7 +775,8 @@ constexpr void describe(V& v, M& m) {
     v.value(u8("format", "0 float32 (um / V), 1 Q31 (raw * full scale / 2^31)"), m.format);
     v.value(u8("frame_count", "frames in the block"), m.frame_count);
     v.value(u8("flags", "bit 0 last block of a single-shot record"), m.flags);
-    v.values(u8("channels", "signal id of each channel"), m.channels, kMaxLogChannels, Travel::kAll);
+    v.values(u8("channels", "each channel: axis * 8 + signal id (on axis 0 the signal id)"), m.channels,
+             kMaxLogChannels, Travel::kAll);
     // count = channel_count * frame_count; a channel count beyond the
     // layout's makes it beyond the array too (malformed).
     const std::size_t count = m.channel_count <= kMaxLogChannels
@@ -708,7 +796,7 @@ struct LogBlock {
     SampleFormat format = SampleFormat::kFloat32;
     uint8_t frame_count = 0;
     uint8_t flags = 0;              // bit 0: last block of a single-shot record
-    std::array<uint8_t, kMaxLogChannels> channels{};  // SignalId of each channel
+    std::array<uint8_t, kMaxLogChannels> channels{};  // axis * kSignalCount + SignalId of each channel
     std::array<uint32_t, (kMaxBody - kLogBlockHeader) / 4> samples{};  // raw 32-bit patterns
     bool operator==(const LogBlock&) const = default;
 

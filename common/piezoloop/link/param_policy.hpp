@@ -1,5 +1,7 @@
-// What the device does with a parameter group it is sent (SetParams), and
-// which set it reports (GetParams).
+// What the device does with a parameter group of one axis it is sent
+// (SetParams), and which set it reports (GetParams). Each axis has its own
+// policy; the board's groups (recorder, link, matrices) are
+// link/board_policy.hpp's.
 //
 // A group goes through, in this order:
 //   1. equal to the running group and nothing waiting: acknowledged, nothing staged;
@@ -18,12 +20,13 @@
 // while armed too). Everything else is swapped in while armed, with the
 // limiter (not banked) slewing the output across the change.
 // The trajectory is validated by a scratch generator and stored (StartWave
-// runs it); the recorder is configured at once, inside the tick mask.
+// runs it).
 //
-// A whole stored set (Load, and the load at boot: set_all) goes through
-// steps 2, 4 and 5 for every group it holds, all of them before anything
-// is applied: a set with one bad group changes nothing. The caller refuses
-// it while armed (it replaces limit-critical groups).
+// An axis's part of a whole stored set (Load, and the load at boot:
+// check_all, then set_all) goes through steps 2, 4 and 5 for every group it
+// holds; the device checks every axis and the board's groups before it
+// applies any, so a set with one bad group changes nothing. The caller
+// refuses it while armed (it replaces limit-critical groups).
 #pragma once
 
 #include <array>
@@ -42,10 +45,8 @@ template <class Pipeline>
 class ParamPolicy {
 public:
     using T = typename Pipeline::SampleType;
-    using RecorderType = typename Pipeline::RecorderType;
-    static constexpr std::size_t kRecChannels = RecorderType::kChannels;
 
-    ParamPolicy(Pipeline& pipeline, void (*mask_tick)(bool)) : pipeline_(pipeline), mask_tick_(mask_tick) {}
+    explicit ParamPolicy(Pipeline& pipeline) : pipeline_(pipeline) {}
 
     // Applies a group; on error, code() says which ErrorCode the reply carries.
     template <class G>
@@ -58,11 +59,11 @@ public:
     // For a check of the caller's own that code() reports.
     void note_code(ErrorCode c) { code_ = c; }
 
-    // Applies a whole stored set, or nothing; on error code() as for set().
-    Status set_all(const storage::StoredParams& v) {
+    // Applies the axis's part of a stored set that check_all() passed, or
+    // nothing; on error code() as for set().
+    Status set_all(const storage::StoredAxis& v) {
         if (pipeline_.swap_pending())
             return fail(ErrorCode::kBusy, error("params", "previous parameter set not yet swapped in; retry after one tick"));
-        if (const Status s = check_all(v); !s.ok()) return s;
         PipelineParams p = pipeline_.params();
         params::set_group(p, v.limits);
         params::set_group(p, v.feedforward);
@@ -71,10 +72,8 @@ public:
         if (const Status s = as_user_path(pipeline_.stage(p)); !s.ok())
             return fail(ErrorCode::kInvalidParam, s.group == nullptr ? in_group("params", s) : s);
         staged_ = p;
-        // Checked above: none of these can fail now.
+        // Checked by check_all: cannot fail now.
         if (v.has_trajectory) (void)apply(v.trajectory);
-        if (v.has_recorder) (void)apply(v.recorder);
-        (void)apply(v.link);
         return ok_status();
     }
 
@@ -84,7 +83,7 @@ public:
     // (The pipeline's check of the groups together, in stage(), passed
     // when the running set was staged; a set never staged holds the default
     // limits, which fail here.) On error code() as for set().
-    Status check_all(const storage::StoredParams& v) {
+    Status check_all(const storage::StoredAxis& v) {
         if (const Status s = check_group(v.limits); !s.ok()) return s;
         if (const Status s = check_group(v.feedforward); !s.ok()) return s;
         if (const Status s = check_group(v.feedback); !s.ok()) return s;
@@ -92,43 +91,29 @@ public:
         if (v.has_trajectory) {
             if (const Status s = check_group(v.trajectory); !s.ok()) return s;
         }
-        if (v.has_recorder) {
-            if (const Status s = check_group(v.recorder); !s.ok()) return s;
-        }
-        if (const Status s = check_group(v.link); !s.ok()) return s;
         return ok_status();
     }
 
-    // Everything set_all() applies, as GetParams reports it (the firmware
-    // version is the device's to fill in).
-    void all(storage::StoredParams& s) const {
-        s = storage::StoredParams{};
-        s.loop_rate_Hz = pipeline_.setup().rate_Hz;
+    // Everything set_all() applies, as GetParams reports it.
+    void all(storage::StoredAxis& s) const {
+        s = storage::StoredAxis{};
         s.limits = get<LimitsParams>();
         s.feedforward = get<FeedforwardParams>();
         s.feedback = get<FeedbackParams>();
         s.rc = get<RepetitiveParams>();
         s.has_trajectory = wave_set_;
         s.trajectory = wave_;
-        s.has_recorder = pipeline_.recorder().configured();
-        s.recorder = recorder();
-        s.link = link_;
     }
 
     // The newest accepted set (GetParams): the staged one until it is swapped in.
     const PipelineParams& params() const { return pipeline_.swap_pending() ? staged_ : pipeline_.params(); }
     bool wave_set() const { return wave_set_; }
     const TrajectoryParams& wave() const { return wave_; }
-    const LinkParams& link() const { return link_; }
-    // The client timeout in ticks (0: never).
-    uint32_t client_timeout_ticks() const { return client_timeout_ticks_; }
 
     // Each group as GetParams returns it.
     template <class G>
     G get() const {
         if constexpr (std::is_same_v<G, TrajectoryParams>) return wave_;
-        else if constexpr (std::is_same_v<G, RecorderParams>) return recorder();
-        else if constexpr (std::is_same_v<G, LinkParams>) return link_;
         else if constexpr (std::is_same_v<G, FeedforwardParams>) return params::feedforward_of(params());
         else if constexpr (std::is_same_v<G, FeedbackParams>) return params::feedback_of(params());
         else if constexpr (std::is_same_v<G, RepetitiveParams>) return params::rc_of(params());
@@ -137,30 +122,7 @@ public:
 
     TrajectoryConfig wave_config() const { return trajectory_config(wave_); }
 
-    RecorderParams recorder() const {
-        const auto& c = pipeline_.recorder().config();
-        RecorderParams r;
-        // Configured or not, the group is a valid set (an unconfigured
-        // recorder holds the defaults: every channel r, every tick, single
-        // shot of the whole capacity), so a client that changes one field of
-        // it sends a set that is checked on what it changed.
-        r.channel_count = static_cast<uint8_t>(kRecChannels);
-        for (std::size_t i = 0; i < kRecChannels; ++i) r.channels[i] = c.channels[i];
-        r.decimation = c.decimation;
-        r.mode = c.mode;
-        r.trigger = c.trigger;
-        r.trigger_signal = c.trigger_signal;
-        r.trigger_level = c.trigger_level;
-        r.pre_trigger = c.pre_trigger;
-        r.length = c.length;
-        return r;
-    }
-
 private:
-    void mask(bool m) const {
-        if (mask_tick_ != nullptr) mask_tick_(m);
-    }
-
     Status fail(ErrorCode code, Status s) {
         code_ = code;
         return s;
@@ -198,18 +160,6 @@ private:
         if (const Status s = scratch.configure(trajectory_config(v)); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
         return ok_status();
     }
-    Status check_only(const RecorderParams& v) {
-        if (v.channel_count != kRecChannels)
-            return fail(ErrorCode::kUnsupported, error("channel_count", "must equal the device's recorder channel count (hello)"));
-        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
-        if (const Status s = RecorderType::validate(recorder_config(v)); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
-        return ok_status();
-    }
-    Status check_only(const LinkParams& v) {
-        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
-        return ok_status();
-    }
-
     // Steps 2 to 5 for a group of the pipeline's parameter set.
     template <class G>
     Status stage_group(const G& current, const G& v) {
@@ -308,63 +258,15 @@ private:
         return ok_status();
     }
 
-    Status apply(const RecorderParams& v) {
-        if (v.channel_count != kRecChannels)
-            return fail(ErrorCode::kUnsupported, error("channel_count", "must equal the device's recorder channel count (hello)"));
-        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
-        const typename RecorderType::Config c = recorder_config(v);
-        mask(true);
-        const Status s = pipeline_.recorder().configure(c);
-        mask(false);
-        if (!s.ok()) return fail(ErrorCode::kInvalidParam, s);
-        return ok_status();
-    }
-
-    typename RecorderType::Config recorder_config(const RecorderParams& v) const {
-        typename RecorderType::Config c{};
-        for (std::size_t i = 0; i < kRecChannels; ++i) c.channels[i] = v.channels[i];
-        c.decimation = v.decimation;
-        c.mode = v.mode;
-        c.trigger = v.trigger;
-        c.trigger_signal = v.trigger_signal;
-        c.trigger_level = v.trigger_level;
-        // r, y, e are positions; u, u_ff, u_fb, u_rc voltages.
-        c.trigger_scale = v.trigger_signal <= signal_index(SignalId::kE) ? pipeline_.setup().position
-                                                                          : pipeline_.setup().voltage;
-        c.pre_trigger = v.pre_trigger;
-        c.length = v.length;
-        return c;
-    }
-
-    Status apply(const LinkParams& v) {
-        if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
-        link_ = v;
-        client_timeout_ticks_ = timeout_ticks(v.client_timeout_s);
-        return ok_status();
-    }
-
-    // Seconds to ticks, to the nearest tick, and at least one tick for any
-    // timeout above 0 (only 0 means never: a timeout shorter than half a
-    // tick would otherwise round to 0); at most 2^32 - 1 ticks.
-    uint32_t timeout_ticks(float s) const {
-        if (!(s > 0.0f)) return 0;
-        const double t = static_cast<double>(s) * static_cast<double>(pipeline_.setup().rate_Hz) + 0.5;
-        if (!(t >= 1.0)) return 1;
-        return t >= 4294967295.0 ? 0xffffffffu : static_cast<uint32_t>(t);
-    }
-
     TrajectoryConfig trajectory_config(const TrajectoryParams& v) const {
         return params::trajectory_config(v, pipeline_.setup().rate_Hz);
     }
 
     Pipeline& pipeline_;
-    void (*mask_tick_)(bool) = nullptr;
     ErrorCode code_ = ErrorCode::kInvalidParam;
     PipelineParams staged_{};
     TrajectoryParams wave_{};
     bool wave_set_ = false;
-    LinkParams link_{};
-    uint32_t client_timeout_ticks_ = timeout_ticks(LinkParams{}.client_timeout_s);
     params::FieldCheck check_{};
     params::TextBuffer<32> critical_field_{};
     params::TextBuffer<32> nested_field_{};

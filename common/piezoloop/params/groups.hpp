@@ -38,8 +38,17 @@ enum class ParamGroup : uint8_t {
     kTrajectory = 5,   // wave generator
     kRecorder = 6,     // recorder configuration
     kLink = 7,         // what the board does when its client goes silent
+    kInputMatrix = 8,  // sensor readings -> axis positions (multi-axis boards)
+    kOutputMatrix = 9, // axis commands -> actuator channels (static decoupling)
 };
-inline constexpr int kGroupCount = 7;
+inline constexpr int kGroupCount = 9;
+
+// Groups of the whole board rather than of one axis: a request names axis 0
+// for them (link/messages.hpp).
+constexpr bool board_group(ParamGroup g) {
+    return g == ParamGroup::kRecorder || g == ParamGroup::kLink || g == ParamGroup::kInputMatrix ||
+           g == ParamGroup::kOutputMatrix;
+}
 
 constexpr const char* group_name(ParamGroup g) {
     switch (g) {
@@ -50,12 +59,15 @@ constexpr const char* group_name(ParamGroup g) {
         case ParamGroup::kTrajectory: return "trajectory";
         case ParamGroup::kRecorder: return "recorder";
         case ParamGroup::kLink: return "link";
+        case ParamGroup::kInputMatrix: return "input_matrix";
+        case ParamGroup::kOutputMatrix: return "output_matrix";
     }
     return "?";
 }
 
 inline constexpr std::size_t kMaxWaveTable = 96;   // points of a steps / table wave
 inline constexpr std::size_t kMaxLogChannels = 8;  // recorder channels a layout can carry
+inline constexpr std::size_t kMaxGroupAxes = 3;    // axes a matrix layout carries (kMaxAxes)
 
 // Enum names: the value is the index.
 inline constexpr const char* kFeedforwardKindNames[] = {"none", "pi_inverse", "pi_compensator", "dahl", "pi_series"};
@@ -141,6 +153,10 @@ struct RecorderParams {
     float trigger_level = 0.0f;  // physical units of the trigger signal (µm or V)
     uint32_t pre_trigger = 0;
     uint32_t length = 0;
+    // The axis of each channel and of the trigger signal: a channel is an
+    // (axis, signal) pair. Last in the struct, second in the layout.
+    std::array<uint8_t, kMaxLogChannels> axes{};
+    uint8_t trigger_axis = 0;
     bool operator==(const RecorderParams&) const = default;
 };
 
@@ -156,6 +172,25 @@ struct LinkParams {
     float client_timeout_s = 1.0f;  // 0: never
     ClientLossAction on_client_loss = ClientLossAction::kHold;
     bool operator==(const LinkParams&) const = default;
+};
+
+// The matrices of a multi-axis board (axes/axis_matrix.hpp), as 3 x 3
+// row-major layouts whatever the board's axis count: the top-left
+// axis_count x axis_count block is the matrix, every other element must be
+// the identity's (1 on the diagonal, 0 elsewhere, offsets 0).
+struct InputMatrixParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kInputMatrix;
+    uint8_t axis_count = 1;
+    std::array<float, kMaxGroupAxes * kMaxGroupAxes> gain{1, 0, 0, 0, 1, 0, 0, 0, 1};
+    std::array<float, kMaxGroupAxes> offset_um{};
+    bool operator==(const InputMatrixParams&) const = default;
+};
+
+struct OutputMatrixParams {
+    static constexpr ParamGroup kGroup = ParamGroup::kOutputMatrix;
+    uint8_t axis_count = 1;
+    std::array<float, kMaxGroupAxes * kMaxGroupAxes> gain{1, 0, 0, 0, 1, 0, 0, 0, 1};
+    bool operator==(const OutputMatrixParams&) const = default;
 };
 
 // ---- the declarations ---------------------------------------------------------
@@ -263,10 +298,14 @@ constexpr void describe(V& v, G& g) {
             g.channel_count);
     v.values(enumeration("channels", kSignalNames, "signal of each channel, in frame order"), g.channels, g.channel_count,
              Travel::kAll);
+    v.values(u8("axes", "axis of each channel, 0..axis_count-1 (hello)").range(0, kMaxGroupAxes - 1), g.axes,
+             g.channel_count, Travel::kAll);
     v.value(u32("decimation", "ticks", "keep every N-th tick").range(1, 4294967295.0), g.decimation);
     v.value(enumeration("mode", kRecordModeNames, "single_shot stops after `length` frames"), g.mode);
     v.value(enumeration("trigger", kTriggerModeNames, "start condition"), g.trigger);
     v.value(enumeration("trigger_signal", kSignalNames, "signal the trigger watches"), g.trigger_signal);
+    v.value(u8("trigger_axis", "axis of the trigger signal, 0..axis_count-1").range(0, kMaxGroupAxes - 1),
+            g.trigger_axis);
     v.value(f32("trigger_level", "um or V", "level, in the trigger signal's unit"), g.trigger_level);
     v.value(u32("pre_trigger", "frames", "frames kept from before the trigger"), g.pre_trigger);
     v.value(u32("length", "frames", "frames of a single-shot record"), g.length);
@@ -282,6 +321,31 @@ constexpr void describe(V& v, G& g) {
     v.value(enumeration("on_client_loss", kClientLossNames,
                         "hold: the setpoint holds, the loop stays armed; disarm: the loop is disarmed too"),
             g.on_client_loss);
+}
+
+// Every element of the matrices travels (and is shown in JSON): the arrays'
+// element counts are constants, not fields.
+template <class V, GroupRef<InputMatrixParams> G>
+constexpr void describe(V& v, G& g) {
+    std::size_t gains = kMaxGroupAxes * kMaxGroupAxes, offsets = kMaxGroupAxes;
+    v.value(u8("axis_count", "the board's axis count (hello)").range(1, kMaxGroupAxes).limit_critical(), g.axis_count);
+    v.values(f32("gain", "1",
+                 "y_axis = gain * reading + offset_um; row-major 3x3, |element| <= 16, condition number <= 1000")
+                 .limit_critical(),
+             g.gain, gains, Travel::kAll);
+    v.values(f32("offset_um", "um", "axis offsets, |offset| <= 1000 um").limit_critical(), g.offset_um, offsets,
+             Travel::kAll);
+}
+
+template <class V, GroupRef<OutputMatrixParams> G>
+constexpr void describe(V& v, G& g) {
+    std::size_t gains = kMaxGroupAxes * kMaxGroupAxes;
+    v.value(u8("axis_count", "the board's axis count (hello)").range(1, kMaxGroupAxes).limit_critical(), g.axis_count);
+    v.values(f32("gain", "1",
+                 "u_channel = gain * u_axis, then the channel limits; row-major 3x3, |element| <= 16, condition "
+                 "number <= 1000")
+                 .limit_critical(),
+             g.gain, gains, Travel::kAll);
 }
 
 // ---- dispatch by group id ------------------------------------------------------
@@ -303,6 +367,8 @@ constexpr bool with_group(ParamGroup g, F&& f) {
         case ParamGroup::kTrajectory: f(GroupTag<TrajectoryParams>{}); return true;
         case ParamGroup::kRecorder: f(GroupTag<RecorderParams>{}); return true;
         case ParamGroup::kLink: f(GroupTag<LinkParams>{}); return true;
+        case ParamGroup::kInputMatrix: f(GroupTag<InputMatrixParams>{}); return true;
+        case ParamGroup::kOutputMatrix: f(GroupTag<OutputMatrixParams>{}); return true;
     }
     return false;
 }

@@ -2,19 +2,22 @@
 // the record format, and the checks that tell a usable record from a
 // corrupt one or one written by another firmware.
 //
-// Layout, little-endian, no padding (format version 1):
+// Layout, little-endian, no padding (format version 2):
 //   header, 16 bytes: the stored-blob header (blob_header.hpp), magic
-//     0x53505A50 ("PZPS" in memory order), version 1 (this format), body
+//     0x53505A50 ("PZPS" in memory order), version 2 (this format), body
 //     length in bytes, CRC-32 of the body
 //   body:
 //     u8        link protocol version of the writer (link/messages.hpp)
 //     char[16]  firmware version of the writer (HelloReply::firmware_version)
 //     f32       loop rate the set was commissioned at, Hz
+//     u8        axis count of the writer's board, 1..3
 //     u8        group count
-//     then per group: u8 group id, the group's layout (params/wire_codec.hpp)
-//       -- byte for byte a SetParams body. Always limits, feedforward,
-//       feedback, rc and link; trajectory and recorder only once they have
-//       been set on the device (an unset one is not a set to restore).
+//     then per group: u8 group id, u8 axis, the group's layout
+//       (params/wire_codec.hpp) -- byte for byte a SetParams body. Always
+//       limits, feedforward, feedback and rc of every axis, and link,
+//       input_matrix and output_matrix (axis 0); an axis's trajectory and
+//       the recorder only once they have been set on the device (an unset
+//       one is not a set to restore).
 // A layout belongs to its firmware version, so a record is read only by the
 // firmware version that wrote it; the loop rate is checked by the device
 // (discrete-time coefficients belong to one rate).
@@ -26,8 +29,10 @@
 //   beyond the stored bytes), "crc"                               -> corrupt;
 //   header "version" (another record format), body "protocol_version",
 //   "firmware_version"                                            -> other firmware;
-//   body "groups" (unknown or repeated group, a group missing, a count
-//   beyond its array, bytes left over)                            -> corrupt.
+//   body "axis_count" (not 1..3), "groups" (unknown or repeated group, an
+//   axis beyond the count or not 0 for a board group, a group missing, a
+//   count beyond its array, bytes left over)                      -> corrupt.
+// Format 1 (one axis, protocol 4) is refused by its header version.
 #pragma once
 
 #include <array>
@@ -48,31 +53,44 @@ namespace piezoloop::storage {
 using link::StorageState;
 
 inline constexpr uint32_t kStoredParamsMagic = 0x53505A50u;  // "PZPS"
-inline constexpr uint16_t kStoredParamsVersion = 1;
+inline constexpr uint16_t kStoredParamsVersion = 2;
 inline constexpr BlobKind kStoredParamsBlob{kStoredParamsMagic, kStoredParamsVersion,
                                             "must be 0x53505A50 (\"PZPS\")",
-                                            "record format 1 expected: written by another firmware"};
-// Body bytes before the groups: protocol version, firmware version, rate, count.
-inline constexpr std::size_t kStoredParamsPreambleBytes = 1 + link::kNameSize + 4 + 1;
+                                            "record format 2 expected: written by another firmware"};
+inline constexpr std::size_t kMaxStoredAxes = link::kMaxLinkAxes;
+// Body bytes before the groups: protocol version, firmware version, rate, axis count, group count.
+inline constexpr std::size_t kStoredParamsPreambleBytes = 1 + link::kNameSize + 4 + 1 + 1;
+// Groups of one axis (limits, feedforward, feedback, rc, trajectory) and of the board.
+inline constexpr std::size_t kStoredAxisGroups = 5;
+inline constexpr std::size_t kStoredBoardGroups = 4;
 // Every group travels in one SetParams body, so none is longer than kMaxBody.
 inline constexpr std::size_t kStoredParamsMaxBodyBytes =
-    kStoredParamsPreambleBytes + static_cast<std::size_t>(params::kGroupCount) * link::kMaxBody;
+    kStoredParamsPreambleBytes + (kStoredAxisGroups * kMaxStoredAxes + kStoredBoardGroups) * link::kMaxBody;
 inline constexpr std::size_t kStoredParamsMaxBytes = kBlobHeaderBytes + kStoredParamsMaxBodyBytes;
 
-// The whole set GetParams reports, as it is stored.
-struct StoredParams {
-    uint8_t protocol_version = link::kProtocolVersion;
-    std::array<char, link::kNameSize> firmware_version{};
-    float loop_rate_Hz = 0.0f;
+// One axis's groups.
+struct StoredAxis {
     params::LimitsParams limits{};
     params::FeedforwardParams feedforward{};
     params::FeedbackParams feedback{};
     params::RepetitiveParams rc{};
     bool has_trajectory = false;
     params::TrajectoryParams trajectory{};
+    bool operator==(const StoredAxis&) const = default;
+};
+
+// The whole set GetParams reports, as it is stored.
+struct StoredParams {
+    uint8_t protocol_version = link::kProtocolVersion;
+    std::array<char, link::kNameSize> firmware_version{};
+    float loop_rate_Hz = 0.0f;
+    uint8_t axis_count = 1;
+    std::array<StoredAxis, kMaxStoredAxes> axes{};  // the first axis_count
     bool has_recorder = false;
     params::RecorderParams recorder{};
     params::LinkParams link{};
+    params::InputMatrixParams input_matrix{};
+    params::OutputMatrixParams output_matrix{};
     bool operator==(const StoredParams&) const = default;
 };
 
@@ -86,19 +104,23 @@ struct RecordCheck {
 namespace stored_detail {
 
 template <class G>
-constexpr G& slot(StoredParams& s) {
-    if constexpr (std::is_same_v<G, params::LimitsParams>) return s.limits;
-    else if constexpr (std::is_same_v<G, params::FeedforwardParams>) return s.feedforward;
-    else if constexpr (std::is_same_v<G, params::FeedbackParams>) return s.feedback;
-    else if constexpr (std::is_same_v<G, params::RepetitiveParams>) return s.rc;
-    else if constexpr (std::is_same_v<G, params::TrajectoryParams>) return s.trajectory;
+constexpr G& slot(StoredParams& s, uint8_t axis) {
+    StoredAxis& a = s.axes[axis];
+    if constexpr (std::is_same_v<G, params::LimitsParams>) return a.limits;
+    else if constexpr (std::is_same_v<G, params::FeedforwardParams>) return a.feedforward;
+    else if constexpr (std::is_same_v<G, params::FeedbackParams>) return a.feedback;
+    else if constexpr (std::is_same_v<G, params::RepetitiveParams>) return a.rc;
+    else if constexpr (std::is_same_v<G, params::TrajectoryParams>) return a.trajectory;
     else if constexpr (std::is_same_v<G, params::RecorderParams>) return s.recorder;
+    else if constexpr (std::is_same_v<G, params::InputMatrixParams>) return s.input_matrix;
+    else if constexpr (std::is_same_v<G, params::OutputMatrixParams>) return s.output_matrix;
     else return s.link;
 }
 
 template <class G>
-constexpr void write_one(link::Writer& w, const G& g) {
+constexpr void write_one(link::Writer& w, const G& g, uint8_t axis = 0) {
     w.u8(static_cast<uint8_t>(G::kGroup));
+    w.u8(axis);
     params::write_group(w, g);
 }
 
@@ -128,14 +150,23 @@ inline std::size_t encode_stored_params(const StoredParams& s, std::span<uint8_t
     w.u8(s.protocol_version);
     w.text(s.firmware_version.data(), link::kNameSize);
     w.f32(s.loop_rate_Hz);
-    w.u8(static_cast<uint8_t>(5 + (s.has_trajectory ? 1 : 0) + (s.has_recorder ? 1 : 0)));
-    stored_detail::write_one(w, s.limits);
-    stored_detail::write_one(w, s.feedforward);
-    stored_detail::write_one(w, s.feedback);
-    stored_detail::write_one(w, s.rc);
-    if (s.has_trajectory) stored_detail::write_one(w, s.trajectory);
+    if (s.axis_count < 1 || s.axis_count > kMaxStoredAxes) return 0;
+    w.u8(s.axis_count);
+    std::size_t count = 3 + (s.has_recorder ? 1 : 0);
+    for (uint8_t a = 0; a < s.axis_count; ++a) count += 4 + (s.axes[a].has_trajectory ? 1 : 0);
+    w.u8(static_cast<uint8_t>(count));
+    for (uint8_t a = 0; a < s.axis_count; ++a) {
+        const StoredAxis& x = s.axes[a];
+        stored_detail::write_one(w, x.limits, a);
+        stored_detail::write_one(w, x.feedforward, a);
+        stored_detail::write_one(w, x.feedback, a);
+        stored_detail::write_one(w, x.rc, a);
+        if (x.has_trajectory) stored_detail::write_one(w, x.trajectory, a);
+    }
     if (s.has_recorder) stored_detail::write_one(w, s.recorder);
     stored_detail::write_one(w, s.link);
+    stored_detail::write_one(w, s.input_matrix);
+    stored_detail::write_one(w, s.output_matrix);
     if (!w.ok()) return 0;
     if (!write_blob_header(kStoredParamsBlob, body.subspan(0, w.size()), out)) return 0;
     return kBlobHeaderBytes + w.size();
@@ -168,6 +199,7 @@ inline RecordCheck decode_stored_params(std::span<const uint8_t> in, const char*
     std::array<char, link::kNameSize> version{};
     r.text(version.data(), version.size(), link::kNameSize);
     const float rate_Hz = r.f32();
+    const uint8_t axis_count = r.u8();
     const uint8_t count = r.u8();
     if (!r.ok()) return corrupt(error("length", "body shorter than the record preamble"));
     if (protocol != link::kProtocolVersion)
@@ -175,31 +207,45 @@ inline RecordCheck decode_stored_params(std::span<const uint8_t> in, const char*
     if (!same_text(version, firmware_version))
         return other_firmware(error("firmware_version", "written by another firmware version: save again"));
 
+    if (axis_count < 1 || axis_count > kMaxStoredAxes) return corrupt(error("axis_count", "must be 1..3"));
+
     StoredParams& s = out;
     s = StoredParams{};
     s.protocol_version = protocol;
     s.firmware_version = version;
     s.loop_rate_Hz = rate_Hz;
-    uint32_t seen = 0;  // bit per group id
+    s.axis_count = axis_count;
+    std::array<uint32_t, kMaxStoredAxes> seen{};  // bit per group id, per axis
     for (uint8_t i = 0; i < count; ++i) {
         const uint8_t id = r.u8();
-        if (id >= 32 || (seen & (1u << id)) != 0) return corrupt(error("groups", "group id repeated or out of range"));
-        seen |= 1u << id;
-        const bool known = params::with_group(static_cast<params::ParamGroup>(id), [&](auto tag) {
+        const uint8_t axis = r.u8();
+        if (!r.ok()) break;
+        if (id >= 32) return corrupt(error("groups", "group id out of range"));
+        const auto g = static_cast<params::ParamGroup>(id);
+        if (axis >= axis_count || (params::board_group(g) && axis != 0))
+            return corrupt(error("groups", "a group's axis is beyond the axis count, or not 0 for a board group"));
+        if ((seen[axis] & (1u << id)) != 0) return corrupt(error("groups", "group repeated"));
+        seen[axis] |= 1u << id;
+        const bool known = params::with_group(g, [&](auto tag) {
             using G = typename decltype(tag)::type;
-            params::read_group(r, slot<G>(s));
+            params::read_group(r, slot<G>(s, axis));
         });
         if (!known) return corrupt(error("groups", "unknown group id"));
         if (!r.ok() || r.bad_value()) return corrupt(error("groups", "a group does not match its layout"));
     }
+    if (!r.ok()) return corrupt(error("groups", "a group does not match its layout"));
     if (r.remaining() != 0) return corrupt(error("groups", "bytes after the last group"));
-    auto has = [&](params::ParamGroup g) { return (seen & (1u << static_cast<uint8_t>(g))) != 0; };
-    for (const params::ParamGroup g : {params::ParamGroup::kLimits, params::ParamGroup::kFeedforward,
-                                       params::ParamGroup::kFeedback, params::ParamGroup::kRepetitive,
-                                       params::ParamGroup::kLink})
-        if (!has(g)) return corrupt(error("groups", "limits, feedforward, feedback, rc and link must all be stored"));
-    s.has_trajectory = has(params::ParamGroup::kTrajectory);
-    s.has_recorder = has(params::ParamGroup::kRecorder);
+    auto has = [&](uint8_t axis, params::ParamGroup g) { return (seen[axis] & (1u << static_cast<uint8_t>(g))) != 0; };
+    for (uint8_t a = 0; a < axis_count; ++a) {
+        for (const params::ParamGroup g : {params::ParamGroup::kLimits, params::ParamGroup::kFeedforward,
+                                           params::ParamGroup::kFeedback, params::ParamGroup::kRepetitive})
+            if (!has(a, g)) return corrupt(error("groups", "limits, feedforward, feedback and rc of every axis must be stored"));
+        s.axes[a].has_trajectory = has(a, params::ParamGroup::kTrajectory);
+    }
+    for (const params::ParamGroup g : {params::ParamGroup::kLink, params::ParamGroup::kInputMatrix,
+                                       params::ParamGroup::kOutputMatrix})
+        if (!has(0, g)) return corrupt(error("groups", "link, input_matrix and output_matrix must be stored"));
+    s.has_recorder = has(0, params::ParamGroup::kRecorder);
     return {StorageState::kApplied, ok_status()};
 }
 

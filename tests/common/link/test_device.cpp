@@ -137,7 +137,8 @@ TYPED_TEST(LinkDevice, SetAndReadBackEveryGroup) {
     EXPECT_EQ(r_.template get<RecorderParams>(ParamGroup::kRecorder), rp);
 
     // Unknown groups are refused, by get and by set.
-    this->expect_error(r_.request(GetParams{static_cast<ParamGroup>(9)}), ErrorCode::kBadGroup, nullptr, "group");
+    this->expect_error(r_.request(GetParams{static_cast<ParamGroup>(params::kGroupCount + 1)}), ErrorCode::kBadGroup,
+                       nullptr, "group");
 }
 
 TYPED_TEST(LinkDevice, InvalidParametersNameTheFieldAndChangeNothing) {
@@ -616,30 +617,27 @@ TYPED_TEST(LinkDevice, HostileStreamIsCountedAndTheDeviceKeepsRunning) {
 
 // ---- StartWave flags ---------------------------------------------------------
 
-TEST(LinkStartWave, FlagsZeroIsTheEmptyBodyAndOneByteOtherwise) {
-    std::array<uint8_t, kMaxFrameSize> f{};
-    // Flags 0 must encode exactly as the old body-less StartWave.
-    const std::size_t n0 = encode_message(StartWave{}, 7, f);
-    std::array<uint8_t, kMaxFrameSize> g{};
-    const std::size_t ne = encode_message(EmptyMessage<MsgType::kStartWave>{}, 7, g);
-    ASSERT_EQ(n0, ne);
-    EXPECT_TRUE(std::equal(f.begin(), f.begin() + static_cast<long>(n0), g.begin()));
+TEST(LinkStartWave, TheBodyIsAxisThenFlags) {
     for (const uint8_t flags : {uint8_t{0}, uint8_t{1}, uint8_t{6}, uint8_t{7}, uint8_t{0x80}}) {
-        std::vector<uint8_t> body;
         std::array<uint8_t, 4> buf{};
         Writer w(buf);
-        StartWave{flags}.write(w);
-        EXPECT_EQ(w.size(), flags == 0 ? 0u : 1u);
+        StartWave sent{flags};
+        sent.axis = 2;
+        sent.write(w);
+        ASSERT_EQ(w.size(), 2u);
+        EXPECT_EQ(buf[0], 2u);
+        EXPECT_EQ(buf[1], flags);
         StartWave back{0x55};
         EXPECT_EQ(decode_body(std::span<const uint8_t>(buf.data(), w.size()), back), DecodeResult::kOk);
-        EXPECT_EQ(back.flags, flags);
+        EXPECT_EQ(back, sent);
     }
-    const std::array<uint8_t, 2> two{1, 0};
+    // One layout: no body, one byte or three bytes do not match it.
     StartWave m;
-    EXPECT_EQ(decode_body(std::span<const uint8_t>(two), m), DecodeResult::kTooLong);
-    // Flags 0 has one encoding, the empty body: an explicit 0 byte is too long.
-    const std::array<uint8_t, 1> zero{0};
-    EXPECT_EQ(decode_body(std::span<const uint8_t>(zero), m), DecodeResult::kTooLong);
+    EXPECT_EQ(decode_body(std::span<const uint8_t>(), m), DecodeResult::kTruncated);
+    const std::array<uint8_t, 1> one{0};
+    EXPECT_EQ(decode_body(std::span<const uint8_t>(one), m), DecodeResult::kTruncated);
+    const std::array<uint8_t, 3> three{0, 1, 0};
+    EXPECT_EQ(decode_body(std::span<const uint8_t>(three), m), DecodeResult::kTooLong);
 }
 
 namespace {
@@ -825,7 +823,7 @@ TYPED_TEST(LinkStartWaveFlags, RefusalsStartNothing) {
     EXPECT_EQ(r_.pipeline->recorder().state(), RecorderState::kArmed);
 }
 
-// A StartExcitation whose point byte (offset 2) is 7: beyond the enumeration.
+// A StartExcitation whose point byte (offset 3, after axis, flags, signal) is 7: beyond the enumeration.
 struct StartExcitationBadPoint {
     static constexpr MsgType kType = MsgType::kStartExcitation;
     StartExcitation m;
@@ -833,7 +831,7 @@ struct StartExcitationBadPoint {
         std::array<uint8_t, kMaxBody> body{};
         Writer inner(body);
         m.write(inner);
-        body[2] = 7;
+        body[3] = 7;
         for (std::size_t i = 0; i < inner.size(); ++i) w.u8(body[i]);
     }
 };

@@ -216,11 +216,12 @@ TYPED_TEST(DeviceStorage, SetRejectedByValidationChangesNothing) {
     link::set_text(s.firmware_version, "1.2.3");
     s.loop_rate_Hz = reference::setup().rate_Hz;
     const PipelineParams p = reference::params(true, true, false);
-    s.limits = params::limits_of(p);
-    s.feedforward = params::feedforward_of(p);
-    s.feedforward.pi.weights[1] = std::numeric_limits<float>::quiet_NaN();
-    s.feedback = params::feedback_of(p);
-    s.rc = params::rc_of(p);
+    storage::StoredAxis& a = s.axes[0];
+    a.limits = params::limits_of(p);
+    a.feedforward = params::feedforward_of(p);
+    a.feedforward.pi.weights[1] = std::numeric_limits<float>::quiet_NaN();
+    a.feedback = params::feedback_of(p);
+    a.rc = params::rc_of(p);
     const std::size_t n = storage::encode_stored_params(s, this->mem.scratch());
     ASSERT_GT(n, 0u);
     ASSERT_TRUE(this->mem.write(n).ok());
@@ -242,10 +243,18 @@ TYPED_TEST(DeviceStorage, SetRejectedByValidationChangesNothing) {
     EXPECT_EQ(this->groups(rig), defaults);
 
     // Saved at another loop rate: rejected, naming the rate.
-    s.feedforward = params::feedforward_of(p);
+    a.feedforward = params::feedforward_of(p);
     s.loop_rate_Hz = 10000.0f;
     ASSERT_TRUE(this->mem.write(storage::encode_stored_params(s, this->mem.scratch())).ok());
     this->expect_error(rig.request(Load{}), ErrorCode::kInvalidParam, "storage", "loop_rate_Hz");
+    EXPECT_EQ(this->groups(rig), defaults);
+
+    // Saved on a board with another axis count: rejected, naming it.
+    s.loop_rate_Hz = reference::setup().rate_Hz;
+    s.axis_count = 2;
+    s.axes[1] = a;
+    ASSERT_TRUE(this->mem.write(storage::encode_stored_params(s, this->mem.scratch())).ok());
+    this->expect_error(rig.request(Load{}), ErrorCode::kInvalidParam, "storage", "axis_count");
     EXPECT_EQ(this->groups(rig), defaults);
 }
 

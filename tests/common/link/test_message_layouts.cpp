@@ -1,9 +1,9 @@
 // The messages' wire layouts (common/piezoloop/link/messages.hpp), each
 // message filled with a distinct value in every field: the encoded bodies
 // are byte for byte tests/golden/link_message_bodies.txt (captured from the
-// field-by-field codec these layouts replaced, protocol version 4), every
-// body decodes back to the message, and the declared layout sizes are the
-// encoded ones.
+// field-by-field codec these layouts replaced, protocol version 4, and
+// extended by the fields of version 5: the axes), every body decodes back to
+// the message, and the declared layout sizes are the encoded ones.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -43,6 +43,12 @@ HelloReply hello() {
     m.max_wave_table = 97;
     m.rc_capacity = 0x23456u;
     m.excitation_capacity = 0x34567u;
+    m.axis_count = 2;
+    m.axis_hard_u_min_V = {-1.25f, -2.5f, 0.0f};
+    m.axis_hard_u_max_V = {11.5f, 12.5f, 0.0f};
+    m.axis_hard_slew_max_V_per_s = {2.5e5f, 3.5e5f, 0.0f};
+    m.axis_position_full_scale_um = {50.5f, 60.5f, 0.0f};
+    m.axis_voltage_full_scale_V = {16.25f, 17.25f, 0.0f};
     return m;
 }
 
@@ -76,6 +82,21 @@ StatusReply status() {
     set_text(m.storage_field, "pi.weights");
     m.storage_index = -2;
     set_text(m.storage_message, "must be finite");
+    m.axis_count = 2;
+    m.axis_armed = {true, false, false};
+    m.axis_tripped = {false, true, false};
+    m.axis_trip_reason = {0, 3, 0};
+    m.axis_wave_running = {true, false, false};
+    m.axis_excitation_running = {false, true, false};
+    m.axis_swaps = {7, 8, 0};
+    m.axis_excitation_ticks = {0x00ABCDEFu, 42, 0};
+    m.axis_excitation_clipped = {41, 43, 0};
+    m.axis_r_um = {-1.5f, 0.5f, 0.0f};
+    m.axis_y_um = {2.25f, 0.75f, 0.0f};
+    m.axis_u_V = {3.125f, 4.0f, 0.0f};
+    m.channel_u_V = {3.0f, 4.25f, 0.0f};
+    m.channel_clamped = {44, 45, 0};
+    m.channel_slew_limited = {46, 47, 0};
     return m;
 }
 
@@ -102,6 +123,7 @@ ErrorReply error() {
 
 StartExcitation excitation() {
     StartExcitation m;
+    m.axis = 2;
     m.flags = 0x0B;
     ExcitationConfig& c = m.config;
     c.signal = static_cast<ExcitationSignal>(2);

@@ -194,9 +194,9 @@ TEST(LinkMessages, RoundTripEveryMessage) {
     }
 }
 
-TEST(LinkMessages, StatusReplyLayoutEndsWithTheStorageBlock) {
-    // docs/protocol.md: 269 bytes, the excitation at 113, the storage block
-    // from offset 122.
+TEST(LinkMessages, StatusReplyLayoutHasTheStorageThenTheAxesBlock) {
+    // docs/protocol.md: the excitation at 113, the storage block from
+    // offset 122, the axes block from 269: 42 bytes for one axis.
     StatusReply s;
     s.excitation_running = true;
     s.storage = StorageState::kRejected;
@@ -205,10 +205,16 @@ TEST(LinkMessages, StatusReplyLayoutEndsWithTheStorageBlock) {
     Writer w(body);
     s.write(w);
     ASSERT_TRUE(w.ok());
-    EXPECT_EQ(w.size(), 269u);
+    EXPECT_EQ(w.size(), 269u + 42u);
     EXPECT_EQ(body[113], 1);
     EXPECT_EQ(body[122], static_cast<uint8_t>(StorageState::kRejected));
     EXPECT_EQ(body[123], 'f');
+    EXPECT_EQ(body[269], 1);  // axis_count
+    // Each further axis adds its 41 bytes.
+    s.axis_count = 3;
+    Writer w3(body);
+    s.write(w3);
+    EXPECT_EQ(w3.size(), 269u + 1u + 3u * 41u);
 }
 
 TEST(LinkMessages, StorageRequestsAreRequests) {

@@ -1,9 +1,9 @@
 // The wire layouts derived from the declarations (params/wire_codec.hpp),
 // against layouts written out by hand from the protocol's tables: the
 // field order, types and counts of each group, byte for byte, and the sizes
-// the protocol states (docs/protocol.md, section 3: feedforward 120 + 8 per
-// operator, feedback 187, rc 58, limits 17, trajectory 32 + 4 per table
-// point, recorder 29, with the group id byte).
+// the protocol states (docs/protocol.md, section 3: feedforward 121 + 8 per
+// operator, feedback 188, rc 59, limits 18, trajectory 33 + 4 per table
+// point, recorder 39, with the group id and axis bytes).
 #include <gtest/gtest.h>
 
 #include <array>
@@ -121,24 +121,30 @@ TEST(ParamsWireCodec, RcLimitsTrajectoryRecorderByHand) {
     r.trigger_level = 2.5f;
     r.pre_trigger = 10;
     r.length = 200;
+    r.axes = {0, 1, 2, 0, 0, 0, 0, 0};
+    r.trigger_axis = 2;
     Bytes er;
     er.u8(4);
     for (unsigned c : {0u, 1u, 2u, 3u, 0u, 0u, 0u, 0u}) er.u8(c);  // all eight slots travel
+    for (unsigned a : {0u, 1u, 2u, 0u, 0u, 0u, 0u, 0u}) er.u8(a);  // and their axes
     er.u32(5);
-    er.u8(1); er.u8(1); er.u8(1);  // continuous, rising, y
+    er.u8(1); er.u8(1); er.u8(1); er.u8(2);  // continuous, rising, y of axis 2
     er.f32(2.5f); er.u32(10); er.u32(200);
     EXPECT_EQ(encode(r), er.b);
-    EXPECT_EQ(er.b.size() + 1, 29u);
+    EXPECT_EQ(er.b.size() + 2, 39u);
 }
 
 TEST(ParamsWireCodec, SizesFromTheDeclarations) {
-    EXPECT_EQ(layout_size<FeedforwardParams>().fixed + 1, 120u);
+    EXPECT_EQ(layout_size<FeedforwardParams>().fixed + 2, 121u);
     EXPECT_EQ(layout_size<FeedforwardParams>().per_count, 8u);
-    EXPECT_EQ(layout_size<FeedbackParams>().fixed + 1, 187u);
+    EXPECT_EQ(layout_size<FeedbackParams>().fixed + 2, 188u);
     EXPECT_EQ(layout_size<FeedbackParams>().per_count, 0u);
-    EXPECT_EQ(layout_size<TrajectoryParams>().fixed + 1, 32u);
+    EXPECT_EQ(layout_size<TrajectoryParams>().fixed + 2, 33u);
     EXPECT_EQ(layout_size<TrajectoryParams>().per_count, 4u);
-    EXPECT_EQ(layout_size<RecorderParams>().fixed + 1, 29u);
+    EXPECT_EQ(layout_size<RecorderParams>().fixed + 2, 39u);
+    // The matrices: the axis count, 3 x 3 gains (and 3 offsets), all travelling.
+    EXPECT_EQ(layout_size<InputMatrixParams>().fixed + 2, 2u + 1u + 36u + 12u);
+    EXPECT_EQ(layout_size<OutputMatrixParams>().fixed + 2, 2u + 1u + 36u);
 }
 
 TEST(ParamsWireCodec, ReadBackAndCountsBeyondTheirArrays) {

@@ -20,23 +20,48 @@ StoredParams sample_set(bool with_optional) {
     StoredParams s;
     link::set_text(s.firmware_version, "1.2.3");
     s.loop_rate_Hz = 100000.0f;
-    s.limits = params::limits_of(p);
-    s.feedforward = params::feedforward_of(p);
-    s.feedback = params::feedback_of(p);
-    s.rc = params::rc_of(p);
+    StoredAxis& a = s.axes[0];
+    a.limits = params::limits_of(p);
+    a.feedforward = params::feedforward_of(p);
+    a.feedback = params::feedback_of(p);
+    a.rc = params::rc_of(p);
     s.link.client_timeout_s = 2.5f;
     if (!with_optional) return s;  // unset groups keep their defaults: they are not stored
-    s.has_trajectory = true;
-    s.trajectory.waveform = Waveform::kTable;
-    s.trajectory.amplitude_um = 3.0f;
-    s.trajectory.table_count = 3;
-    s.trajectory.table[0] = 0.25f;
-    s.trajectory.table[1] = -0.5f;
-    s.trajectory.table[2] = 1.0f;
+    a.has_trajectory = true;
+    a.trajectory.waveform = Waveform::kTable;
+    a.trajectory.amplitude_um = 3.0f;
+    a.trajectory.table_count = 3;
+    a.trajectory.table[0] = 0.25f;
+    a.trajectory.table[1] = -0.5f;
+    a.trajectory.table[2] = 1.0f;
     s.has_recorder = true;
     s.recorder.channel_count = 4;
     s.recorder.channels = {0, 1, 2, 3};
     s.recorder.decimation = 7;
+    return s;
+}
+
+// Three axes, each with its own groups, a trajectory on the second only,
+// the recorder on channels of every axis, and mixing matrices.
+StoredParams three_axis_set() {
+    StoredParams s = sample_set(false);
+    s.axis_count = 3;
+    for (uint8_t i = 1; i < 3; ++i) {
+        s.axes[i] = s.axes[0];
+        s.axes[i].limits.limits.u_max_V = 50.0f + i;
+    }
+    s.axes[1].has_trajectory = true;
+    s.axes[1].trajectory.amplitude_um = 7.0f;
+    s.has_recorder = true;
+    s.recorder.channel_count = 8;
+    s.recorder.channels = {1, 3, 1, 3, 1, 3, 0, 7};
+    s.recorder.axes = {0, 0, 1, 1, 2, 2, 0, 2};
+    s.recorder.trigger_axis = 2;
+    s.input_matrix.axis_count = 3;
+    s.input_matrix.gain[1] = 0.02f;
+    s.input_matrix.offset_um[2] = 1.5f;
+    s.output_matrix.axis_count = 3;
+    s.output_matrix.gain[3] = -0.03f;
     return s;
 }
 
@@ -80,10 +105,22 @@ TEST(StoredParams, RoundTripIsExact) {
     }
 }
 
+TEST(StoredParams, ThreeAxesRoundTripExactly) {
+    const StoredParams s = three_axis_set();
+    StoredParams back;
+    ASSERT_EQ(decode(encode(s), back).state, StorageState::kApplied);
+    EXPECT_EQ(back, s);
+    EXPECT_FALSE(back.axes[0].has_trajectory);
+    EXPECT_TRUE(back.axes[1].has_trajectory);
+}
+
 TEST(StoredParams, FitsTheDeclaredMaximumAndRefusesASmallBuffer) {
-    StoredParams s = sample_set(true);
-    s.trajectory.table_count = static_cast<uint16_t>(params::kMaxWaveTable);
-    s.feedback.sos_count = kMaxControllerSections;
+    StoredParams s = three_axis_set();
+    for (StoredAxis& a : s.axes) {
+        a.has_trajectory = true;
+        a.trajectory.table_count = static_cast<uint16_t>(params::kMaxWaveTable);
+        a.feedback.sos_count = kMaxControllerSections;
+    }
     std::vector<uint8_t> out(kStoredParamsMaxBytes);
     const std::size_t n = encode_stored_params(s, out);
     EXPECT_GT(n, 0u);
@@ -114,10 +151,13 @@ TEST(StoredParams, BadMagicIsCorrupt) {
 }
 
 TEST(StoredParams, OtherFormatVersionIsOtherFirmware) {
-    auto bytes = encode(sample_set(false));
-    bytes[4] = 2;
-    StoredParams back;
-    expect_named(decode(bytes, back), StorageState::kOtherFirmware, "version");
+    // Format 1 (one axis, before axes) and any other.
+    for (const uint8_t version : {uint8_t{1}, uint8_t{3}}) {
+        auto bytes = encode(sample_set(false));
+        bytes[4] = version;
+        StoredParams back;
+        expect_named(decode(bytes, back), StorageState::kOtherFirmware, "version");
+    }
 }
 
 TEST(StoredParams, OtherFirmwareVersionIsOtherFirmware) {
@@ -171,13 +211,37 @@ TEST(StoredParams, MalformedGroupsAreCorruptEvenWithAGoodCrc) {
     }
     {
         auto bytes = good;
-        bytes[first_group - 1] = 4;  // count says 4 groups, 5 are there
+        bytes[first_group - 1] -= 1;  // count says one group less than there are
         reseal(bytes);
         expect_named(decode(bytes, back), StorageState::kCorrupt, "groups");
     }
     {
         auto bytes = good;
-        bytes[first_group - 1] = 6;  // one more group than stored: the body ends early
+        bytes[first_group - 1] += 1;  // one more group than stored: the body ends early
+        reseal(bytes);
+        expect_named(decode(bytes, back), StorageState::kCorrupt, "groups");
+    }
+}
+
+TEST(StoredParams, AxesBeyondTheCountAreCorrupt) {
+    const auto good = encode(three_axis_set());
+    StoredParams back;
+    const std::size_t first_group = kBlobHeaderBytes + kStoredParamsPreambleBytes;
+    for (const uint8_t count : {uint8_t{0}, uint8_t{4}}) {
+        auto bytes = good;
+        bytes[first_group - 2] = count;  // the axis count
+        reseal(bytes);
+        expect_named(decode(bytes, back), StorageState::kCorrupt, "axis_count");
+    }
+    {
+        auto bytes = good;
+        bytes[first_group - 2] = 2;  // groups of axis 2 are then beyond it
+        reseal(bytes);
+        expect_named(decode(bytes, back), StorageState::kCorrupt, "groups");
+    }
+    {
+        auto bytes = good;
+        bytes[first_group + 1] = 3;  // the first group's axis
         reseal(bytes);
         expect_named(decode(bytes, back), StorageState::kCorrupt, "groups");
     }

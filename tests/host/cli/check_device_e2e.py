@@ -136,6 +136,16 @@ try:
     check(r.returncode == 0 and json.loads(g2.stdout) == groups, "set all --json (get all's output) changes nothing",
           r.stderr)
 
+    # One axis: --axis x is that axis, another is refused naming the choices
+    # (exit 2) before anything is sent; the matrices are the 1 x 1 identity.
+    gx = run(*d, "get", "limits", "--axis", "x")
+    check(gx.returncode == 0 and json.loads(gx.stdout) == groups["limits"], "get limits --axis x: the only axis")
+    ry = run(*d, "wave", "--axis", "y", "--amplitude-um", "1")
+    check(ry.returncode == 2 and "--axis" in ry.stderr and "1 axes" in ry.stderr,
+          "wave --axis y on a one-axis board: exit 2 naming the choices", ry.stderr)
+    check(groups["output_matrix"]["axis_count"] == 1 and groups["output_matrix"]["gain"][0] == 1.0,
+          "output_matrix: the 1 x 1 identity", str(groups["output_matrix"]))
+
     r = run(*d, "set", "limits", "--json", '{"u_max_V": 50}')
     check(r.returncode == 3 and "SetParams refused (invalid_param): limits.u_max_V:" in r.stderr,
           "a rejected group prints the device's error and exits non-zero", r.stderr)

@@ -49,8 +49,11 @@ def defaults(node):
 doc = defaults(schema)
 errors = list(v.iter_errors(doc))
 check(not errors, "every declared default lies in its declared range", "; ".join(e.message for e in errors))
-check(set(doc) == {"feedforward", "feedback", "rc", "limits", "trajectory", "recorder", "link"}, "the seven groups",
-      str(sorted(doc)))
+check(set(doc) == {"feedforward", "feedback", "rc", "limits", "trajectory", "recorder", "link", "input_matrix",
+                   "output_matrix"}, "the nine groups", str(sorted(doc)))
+per_axis = {k for k, p in schema["properties"].items() if p.get("perAxis")}
+check(per_axis == {"feedforward", "feedback", "rc", "limits", "trajectory"},
+      "the axis's groups are perAxis, the board's not", str(sorted(per_axis)))
 check("default" not in schema["properties"]["limits"]["properties"]["slew_V_per_s"],
       "no default where the declared one is out of range (the limits' slew)")
 

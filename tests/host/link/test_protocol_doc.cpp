@@ -80,15 +80,16 @@ std::size_t body_size(const M& m = {}) {
 }
 
 // The size stated in the section that starts at `heading`: the first
-// "N bytes" after it.
+// "N bytes" or "N + M·count bytes" after it, with count 1 (one axis: the
+// counted arrays of the hello and the status reply are per axis).
 std::size_t stated_size(const std::string& doc, const std::string& heading) {
     const std::size_t at = doc.find(heading);
     EXPECT_NE(at, std::string::npos) << heading;
     if (at == std::string::npos) return 0;
     std::smatch m;
     const std::string rest = doc.substr(at, 600);
-    if (!std::regex_search(rest, m, std::regex(R"((\d+) bytes)"))) return 0;
-    return static_cast<std::size_t>(std::stoul(m[1]));
+    if (!std::regex_search(rest, m, std::regex(R"((\d+)(?: \+ (\d+)·count)? bytes)"))) return 0;
+    return static_cast<std::size_t>(std::stoul(m[1])) + (m[2].matched ? std::stoul(m[2]) : 0u);
 }
 
 }  // namespace
@@ -165,7 +166,8 @@ TEST(ProtocolDoc, EveryStatedBodySizeIsTheEncodedOne) {
     EXPECT_EQ(stated_size(doc, "**StartExcitation (0x0F)**"), body_size<StartExcitation>());
     EXPECT_EQ(body_size<ErrorReply>(), 52u + kMessageTextSize);
     EXPECT_NE(doc.find("| 173 | storage_message | 96 | char[96] |"), std::string::npos);  // 173 + 96 = 269
-    EXPECT_EQ(body_size<StatusReply>(), 269u);
+    EXPECT_NE(doc.find("| 269 | axis_count | 1 | u8 |"), std::string::npos);
+    EXPECT_EQ(body_size<StatusReply>(), 269u + 1u + 41u);  // one axis
     SetpointBlock three;
     three.count = 3;
     EXPECT_EQ(body_size(three), 5u + 3u * 4u);
