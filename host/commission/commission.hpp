@@ -92,6 +92,11 @@ namespace piezoloop::commission {
 // linearises the stage at every amplitude.
 inline constexpr double kStrongHysteresisSpread = 2.0;
 
+// A candidate's loop gain on the measured band's top lines must stay below
+// this (6 dB short of a crossover, as the gain margin asks): beyond the band
+// nothing is measured, so a loop still near 1 at its edge is refused.
+inline constexpr double kMaxLoopGainAtBandEdge = 0.5;
+
 // The triangles stay this fraction of the measured reach inside each of its
 // ends (the loop's corners and the controller's overshoot need room).
 inline constexpr double kReachMargin = 0.02;
