@@ -38,7 +38,7 @@
 //      the mode instead of cancelling it (listed last: chosen only when its
 //      prediction is better by more than the tie).
 //   6. each checked on the measured response (analysis/measured_loop):
-//      PM >= 45°, GM >= 6 dB, max|S| <= 2; a candidate that fails is never
+//      PM >= 45°, GM >= 6 dB, max|S| <= 2, |L| <= 0.5 at the band's top; a candidate that fails is never
 //      loaded. When none passes at the automatic target bandwidth, it is
 //      halved (twice at most).
 //   7. each passing candidate's tracking of a 10 Hz triangle over half the
