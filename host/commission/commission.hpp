@@ -38,7 +38,7 @@
 //      the mode instead of cancelling it (listed last: chosen only when its
 //      prediction is better by more than the tie).
 //   6. each checked on the measured response (analysis/measured_loop):
-//      PM >= 45°, GM >= 6 dB, max|S| <= 2; a candidate that fails is never
+//      PM >= 45°, GM >= 6 dB, max|S| <= 2, |L| <= 0.5 at the band's top; a candidate that fails is never
 //      loaded. When none passes at the automatic target bandwidth, it is
 //      halved (twice at most).
 //   7. each passing candidate's tracking of a 10 Hz triangle over half the
@@ -91,6 +91,11 @@ namespace piezoloop::commission {
 // candidates are also realised with the fitted inverse in series, which
 // linearises the stage at every amplitude.
 inline constexpr double kStrongHysteresisSpread = 2.0;
+
+// A candidate's loop gain on the measured band's top lines must stay below
+// this (6 dB short of a crossover, as the gain margin asks): beyond the band
+// nothing is measured, so a loop still near 1 at its edge is refused.
+inline constexpr double kMaxLoopGainAtBandEdge = 0.5;
 
 // The triangles stay this fraction of the measured reach inside each of its
 // ends (the loop's corners and the controller's overshoot need room).

@@ -59,7 +59,7 @@ def stated_static_gain(scenario):
 
 with tempfile.TemporaryDirectory() as tmp:
     runs = {"xy_flexure": ["--axes", "x,y", "--range-um", "80"],
-            "xyz_flexure": ["--axes", "all", "--range-um", "x=80,y=80,z=10", "--target-bandwidth-hz", "300"]}
+            "xyz_flexure": ["--axes", "all", "--range-um", "x=80,y=80,z=10"]}
     for name, args in runs.items():
         path = os.path.join(configs, "stages", name + ".json")
         with open(path) as f:

@@ -141,6 +141,33 @@ TEST(Commission, Ahmad2020FromMeasurementsAlone) {
     EXPECT_EQ(id.nominal_um_per_V, c.gain_um_per_V);
 }
 
+// The XYZ flexure's z alone: its 4 kHz mode (zeta 0.03) sits at the top of
+// the 20 kHz loop's measured band (rate / 5 = 4 kHz). At the default target
+// (1 kHz) every candidate passes the margins on the lines yet keeps |L| > 1
+// at the band's top, and on the stage the loop rang at the mode (e_max
+// 251 %). Such a candidate is refused; the target is lowered until one
+// keeps |L| <= 0.5 there, and that one verifies.
+TEST(Commission, AModeAtTheBandsEdgeIsNotCrossedBlind) {
+    const sim::Scenario s = sim::axis_alone(sim::load_scenario(kConfigs + "stages/xyz_flexure.json"), 2);
+    CommissionRequest r;
+    r.range_um = 10.0;
+    SimStage stage(s);
+    const Commissioning c = commission(stage, r);
+    ASSERT_GE(c.chosen, 0);
+    EXPECT_LT(c.target_bandwidth_Hz, 1000.0);
+    const Candidate& k = c.candidates[static_cast<std::size_t>(c.chosen)];
+    const double top_Hz = k.measured.f_Hz.back();
+    for (std::size_t i = 0; i < k.measured.f_Hz.size(); ++i)
+        if (k.measured.f_Hz[i] >= 0.95 * top_Hz) {
+            EXPECT_LE(std::abs(k.measured.loop[i]), kMaxLoopGainAtBandEdge) << k.measured.f_Hz[i] << " Hz";
+        }
+    bool refused_at_edge = false;
+    for (const std::string& line : c.log)
+        refused_at_edge = refused_at_edge || line.find("at the measured band's top") != std::string::npos;
+    EXPECT_TRUE(refused_at_edge);
+    EXPECT_TRUE(c.verified()) << c.verification_failure;
+}
+
 TEST(Commission, TheSeriesInverseIsMeasuredThroughTheLoop) {
     // Ahmad2020's stage: the loading curve's slope doubles over the loop, so
     // the candidates are also offered with the inverse in series, and the
