@@ -10,11 +10,13 @@
 
 #include "commission_session.hpp"
 #include "format/number.hpp"
+#include "json/json_reader.hpp"
 #include "measure/coupling.hpp"
 #include "measure/mimo_frf_sim.hpp"
 #include "measure/static_decoupling.hpp"
 #include "sim/multi_axis_sim_case.hpp"
 #include "sim/scenario.hpp"
+#include "synth/plant_json.hpp"
 
 namespace piezoloop::cli {
 namespace {
@@ -51,22 +53,6 @@ json pair_db(const sim::Scenario& s, const measure::Coupling& c) {
     return j;
 }
 
-json matrix_json(const Eigen::MatrixXd& m) {
-    json rows = json::array();
-    for (int i = 0; i < m.rows(); ++i) {
-        json r = json::array();
-        for (int j = 0; j < m.cols(); ++j) r.push_back(m(i, j));
-        rows.push_back(r);
-    }
-    return rows;
-}
-
-json read_json(const std::filesystem::path& f) {
-    std::ifstream in(f);
-    if (!in) throw std::runtime_error(f.string() + ": cannot be read");
-    return json::parse(in);
-}
-
 }  // namespace
 
 json run_axes_commission(const AxesCommission& a, const std::function<void(const std::string&)>& progress,
@@ -87,9 +73,8 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
         if (!seen.insert(sim::axis_named(s, name, "--axes")).second)
             throw std::invalid_argument("--axes: \"" + name + "\" is named twice");
     if (seen.size() != s.axes.size()) {
-        std::string names;
-        for (const sim::AxisSpec& x : s.axes) names += (names.empty() ? "" : ",") + x.name;
-        throw std::invalid_argument("--axes: name every axis of the stage (" + names + "): they are decoupled together");
+        throw std::invalid_argument("--axes: name every axis of the stage (" + sim::axis_names(s, ",") +
+                                    "): they are decoupled together");
     }
     std::map<std::string, double> range_um;
     for (const auto& [name, r] : a.range_um) range_um[s.axes[sim::axis_named(s, name, "--range-um")].name] = r;
@@ -172,20 +157,20 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
                        {"reduction_db", reduction},
                        {"not_measured", unmeasured},
                        {"required_reduction_db", kRequiredReduction_dB},
-                       {"static_gain", matrix_json(d.g0)},
+                       {"static_gain", design::matrix_json(d.g0)},
                        {"condition_1", d.condition_1}};
-    out["output_matrix"] = matrix_json(d.output_matrix);
+    out["output_matrix"] = design::matrix_json(d.output_matrix);
     out["decoupled"] = decoupled;
 
     // 4. The coupled stage with the commissioned controllers.
-    json scenario = read_json(a.scenario);
+    json scenario = hostjson::read_file(a.scenario);
     json axes_controllers = json::object();
     for (const sim::AxisSpec& x : s.axes) {
-        const json axis_scenario = read_json(dir / x.name / "scenario.json");
+        const json axis_scenario = hostjson::read_file((dir / x.name / "scenario.json").string());
         for (const json& c : axis_scenario.at("cases"))
             if (c.at("name") == "commissioned") axes_controllers[x.name] = c.at("controller");
     }
-    json with_d = {{"axes", axes_controllers}, {"output_matrix", matrix_json(d.output_matrix)}};
+    json with_d = {{"axes", axes_controllers}, {"output_matrix", design::matrix_json(d.output_matrix)}};
     scenario["cases"] = json::array(
         {{{"name", "commissioned"},
           {"label", "commissioned axis by axis, decoupled by the measured static gain"},

@@ -232,11 +232,9 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
         sim::Scenario s = sim::load_scenario(a.scenario);
         source = {{"kind", "simulator"}, {"scenario", s.name}, {"case", ""}};
         if (s.multi_axis()) {
-            std::string names;
-            for (const sim::AxisSpec& x : s.axes) names += (names.empty() ? "" : ",") + x.name;
             if (a.axis.empty())
                 throw std::invalid_argument("--axes: the scenario's stage has coupled axes; commission them with --axes " +
-                                            names);
+                                            sim::axis_names(s, ","));
             s = sim::axis_alone(s, sim::axis_named(s, a.axis, "--axes"));
             source["axis"] = a.axis;
         } else if (!a.axis.empty()) {

@@ -6,6 +6,7 @@
 
 #include "measure/coupling.hpp"
 #include "measure/static_decoupling.hpp"
+#include "synth/plant_json.hpp"
 
 namespace piezoloop::measure {
 
@@ -16,16 +17,6 @@ using nlohmann::json;
 std::string pair_name(int i, int j) { return "y" + std::to_string(i + 1) + "<-u" + std::to_string(j + 1); }
 
 json number_or_null(double x) { return std::isfinite(x) ? json(x) : json(nullptr); }
-
-json matrix_json(const Eigen::MatrixXd& m) {
-    json rows = json::array();
-    for (Eigen::Index i = 0; i < m.rows(); ++i) {
-        json row = json::array();
-        for (Eigen::Index j = 0; j < m.cols(); ++j) row.push_back(m(i, j));
-        rows.push_back(row);
-    }
-    return rows;
-}
 
 json pairs_json(const Coupling& c) {
     json out = json::array();
@@ -64,9 +55,9 @@ json coupling_report(const MimoFrfEstimate& e, std::optional<double> below_Hz) {
     out["band_Hz"] = {e.frequency_Hz.front(), e.frequency_Hz.back()};
     out["low_frequency_lines_Hz"] = low;
     out["coupling"] = pairs_json(c);
-    out["static_gain"] = matrix_json(d.g0);
+    out["static_gain"] = design::matrix_json(d.g0);
     out["static_gain_condition_1"] = d.condition_1;
-    out["output_matrix"] = matrix_json(d.output_matrix);
+    out["output_matrix"] = design::matrix_json(d.output_matrix);
     out["after_static_db"] = after_static;
     out["after_lines"] = pairs_json(d.after);
     return out;

@@ -234,9 +234,9 @@ PlantSpec parse_axis_plant(const Field& f, const std::filesystem::path& base, do
     return p;
 }
 
-std::string name_list(const std::vector<AxisSpec>& axes) {
+std::string name_list(const std::vector<AxisSpec>& axes, const char* separator = ", ") {
     std::string list;
-    for (const AxisSpec& a : axes) list += (list.empty() ? "" : ", ") + a.name;
+    for (const AxisSpec& a : axes) list += (list.empty() ? "" : separator) + a.name;
     return list;
 }
 
@@ -683,6 +683,8 @@ void require_single_axis(const Scenario& s, const std::string& command) {
     throw std::invalid_argument("multi-axis scenario: " + command + " runs single-axis stages only so far (" + s.name +
                                 ": plant.axes " + name_list(s.axes) + ")");
 }
+
+std::string axis_names(const Scenario& s, const char* separator) { return name_list(s.axes, separator); }
 
 Scenario axis_alone(const Scenario& s, std::size_t axis) {
     Scenario alone = s;

@@ -199,6 +199,9 @@ void require_single_axis(const Scenario& s, const std::string& command);
 // nothing of its motion comes back through them.
 Scenario axis_alone(const Scenario& s, std::size_t axis);
 
+// plant.axes' names, joined by `separator` ("x, y, z").
+std::string axis_names(const Scenario& s, const char* separator = ", ");
+
 // The index of the axis named `name` in plant.axes; std::invalid_argument
 // "<option>: ..." naming the axes otherwise.
 std::size_t axis_named(const Scenario& s, const std::string& name, const std::string& option);
