@@ -55,6 +55,10 @@ expect("help", ["--help"], 0)
 expect("subcommand help", ["identify", "rls", "--help"], 0)
 # 2: option errors of the parser (CLI11's own codes are 104-109).
 expect("value out of range", ["identify", "rls", "--ts", "0", "--data", "x.csv"], 2, "--ts")
+expect("ui: a takeover answer time out of range", ["ui", "--seat-answer-s", "0"], 2, "--seat-answer-s")
+expect("scan: a retrace speed out of range", ["scan", "--scenario", os.path.join(configs, "stages", "xy_flexure.json"),
+                                              "--retrace-speed", "17", "--out", os.path.join(tmp, "scan_refused")], 2,
+       "--retrace-speed")
 expect("missing required option", ["sim"], 2, "--scenario")
 expect("not a number", ["demo", "--frequency-hz", "ten"], 2, "--frequency-hz")
 expect("unknown option", ["demo", "--bogus"], 2, "--bogus")
