@@ -9,11 +9,10 @@
 #include <Eigen/Eigenvalues>
 
 #include "analysis/margins.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::design {
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 void check_model(const Ss& g, const char* what) {
     const auto n = g.A.rows();

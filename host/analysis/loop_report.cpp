@@ -11,13 +11,12 @@
 #include "analysis/robust.hpp"
 #include "lti/c2d.hpp"
 #include "lti/lti_convert.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::design {
 namespace {
 
 using nlohmann::json;
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 }  // namespace
 

@@ -10,8 +10,6 @@
 namespace piezoloop::design {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 // Natural frequency (rad/s) and damping of a pole or zero.
 bool natural(const cplx& p, double ts, double& wn, double& zeta) {
     cplx s = p;
@@ -26,8 +24,8 @@ bool natural(const cplx& p, double ts, double& wn, double& zeta) {
 }
 
 double wrap_pi(double a) {  // to (-π, π]
-    a = std::remainder(a, 2.0 * kPi);
-    if (a <= -kPi) a += 2.0 * kPi;
+    a = std::remainder(a, 2.0 * std::numbers::pi);
+    if (a <= -std::numbers::pi) a += 2.0 * std::numbers::pi;
     return a;
 }
 
@@ -49,7 +47,7 @@ FrequencySamples sample_response(const SsEvaluator& ev, const std::vector<double
 
 double phase_near(const SsEvaluator& ev, double w, double guess) {
     const double a = std::arg(ev.at_w(w));
-    return a + 2.0 * kPi * std::round((guess - a) / (2.0 * kPi));
+    return a + 2.0 * std::numbers::pi * std::round((guess - a) / (2.0 * std::numbers::pi));
 }
 
 namespace {
@@ -72,7 +70,7 @@ double bisect_log(F f, double a, double b) {
     return std::sqrt(a * b);
 }
 
-double phase_margin_deg(double phase_rad) { return wrap_pi(phase_rad + kPi) * 180.0 / kPi; }
+double phase_margin_deg(double phase_rad) { return wrap_pi(phase_rad + std::numbers::pi) * 180.0 / std::numbers::pi; }
 
 }  // namespace
 
@@ -94,7 +92,7 @@ std::vector<double> analysis_grid(const std::vector<cplx>& critical, double ts, 
     lo *= 1e-2;
     hi *= 1e2;
     if (is_discrete(ts)) {
-        hi = kPi / ts;
+        hi = std::numbers::pi / ts;
         lo = std::min(lo, 1e-3 * hi);
     }
     std::vector<double> w;
@@ -150,8 +148,8 @@ Margins loop_margins(const Ss& loop, const std::vector<cplx>& critical) {
         // Phase crossovers: odd multiples of π strictly crossed.
         const double pa = s.phase[i], pb = s.phase[i + 1];
         const double lo = std::min(pa, pb), hi = std::max(pa, pb);
-        for (double k = std::ceil((lo / kPi - 1.0) / 2.0); 2.0 * k + 1.0 <= hi / kPi; k += 1.0) {
-            const double target = (2.0 * k + 1.0) * kPi;
+        for (double k = std::ceil((lo / std::numbers::pi - 1.0) / 2.0); 2.0 * k + 1.0 <= hi / std::numbers::pi; k += 1.0) {
+            const double target = (2.0 * k + 1.0) * std::numbers::pi;
             if (!(target > lo && target <= hi)) continue;
             auto f = [&](double x) {
                 const double t = std::log(x / a) / std::log(b / a);
@@ -161,7 +159,7 @@ Margins loop_margins(const Ss& loop, const std::vector<cplx>& critical) {
             add_phase_crossover(w, ev.at_w(w));
         }
     }
-    if (is_discrete(loop.ts)) endpoint(kPi / loop.ts);
+    if (is_discrete(loop.ts)) endpoint(std::numbers::pi / loop.ts);
     std::sort(m.phase_crossovers.begin(), m.phase_crossovers.end(),
               [](const auto& x, const auto& y) { return x.w_rad_s < y.w_rad_s; });
     for (const auto& c : m.phase_crossovers)
@@ -202,10 +200,10 @@ double unwrapped_phase_deg(const Ss& model, const std::vector<cplx>& critical, d
     std::vector<double> grid;
     for (double w : analysis_grid(critical, model.ts, {w_rad_s}))
         if (w <= w_rad_s) grid.push_back(w);
-    if (grid.empty()) return std::arg(ev.at_w(w_rad_s)) * 180.0 / kPi;
+    if (grid.empty()) return std::arg(ev.at_w(w_rad_s)) * 180.0 / std::numbers::pi;
     const FrequencySamples s = sample_response(ev, grid);
     if (s.w.empty()) throw std::invalid_argument("model response is zero or infinite on the whole grid");
-    return phase_near(ev, w_rad_s, s.phase.back()) * 180.0 / kPi;
+    return phase_near(ev, w_rad_s, s.phase.back()) * 180.0 / std::numbers::pi;
 }
 
 }  // namespace piezoloop::design

@@ -5,12 +5,12 @@
 #include <stdexcept>
 
 #include "lti/freqresp.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::design {
 
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kDegPerRad = 180.0 / std::numbers::pi;
 
 // Where, between lines a and b, the linear interpolation of v (on log f)

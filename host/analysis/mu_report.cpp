@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "analysis/loop_report.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::design {
 
@@ -20,7 +21,6 @@ MuReport mu_report(const MuLoopModels& m) {
             throw std::invalid_argument(std::string(name) +
                                         ": models must all be continuous or share the plant's ts (or give --ts)");
     }
-    constexpr double kTwoPi = 2.0 * std::numbers::pi;
     const auto t0 = std::chrono::steady_clock::now();
     MuReport rep;
     rep.result = mu_loop(m);

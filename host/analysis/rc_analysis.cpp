@@ -18,7 +18,6 @@
 namespace piezoloop::design {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 constexpr int kMaxDelayStates = 4000;  // eigenvalues of the RC loop
 constexpr int kMaxHinfStates = 800;    // Hamiltonian for ||T_g0||
 
@@ -33,8 +32,7 @@ void validate(const RcConfig& rc, double ts) {
     if (!(rc.k_rc > 0.0) || !std::isfinite(rc.k_rc)) throw std::invalid_argument("rc: k_rc must be > 0");
 }
 
-
-double hz(double w) { return w / (2.0 * kPi); }
+double hz(double w) { return w / (2.0 * std::numbers::pi); }
 
 // Golden-section search for the extremum of f on [a, b] (sign = +1: max).
 template <class F>
@@ -79,7 +77,7 @@ std::pair<double, double> grid_extremum(F f, const std::vector<double>& w, doubl
 // Uniform grid (0, π/ts] with `count` points, plus a log grid below its
 // first point: resolves the RC harmonics (spacing 2π/(N ts)).
 std::vector<double> dense_grid(double ts, int count) {
-    const double nyq = kPi / ts;
+    const double nyq = std::numbers::pi / ts;
     std::vector<double> w;
     const double first = nyq / count;
     for (int i = 0; i < 200; ++i) w.push_back(first * std::pow(1e-4, 1.0 - i / 200.0));
@@ -104,7 +102,7 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
     validate(rc, ts);
     RcAnalysis r;
     r.ts = ts;
-    const double nyq = kPi / ts;
+    const double nyq = std::numbers::pi / ts;
     const int n_period = rc.period_samples;
     const Ss q = zpk2ss(rc.q);
     const SsEvaluator et(t), eq(q), el(l);
@@ -133,17 +131,17 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
     double max_w = st.w.front();
     for (std::size_t i = 0; i < st.w.size(); ++i) {
         const double th = std::abs(theta_at(i));
-        if (st.w[i] <= wc * (1.0 + 1e-12) && th * 180.0 / kPi > r.max_phase_deg) {
-            r.max_phase_deg = th * 180.0 / kPi;
+        if (st.w[i] <= wc * (1.0 + 1e-12) && th * 180.0 / std::numbers::pi > r.max_phase_deg) {
+            r.max_phase_deg = th * 180.0 / std::numbers::pi;
             max_w = st.w[i];
         }
-        if (!r.phase_90_at_Hz && th >= kPi / 2.0) {
+        if (!r.phase_90_at_Hz && th >= std::numbers::pi / 2.0) {
             double a = i == 0 ? 0.0 : st.w[i - 1], b = st.w[i];
             const double ga = i == 0 ? 0.0 : theta_at(i - 1), gb = theta_at(i);
             for (int k = 0; k < 200 && b - a > 1e-13 * b; ++k) {
                 const double m = 0.5 * (a + b);
                 const double g = theta_near(m, ga + (gb - ga) * (m - a) / std::max(b - a, 1e-300));
-                (std::abs(g) >= kPi / 2.0 ? b : a) = m;
+                (std::abs(g) >= std::numbers::pi / 2.0 ? b : a) = m;
             }
             r.phase_90_at_Hz = hz(0.5 * (a + b));
         }

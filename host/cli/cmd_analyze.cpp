@@ -54,6 +54,7 @@
 #include "piezoloop/pi_inverse.hpp"
 #include "sim/plotting.hpp"
 #include "status_text.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::cli {
 namespace {
@@ -61,9 +62,6 @@ namespace {
 using namespace piezoloop::design;
 using nlohmann::json;
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
-
-json number(double v) { return report_number(v); }
 
 // ------------------------------------------------------------- plotting
 
@@ -273,14 +271,14 @@ void run_rc(const RcArgs& a) {
                                      {"at_Hz", r.small_gain_at_Hz},
                                      {"meaning", "sup |Q| |1 - k_rc z^m2 T| over 0..Nyquist, must be < 1"}};
     out["exact"] = {{"stable", r.rc_stable ? json(*r.rc_stable) : json(nullptr)},
-                    {"max_abs_root", r.rc_max_abs_root ? number(*r.rc_max_abs_root) : json(nullptr)},
+                    {"max_abs_root", r.rc_max_abs_root ? report_number(*r.rc_max_abs_root) : json(nullptr)},
                     {"meaning", "largest |z| of the roots of 1 - Q z^(m1-N) (1 - k_rc z^m2 T)"}};
     if (r.has_hysteresis) {
         out["hysteresis"] = {
             {"g0", r.g0},
             {"condition_15", {{"ok", r.g0_ok && r.g0_loop_stable},
-                              {"gain_margin_rc", r.gain_margin_rc ? number(*r.gain_margin_rc) : json(nullptr)},
-                              {"at_Hz", r.gain_margin_rc_at_Hz ? number(*r.gain_margin_rc_at_Hz) : json(nullptr)},
+                              {"gain_margin_rc", r.gain_margin_rc ? report_number(*r.gain_margin_rc) : json(nullptr)},
+                              {"at_Hz", r.gain_margin_rc_at_Hz ? report_number(*r.gain_margin_rc_at_Hz) : json(nullptr)},
                               {"g0_loop_stable", r.g0_loop_stable}}},
             {"condition_21", {{"ok", r.density_ok},
                               {"density_l1", r.density_l1},
@@ -288,11 +286,11 @@ void run_rc(const RcArgs& a) {
                               {"integral_ok", r.density_integral > 0.0
                                                   ? json(r.g0_loop_stable && r.density_integral < r.density_bound)
                                                   : json(nullptr)},
-                              {"bound", number(r.density_bound)},
-                              {"hinf_G2", number(r.hinf_G2)},
-                              {"at_Hz", number(r.hinf_G2_at_Hz)},
+                              {"bound", report_number(r.density_bound)},
+                              {"hinf_G2", report_number(r.hinf_G2)},
+                              {"at_Hz", report_number(r.hinf_G2_at_Hz)},
                               {"method", r.hinf_G2_method},
-                              {"ratio", number(r.density_l1 / r.density_bound)}}},
+                              {"ratio", report_number(r.density_l1 / r.density_bound)}}},
             {"inverse_feedforward_required", !r.density_ok}};
     }
     out["ok"] = r.failures.empty();
@@ -357,12 +355,12 @@ PiModel load_pi(const std::string& file, const char* what) {
     return m;
 }
 
-struct PiArgs {
+struct AnalyzePiArgs {
     std::string model, estimate, inverse, plot_file;
     double max_input = 0.0;
 };
 
-void run_pi(const PiArgs& a) {
+void run_pi(const AnalyzePiArgs& a) {
     if (a.estimate.empty() == a.inverse.empty())
         throw std::invalid_argument("estimate: give exactly one of --estimate and --inverse");
     const PiModel p = load_pi(a.model, "model");
@@ -440,7 +438,7 @@ void add_analyze(CLI::App& app) {
     rc->add_option("--plot", ra->plot_file, "write the condition curves to this PNG");
     rc->callback([ra] { guarded([&] { run_rc(*ra); }); });
 
-    auto pa = std::make_shared<PiArgs>();
+    auto pa = std::make_shared<AnalyzePiArgs>();
     CLI::App* pi = analyze->add_subcommand("pi", "PI model composed with an estimated inverse: rho and the bound on Xi");
     pi->add_option("--model", pa->model, "true PI model (JSON: thresholds, weights[, p0])")->required();
     pi->add_option("--estimate", pa->estimate, "estimated forward PI model, inverted analytically");
@@ -451,7 +449,7 @@ void add_analyze(CLI::App& app) {
 }
 
 namespace {
-const bool registered = register_command(30, add_analyze);
+const bool registered_analyze = register_command(30, add_analyze);
 }  // namespace
 
 }  // namespace piezoloop::cli

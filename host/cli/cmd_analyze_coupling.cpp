@@ -59,7 +59,7 @@ void add_analyze_coupling(CLI::App& app) {
 }
 
 // After `analyze` (30), `analyze mu` (31) and `analyze measured-loop` (32).
-const bool registered = register_command(33, add_analyze_coupling);
+const bool registered_analyze_coupling = register_command(33, add_analyze_coupling);
 
 }  // namespace
 }  // namespace piezoloop::cli

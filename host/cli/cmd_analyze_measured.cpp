@@ -85,7 +85,7 @@ void add_analyze_measured(CLI::App& app) {
 }
 
 // After `analyze` (30) and `analyze mu` (31).
-const bool registered = register_command(32, add_analyze_measured);
+const bool registered_analyze_measured = register_command(32, add_analyze_measured);
 
 }  // namespace
 }  // namespace piezoloop::cli

@@ -31,14 +31,13 @@
 #include "lti/c2d.hpp"
 #include "lti/model_json.hpp"
 #include "options/option_checks.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::cli {
 namespace {
 
 using namespace piezoloop::design;
 using nlohmann::json;
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 struct MuArgs {
     std::string plant, controller, hm, w1, w3, w2, csv;
@@ -121,7 +120,7 @@ void add_analyze_mu(CLI::App& app) {
     mu->callback([a] { guarded([&] { run_mu(*a); }); });
 }
 
-const bool registered = register_command(31, add_analyze_mu);
+const bool registered_analyze_mu = register_command(31, add_analyze_mu);
 
 }  // namespace
 }  // namespace piezoloop::cli

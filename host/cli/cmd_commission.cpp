@@ -130,7 +130,7 @@ void add_commission(CLI::App& app) {
     cmd->callback([a] { guarded([&] { return run_commission(*a); }); });
 }
 
-const bool registered = register_command(47, add_commission);
+const bool registered_commission = register_command(47, add_commission);
 
 }  // namespace
 }  // namespace piezoloop::cli

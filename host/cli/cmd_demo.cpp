@@ -90,7 +90,7 @@ void add_demo(CLI::App& app) {
 }
 
 namespace {
-const bool registered = register_command(90, add_demo);
+const bool registered_demo = register_command(90, add_demo);
 }  // namespace
 
 }  // namespace piezoloop::cli

@@ -32,14 +32,13 @@
 #include "lti/model_json.hpp"
 #include "lti/realisation.hpp"
 #include "lti/sos.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::cli {
 namespace {
 
 using namespace piezoloop::design;
 using nlohmann::json;
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // Thrown for bad input; main path prints it and exits 2.
 struct InputError : std::invalid_argument {
@@ -201,7 +200,7 @@ void add_design(CLI::App& app) {
 }  // namespace
 
 namespace {
-const bool registered = register_command(20, add_design);
+const bool registered_design = register_command(20, add_design);
 }  // namespace
 
 }  // namespace piezoloop::cli

@@ -91,7 +91,7 @@ void add_design_musyn(CLI::App& app) {
 }
 
 // After `design` (20) and `design hinf|mixsyn` (21).
-const bool registered = register_command(22, add_design_musyn);
+const bool registered_design_musyn = register_command(22, add_design_musyn);
 
 }  // namespace
 }  // namespace piezoloop::cli

@@ -60,7 +60,7 @@ void add_design_pi_notch(CLI::App& app) {
 }
 
 // After `design` (20), `design hinf|mixsyn` (21) and `design musyn` (22).
-const bool registered = register_command(23, add_design_pi_notch);
+const bool registered_design_pi_notch = register_command(23, add_design_pi_notch);
 
 }  // namespace
 }  // namespace piezoloop::cli

@@ -134,7 +134,7 @@ void add_design_synth(CLI::App& app) {
 
 namespace {
 // After `design` (20), which it extends.
-const bool registered = register_command(21, add_design_synth);
+const bool registered_design_synth = register_command(21, add_design_synth);
 }  // namespace
 
 }  // namespace piezoloop::cli

@@ -519,7 +519,7 @@ void add_device_commands(CLI::App& app) {
     add_record(app);
 }
 
-const bool registered = register_command(60, add_device_commands);
+const bool registered_device_commands = register_command(60, add_device_commands);
 
 }  // namespace
 }  // namespace piezoloop::cli

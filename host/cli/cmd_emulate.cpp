@@ -375,7 +375,7 @@ void add_emulate_commands(CLI::App& app) {
     add_devices(app);
 }
 
-const bool registered = register_command(61, add_emulate_commands);
+const bool registered_emulate_commands = register_command(61, add_emulate_commands);
 
 }  // namespace
 }  // namespace piezoloop::cli

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/loop_report.hpp"
 #include "commands.hpp"
 #include "ident/balred.hpp"
 #include "ident/csv_data.hpp"
@@ -62,7 +63,6 @@ private:
 };
 
 // Non-finite numbers (e.g. the fit of a diverging model) as JSON null.
-json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 struct DataArgs {
     std::string file;
@@ -95,7 +95,7 @@ d::CsvData read_data(const DataArgs& a, Progress& progress) {
 json errors_json(const d::FitErrors& e) {
     return {{"rms_error", e.rms_error},
             {"max_error", e.max_error},
-            {"nrmse_percent", number(e.nrmse_percent)},
+            {"nrmse_percent", d::report_number(e.nrmse_percent)},
             {"samples", e.samples}};
 }
 
@@ -148,10 +148,10 @@ void run_rls(const RlsArgs& a) {
     out["stable"] = r.stable;
     out["iterations"] = r.iterations;
     out["converged"] = r.converged;
-    out["fit"] = {{"fit_percent", number(r.fit_percent)},
-                  {"simulation_rms", number(r.simulation_rms)},
-                  {"prediction_rms", number(r.prediction_rms)},
-                  {"regressor_condition", number(r.regressor_condition)},
+    out["fit"] = {{"fit_percent", d::report_number(r.fit_percent)},
+                  {"simulation_rms", d::report_number(r.simulation_rms)},
+                  {"prediction_rms", d::report_number(r.prediction_rms)},
+                  {"regressor_condition", d::report_number(r.regressor_condition)},
                   {"samples", r.samples_used}};
     std::cout << out.dump(1) << "\n";
 }
@@ -185,7 +185,7 @@ void add_rls(CLI::App* parent) {
 
 // ---------------------------------------------------------------- pi
 
-struct PiArgs {
+struct IdentifyPiArgs {
     DataArgs data;
     std::string grid = "uniform";
     std::string first_fitted = "auto";
@@ -212,7 +212,7 @@ std::size_t first_fitted_option(const std::string& text, std::size_t automatic) 
     return static_cast<std::size_t>(v);
 }
 
-int run_pi(const PiArgs& a) {
+int run_pi(const IdentifyPiArgs& a) {
     FitProgress progress("identify pi");
     const d::CsvData csv = read_data(a.data, progress);
     const std::vector<double>& u = csv.column(a.data.input);
@@ -276,7 +276,7 @@ int run_pi(const PiArgs& a) {
 }
 
 void add_pi(CLI::App* parent) {
-    auto a = std::make_shared<PiArgs>();
+    auto a = std::make_shared<IdentifyPiArgs>();
     CLI::App* cmd = parent->add_subcommand(
         "pi", "Prandtl-Ishlinskii weights (and output offset) by least squares on play-operator regressors");
     add_data_options(cmd, a->data, "u", "y");

@@ -118,7 +118,7 @@ void add_identify_tf(CLI::App& app) {
 }
 
 // After `identify` (order 50), which it adds to.
-const bool registered = register_command(51, add_identify_tf);
+const bool registered_identify_tf = register_command(51, add_identify_tf);
 
 }  // namespace
 }  // namespace piezoloop::cli

@@ -292,7 +292,7 @@ void add_measure(CLI::App& app) {
     cmd->callback([a] { guarded([&] { return run_frf(*a); }); });
 }
 
-const bool registered = register_command(45, add_measure);
+const bool registered_measure = register_command(45, add_measure);
 
 }  // namespace
 }  // namespace piezoloop::cli

@@ -74,8 +74,8 @@ struct Target {
 };
 
 // Progress on stderr and Ctrl-C for a board; the simulator's bar otherwise.
-struct Progress {
-    explicit Progress(const char* label) : bar(label) {}
+struct StepLoopsProgress {
+    explicit StepLoopsProgress(const char* label) : bar(label) {}
     hostlink::MeasureOptions board_options(bool restart_stage) {
         hostlink::MeasureOptions o;
         o.restart_stage = restart_stage;
@@ -132,7 +132,7 @@ int run_step(const StepArgs& a) {
     if (r.closed && t.scenario && a.case_name.empty())
         throw std::invalid_argument("--case: closed loop needs the case whose controller closes it");
     (void)measure::plan_step(t.bounds, r);  // refuses before anything runs (and before --out is touched)
-    Progress p("measure step");
+    StepLoopsProgress p("measure step");
     const measure::StepRun run = t.board ? interruptible("measure step", [&] {
         return hostlink::run_step_device(*t.board, r, p.board_options(a.restart_stage));
     })
@@ -193,7 +193,7 @@ int run_loops(const LoopsArgs& a) {
     const measure::LoopsRequest r =
         measure::loops_request(a.amplitudes_V, a.base_V, a.frequency_Hz, a.cycles, a.shape, t.bounds);
     (void)measure::plan_loops(t.bounds, r);  // refuses before anything runs
-    Progress p("measure loops");
+    StepLoopsProgress p("measure loops");
     const measure::LoopsRun run = t.board ? interruptible("measure loops", [&] {
         return hostlink::run_loops_device(*t.board, r, p.board_options(a.restart_stage));
     })
@@ -243,7 +243,7 @@ void add_step_loops(CLI::App& app) {
     add_loops(measure);
 }
 
-const bool registered = register_command(46, add_step_loops);
+const bool registered_step_loops = register_command(46, add_step_loops);
 
 }  // namespace
 }  // namespace piezoloop::cli

@@ -70,7 +70,7 @@ void add_pi_inverse(CLI::App& app) {
 }
 
 namespace {
-const bool registered = register_command(10, add_pi_inverse);
+const bool registered_pi_inverse = register_command(10, add_pi_inverse);
 }  // namespace
 
 }  // namespace piezoloop::cli

@@ -118,7 +118,7 @@ void add_reproduce(CLI::App& app) {
 }
 
 namespace {
-const bool registered = register_command(41, add_reproduce);
+const bool registered_reproduce = register_command(41, add_reproduce);
 }  // namespace
 
 }  // namespace piezoloop::cli

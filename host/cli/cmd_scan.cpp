@@ -169,7 +169,7 @@ void add_scan(CLI::App& app) {
 }
 
 namespace {
-const bool registered = register_command(42, add_scan);
+const bool registered_scan = register_command(42, add_scan);
 }  // namespace
 
 }  // namespace piezoloop::cli

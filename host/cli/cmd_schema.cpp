@@ -42,7 +42,7 @@ void add_schema(CLI::App& app) {
     });
 }
 
-const bool registered = register_command(65, add_schema);
+const bool registered_schema = register_command(65, add_schema);
 
 }  // namespace
 

@@ -70,9 +70,9 @@ struct BoardCaseRefused : std::invalid_argument {
 
 // A progress bar on stderr, only on a terminal and only once a run has
 // taken more than a second.
-class Progress {
+class SimProgress {
 public:
-    Progress() : tty_(isatty(STDERR_FILENO) != 0), t0_(std::chrono::steady_clock::now()) {}
+    SimProgress() : tty_(isatty(STDERR_FILENO) != 0), t0_(std::chrono::steady_clock::now()) {}
     void update(double fraction) {
         if (!tty_) return;
         const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
@@ -252,7 +252,7 @@ int run(const SimArgs& a) {
     sim::RunOptions& o = plan.options;
     std::vector<std::string> clipped;
     if (!a.board_case.empty()) prepare_board_case(b, o, clipped);
-    auto progress = std::make_shared<Progress>();
+    auto progress = std::make_shared<SimProgress>();
     o.progress = [progress](double f) { progress->update(f); };
     const sim::RunResult r = sim::run_loop(b.model, o);
 
@@ -362,7 +362,7 @@ void add_sim(CLI::App& app) {
 }
 
 namespace {
-const bool registered = register_command(40, add_sim);
+const bool registered_sim = register_command(40, add_sim);
 }  // namespace
 
 }  // namespace piezoloop::cli

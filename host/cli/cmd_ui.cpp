@@ -167,7 +167,7 @@ void add_ui(CLI::App& app) {
     cmd->callback([a] { guarded([&] { return run_ui(*a); }); });
 }
 
-const bool registered = register_command(62, add_ui);
+const bool registered_ui = register_command(62, add_ui);
 
 }  // namespace
 }  // namespace piezoloop::cli

@@ -42,8 +42,6 @@ constexpr int kFrfPeriods = 8;
 constexpr double kMeasuredSnr_dB = 20.0;
 constexpr double kCheckFrequency_Hz = 10.0;
 
-std::string fmt(double v, int digits = 4) { return format::significant(v, digits); }
-
 // Low-frequency coupling per pair "y<-x" (output <- input), dB.
 json pair_db(const sim::Scenario& s, const measure::Coupling& c) {
     json j = json::object();
@@ -99,7 +97,7 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
         cs.out = (dir / x.name).string();
         cs.request = a.request;
         cs.request.range_um = range_um.at(x.name);
-        say(x.name + ": commissioning over " + fmt(cs.request.range_um) + " um, the other axes holding still");
+        say(x.name + ": commissioning over " + format::significant(cs.request.range_um, 4) + " um, the other axes holding still");
         const json r = run_commission_session(
             nullptr, cs, [&](const std::string& line) { say(x.name + ": " + line); }, stop_requested);
         per_axis[x.name] = r;
@@ -123,7 +121,7 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
         measure::mimo_request(s, kFrfFrom_Hz, kFrfTo_Hz, kFrfAmplitude * span_V,
                               {0.5 * (s.limits.u_min_V + s.limits.u_max_V)}, kFrfPeriods, 1);
     say("coupling: measuring the " + std::to_string(s.axes.size()) + " x " + std::to_string(s.axes.size()) +
-        " response, " + fmt(kFrfFrom_Hz) + " to " + fmt(kFrfTo_Hz) + " Hz");
+        " response, " + format::significant(kFrfFrom_Hz, 4) + " to " + format::significant(kFrfTo_Hz, 4) + " Hz");
     const measure::MimoFrfSimRun before = measure::run_mimo_frf_sim(s, fr);
     const measure::MimoFrfEstimate& eb = before.estimate;
     const measure::StaticDecoupling d = measure::static_decoupling(eb.frequency_Hz, eb.response);
@@ -145,7 +143,7 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
         const double r = p.low_frequency_db - ca.pairs[k].low_frequency_db;
         reduction[pair] = r;
         if (snr_db < kMeasuredSnr_dB)
-            unmeasured[pair] = "at the noise floor (SNR " + fmt(snr_db, 3) + " dB at the low lines): no coupling to remove";
+            unmeasured[pair] = "at the noise floor (SNR " + format::significant(snr_db, 3) + " dB at the low lines): no coupling to remove";
         else
             decoupled = decoupled && r >= kRequiredReduction_dB;
     }
@@ -184,7 +182,7 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
     json checks = json::object();
     for (std::size_t i = 0; i < s.axes.size(); ++i) {
         const std::string& name = s.axes[i].name;
-        say("check: a " + fmt(kCheckFrequency_Hz) + " Hz triangle over " + fmt(range_um.at(name)) + " um on " + name +
+        say("check: a " + format::significant(kCheckFrequency_Hz, 4) + " Hz triangle over " + format::significant(range_um.at(name), 4) + " um on " + name +
             ", the other axes holding their centres");
         json check;
         for (const char* case_name : {"commissioned", "commissioned_without_decoupling"}) {
@@ -224,30 +222,30 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
     md << "| axis | range (um) | chosen | verified | bandwidth (Hz) | report |\n|---|---|---|---|---|---|\n";
     for (const sim::AxisSpec& x : s.axes) {
         const json& r = per_axis[x.name];
-        md << "| " << x.name << " | " << fmt(range_um.at(x.name)) << " | "
+        md << "| " << x.name << " | " << format::significant(range_um.at(x.name), 4) << " | "
            << (r["chosen"].is_string() ? r["chosen"].get<std::string>() : std::string("none")) << " | "
            << (r.value("verified", false) ? "yes" : "no") << " | "
-           << (r.contains("bandwidth_Hz") ? fmt(r["bandwidth_Hz"].get<double>()) : std::string("-")) << " | "
+           << (r.contains("bandwidth_Hz") ? format::significant(r["bandwidth_Hz"].get<double>(), 4) : std::string("-")) << " | "
            << x.name << "/report.md |\n";
     }
     md << "\nLow-frequency coupling (mean over the lines at ";
-    for (std::size_t k = 0; k < low_Hz.size(); ++k) md << (k ? ", " : "") << fmt(low_Hz[k]);
+    for (std::size_t k = 0; k < low_Hz.size(); ++k) md << (k ? ", " : "") << format::significant(low_Hz[k], 4);
     md << " Hz), open loop, before and after the output matrix D = G0^-1 diag(G0):\n\n"
           "| pair | before (dB) | after (dB) | reduction (dB) |\n|---|---|---|---|\n";
     for (const auto& [pair, db] : out["coupling"]["before_db"].items())
-        md << "| " << pair << " | " << fmt(db.get<double>()) << " | "
-           << fmt(out["coupling"]["after_db"][pair].get<double>()) << " | "
-           << fmt(reduction[pair].get<double>())
+        md << "| " << pair << " | " << format::significant(db.get<double>(), 4) << " | "
+           << format::significant(out["coupling"]["after_db"][pair].get<double>(), 4) << " | "
+           << format::significant(reduction[pair].get<double>(), 4)
            << (unmeasured.contains(pair) ? " (" + unmeasured[pair].get<std::string>() + ")" : std::string()) << " |\n";
-    md << "\nA " << fmt(kCheckFrequency_Hz)
+    md << "\nA " << format::significant(kCheckFrequency_Hz, 4)
        << " Hz triangle over each axis's range, the others holding their centres (scenario.json, case "
           "commissioned; cross motion in % of the driven axis's range):\n\n"
           "| driven | e_max (%) | held axis | cross motion with D (%) | without D (%) |\n|---|---|---|---|---|\n";
     for (const auto& [name, c] : checks.items())
         for (const auto& [held, pct] : c["cross_motion_pct"].items())
-            md << "| " << name << " | " << fmt(c["e_max_pct"].get<double>()) << " | " << held << " | "
-               << fmt(pct.get<double>()) << " | "
-               << fmt(c["cross_motion_pct_without_decoupling"][held].get<double>()) << " |\n";
+            md << "| " << name << " | " << format::significant(c["e_max_pct"].get<double>(), 4) << " | " << held << " | "
+               << format::significant(pct.get<double>(), 4) << " | "
+               << format::significant(c["cross_motion_pct_without_decoupling"][held].get<double>(), 4) << " |\n";
     {
         std::ofstream f(dir / "report.md");
         if (!(f << md.str())) throw std::runtime_error("--out: cannot write " + (dir / "report.md").string());

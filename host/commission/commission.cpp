@@ -17,12 +17,11 @@
 #include "synth/damping_mixsyn.hpp"
 #include "synth/mixsyn.hpp"
 #include "synth/pi_notch.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::commission {
 
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 // A line for the log and the caller's progress.
 using Say = std::function<void(const std::string&)>;

@@ -13,7 +13,6 @@ namespace piezoloop::commission {
 
 namespace {
 
-std::string num(double v) { return format::significant(v, 3); }
 
 double rms(const std::vector<double>& x, std::size_t from, std::size_t to) {
     double s = 0.0;
@@ -75,16 +74,16 @@ std::string describe(const TrackingDiagnosis& d, const TrackingDiagnosisInputs& 
     std::vector<std::string> why;
     if (d.oscillation_Hz > 0.0)
         why.push_back(std::string(d.growing ? "instability: a growing oscillation" : "the loop rings") + " at " +
-                      num(d.oscillation_Hz) + " Hz (" + num(d.oscillation_rms_um) +
+                      format::significant(d.oscillation_Hz, 3) + " Hz (" + format::significant(d.oscillation_rms_um, 3) +
                       " um RMS): the loop is less stable on the stage than on the identified model; "
                       "a lower --target-bandwidth-hz (half the achieved bandwidth) gives it more margin");
     if (d.rail_fraction > 0.0)
-        why.push_back("sensor rail: the reading sat at an end of the sensor's range (" + num(in.sensor_min_um) + " .. " +
-                      num(in.sensor_max_um) + " um) for " + num(100.0 * d.rail_fraction) +
+        why.push_back("sensor rail: the reading sat at an end of the sensor's range (" + format::significant(in.sensor_min_um, 3) + " .. " +
+                      format::significant(in.sensor_max_um, 3) + " um) for " + format::significant(100.0 * d.rail_fraction, 3) +
                       " % of the run: the stage left what the sensor reads; a smaller --range-um keeps it inside");
     if (d.limited_fraction > 0.01)
-        why.push_back("saturation: the command sat at its limit (" + num(in.u_min_V) + " or " + num(in.u_max_V) +
-                      " V) for " + num(100.0 * d.limited_fraction) +
+        why.push_back("saturation: the command sat at its limit (" + format::significant(in.u_min_V, 3) + " or " + format::significant(in.u_max_V, 3) +
+                      " V) for " + format::significant(100.0 * d.limited_fraction, 3) +
                       " % of the run: the triangle asks for more than the command span gives there; a smaller "
                       "--range-um, or a slower triangle");
     std::string out;

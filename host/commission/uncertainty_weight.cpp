@@ -5,6 +5,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "numeric_constants.hpp"
+
 namespace piezoloop::commission {
 
 namespace {
@@ -29,7 +31,6 @@ UncertaintyWeight uncertainty_weight(const std::vector<double>& f_Hz, const std:
     for (std::size_t i = 0; i < std::min<std::size_t>(5, delta.size()); ++i) u.r0 = std::max(u.r0, delta[i]);
     u.r0 = std::min(u.r0, 0.5 * u.r_inf);
     const double ratio = u.r_inf / u.r0;
-    constexpr double kTwoPi = 2.0 * std::numbers::pi;
     auto covers = [&](double wz) {
         for (std::size_t i = 0; i < f_Hz.size(); ++i)
             if (delta[i] < u.r_inf && weight_at(kTwoPi * f_Hz[i], u.r0, wz, wz * ratio) < delta[i]) return false;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <complex>
 #include <cstdio>
 #include <string>
 
@@ -15,6 +16,12 @@ inline std::string significant(double v, int digits = 6) {
     char buf[48];
     std::snprintf(buf, sizeof buf, "%.*g", digits, v);
     return buf;
+}
+
+// A complex number as "re + imj" (or "re - imj"), each part with `digits`
+// significant digits.
+inline std::string complex_significant(std::complex<double> z, int digits) {
+    return significant(z.real(), digits) + (z.imag() < 0 ? " - " : " + ") + significant(std::fabs(z.imag()), digits) + "j";
 }
 
 // The double nearest `v` written with `digits` significant digits: a float

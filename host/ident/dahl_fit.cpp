@@ -227,7 +227,7 @@ const char* status_text(Eigen::LevenbergMarquardtSpace::Status s) {
     }
 }
 
-struct Candidate {
+struct DahlCandidate {
     DahlParamsD p;
     double cost;
     double v0 = 0.0;  // estimated start: the virgin voltage
@@ -237,7 +237,7 @@ struct Candidate {
 // With an estimated start the integrator starts from the virgin state at a
 // measured displacement x_v moved straight to x[first], for x_v at the
 // fitted samples' lowest, highest and first reading; v0 = (x_v - c) / ga.
-std::vector<Candidate> grid_starts(std::span<const double> v_all, std::span<const double> x_all, double gamma_a,
+std::vector<DahlCandidate> grid_starts(std::span<const double> v_all, std::span<const double> x_all, double gamma_a,
                                    bool offset, const FitWindow& w) {
     const std::span<const double> v = v_all.subspan(w.first, w.end - w.first);
     const std::span<const double> x = x_all.subspan(w.first, w.end - w.first);
@@ -255,7 +255,7 @@ std::vector<Candidate> grid_starts(std::span<const double> v_all, std::span<cons
     const double length = *xmax - *xmin;
     std::vector<double> virgin_x{x[0]};
     if (w.estimated) virgin_x = {*xmin, *xmax, x[0]};
-    std::vector<Candidate> out;
+    std::vector<DahlCandidate> out;
     for (const double xv : virgin_x) {
         for (double wn : {0.25, 0.5, 1.0, 2.0, 4.0, 8.0}) {
             for (double zeta : {0.1, 0.3, 1.0, 2.0, 4.0}) {
@@ -291,7 +291,7 @@ std::vector<Candidate> grid_starts(std::span<const double> v_all, std::span<cons
             }
         }
     }
-    std::sort(out.begin(), out.end(), [](const Candidate& l, const Candidate& r) { return l.cost < r.cost; });
+    std::sort(out.begin(), out.end(), [](const DahlCandidate& l, const DahlCandidate& r) { return l.cost < r.cost; });
     return out;
 }
 
@@ -381,7 +381,7 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
         throw std::invalid_argument(o.output_name + ": the displacement is constant over the fitted samples");
     const int nq = win.estimated ? 6 : 5;
 
-    std::vector<Candidate> starts;
+    std::vector<DahlCandidate> starts;
     if (o.start) {
         DahlParamsD s = *o.start;
         s.gamma_a = o.gamma_a;
@@ -389,7 +389,7 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
             throw std::invalid_argument("start: needs alpha1 >= 0, alpha2 > 0, ga > 0, all finite");
         starts.push_back({s, 0.0, v[win.first]});
     } else {
-        const std::vector<Candidate> c = grid_starts(v, x, o.gamma_a, o.fit_offset, win);
+        const std::vector<DahlCandidate> c = grid_starts(v, x, o.gamma_a, o.fit_offset, win);
         for (std::size_t i = 0; i < c.size() && i < 3; ++i) starts.push_back(c[i]);
         if (starts.empty())
             throw std::invalid_argument(o.output_name +
@@ -408,7 +408,7 @@ DahlFitResult fit_dahl(std::span<const double> v, std::span<const double> x, con
     Eigen::VectorXd best_q;
     Scaling best_sc{};
     int evaluations = 0;
-    for (const Candidate& c0 : starts) {
+    for (const DahlCandidate& c0 : starts) {
         DahlParamsD s = c0.p;
         if (!(s.alpha1 > 0.0)) s.alpha1 = 1e-3 * std::sqrt(s.alpha2);  // log needs > 0
         Scaling sc{o.gamma_a, 0.0, std::fabs(s.beta2)};

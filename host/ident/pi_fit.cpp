@@ -3,22 +3,16 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 
 #include "ident/csv_data.hpp"
 #include "ident/dead_zone_map.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "status_text.hpp"
+#include "format/number.hpp"
 
 namespace piezoloop::design {
 namespace {
-
-std::string num(double v) {
-    std::ostringstream s;
-    s << v;
-    return s.str();
-}
 
 // Least squares without the regressor matrix: the rows of [Φ | y] are
 // folded in blocks into the triangular factor R of a QR decomposition
@@ -277,7 +271,7 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
         if (first_fitted >= vfrom)
             throw std::invalid_argument(
                 "thresholds[" + std::to_string(n - 1) + "]: " + o.input_name + " never moves by 2 r = " +
-                num(2.0 * r.back()) + " in one direction" + (held ? " before the held-out samples" : "") +
+                format::significant(2.0 * r.back()) + " in one direction" + (held ? " before the held-out samples" : "") +
                 ", so this play's state before the record never stops mattering; give the first fitted "
                 "sample (0: plays at rest at the start) or smaller thresholds");
     } else if (first_fitted >= vfrom) {
@@ -333,9 +327,9 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
         if (moved[static_cast<std::size_t>(j)]) continue;
         double reach = 0.0;
         for (double v : u) reach = std::max(reach, std::fabs(v));
-        throw std::invalid_argument("thresholds[" + std::to_string(j) + "]: " + num(r[static_cast<std::size_t>(j)]) +
+        throw std::invalid_argument("thresholds[" + std::to_string(j) + "]: " + format::significant(r[static_cast<std::size_t>(j)]) +
                                     " is never reached by " + o.input_name + " (max |" + o.input_name +
-                                    "| = " + num(reach) + "): its play output is zero, weight undetermined");
+                                    "| = " + format::significant(reach) + "): its play output is zero, weight undetermined");
     }
     const Eigen::MatrixXd& rall = folder.r();
     const Eigen::MatrixXd rphi = rall.topLeftCorner(k, k);
@@ -349,8 +343,8 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
     auto column_name = [&](int c) {
         if (c < c0) return std::string("offset");
         if (c == c0) return std::string("p0");
-        if (c <= c0 + n) return "r=" + num(r[static_cast<std::size_t>(c - c0 - 1)]);
-        return o.output_name + " dead zone at " + num(dz[static_cast<std::size_t>(c - c0 - 1 - n)]);
+        if (c <= c0 + n) return "r=" + format::significant(r[static_cast<std::size_t>(c - c0 - 1)]);
+        return o.output_name + " dead zone at " + format::significant(dz[static_cast<std::size_t>(c - c0 - 1 - n)]);
     };
 
     // Conditioning of the regressors scaled to unit RMS (unique weights).
@@ -368,7 +362,7 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
         for (int c = 0; c < k; ++c)
             if (std::fabs(v(c)) >= 0.1 * vmax) dep += (dep.empty() ? "" : ", ") + column_name(c);
         throw std::invalid_argument(o.input_name + ": play regressors are linearly dependent (condition number " +
-                                    num(res.regressor_condition) +
+                                    format::significant(res.regressor_condition) +
                                     " > 1e10): the input's reversals do not separate the operators " + dep +
                                     "; use fewer operators or an input with more distinct turning points");
     }
@@ -447,9 +441,9 @@ PiFitResult fit_pi(std::span<const double> u, std::span<const double> y, const P
     res.invertibility = st.ok() ? "ok" : describe(st);
     for (int j = 0; j <= n && !st.ok(); ++j)
         if (!(res.slopes[static_cast<std::size_t>(j)] > 0.0)) {
-            res.invertibility += "; the fitted loading curve's slope is " + num(res.slopes[static_cast<std::size_t>(j)]) +
+            res.invertibility += "; the fitted loading curve's slope is " + format::significant(res.slopes[static_cast<std::size_t>(j)]) +
                                  (j == 0 ? std::string(" from the start")
-                                         : " beyond input excursions of " + num(r[static_cast<std::size_t>(j - 1)])) +
+                                         : " beyond input excursions of " + format::significant(r[static_cast<std::size_t>(j - 1)])) +
                                  ", so the model's output falls while the input rises and some outputs have no "
                                  "input; refit with the monotone constraint (every slope >= min_slope)";
             break;

@@ -1,4 +1,5 @@
 #include "link/measure_session.hpp"
+#include "link/recorded_signals.hpp"
 
 #include <chrono>
 #include <optional>
@@ -7,9 +8,6 @@
 namespace piezoloop::hostlink {
 
 namespace {
-
-constexpr uint8_t kSignalR = signal_index(SignalId::kR), kSignalY = signal_index(SignalId::kY),
-                  kSignalU = signal_index(SignalId::kU), kSignalD = signal_index(SignalId::kD);
 
 // The groups an open-loop measurement sets to none, to be put back after it.
 struct ControllerGroups {

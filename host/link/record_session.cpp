@@ -14,12 +14,11 @@
 #include "piezoloop/params/groups.hpp"
 #include "piezoloop/reference_run.hpp"
 #include "sim/window_metrics.hpp"
+#include "link/recorded_signals.hpp"
 
 namespace piezoloop::hostlink {
 
 namespace {
-
-constexpr uint8_t kSignalR = 0, kSignalY = 1, kSignalU = 3;
 
 bool has(const std::vector<uint8_t>& ids, uint8_t id) { return std::find(ids.begin(), ids.end(), id) != ids.end(); }
 

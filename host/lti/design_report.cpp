@@ -12,13 +12,12 @@
 #include "lti/model_json.hpp"
 #include "lti/realisation.hpp"
 #include "lti/sos.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::design {
 namespace {
 
 using nlohmann::json;
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 void require(bool ok, const std::string& field, const std::string& what) {
     if (!ok) throw std::invalid_argument(field + ": " + what);

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "lti/c2d.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::design {
 namespace {
@@ -38,8 +39,6 @@ void quadratic_roots(double zeta, double w0, std::vector<cplx>& out) {
         out.emplace_back(w0 * w0 / big, 0.0);
     }
 }
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 }  // namespace
 

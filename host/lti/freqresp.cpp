@@ -44,13 +44,13 @@ cplx product(const Zpk& zpk, cplx base, cplx offset) {
     return v;
 }
 
+}  // namespace
+
 // e^{j theta} - 1 without cancellation: -2 sin^2(theta/2) + j sin(theta).
 cplx expj_minus_one(double theta) {
     const double h = std::sin(0.5 * theta);
     return cplx(-2.0 * h * h, std::sin(theta));
 }
-
-}  // namespace
 
 cplx evaluate(const Zpk& zpk, cplx x) { return product(zpk, x, 0.0); }
 

@@ -30,6 +30,9 @@ cplx evaluate(const Ss& ss, cplx x);
 // angular frequency w (rad/s): jw if ts == 0, e^{jw ts} otherwise.
 cplx frequency_point(double w_rad_s, double ts);
 
+// e^{j theta} - 1 without cancellation: -2 sin^2(theta/2) + j sin(theta).
+cplx expj_minus_one(double theta);
+
 std::vector<cplx> freqresp(const Zpk& zpk, const std::vector<double>& w_rad_s);
 std::vector<cplx> freqresp(const Tf& tf, const std::vector<double>& w_rad_s);
 std::vector<cplx> freqresp(const Ss& ss, const std::vector<double>& w_rad_s);

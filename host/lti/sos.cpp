@@ -6,6 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "lti/freqresp.hpp"
 #include "lti/lti_convert.hpp"
 
 namespace piezoloop::design {
@@ -97,11 +98,6 @@ cplx cascade_at_w(const std::vector<SosSection>& sections, cplx w, size_t count)
     cplx v = 1.0;
     for (size_t i = 0; i < count; ++i) v *= section_at_w(sections[i], w);
     return v;
-}
-
-cplx expj_minus_one(double theta) {
-    const double h = std::sin(0.5 * theta);
-    return cplx(-2.0 * h * h, std::sin(theta));
 }
 
 double max_pole_radius(const std::vector<SosSection>& sections) {

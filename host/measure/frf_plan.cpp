@@ -6,16 +6,14 @@
 
 #include "format/number.hpp"
 #include "measure/record_bound.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::measure {
 
 namespace {
 
-std::string num(double x) { return format::significant(x, 6); }
 
-[[noreturn]] void refuse(const std::string& option, const std::string& why) {
-    throw std::invalid_argument(option + ": " + why);
-}
+using options::refuse;
 
 // The measured part of a recording, in its own estimate: the periodic one
 // for a multisine, H1 for a sweep or a PRBS.
@@ -38,9 +36,9 @@ void check_record(double rate, const FrfPlan& p) {
     if (p.ticks <= kMaxRecordTicks) return;
     refuse("--periods", "(--transient-periods + --periods) x " + std::to_string(p.period_samples) +
                             " ticks a period = " + std::to_string(p.ticks) + " ticks (" +
-                            num(static_cast<double>(p.ticks) / rate) + " s) exceeds the longest record, " +
+                            format::significant(static_cast<double>(p.ticks) / rate) + " s) exceeds the longest record, " +
                             std::to_string(kMaxRecordTicks) + " ticks (" +
-                            num(static_cast<double>(kMaxRecordTicks) / rate) +
+                            format::significant(static_cast<double>(kMaxRecordTicks) / rate) +
                             " s at this rate): lower --periods or raise --from-hz");
 }
 
@@ -55,7 +53,7 @@ MultisineLayout multisine_lines(double rate, double from_Hz, double to_Hz) {
     l.last_bin = static_cast<uint32_t>(std::floor(to_Hz * N / rate + 1e-9));
     if (2 * l.last_bin >= N) l.last_bin = (N - 1) / 2;
     if (l.last_bin < l.first_bin)
-        refuse("--to-hz", "no DFT line between --from-hz and --to-hz at a spacing of " + num(rate / N) + " Hz");
+        refuse("--to-hz", "no DFT line between --from-hz and --to-hz at a spacing of " + format::significant(rate / N) + " Hz");
     return l;
 }
 
@@ -64,11 +62,11 @@ FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const 
     const double nyq = 0.5 * rate;
     if (!std::isfinite(r.from_Hz) || !(r.from_Hz > 0.0)) refuse("--from-hz", "must be > 0 Hz");
     if (!std::isfinite(r.to_Hz) || !(r.to_Hz < nyq))
-        refuse("--to-hz", "must be below the Nyquist frequency, rate / 2 = " + num(nyq) + " Hz");
-    if (!(r.from_Hz < r.to_Hz)) refuse("--from-hz", "must be below --to-hz (" + num(r.to_Hz) + " Hz)");
+        refuse("--to-hz", "must be below the Nyquist frequency, rate / 2 = " + format::significant(nyq) + " Hz");
+    if (!(r.from_Hz < r.to_Hz)) refuse("--from-hz", "must be below --to-hz (" + format::significant(r.to_Hz) + " Hz)");
     const double lowest = rate / capacity;
     if (r.signal == "multisine" && r.from_Hz < lowest)
-        refuse("--from-hz", "must be >= rate / " + std::to_string(capacity) + " = " + num(lowest) +
+        refuse("--from-hz", "must be >= rate / " + std::to_string(capacity) + " = " + format::significant(lowest) +
                                 " Hz (one period of the multisine is tabulated; a sweep or a PRBS goes lower)");
     if (r.periods < 1 || r.periods > 10000) refuse("--periods", "must be in [1, 10000]");
     if (r.transient_periods < 0 || r.transient_periods > 100) refuse("--transient-periods", "must be in [0, 100]");
@@ -77,16 +75,16 @@ FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const 
     if (!std::isfinite(r.bias_V)) refuse("--bias-v", "must be finite");
     if (!r.closed) {
         if (r.bias_V < lim.u_min_V || r.bias_V > lim.u_max_V)
-            refuse("--bias-v", "must be within the " + whose + " limits [" + num(lim.u_min_V) + ", " +
-                                   num(lim.u_max_V) + "] V");
+            refuse("--bias-v", "must be within the " + whose + " limits [" + format::significant(lim.u_min_V) + ", " +
+                                   format::significant(lim.u_max_V) + "] V");
         const double room = std::min(lim.u_max_V - r.bias_V, r.bias_V - lim.u_min_V);
         if (r.amplitude_V > room)
-            refuse("--amplitude-v", "bias " + num(r.bias_V) + " V +- amplitude must stay within the " + whose + " limits [" +
-                                        num(lim.u_min_V) + ", " + num(lim.u_max_V) + "] V: at most " + num(room) +
+            refuse("--amplitude-v", "bias " + format::significant(r.bias_V) + " V +- amplitude must stay within the " + whose + " limits [" +
+                                        format::significant(lim.u_min_V) + ", " + format::significant(lim.u_max_V) + "] V: at most " + format::significant(room) +
                                         " V at this bias");
     } else if (r.amplitude_V > 0.5 * (lim.u_max_V - lim.u_min_V)) {
-        refuse("--amplitude-v", "must be at most half the " + whose + " range [" + num(lim.u_min_V) + ", " +
-                                    num(lim.u_max_V) + "] V");
+        refuse("--amplitude-v", "must be at most half the " + whose + " range [" + format::significant(lim.u_min_V) + ", " +
+                                    format::significant(lim.u_max_V) + "] V");
     }
     FrfPlan p;
     p.signal = r.signal;
@@ -96,11 +94,11 @@ FrfPlan plan_frf(double rate, const LimitsConfig& lim, uint32_t capacity, const 
         // counted out.
         if (!(rate / r.from_Hz <= kMaxSegmentSamples))
             refuse("--from-hz", "must be >= rate / " + std::to_string(kMaxSegmentSamples) + " = " +
-                                    num(rate / kMaxSegmentSamples) + " Hz for a sweep or a PRBS (its Welch segment)");
+                                    format::significant(rate / kMaxSegmentSamples) + " Hz for a sweep or a PRBS (its Welch segment)");
         uint32_t seg = 8;
         while (seg < rate / r.from_Hz - 1e-9) seg *= 2;
         if (r.to_Hz < rate / seg)
-            refuse("--to-hz", "no FFT bin between --from-hz and --to-hz at a resolution of " + num(rate / seg) + " Hz");
+            refuse("--to-hz", "no FFT bin between --from-hz and --to-hz at a resolution of " + format::significant(rate / seg) + " Hz");
         p.segment_samples = seg;
         if (r.signal == "sweep") {
             p.period_samples = 4 * seg;
@@ -181,7 +179,7 @@ void analyse_frf(const FrfRequest& r, const std::vector<double>& u, const std::v
     }
     if (low > 0)
         run.warnings.push_back(std::to_string(low) + " of " + std::to_string(run.estimate.std_db.size()) +
-                               " lines have a standard deviation above 1 dB (first at " + num(f_low_first) +
+                               " lines have a standard deviation above 1 dB (first at " + format::significant(f_low_first) +
                                " Hz): raise --amplitude-v or --periods");
 }
 

@@ -10,14 +10,13 @@
 #include "sim/build_case.hpp"
 #include "sim/loop_kernel.hpp"
 #include "status_text.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::measure {
 
 namespace {
 
-[[noreturn]] void refuse(const std::string& option, const std::string& why) {
-    throw std::invalid_argument(option + ": " + why);
-}
+using options::refuse;
 
 template <class T>
 FrfRun run_with(const sim::LoopModel& m, const FrfRequest& r, const FrfPlan& plan, double setpoint_um,

@@ -12,22 +12,18 @@
 #include "format/number.hpp"
 #include "measure/frf_plan.hpp"
 #include "measure/record_bound.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::measure {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 // The longest period, samples: one period is synthesised by an FFT of N
 // points (2^17: a line spacing of 0.076 Hz at 10 kHz).
 constexpr double kMaxPeriodSamples = 131072.0;
 
-std::string num(double x) { return format::significant(x, 6); }
 
-[[noreturn]] void refuse(const std::string& field, const std::string& why) {
-    throw std::invalid_argument(field + ": " + why);
-}
+using options::refuse;
 
 // sum_{k=k1..k2} cos(2 pi k t / N + phi_j + shift), t = 0..N-1, by one
 // inverse DFT (Eigen's inverse divides by N).
@@ -48,7 +44,7 @@ std::vector<double> unit_period(const MimoFrfPlan& p, double shift_rad) {
 }
 
 double block_shift_rad(const MimoFrfPlan& p, int block, int input) {
-    return 2.0 * kPi * static_cast<double>(block * input) / static_cast<double>(p.inputs);
+    return 2.0 * std::numbers::pi * static_cast<double>(block * input) / static_cast<double>(p.inputs);
 }
 
 }  // namespace
@@ -58,11 +54,11 @@ MimoFrfPlan plan_mimo_frf(const MimoFrfRequest& r) {
     if (!std::isfinite(r.rate_Hz) || !(r.rate_Hz > 0.0) || r.rate_Hz > 1e9) refuse("rate_Hz", "must be in (0, 1e9] Hz");
     const double nyq = 0.5 * r.rate_Hz;
     if (!std::isfinite(r.from_Hz) || !(r.from_Hz >= r.rate_Hz / kMaxPeriodSamples))
-        refuse("from_Hz", "must be >= rate / " + num(kMaxPeriodSamples) + " = " + num(r.rate_Hz / kMaxPeriodSamples) +
+        refuse("from_Hz", "must be >= rate / " + format::significant(kMaxPeriodSamples) + " = " + format::significant(r.rate_Hz / kMaxPeriodSamples) +
                               " Hz (the longest period)");
     if (!std::isfinite(r.to_Hz) || !(r.to_Hz < nyq))
-        refuse("to_Hz", "must be below the Nyquist frequency, rate / 2 = " + num(nyq) + " Hz");
-    if (!(r.from_Hz < r.to_Hz)) refuse("from_Hz", "must be below to_Hz (" + num(r.to_Hz) + " Hz)");
+        refuse("to_Hz", "must be below the Nyquist frequency, rate / 2 = " + format::significant(nyq) + " Hz");
+    if (!(r.from_Hz < r.to_Hz)) refuse("from_Hz", "must be below to_Hz (" + format::significant(r.to_Hz) + " Hz)");
     if (!std::isfinite(r.amplitude_V) || !(r.amplitude_V > 0.0) || r.amplitude_V > 1e6)
         refuse("amplitude_V", "must be in (0, 1e6] V");
     if (!r.bias_V.empty() && r.bias_V.size() != static_cast<std::size_t>(r.inputs))
@@ -79,7 +75,7 @@ MimoFrfPlan plan_mimo_frf(const MimoFrfRequest& r) {
         p.layout = multisine_lines(r.rate_Hz, r.from_Hz, r.to_Hz);
     } catch (const std::invalid_argument&) {
         refuse("to_Hz", "no DFT line between from_Hz and to_Hz at a spacing of " +
-                            num(r.rate_Hz / std::floor(r.rate_Hz / r.from_Hz + 1e-9)) + " Hz");
+                            format::significant(r.rate_Hz / std::floor(r.rate_Hz / r.from_Hz + 1e-9)) + " Hz");
     }
     const uint64_t N = p.layout.period_samples;
     p.periods = r.periods;
@@ -95,7 +91,7 @@ MimoFrfPlan plan_mimo_frf(const MimoFrfRequest& r) {
     for (uint32_t j = 0; j < K; ++j) {
         // j (j + 1) mod 2K first, as the core does, so phi stays in (-2 pi, 0].
         const uint64_t b = (uint64_t{j} * (j + 1u)) % (2u * uint64_t{K});
-        p.schroeder_rad.push_back(-kPi * static_cast<double>(b) / static_cast<double>(K));
+        p.schroeder_rad.push_back(-std::numbers::pi * static_cast<double>(b) / static_cast<double>(K));
         p.frequency_Hz.push_back(static_cast<double>(p.layout.first_bin + j) * r.rate_Hz / static_cast<double>(N));
     }
     // One amplitude for every line, input and block: the largest peak.

@@ -12,14 +12,13 @@
 #include "piezoloop/reference_run.hpp"
 #include "sim/coupled_stage_build.hpp"
 #include "status_text.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::measure {
 
 namespace {
 
-[[noreturn]] void refuse(const std::string& option, const std::string& why) {
-    throw std::invalid_argument(option + ": " + why);
-}
+using options::refuse;
 
 template <int N>
 MimoFrfSimRun run_with(const sim::Scenario& s, const MimoFrfPlan& plan, const std::optional<Eigen::MatrixXd>& d,

@@ -6,6 +6,7 @@
 
 #include "format/number.hpp"
 #include "sim/metrics.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::measure {
 
@@ -13,9 +14,7 @@ namespace {
 
 std::string num(double x) { return format::significant(x, 6); }
 
-[[noreturn]] void refuse(const std::string& option, const std::string& why) {
-    throw std::invalid_argument(option + ": " + why);
-}
+using options::refuse;
 
 // Recorded after the step, and held as long before it.
 void check_duration(const MeasureBounds& b, double duration_s, const char* option) {

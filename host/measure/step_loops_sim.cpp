@@ -10,14 +10,13 @@
 #include "sim/build_case.hpp"
 #include "sim/loop_kernel.hpp"
 #include "status_text.hpp"
+#include "options/option_checks.hpp"
 
 namespace piezoloop::measure {
 
 namespace {
 
-[[noreturn]] void refuse(const std::string& option, const std::string& why) {
-    throw std::invalid_argument(option + ": " + why);
-}
+using options::refuse;
 
 [[noreturn]] void fail(const char* what, const Status& st) {
     throw std::invalid_argument(std::string(what) + ": " + describe(st));

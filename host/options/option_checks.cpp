@@ -10,6 +10,10 @@
 
 namespace piezoloop::options {
 
+[[noreturn]] void refuse(const std::string& option, const std::string& why) {
+    throw std::invalid_argument(option + ": " + why);
+}
+
 void require_in(const std::string& option, double v, double lo, double hi, const std::string& unit) {
     if (v >= lo && v <= hi) return;
     const std::string u = unit.empty() ? "" : " " + unit;

@@ -14,6 +14,10 @@
 
 namespace piezoloop::options {
 
+// Throws std::invalid_argument("<option>: <why>"), the form every refusal
+// of an option (or of a field of a request) takes.
+[[noreturn]] void refuse(const std::string& option, const std::string& why);
+
 // lo <= v <= hi (NaN refused): "--stall-s: must be in [0.1, 3600] s (got nan)".
 void require_in(const std::string& option, double v, double lo, double hi, const std::string& unit = "");
 

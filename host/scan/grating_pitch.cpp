@@ -5,10 +5,11 @@
 #include <limits>
 #include <vector>
 
+#include "numeric_constants.hpp"
+
 namespace piezoloop::scan {
 
 GratingFit fit_grating(const ImageGrid& g) {
-    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
     GratingFit fit{kNaN, kNaN};
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (const double v : g.value)

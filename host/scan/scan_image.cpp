@@ -6,10 +6,10 @@
 #include <map>
 #include <stdexcept>
 
+#include "numeric_constants.hpp"
+
 namespace piezoloop::scan {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 double x_of(const ScanPixel& p, Placement w) { return w == Placement::kCommanded ? p.commanded_x_um : p.measured_x_um; }
 double y_of(const ScanPixel& p, Placement w) { return w == Placement::kCommanded ? p.commanded_y_um : p.measured_y_um; }

@@ -6,11 +6,10 @@
 #include <map>
 
 #include "piezoloop/scan/scan_config.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::scan {
 namespace {
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // The largest deviation from the least-squares line through (k, x_k).
 double straight_line_deviation(const std::vector<double>& x) {

@@ -11,12 +11,11 @@
 #include "piezoloop/pi_inverse.hpp"
 #include "sim/design_bridge.hpp"
 #include "status_text.hpp"
+#include "sim/f32.hpp"
 
 namespace piezoloop::sim {
 
 namespace {
-
-float f32(double x) { return static_cast<float>(x); }
 
 [[noreturn]] void fail(const std::string& path, const Status& s) {
     std::string text = path;

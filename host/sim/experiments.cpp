@@ -1,4 +1,5 @@
 #include "sim/experiments.hpp"
+#include "sim/f32.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -10,8 +11,6 @@
 namespace piezoloop::sim {
 
 namespace {
-
-float f32(double x) { return static_cast<float>(x); }
 
 struct Job {
     size_t experiment = 0;  // index into experiments; SIZE_MAX: fidelity pair

@@ -14,12 +14,11 @@
 #include "sim/coupled_stage_build.hpp"
 #include "sim/window_metrics.hpp"
 #include "status_text.hpp"
+#include "sim/f32.hpp"
 
 namespace piezoloop::sim {
 
 namespace {
-
-float f32(double x) { return static_cast<float>(x); }
 
 [[noreturn]] void reject(const std::string& what, const Status& s) {
     throw std::invalid_argument(what + ": " + describe(s));

@@ -5,12 +5,11 @@
 #include <stdexcept>
 
 #include "format/number.hpp"
+#include "sim/f32.hpp"
 
 namespace piezoloop::sim {
 
 namespace {
-
-float f32(double x) { return static_cast<float>(x); }
 
 std::string axis_names(const MultiAxisModel& m) {
     std::string list;

@@ -11,12 +11,11 @@
 #include "piezoloop/pi_generalized.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "sim/design_bridge.hpp"
+#include "sim/f32.hpp"
 
 namespace piezoloop::sim {
 
 namespace {
-
-float f32(double x) { return static_cast<float>(x); }
 
 // ---- plant ---------------------------------------------------------------
 

@@ -4,31 +4,17 @@
 #include <cmath>
 #include <complex>
 #include <limits>
-#include <sstream>
 
 #include <Eigen/Eigenvalues>
 
 #include "synth/mimo_hinf.hpp"
+#include "format/number.hpp"
 
 namespace piezoloop::design {
 namespace {
 
 using Eigen::Index;
 using Eigen::MatrixXd;
-
-std::string num(double x) {
-    std::ostringstream s;
-    s.precision(4);
-    s << x;
-    return s.str();
-}
-
-std::string cnum(std::complex<double> z) {
-    std::ostringstream s;
-    s.precision(4);
-    s << z.real() << (z.imag() < 0 ? " - " : " + ") << std::fabs(z.imag()) << "j";
-    return s.str();
-}
 
 double sigma_max(const MatrixXd& m) {
     if (m.size() == 0) return 0.0;
@@ -51,8 +37,6 @@ struct Normal {
     Index nw = 0, nu = 0, nz = 0, ny = 0;
     MatrixXd A, B1, B2, C1, C2, D11;  // blocks of p
 };
-
-double pow2_near(double x) { return std::ldexp(1.0, static_cast<int>(std::lround(std::log2(x)))); }
 
 Normal normalise(const GeneralisedPlant& plant) {
     Normal n;
@@ -130,7 +114,7 @@ void check_stabilisable(const MatrixXd& A, const MatrixXd& B, double w0, const c
         m << A.cast<std::complex<double>>() - ev[i] * Eigen::MatrixXcd::Identity(n, n), B.cast<std::complex<double>>();
         const Eigen::VectorXd sv = Eigen::JacobiSVD<Eigen::MatrixXcd>(m).singularValues();
         if (sv(n - 1) <= 1e-9 * scale)
-            throw SynthesisError(std::string(what) + " (mode at " + cnum(ev[i] * w0) + " rad/s)");
+            throw SynthesisError(std::string(what) + " (mode at " + format::complex_significant(ev[i] * w0, 4) + " rad/s)");
     }
 }
 
@@ -148,7 +132,7 @@ void check_axis_rank(const Normal& n, const RiccatiOptions& ro) {
         Index best = 0;
         for (Index i = 0; i < ev.size(); ++i)
             if (std::fabs(ev[i].real()) < std::fabs(ev[best].real())) best = i;
-        throw SynthesisError(what + " loses rank at ω = " + num(std::fabs(ev[best].imag()) * n.w0) +
+        throw SynthesisError(what + " loses rank at ω = " + format::significant(std::fabs(ev[best].imag()) * n.w0, 4) +
                              " rad/s (a zero of the plant on the imaginary axis)");
     };
     const MatrixXd Ix = MatrixXd::Identity(n.nz, n.nz) - D12 * D12.transpose();
@@ -215,7 +199,7 @@ GammaTest test_gamma(const Normal& n, double gamma, const RiccatiOptions& ro) {
                               ro);
     if (!t.x.ok()) {
         t.why = "X∞: " + riccati_failure_text(t.x.failure) +
-                (t.x.failure == RiccatiFailure::kResidual ? " (X: " + num(t.x.residual) + ")" : "");
+                (t.x.failure == RiccatiFailure::kResidual ? " (X: " + format::significant(t.x.residual, 4) + ")" : "");
         return t;
     }
     t.y = riccati_hamiltonian((n.A - n.B1 * Dc.transpose() * Rti * C).transpose(), C.transpose() * Rti * C,
@@ -223,24 +207,24 @@ GammaTest test_gamma(const Normal& n, double gamma, const RiccatiOptions& ro) {
                               ro);
     if (!t.y.ok()) {
         t.why = "Y∞: " + riccati_failure_text(t.y.failure) +
-                (t.y.failure == RiccatiFailure::kResidual ? " (Y: " + num(t.y.residual) + ")" : "");
+                (t.y.failure == RiccatiFailure::kResidual ? " (Y: " + format::significant(t.y.residual, 4) + ")" : "");
         return t;
     }
     // Semidefiniteness to rounding level of the solution's size.
     const double xmin = Eigen::SelfAdjointEigenSolver<MatrixXd>(t.x.X).eigenvalues().minCoeff();
     if (xmin < -1e-8 * std::max(t.x.X.norm(), 1e-300)) {
-        t.why = "X∞ not positive semidefinite (λmin " + num(xmin) + ")";
+        t.why = "X∞ not positive semidefinite (λmin " + format::significant(xmin, 4) + ")";
         return t;
     }
     const double ymin = Eigen::SelfAdjointEigenSolver<MatrixXd>(t.y.X).eigenvalues().minCoeff();
     if (ymin < -1e-8 * std::max(t.y.X.norm(), 1e-300)) {
-        t.why = "Y∞ not positive semidefinite (λmin " + num(ymin) + ")";
+        t.why = "Y∞ not positive semidefinite (λmin " + format::significant(ymin, 4) + ")";
         return t;
     }
     const Eigen::VectorXcd exy = (t.x.X * t.y.X).eigenvalues();
     t.rho = exy.cwiseAbs().maxCoeff();
     if (!(t.rho < g2)) {
-        t.why = "ρ(X∞Y∞) = " + num(t.rho) + " >= γ² = " + num(g2);
+        t.why = "ρ(X∞Y∞) = " + format::significant(t.rho, 4) + " >= γ² = " + format::significant(g2, 4);
         return t;
     }
     t.F = -Ri * (D1.transpose() * n.C1 + B.transpose() * t.x.X);
@@ -353,14 +337,14 @@ HinfSynthesis hinfsyn(const GeneralisedPlant& plant, const HinfOptions& o) {
     double hi = 0.0;
     if (o.gamma_max > 0.0) {
         if (o.gamma_max <= lo || !feasible(o.gamma_max))
-            throw SynthesisError("no γ in the search interval [" + num(lo) + ", " + num(o.gamma_max) + "]: at γ = " +
-                                 num(o.gamma_max) + ", " + (last.why.empty() ? "γ <= lower end" : last.why));
+            throw SynthesisError("no γ in the search interval [" + format::significant(lo, 4) + ", " + format::significant(o.gamma_max, 4) + "]: at γ = " +
+                                 format::significant(o.gamma_max, 4) + ", " + (last.why.empty() ? "γ <= lower end" : last.why));
         hi = o.gamma_max;
     } else {
         double g = std::max(1.0, 2.0 * lo);
         while (!feasible(g)) {
             if (g >= 1e15)
-                throw SynthesisError("no γ in the search interval [" + num(lo) + ", 1e+15]: at γ = 1e+15, " +
+                throw SynthesisError("no γ in the search interval [" + format::significant(lo, 4) + ", 1e+15]: at γ = 1e+15, " +
                                      last.why);
             g = std::min(g * 10.0, 1e15);
         }
@@ -399,7 +383,7 @@ HinfSynthesis hinfsyn(const GeneralisedPlant& plant, const HinfOptions& o) {
     if (!t.ok) {  // rounding at the boundary: fall back to the tested γ
         r.gamma_controller = hi;
         t = test_gamma(n, hi, o.riccati);
-        if (!t.ok) throw SynthesisError("at γ = " + num(hi) + ": " + t.why);
+        if (!t.ok) throw SynthesisError("at γ = " + format::significant(hi, 4) + ": " + t.why);
     }
     r.residual_x = t.x.residual;
     r.residual_y = t.y.residual;
@@ -416,8 +400,8 @@ HinfSynthesis hinfsyn(const GeneralisedPlant& plant, const HinfOptions& o) {
     // rest of C1'C1), the tests above can pass on rounding noise.
     // 1e-4: far above the norm's accuracy (1e-7), far below a real miss.
     if (!r.stable || !(r.gamma <= r.gamma_controller * (1.0 + 1e-4)))
-        throw SynthesisError("the controller formed at γ = " + num(r.gamma_controller) + " achieves " +
-                             (r.stable ? "||F_l(P, K)||∞ = " + num(r.gamma) : std::string("an unstable closed loop")) +
+        throw SynthesisError("the controller formed at γ = " + format::significant(r.gamma_controller, 4) + " achieves " +
+                             (r.stable ? "||F_l(P, K)||∞ = " + format::significant(r.gamma, 4) : std::string("an unstable closed loop")) +
                              ": the problem is too ill-conditioned for double precision (a weight whose gain spans "
                              "too many decades? move its far poles or zeros in)");
     return r;

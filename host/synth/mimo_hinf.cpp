@@ -7,10 +7,10 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "numeric_constants.hpp"
+
 namespace piezoloop::design {
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 double sigma_max(const StateSpace& g, double w) {
     const Eigen::MatrixXcd m = evaluate(g, {0.0, w});

@@ -1,25 +1,18 @@
 #include "synth/mixsyn.hpp"
 
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 
 #include "analysis/hinf.hpp"
 #include "lti/lti_convert.hpp"
 #include "synth/mimo_hinf.hpp"
+#include "format/number.hpp"
 
 namespace piezoloop::design {
 namespace {
 
 using Eigen::Index;
 using Eigen::MatrixXd;
-
-std::string cnum(cplx z) {
-    std::ostringstream s;
-    s.precision(4);
-    s << z.real() << (z.imag() < 0 ? " - " : " + ") << std::fabs(z.imag()) << "j";
-    return s.str();
-}
 
 }  // namespace
 
@@ -33,7 +26,7 @@ Ss checked_weight(const Zpk& m, const std::string& name, bool must_be_stable) {
     if (must_be_stable)
         for (const cplx& p : m.poles)
             if (!(p.real() < 0.0))
-                throw std::invalid_argument(name + ": weight is unstable (pole at " + cnum(p) +
+                throw std::invalid_argument(name + ": weight is unstable (pole at " + format::complex_significant(p, 4) +
                                             " rad/s); weights must be stable: move an integrator to -eps");
     return zpk2ss(m);
 }

@@ -8,14 +8,13 @@
 #include "analysis/mu.hpp"
 #include "lti/model_json.hpp"
 #include "synth/plant_json.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::design {
 
 using nlohmann::json;
 
 namespace {
-
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
 
 json peak_json(const MuPeak& p) {
     return {{"value", report_number(p.value)},

@@ -7,22 +7,21 @@
 
 #include "analysis/analysis.hpp"
 #include "lti/freqresp.hpp"
+#include "numeric_constants.hpp"
 
 namespace piezoloop::design {
 
 namespace {
 
-constexpr double kTwoPi = 2.0 * std::numbers::pi;
-
-struct Candidate {
+struct PiNotchCandidate {
     Zpk controller;
     double kp = 0.0;
     std::vector<Notch> notches;
 };
 
 // The controller for crossover w_c (rad/s), kp not yet scaled (kp = 1).
-Candidate shape(const Zpk& plant, double w_c, const PiNotchOptions& o) {
-    Candidate c;
+PiNotchCandidate shape(const Zpk& plant, double w_c, const PiNotchOptions& o) {
+    PiNotchCandidate c;
     c.controller.ts = 0.0;
     c.controller.gain = 1.0;
     c.controller.zeros.push_back(-w_c / o.integral_ratio);
@@ -66,7 +65,7 @@ PiNotchDesign design_pi_notch(const Zpk& plant, double crossover_Hz, const PiNot
     d.target_Hz = crossover_Hz;
     for (double f = crossover_Hz; f >= o.min_fraction * crossover_Hz; f *= o.step) {
         const double w_c = kTwoPi * f;
-        Candidate c = shape(plant, w_c, o);
+        PiNotchCandidate c = shape(plant, w_c, o);
         const double mag = std::abs(evaluate(plant, cplx(0.0, w_c)) * evaluate(c.controller, cplx(0.0, w_c)));
         if (!(mag > 0.0) || !std::isfinite(mag)) continue;
         c.kp = plant_sign(plant, w_c) / mag;

@@ -51,9 +51,6 @@ Schur ordered_schur(Eigen::MatrixXd h) {
     return s;
 }
 
-// Power of two nearest x (x > 0).
-double pow2_near(double x) { return std::ldexp(1.0, static_cast<int>(std::lround(std::log2(x)))); }
-
 // Parlett–Reinsch balancing of |h| (no permutation): returns the diagonal
 // scaling d (h -> diag(d)^-1 h diag(d)).
 Eigen::VectorXd balancing_scales(const Eigen::MatrixXd& h) {
@@ -147,6 +144,8 @@ RiccatiResult solve_scaled(const Eigen::MatrixXd& A, const Eigen::MatrixXd& Rs, 
 }
 
 }  // namespace
+
+double pow2_near(double x) { return std::ldexp(1.0, static_cast<int>(std::lround(std::log2(x)))); }
 
 std::string riccati_failure_text(RiccatiFailure f) {
     switch (f) {

@@ -71,6 +71,9 @@ struct RiccatiResult {
     bool ok() const { return failure == RiccatiFailure::kNone; }
 };
 
+// Power of two nearest x (x > 0): a scaling by it is exact in binary.
+double pow2_near(double x);
+
 // Thrown by the throwing solvers; `failure` says which condition failed.
 class RiccatiError : public std::runtime_error {
 public:
