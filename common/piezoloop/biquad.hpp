@@ -374,19 +374,19 @@ private:
         if constexpr (N > MaxSections) {
             return x;
         } else {
+            Cursor at{coef_.data(), state_.data()};
 #pragma GCC unroll 8
             for (int i = 0; i < N; ++i) {
-                const Coef& c = coef_[static_cast<std::size_t>(i)];
-                State& s = state_[static_cast<std::size_t>(i)];
-                // k0..k4, then s1, s2, r1, r2 (plain loads, or two VLDM).
+                const SectionForm form = at.coef->form;
+                // k0..k4, then s1, s2, r1, r2; `at` moves to the next section.
                 float k[5], st[4];
-                load_section(c, s, k, st);
-                if (c.form == SectionForm::kDf2t) {
+                load_section(at, k, st);
+                if (form == SectionForm::kDf2t) {
                     // k0..k4 = b0, b1, b2, a1, a2
                     const float y = k[0] * x + st[0];
                     const float s1 = k[1] * x - k[3] * y + st[1];
                     const float s2 = k[2] * x - k[4] * y;
-                    store_states<2>(s, {s1, s2, 0.0f, 0.0f});
+                    store_states<2>(at, {s1, s2, st[2], st[3]});
                     x = y;
                 } else {
                     // k0..k4 = b0, g1, g0, c1, c0; increments with the
@@ -398,7 +398,7 @@ private:
                     const float r1 = i1 - (t1 - st[0]);  // what the rounding of t1 dropped
                     const float t2 = st[1] + i2;
                     const float r2 = i2 - (t2 - st[1]);
-                    store_states<4>(s, {t1, t2, r1, r2});
+                    store_states<4>(at, {t1, t2, r1, r2});
                     x = y;
                 }
             }
@@ -426,50 +426,58 @@ private:
         float r1 = 0.0f, r2 = 0.0f;  // delta form: rounding residuals (error feedback)
     };
 
-    // A section's coefficients and states into registers, and its new
-    // states back. On a Cortex-M7 with FPv5 one VLDM each for the
-    // coefficients and the states and one VSTM for the states, instead of a
-    // VLDR or VSTR per value (the values pass through fixed registers
-    // s16..s24); elsewhere, and in constant evaluation, plain loads and
-    // stores. The arithmetic is apply_n's either way.
-    [[gnu::always_inline]] static constexpr void load_section(const Coef& c, const State& s, float (&k)[5],
-                                                              float (&st)[4]) {
+    // The section apply_n is at: its coefficients (read) and states
+    // (written back).
+    struct Cursor {
+        const Coef* coef;
+        State* state;
+    };
+    // A section's coefficients and states into registers (the coefficients'
+    // cursor moves on), and its new states back (the states' cursor moves
+    // on). On a Cortex-M7 with FPv5 one VLDM each for the coefficients
+    // (with the form's word, unused: 24 bytes, so the cursor lands on the
+    // next section) and the states, and one VSTM for the states (a DF2T
+    // section writes its unused residuals back unchanged), instead of a
+    // VLDR or VSTR per value and the address arithmetic: the values pass
+    // through fixed registers s16..s25. Elsewhere, and in constant
+    // evaluation, plain loads and stores. The arithmetic is apply_n's.
+    [[gnu::always_inline]] static constexpr void load_section(Cursor& at, float (&k)[5], float (&st)[4]) {
 #if PIEZOLOOP_SOS_VLDM
-        {
-            if (!std::is_constant_evaluated()) {
-                register float k0 asm("s16"), k1 asm("s17"), k2 asm("s18"), k3 asm("s19"), k4 asm("s20");
-                register float s1 asm("s21"), s2 asm("s22"), r1 asm("s23"), r2 asm("s24");
-                asm("vldmia %[c], {s16-s20}\n\tvldmia %[s], {s21-s24}"
-                    : "=t"(k0), "=t"(k1), "=t"(k2), "=t"(k3), "=t"(k4), "=t"(s1), "=t"(s2), "=t"(r1), "=t"(r2)
-                    : [c] "r"(&c), [s] "r"(&s), "m"(c), "m"(s));
-                k[0] = k0, k[1] = k1, k[2] = k2, k[3] = k3, k[4] = k4;
-                st[0] = s1, st[1] = s2, st[2] = r1, st[3] = r2;
-                return;
-            }
+        static_assert(sizeof(Coef) == 6 * sizeof(float) && sizeof(State) == 4 * sizeof(float));
+        if (!std::is_constant_evaluated()) {
+            register float k0 asm("s16"), k1 asm("s17"), k2 asm("s18"), k3 asm("s19"), k4 asm("s20");
+            register float form_word asm("s21");
+            register float s1 asm("s22"), s2 asm("s23"), r1 asm("s24"), r2 asm("s25");
+            asm("vldmia %[c]!, {s16-s21}\n\tvldmia %[s], {s22-s25}"
+                : [c] "+r"(at.coef), "=t"(k0), "=t"(k1), "=t"(k2), "=t"(k3), "=t"(k4), "=t"(form_word),
+                  "=t"(s1), "=t"(s2), "=t"(r1), "=t"(r2)
+                : [s] "r"(at.state), "m"(*at.coef), "m"(*at.state));
+            k[0] = k0, k[1] = k1, k[2] = k2, k[3] = k3, k[4] = k4;
+            st[0] = s1, st[1] = s2, st[2] = r1, st[3] = r2;
+            return;
         }
 #endif
+        const Coef& c = *at.coef++;
+        const State& s = *at.state;
         k[0] = c.k0, k[1] = c.k1, k[2] = c.k2, k[3] = c.k3, k[4] = c.k4;
         st[0] = s.s1, st[1] = s.s2, st[2] = s.r1, st[3] = s.r2;
     }
-    // The first K (2: DF2T, 4: delta) of s1, s2, r1, r2.
+    // s1, s2, r1, r2 (K = 2: the first two are new, the residuals as loaded).
     template <int K>
-    [[gnu::always_inline]] static constexpr void store_states(State& s, const std::array<float, 4>& v) {
+    [[gnu::always_inline]] static constexpr void store_states(Cursor& at, const std::array<float, 4>& v) {
 #if PIEZOLOOP_SOS_VLDM
-        {
-            if (!std::is_constant_evaluated()) {
-                register float s1 asm("s21") = v[0];
-                register float s2 asm("s22") = v[1];
-                if constexpr (K == 4) {
-                    register float r1 asm("s23") = v[2];
-                    register float r2 asm("s24") = v[3];
-                    asm("vstmia %[s], {s21-s24}" : "=m"(s) : [s] "r"(&s), "t"(s1), "t"(s2), "t"(r1), "t"(r2));
-                } else {
-                    asm("vstmia %[s], {s21-s22}" : "+m"(s) : [s] "r"(&s), "t"(s1), "t"(s2));
-                }
-                return;
-            }
+        if (!std::is_constant_evaluated()) {
+            register float s1 asm("s22") = v[0];
+            register float s2 asm("s23") = v[1];
+            register float r1 asm("s24") = v[2];
+            register float r2 asm("s25") = v[3];
+            asm("vstmia %[s]!, {s22-s25}"
+                : [s] "+r"(at.state), "=m"(*at.state)
+                : "t"(s1), "t"(s2), "t"(r1), "t"(r2));
+            return;
         }
 #endif
+        State& s = *at.state++;
         s.s1 = v[0];
         s.s2 = v[1];
         if constexpr (K == 4) {
@@ -477,6 +485,7 @@ private:
             s.r2 = v[3];
         }
     }
+
     // settle()'s gain per section, from the realised (float) coefficients
     // in double: DF2T G = (b0 + b1 + b2) / (1 + a1 + a2), delta g0 / c0.
     static constexpr float settle_gain(const Coef& c) {
