@@ -519,17 +519,19 @@ private:
 
     // One complete, configured controller. Two of them make the double buffer.
     struct Bank {
+        // The flags the tick tests every time and the blocks it runs every
+        // time first, at small offsets from the bank's address.
         FeedforwardKind ff_kind = FeedforwardKind::kNone;
-        PiOperator<T> pi{};
-        DahlFeedforward dahl{};
         FeedbackKind fb_kind = FeedbackKind::kNone;
-        BiquadCascade<T, kMaxControllerSections> sos{};
-        CascadeAntiWindup<T, kMaxControllerSections> sos_anti_windup{};
         bool sos_anti_windup_on = false;  // kSos feedback with a DC gain (anti_windup.hpp)
-        Pid<T> pid{};
         bool rc_enabled = false;
-        RepetitiveController<T, RcCapacity> rc{};
         int pf_count = 0;
+        BiquadCascade<T, kMaxControllerSections> sos{};
+        RepetitiveController<T, RcCapacity> rc{};
+        PiOperator<T> pi{};
+        CascadeAntiWindup<T, kMaxControllerSections> sos_anti_windup{};
+        Pid<T> pid{};
+        DahlFeedforward dahl{};
         BiquadCascade<T, kMaxPrefilterSections> prefilter{};  // not reset at arming: it runs disarmed too
         SignalScale position{}, voltage{};
 
