@@ -58,10 +58,9 @@ public:
     constexpr int dc_sign() const { return dc_sign_; }
 
     // Before the cascade's sample (the pipeline calls it before the reading,
-    // outside the ADC-to-DAC span): keep its states.
-    constexpr void before(const Cascade& c) {
-        if (dc_sign_ != 0) c.save(held_);
-    }
+    // outside the ADC-to-DAC span, and only when dc_sign() != 0): keep its
+    // states. Unconditional: with dc_sign() 0 after() never restores them.
+    constexpr void before(const Cascade& c) { c.save(held_); }
     // After the limiter: e is the cascade's input of this tick, clamp_direction
     // the limiter's (+1 above u_max, -1 below u_min, 0 none).
     constexpr void after(Cascade& c, T e, int clamp_direction) {

@@ -165,6 +165,14 @@ constexpr Status validate_sos(const SosSection* sections, int count, SignalScale
 }  // namespace detail
 
 // ---------------------------------------------------------------------------
+// On a Cortex-M7 with FPv5 a section's coefficients and states are loaded
+// with VLDM and its states stored with VSTM (BiquadCascade<float>::load_section).
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP) && (__ARM_FP & 8) && defined(__GNUC__)
+#define PIEZOLOOP_SOS_VLDM 1
+#else
+#define PIEZOLOOP_SOS_VLDM 0
+#endif
+
 // float: per section, direct form II transposed where float32 holds it, the
 // delta-operator form with compensated states where it does not.
 //
@@ -366,28 +374,31 @@ private:
         if constexpr (N > MaxSections) {
             return x;
         } else {
+            Cursor at{coef_.data(), state_.data()};
 #pragma GCC unroll 8
             for (int i = 0; i < N; ++i) {
-                const Coef& c = coef_[static_cast<std::size_t>(i)];
-                State& s = state_[static_cast<std::size_t>(i)];
-                if (c.form == SectionForm::kDf2t) {
+                const SectionForm form = at.coef->form;
+                // k0..k4, then s1, s2, r1, r2; `at` moves to the next section.
+                float k[5], st[4];
+                load_section(at, k, st);
+                if (form == SectionForm::kDf2t) {
                     // k0..k4 = b0, b1, b2, a1, a2
-                    const float y = c.k0 * x + s.s1;
-                    s.s1 = c.k1 * x - c.k3 * y + s.s2;
-                    s.s2 = c.k2 * x - c.k4 * y;
+                    const float y = k[0] * x + st[0];
+                    const float s1 = k[1] * x - k[3] * y + st[1];
+                    const float s2 = k[2] * x - k[4] * y;
+                    store_states<2>(at, {s1, s2, st[2], st[3]});
                     x = y;
                 } else {
                     // k0..k4 = b0, g1, g0, c1, c0; increments with the
                     // residual their state lost last time.
-                    const float y = c.k0 * x + s.s1;
-                    const float i1 = ((s.s2 + c.k1 * x) - c.k3 * s.s1) + s.r1;
-                    const float i2 = (c.k2 * x - c.k4 * s.s1) + s.r2;
-                    const float t1 = s.s1 + i1;
-                    s.r1 = i1 - (t1 - s.s1);  // what the rounding of t1 dropped
-                    s.s1 = t1;
-                    const float t2 = s.s2 + i2;
-                    s.r2 = i2 - (t2 - s.s2);
-                    s.s2 = t2;
+                    const float y = k[0] * x + st[0];
+                    const float i1 = ((st[1] + k[1] * x) - k[3] * st[0]) + st[2];
+                    const float i2 = (k[2] * x - k[4] * st[0]) + st[3];
+                    const float t1 = st[0] + i1;
+                    const float r1 = i1 - (t1 - st[0]);  // what the rounding of t1 dropped
+                    const float t2 = st[1] + i2;
+                    const float r2 = i2 - (t2 - st[1]);
+                    store_states<4>(at, {t1, t2, r1, r2});
                     x = y;
                 }
             }
@@ -414,6 +425,67 @@ private:
         float s1 = 0.0f, s2 = 0.0f;  // DF2T or delta-form states
         float r1 = 0.0f, r2 = 0.0f;  // delta form: rounding residuals (error feedback)
     };
+
+    // The section apply_n is at: its coefficients (read) and states
+    // (written back).
+    struct Cursor {
+        const Coef* coef;
+        State* state;
+    };
+    // A section's coefficients and states into registers (the coefficients'
+    // cursor moves on), and its new states back (the states' cursor moves
+    // on). On a Cortex-M7 with FPv5 one VLDM each for the coefficients
+    // (with the form's word, unused: 24 bytes, so the cursor lands on the
+    // next section) and the states, and one VSTM for the states (a DF2T
+    // section writes its unused residuals back unchanged), instead of a
+    // VLDR or VSTR per value and the address arithmetic: the values pass
+    // through fixed registers s16..s25. Elsewhere, and in constant
+    // evaluation, plain loads and stores. The arithmetic is apply_n's.
+    [[gnu::always_inline]] static constexpr void load_section(Cursor& at, float (&k)[5], float (&st)[4]) {
+#if PIEZOLOOP_SOS_VLDM
+        static_assert(sizeof(Coef) == 6 * sizeof(float) && sizeof(State) == 4 * sizeof(float));
+        if (!std::is_constant_evaluated()) {
+            register float k0 asm("s16"), k1 asm("s17"), k2 asm("s18"), k3 asm("s19"), k4 asm("s20");
+            register float form_word asm("s21");
+            register float s1 asm("s22"), s2 asm("s23"), r1 asm("s24"), r2 asm("s25");
+            asm("vldmia %[c]!, {s16-s21}\n\tvldmia %[s], {s22-s25}"
+                : [c] "+r"(at.coef), "=t"(k0), "=t"(k1), "=t"(k2), "=t"(k3), "=t"(k4), "=t"(form_word),
+                  "=t"(s1), "=t"(s2), "=t"(r1), "=t"(r2)
+                : [s] "r"(at.state), "m"(*at.coef), "m"(*at.state));
+            k[0] = k0, k[1] = k1, k[2] = k2, k[3] = k3, k[4] = k4;
+            st[0] = s1, st[1] = s2, st[2] = r1, st[3] = r2;
+            return;
+        }
+#endif
+        const Coef& c = *at.coef++;
+        const State& s = *at.state;
+        k[0] = c.k0, k[1] = c.k1, k[2] = c.k2, k[3] = c.k3, k[4] = c.k4;
+        st[0] = s.s1, st[1] = s.s2, st[2] = s.r1, st[3] = s.r2;
+    }
+    // s1, s2, r1, r2 (K = 2: the first two are new, the residuals as loaded).
+    template <int K>
+    [[gnu::always_inline]] static constexpr void store_states(Cursor& at, const std::array<float, 4>& v) {
+#if PIEZOLOOP_SOS_VLDM
+        if (!std::is_constant_evaluated()) {
+            register float s1 asm("s22") = v[0];
+            register float s2 asm("s23") = v[1];
+            register float r1 asm("s24") = v[2];
+            register float r2 asm("s25") = v[3];
+            asm("vstmia %[s]!, {s22-s25}"
+                : [s] "+r"(at.state), "=m"(*at.state)
+                : "t"(s1), "t"(s2), "t"(r1), "t"(r2));
+            return;
+        }
+#endif
+        State& s = *at.state++;
+        s.s1 = v[0];
+        s.s2 = v[1];
+        if constexpr (K == 4) {
+            s.r1 = v[2];
+            s.r2 = v[3];
+        }
+    }
+
     // settle()'s gain per section, from the realised (float) coefficients
     // in double: DF2T G = (b0 + b1 + b2) / (1 + a1 + a2), delta g0 / c0.
     static constexpr float settle_gain(const Coef& c) {
@@ -434,8 +506,24 @@ public:
     // The states alone, for the feedback's anti-windup (anti_windup.hpp),
     // copied in place whole: a fixed-size copy is cheaper on the M7's FPU
     // registers than a loop over the sections in use.
+    // On a Cortex-M7 with FPv5 four sections' states (16 words) are one
+    // VLDM and one VSTM through s0..s15.
     using Snapshot = std::array<State, MaxSections>;
-    constexpr void save(Snapshot& s) const { s = state_; }
+    constexpr void save(Snapshot& s) const {
+#if PIEZOLOOP_SOS_VLDM
+        if constexpr (sizeof(Snapshot) == 16 * sizeof(float)) {
+            if (!std::is_constant_evaluated()) {
+                asm("vldmia %[from], {s0-s15}\n\tvstmia %[to], {s0-s15}"
+                    : "=m"(s)
+                    : [from] "r"(state_.data()), [to] "r"(s.data()), "m"(state_)
+                    : "s0", "s1", "s2", "s3", "s4", "s5", "s6", "s7", "s8", "s9", "s10", "s11", "s12", "s13", "s14",
+                      "s15");
+                return;
+            }
+        }
+#endif
+        s = state_;
+    }
     constexpr void restore(const Snapshot& s) { state_ = s; }
 };
 

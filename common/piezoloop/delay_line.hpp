@@ -30,8 +30,8 @@ public:
 
 private:
     static constexpr uint32_t kMask = static_cast<uint32_t>(Capacity) - 1u;
+    uint32_t head_ = 0;  // before the buffer: at a small offset from the line's address
     std::array<T, Capacity> buffer_{};
-    uint32_t head_ = 0;
 };
 
 }  // namespace piezoloop

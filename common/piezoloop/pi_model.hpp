@@ -70,6 +70,14 @@ constexpr double loading_curve(const PiModel& m, double r) {
 #else
 #define PIEZOLOOP_PI_VECTOR_LANES 0
 #endif
+// On a Cortex-M7 with FPv5 (play.hpp) one VLDM loads a group's thresholds,
+// states and weights (12 registers) and one VSTM stores its states, instead
+// of three VLDR and one VSTR per operator; the arithmetic is the C++ below.
+#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP) && (__ARM_FP & 8) && defined(__GNUC__)
+#define PIEZOLOOP_PI_GROUP_VLDM 1
+#else
+#define PIEZOLOOP_PI_GROUP_VLDM 0
+#endif
 
 // Per-sample evaluator of a PiModel for sample type T (float or Q31).
 template <class T>
@@ -82,19 +90,40 @@ public:
         if (const Status s = validate(m); !s.ok()) return s;
         model_ = m;
         identity_input_ = m.input_gain == 1.0f && m.input_offset == 0.0f;
+        groups_ = {};
+        for (int j = 0; j < m.count; ++j) {
+            const unsigned i = static_cast<unsigned>(j);
+            groups_[i / 4].r[i % 4] = m.thresholds[i];
+            groups_[i / 4].p[i % 4] = m.weights[i];
+        }
         reset();
         return ok_status();
     }
-    void reset() { w_.fill(0.0f); }
+    void reset() {
+        for (Group& g : groups_) g.w.fill(0.0f);
+    }
 
     // Dispatches once on the operator count to a fully unrolled loop (no
     // per-operator loop overhead: -20 % of the tick's largest block on the
     // Cortex-M7); the arithmetic and its order are those of the plain loop.
     float apply(float x);
     const PiModel& model() const { return model_; }
-    float state(int j) const { return w_[static_cast<unsigned>(j)]; }
+    float state(int j) const {
+        const unsigned i = static_cast<unsigned>(j);
+        return groups_[i / 4].w[i % 4];
+    }
 
 private:
+    // Operators 4g .. 4g + 3, interleaved by group so that one group's
+    // thresholds, weights and states are 48 contiguous bytes: loaded at
+    // once (one vector on the host, one VLDM on the Cortex-M7).
+    struct Group {
+        std::array<float, 4> r{};  // thresholds
+        std::array<float, 4> p{};  // weights
+        std::array<float, 4> w{};  // play states
+    };
+    static_assert(sizeof(Group) == 12 * sizeof(float));
+
     // The operator terms are summed in four lanes, operator j into lane
     // j % 4, then y = p0 f + ((l0 + l1) + (l2 + l3)): a fixed order, so the
     // same bits on every platform, but a dependency chain of ~N/4 additions
@@ -109,7 +138,14 @@ private:
         const float f = p.identity_input_ ? x : m.input_gain * x + m.input_offset;
         float lane[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         int j0 = 0;
-#if PIEZOLOOP_PI_VECTOR_LANES
+#if PIEZOLOOP_PI_GROUP_VLDM
+        float* g = p.groups_[0].r.data();
+        [&]<std::size_t... G>(std::index_sequence<G...>) {
+            (group_vldm<(N - 4 * static_cast<int>(G) < 4 ? N - 4 * static_cast<int>(G) : 4), G == 0>(g, f, lane),
+             ...);
+        }(std::make_index_sequence<(N + 3) / 4>{});
+        j0 = N;
+#elif PIEZOLOOP_PI_VECTOR_LANES
         // The same element-wise IEEE operations on the four lanes as one
         // 128-bit vector (GCC vector extension): the same bits as the scalar
         // loop below, a quarter of the instructions on the host.
@@ -118,16 +154,16 @@ private:
             const V fv = {f, f, f, f};
             V acc{};
             for (int g = 0; g + 4 <= N; g += 4) {
-                const unsigned i = static_cast<unsigned>(g);
+                Group& grp = p.groups_[static_cast<unsigned>(g / 4)];
                 V r, w, wt;
-                __builtin_memcpy(&r, &m.thresholds[i], sizeof(V));
-                __builtin_memcpy(&w, &p.w_[i], sizeof(V));
-                __builtin_memcpy(&wt, &m.weights[i], sizeof(V));
+                __builtin_memcpy(&r, grp.r.data(), sizeof(V));
+                __builtin_memcpy(&w, grp.w.data(), sizeof(V));
+                __builtin_memcpy(&wt, grp.p.data(), sizeof(V));
                 const V hi = fv + r;
                 const V mn = w < hi ? w : hi;  // min(u + r, w)
                 const V lo = fv - r;
                 const V nw = lo < mn ? mn : lo;  // max(u - r, .)
-                __builtin_memcpy(&p.w_[i], &nw, sizeof(V));
+                __builtin_memcpy(grp.w.data(), &nw, sizeof(V));
                 acc = g == 0 ? wt * nw : acc + wt * nw;
             }
             for (int k = 0; k < 4; ++k) lane[k] = acc[k];
@@ -137,9 +173,10 @@ private:
 #pragma GCC unroll 16
         for (int j = j0; j < N; ++j) {
             const unsigned i = static_cast<unsigned>(j);
-            const float w = play(f, m.thresholds[i], p.w_[i]);
-            p.w_[i] = w;
-            const float term = m.weights[i] * w;
+            Group& grp = p.groups_[i / 4];
+            const float w = play(f, grp.r[i % 4], grp.w[i % 4]);
+            grp.w[i % 4] = w;
+            const float term = grp.p[i % 4] * w;
             lane[j % 4] = j < 4 ? term : lane[j % 4] + term;
         }
         const float y0 = m.p0 * f;
@@ -149,6 +186,52 @@ private:
         else if constexpr (N == 1) return y0 + lane[0];
         else return y0;
     }
+#if PIEZOLOOP_PI_GROUP_VLDM
+    // K operators (1..4) of the group at g, operator k into lane k (the
+    // group's first operator is 4i, and 4i % 4 = 0); First: the first group,
+    // whose terms start the lanes. Thresholds and weights arrive in s16..s23
+    // by one VLDM that steps g to the group's states, the states in s24..s27
+    // by a second, and the new states leave from s24.. by a VSTM that steps
+    // g to the next group: three instructions, no address arithmetic.
+    // Registers of operators past K are loaded (the group's storage is
+    // there) and unused.
+    template <int K, bool First>
+    [[gnu::always_inline]] static void group_vldm(float*& g, float f, float (&lane)[4]) {
+        register float r0 asm("s16"), r1 asm("s17"), r2 asm("s18"), r3 asm("s19");
+        register float p0 asm("s20"), p1 asm("s21"), p2 asm("s22"), p3 asm("s23");
+        register float w0 asm("s24"), w1 asm("s25"), w2 asm("s26"), w3 asm("s27");
+        asm("vldmia %[g]!, {s16-s23}\n\tvldmia %[g], {s24-s27}"
+            : [g] "+r"(g), "=t"(r0), "=t"(r1), "=t"(r2), "=t"(r3), "=t"(p0), "=t"(p1), "=t"(p2), "=t"(p3),
+              "=t"(w0), "=t"(w1), "=t"(w2), "=t"(w3)
+            : "m"(*reinterpret_cast<const Group*>(g)));
+        const float r[4] = {r0, r1, r2, r3}, w[4] = {w0, w1, w2, w3}, wt[4] = {p0, p1, p2, p3};
+        float n[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+#pragma GCC unroll 4
+        for (int k = 0; k < K; ++k) {
+            n[k] = play(f, r[k], w[k]);
+            const float term = wt[k] * n[k];
+            lane[k] = First ? term : lane[k] + term;
+        }
+        // g points at this group's states: the memory operand names them.
+        auto& states = *reinterpret_cast<std::array<float, 4>*>(g);
+        register float n0 asm("s24") = n[0];
+        if constexpr (K == 4) {
+            register float n1 asm("s25") = n[1];
+            register float n2 asm("s26") = n[2];
+            register float n3 asm("s27") = n[3];
+            asm("vstmia %[g]!, {s24-s27}" : [g] "+r"(g), "=m"(states) : "t"(n0), "t"(n1), "t"(n2), "t"(n3));
+        } else if constexpr (K == 3) {
+            register float n1 asm("s25") = n[1];
+            register float n2 asm("s26") = n[2];
+            asm("vstmia %[g], {s24-s26}" : "=m"(states) : [g] "r"(g), "t"(n0), "t"(n1), "t"(n2));
+        } else if constexpr (K == 2) {
+            register float n1 asm("s25") = n[1];
+            asm("vstmia %[g], {s24-s25}" : "=m"(states) : [g] "r"(g), "t"(n0), "t"(n1));
+        } else {
+            asm("vstr s24, [%[g]]" : "=m"(states) : [g] "r"(g), "t"(n0));
+        }
+    }
+#endif
     using ApplyFn = float (*)(PiOperator&, float);
     template <std::size_t... N>
     static constexpr std::array<ApplyFn, sizeof...(N)> apply_table(std::index_sequence<N...>) {
@@ -157,7 +240,7 @@ private:
 
     PiModel model_{};
     bool identity_input_ = true;  // input_gain 1, input_offset 0: f = x
-    std::array<float, kMaxPlayOperators> w_{};
+    std::array<Group, kMaxPlayOperators / 4> groups_{};
 };
 
 // Q31: thresholds and play states are Q31 in the input scale; the output sum

@@ -148,10 +148,10 @@ public:
     using Excitation = ExcitationGenerator<T, ExcCapacity>;
 
     explicit Pipeline(const PipelineSetup& setup)
-        : setup_(setup),
-          limiter_(setup.hard, setup.rate_Hz, setup.voltage),
+        : limiter_(setup.hard, setup.rate_Hz, setup.voltage),
           trajectory_(setup.position),
-          approach_(setup.position, setup.rate_Hz) {}
+          approach_(setup.position, setup.rate_Hz),
+          setup_(setup) {}
 
     // Field-by-field check of a parameter set, without touching anything
     // (configures a scratch bank on the stack: host and main-loop use).
@@ -519,17 +519,19 @@ private:
 
     // One complete, configured controller. Two of them make the double buffer.
     struct Bank {
+        // The flags the tick tests every time and the blocks it runs every
+        // time first, at small offsets from the bank's address.
         FeedforwardKind ff_kind = FeedforwardKind::kNone;
-        PiOperator<T> pi{};
-        DahlFeedforward dahl{};
         FeedbackKind fb_kind = FeedbackKind::kNone;
-        BiquadCascade<T, kMaxControllerSections> sos{};
-        CascadeAntiWindup<T, kMaxControllerSections> sos_anti_windup{};
         bool sos_anti_windup_on = false;  // kSos feedback with a DC gain (anti_windup.hpp)
-        Pid<T> pid{};
         bool rc_enabled = false;
-        RepetitiveController<T, RcCapacity> rc{};
         int pf_count = 0;
+        BiquadCascade<T, kMaxControllerSections> sos{};
+        RepetitiveController<T, RcCapacity> rc{};
+        PiOperator<T> pi{};
+        CascadeAntiWindup<T, kMaxControllerSections> sos_anti_windup{};
+        Pid<T> pid{};
+        DahlFeedforward dahl{};
         BiquadCascade<T, kMaxPrefilterSections> prefilter{};  // not reset at arming: it runs disarmed too
         SignalScale position{}, voltage{};
 
@@ -685,34 +687,37 @@ private:
         swap_pending_.store(false, std::memory_order_release);
     }
 
-    PipelineSetup setup_;
-    Bank banks_[2]{};
-    PipelineParams params_[2]{};
-    unsigned active_ = 0;
-    Bank* bank_ = &banks_[0];  // banks_[active_]
+    // What the tick reads every time first, within a load's immediate
+    // offset of the pipeline's address (VLDR/VSTR reach 1020 bytes); the
+    // banks, the recorder's frames and the excitation's table after them.
     std::atomic<bool> swap_pending_{false};
-    bool rc_changes_ = false;  // the pending set changes the RC (written before swap_pending_)
-    OutputLimiter<T> limiter_;
-    typename OutputLimiter<T>::Setting limits_next_{};  // for the pending swap
-    Trajectory trajectory_;
-    Approach<T> approach_;  // read by the tick only while a wave runs
-    RecorderType recorder_{};
-    TickSignals<T> last_{};
-    T setpoint_{};
     std::atomic<bool> armed_{false};
-    bool was_armed_ = false;
     std::atomic<bool> wave_running_{false};
     std::atomic<bool> stop_request_{false};
-    Excitation excitation_{};
     std::atomic<bool> excitation_running_{false};
     std::atomic<bool> exc_stop_request_{false};
+    bool was_armed_ = false;
+    bool rc_changes_ = false;      // the pending set changes the RC (written before swap_pending_)
     bool exc_to_command_ = false;  // kCommand (written before excitation_running_)
     bool exc_prepared_ = false;    // configured by prepare_excitation, not yet run (main loop only)
     bool exc_active_ = false;      // this tick adds d (set in begin_phase, read in output_phase)
+    Bank* bank_ = &banks_[0];      // banks_[active_]
+    TickSignals<T> last_{};
+    T setpoint_{};
     T exc_d_{};
-    uint32_t exc_clipped_ = 0, exc_ticks_ = 0;
     uint32_t tick_count_ = 0;
     uint32_t swaps_ = 0;
+    unsigned active_ = 0;
+    OutputLimiter<T> limiter_;
+    Trajectory trajectory_;
+    Approach<T> approach_;  // read by the tick only while a wave runs
+    PipelineSetup setup_;
+    Bank banks_[2]{};
+    PipelineParams params_[2]{};
+    typename OutputLimiter<T>::Setting limits_next_{};  // for the pending swap
+    RecorderType recorder_{};
+    Excitation excitation_{};
+    uint32_t exc_clipped_ = 0, exc_ticks_ = 0;
     uint32_t rejected_setpoints_ = 0;
 };
 

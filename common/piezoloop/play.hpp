@@ -22,8 +22,10 @@ constexpr T play(T u, T r, T w_prev) {
 // no -0 reaches them. NaN never reaches a play operator: the pipeline refuses
 // non-finite setpoints and the trajectory generator is finite. On x86 these
 // builtins are library calls, so the host keeps the ternary form.
+// Always inlined: two instructions, inside unrolled loops whose size would
+// otherwise make GCC call it.
 #if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP) && (__ARM_FP & 8)
-constexpr float play(float u, float r, float w_prev) {
+[[gnu::always_inline]] constexpr float play(float u, float r, float w_prev) {
     return __builtin_fmaxf(u - r, __builtin_fminf(u + r, w_prev));
 }
 #endif

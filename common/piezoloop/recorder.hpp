@@ -357,7 +357,6 @@ private:
     bool configured_ = false;
     bool streaming_ = false;  // continuous and decimation 1: push's fast path
 
-    std::array<Frame, Capacity> frames_{};
     // Sequence numbers. Writer: wr_ (private), head_, start_. Reader: tail_.
     uint32_t wr_ = kSeqStart;
     uint32_t head_ = kSeqStart;
@@ -373,6 +372,10 @@ private:
     bool have_prev_ = false;
     S prev_{};
     uint32_t trigger_tick_ = 0;
+
+    // Last: every other member stays within a load's immediate offset of
+    // the recorder's address (the tick's push reads them all).
+    std::array<Frame, Capacity> frames_{};
 };
 
 }  // namespace piezoloop

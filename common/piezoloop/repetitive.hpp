@@ -210,7 +210,6 @@ public:
 
 private:
     RepetitiveConfig config_{};
-    DelayLine<T, Capacity> line_{};
     BiquadCascade<T, 1> q_generator_{};
     BiquadCascade<T, 1> q_output_{};
     FirstOrderSection<T> q1_generator_{};  // used instead when Q is first order
@@ -222,6 +221,8 @@ private:
     int32_t k_rc_mantissa_ = 0;
     int phase_ = 0;
     T x_ = sample_zero<T>();  // the generator's output of this tick, between prepare() and push()
+    // Last: the tick reaches the members above at small offsets.
+    DelayLine<T, Capacity> line_{};
 };
 
 }  // namespace piezoloop
