@@ -27,6 +27,7 @@
 #include <type_traits>
 
 #include "piezoloop/det_math.hpp"
+#include "piezoloop/fpv5.hpp"
 #include "piezoloop/q31.hpp"
 #include "piezoloop/sample.hpp"
 #include "piezoloop/status.hpp"
@@ -165,14 +166,6 @@ constexpr Status validate_sos(const SosSection* sections, int count, SignalScale
 }  // namespace detail
 
 // ---------------------------------------------------------------------------
-// On a Cortex-M7 with FPv5 a section's coefficients and states are loaded
-// with VLDM and its states stored with VSTM (BiquadCascade<float>::load_section).
-#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP) && (__ARM_FP & 8) && defined(__GNUC__)
-#define PIEZOLOOP_SOS_VLDM 1
-#else
-#define PIEZOLOOP_SOS_VLDM 0
-#endif
-
 // float: per section, direct form II transposed where float32 holds it, the
 // delta-operator form with compensated states where it does not.
 //
@@ -442,7 +435,7 @@ private:
     // through fixed registers s16..s25. Elsewhere, and in constant
     // evaluation, plain loads and stores. The arithmetic is apply_n's.
     [[gnu::always_inline]] static constexpr void load_section(Cursor& at, float (&k)[5], float (&st)[4]) {
-#if PIEZOLOOP_SOS_VLDM
+#if PIEZOLOOP_FPV5
         static_assert(sizeof(Coef) == 6 * sizeof(float) && sizeof(State) == 4 * sizeof(float));
         if (!std::is_constant_evaluated()) {
             register float k0 asm("s16"), k1 asm("s17"), k2 asm("s18"), k3 asm("s19"), k4 asm("s20");
@@ -465,7 +458,7 @@ private:
     // s1, s2, r1, r2 (K = 2: the first two are new, the residuals as loaded).
     template <int K>
     [[gnu::always_inline]] static constexpr void store_states(Cursor& at, const std::array<float, 4>& v) {
-#if PIEZOLOOP_SOS_VLDM
+#if PIEZOLOOP_FPV5
         if (!std::is_constant_evaluated()) {
             register float s1 asm("s22") = v[0];
             register float s2 asm("s23") = v[1];
@@ -510,7 +503,7 @@ public:
     // VLDM and one VSTM through s0..s15.
     using Snapshot = std::array<State, MaxSections>;
     constexpr void save(Snapshot& s) const {
-#if PIEZOLOOP_SOS_VLDM
+#if PIEZOLOOP_FPV5
         if constexpr (sizeof(Snapshot) == 16 * sizeof(float)) {
             if (!std::is_constant_evaluated()) {
                 asm("vldmia %[from], {s0-s15}\n\tvstmia %[to], {s0-s15}"

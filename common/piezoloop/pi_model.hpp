@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "piezoloop/det_math.hpp"
+#include "piezoloop/fpv5.hpp"
 #include "piezoloop/play.hpp"
 #include "piezoloop/sample.hpp"
 #include "piezoloop/status.hpp"
@@ -70,14 +71,9 @@ constexpr double loading_curve(const PiModel& m, double r) {
 #else
 #define PIEZOLOOP_PI_VECTOR_LANES 0
 #endif
-// On a Cortex-M7 with FPv5 (play.hpp) one VLDM loads a group's thresholds,
+// On a Cortex-M7 with FPv5 (fpv5.hpp) one VLDM loads a group's thresholds,
 // states and weights (12 registers) and one VSTM stores its states, instead
 // of three VLDR and one VSTR per operator; the arithmetic is the C++ below.
-#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP) && (__ARM_FP & 8) && defined(__GNUC__)
-#define PIEZOLOOP_PI_GROUP_VLDM 1
-#else
-#define PIEZOLOOP_PI_GROUP_VLDM 0
-#endif
 
 // Per-sample evaluator of a PiModel for sample type T (float or Q31).
 template <class T>
@@ -123,6 +119,7 @@ private:
         std::array<float, 4> w{};  // play states
     };
     static_assert(sizeof(Group) == 12 * sizeof(float));
+    static_assert(kMaxPlayOperators % 4 == 0, "the operators fill whole groups");
 
     // The operator terms are summed in four lanes, operator j into lane
     // j % 4, then y = p0 f + ((l0 + l1) + (l2 + l3)): a fixed order, so the
@@ -138,7 +135,7 @@ private:
         const float f = p.identity_input_ ? x : m.input_gain * x + m.input_offset;
         float lane[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         int j0 = 0;
-#if PIEZOLOOP_PI_GROUP_VLDM
+#if PIEZOLOOP_FPV5
         float* g = p.groups_[0].r.data();
         [&]<std::size_t... G>(std::index_sequence<G...>) {
             (group_vldm<(N - 4 * static_cast<int>(G) < 4 ? N - 4 * static_cast<int>(G) : 4), G == 0>(g, f, lane),
@@ -186,7 +183,7 @@ private:
         else if constexpr (N == 1) return y0 + lane[0];
         else return y0;
     }
-#if PIEZOLOOP_PI_GROUP_VLDM
+#if PIEZOLOOP_FPV5
     // K operators (1..4) of the group at g, operator k into lane k (the
     // group's first operator is 4i, and 4i % 4 = 0); First: the first group,
     // whose terms start the lanes. Thresholds and weights arrive in s16..s23

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 
+#include "piezoloop/fpv5.hpp"
 #include "piezoloop/sample.hpp"
 
 namespace piezoloop {
@@ -24,7 +25,7 @@ constexpr T play(T u, T r, T w_prev) {
 // builtins are library calls, so the host keeps the ternary form.
 // Always inlined: two instructions, inside unrolled loops whose size would
 // otherwise make GCC call it.
-#if defined(__ARM_ARCH_7EM__) && defined(__ARM_FP) && (__ARM_FP & 8)
+#if PIEZOLOOP_FPV5
 [[gnu::always_inline]] constexpr float play(float u, float r, float w_prev) {
     return __builtin_fmaxf(u - r, __builtin_fminf(u + r, w_prev));
 }
