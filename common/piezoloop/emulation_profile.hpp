@@ -80,11 +80,9 @@ static_assert(kEmulationProfileHeaderBytes + kEmulationProfileBodyBytes <= kEmul
 
 namespace profile_detail {
 
-inline void write_body(link::Writer& w, const EmulationProfile& p) {
-    w.u32(p.loop_rate_Hz);
-    w.f32(p.position_full_scale_um);
-    w.f32(p.voltage_full_scale_V);
-    const StageConfig& s = p.stage;
+// The stage block: everything of the body after the full scales (also
+// each further axis's stage in an axes profile, axes/emulation_axes_profile.hpp).
+inline void write_stage(link::Writer& w, const StageConfig& s) {
     w.f32(s.rate_Hz);
     w.i32(s.dac.bits); w.f32(s.dac.min); w.f32(s.dac.max);
     const AmplifierConfig& a = s.amplifier;
@@ -112,11 +110,14 @@ inline void write_body(link::Writer& w, const EmulationProfile& p) {
     w.f32(pl.drift_um_per_s);
 }
 
-inline void read_body(link::Reader& r, EmulationProfile& p) {
-    p.loop_rate_Hz = r.u32();
-    p.position_full_scale_um = r.f32();
-    p.voltage_full_scale_V = r.f32();
-    StageConfig& s = p.stage;
+inline void write_body(link::Writer& w, const EmulationProfile& p) {
+    w.u32(p.loop_rate_Hz);
+    w.f32(p.position_full_scale_um);
+    w.f32(p.voltage_full_scale_V);
+    write_stage(w, p.stage);
+}
+
+inline void read_stage(link::Reader& r, StageConfig& s) {
     s.rate_Hz = r.f32();
     s.dac.bits = r.i32(); s.dac.min = r.f32(); s.dac.max = r.f32();
     AmplifierConfig& a = s.amplifier;
@@ -140,6 +141,13 @@ inline void read_body(link::Reader& r, EmulationProfile& p) {
     for (float& m : s.sensor.mains.amplitudes_um) m = r.f32();
     pl.creep.percent_per_decade = r.f32(); pl.creep.from_s = r.f32(); pl.creep.to_s = r.f32();
     pl.drift_um_per_s = r.f32();
+}
+
+inline void read_body(link::Reader& r, EmulationProfile& p) {
+    p.loop_rate_Hz = r.u32();
+    p.position_full_scale_um = r.f32();
+    p.voltage_full_scale_V = r.f32();
+    read_stage(r, p.stage);
 }
 
 }  // namespace profile_detail

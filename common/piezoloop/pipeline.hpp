@@ -219,13 +219,22 @@ public:
     // armed then and was armed the tick before, else from the stage's
     // latest reading.
     Status start_wave(const TrajectoryConfig& c) {
+        if (const Status s = prepare_wave(c); !s.ok()) return s;
+        run_wave();
+        return ok_status();
+    }
+    // start_wave in two steps, so a board of axes configures every axis's
+    // wave before it starts any (all at one tick boundary, or none).
+    Status prepare_wave(const TrajectoryConfig& c) {
         if (wave_running()) return in_group("trajectory", error("waveform", "a wave is running: stop it first"));
         if (c.sample_rate_Hz != setup_.rate_Hz)
             return in_group("trajectory", error("sample_rate_Hz", "must equal the loop rate"));
         if (const Status s = trajectory_.configure(c); !s.ok()) return in_group("trajectory", s);
+        return ok_status();
+    }
+    void run_wave() {
         approach_.request(trajectory_.start_value());
         wave_running_.store(true, std::memory_order_release);
-        return ok_status();
     }
     // Ticks the approach of a wave starting now would take from `from` (the
     // stage's reading, or the held setpoint of an armed loop) to the

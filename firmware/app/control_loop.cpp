@@ -1,5 +1,7 @@
 #include "app/control_loop.hpp"
 
+#include "app/axes_loop.hpp"
+
 #include <new>
 
 #include "board_config.hpp"
@@ -16,11 +18,28 @@ constexpr BoardAnalog kBoardAnalog{bsp::config::kHardLimits, bsp::config::kPosit
 alignas(BoardPipeline) unsigned char g_pipeline_storage[sizeof(BoardPipeline)];
 alignas(BoardDevice) unsigned char g_device_storage[sizeof(BoardDevice)];
 ControlLoop g_loop;
+AxesLoopState g_axes_loop;
 
 }  // namespace
 
 BoardAnalog board_analog() { return kBoardAnalog; }
 ControlLoop& control_loop() { return g_loop; }
+AxesLoopState& axes_loop() { return g_axes_loop; }
+
+LoopStatus axes_loop_status() {
+    TickLock lock;
+    const AxesLoopState& st = g_axes_loop;
+    LoopStatus s;
+    s.ticks = st.ticks;
+    s.control = st.control;
+    s.whole = st.whole;
+    s.reconfigure = st.reconfigure;
+    s.plant = st.plant;
+    s.late = st.monitor.late();
+    s.missed = st.monitor.missed();
+    s.running = st.running;
+    return s;
+}
 
 BoardPipeline& ControlLoop::rebuild() { return rebuild(pipeline_setup(kBoardAnalog)); }
 

@@ -2,17 +2,8 @@
 // QEMU boards: 1 .. kSelfTestAxes axes, each run 0.2 s in the tick
 // interrupt against the emulated coupled stage, one JSON line each.
 //
-// The tick, timed as ControlLoop::tick times the single-axis one (three
-// stopwatch spans, one per phase, so no span counts another's stopwatch):
-//   begin_tick()  every axis's reading-independent half (and the output
-//                 matrix taken over on the first tick)
-//   ADC -> DAC    every reading in, MultiAxisPipeline::output (input
-//                 matrix bypassed, N axis outputs, output matrix, channel
-//                 limits), every command out: the budget span
-//   end_tick()    every axis's recorder
-// then the coupled stage's sample (the plant, apart). The first tick
-// (parameters swapped in, axes armed) is counted apart as the
-// reconfigure tick, as for the single-axis cases.
+// The tick is app/axes_loop.hpp's (the servo image runs the same one on a
+// stage of coupled axes), without a link device.
 //
 // Built with -O2 like control_loop.cpp; not part of servo.elf (only
 // run_selftest() calls it).
@@ -22,6 +13,7 @@
 #include <span>
 #include <utility>
 
+#include "app/axes_loop.hpp"
 #include "app/control_loop.hpp"
 #include "app/json_line.hpp"
 #include "app/selftest.hpp"
@@ -42,73 +34,9 @@ static_assert(kAxes == 0 || kAxes == kAxesCount<T>, "the host replay runs kAxesC
 // One storage for the largest pipeline and one for its stage, both built
 // in place for each count (raw storage: no static constructor, so nothing
 // of this is kept in an image that never runs it).
-template <int N>
-using AxesPipe = FwAxesPipeline<T, N>;
 constexpr int kLargest = kAxes >= 1 ? kAxes : 1;
 alignas(AxesPipe<kLargest>) unsigned char g_pipe_storage[kAxes >= 1 ? sizeof(AxesPipe<kLargest>) : 1];
-alignas(EmulatedCoupledStage<T, kLargest>) unsigned char
-    g_stage_storage[kAxes >= 1 ? sizeof(EmulatedCoupledStage<T, kLargest>) : 1];
-
-struct AxesTickState {
-    void* pipe = nullptr;
-    void* stage = nullptr;
-    volatile bool running = false;
-    uint32_t max_ticks = 0;
-    uint32_t ticks = 0;
-    WorkStats control{}, whole{}, reconfigure{}, plant{};
-    TickMonitor monitor{};
-    uint32_t last_swaps = 0;
-    bool last_armed = false;
-};
-AxesTickState g_tick;
-
-template <int N>
-uint32_t swaps(const AxesPipe<N>& p) {
-    uint32_t s = 0;
-    for (int i = 0; i < N; ++i) s += p.axis(i).swaps();
-    return s;
-}
-
-template <int N>
-void axes_tick() {
-    AxesTickState& st = g_tick;
-    AxesPipe<N>& pipe = *static_cast<AxesPipe<N>*>(st.pipe);
-    EmulatedCoupledStage<T, N>& stage = *static_cast<EmulatedCoupledStage<T, N>*>(st.stage);
-    st.monitor.on_entry(bsp::timestamp());
-    const bool armed = pipe.any_armed();
-
-    const uint32_t t_before = bsp::stopwatch_start();
-    pipe.begin_tick();
-    const uint32_t before = bsp::stopwatch_elapsed(t_before);
-    const uint32_t t_control = bsp::stopwatch_start();
-    stage.output(pipe);
-    const uint32_t work = bsp::stopwatch_elapsed(t_control);
-    st.monitor.on_output(bsp::timestamp());
-    const uint32_t t_after = bsp::stopwatch_start();
-    pipe.end_tick();
-    const uint32_t whole = before + work + bsp::stopwatch_elapsed(t_after);
-
-    const uint32_t s = swaps<N>(pipe);
-    const bool reconfigured = s != st.last_swaps || (armed && !st.last_armed);
-    st.last_swaps = s;
-    st.last_armed = armed;
-    if (reconfigured) {
-        st.reconfigure.add(whole);
-    } else {
-        st.control.add(work);
-        st.whole.add(whole);
-    }
-
-    const uint32_t t_plant = bsp::stopwatch_start();
-    stage.step();
-    st.plant.add(bsp::stopwatch_elapsed(t_plant));
-
-    ++st.ticks;
-    if (st.max_ticks != 0u && st.ticks == st.max_ticks) {
-        bsp::tick_timer_stop();
-        st.running = false;
-    }
-}
+alignas(AxesStage<kLargest>) unsigned char g_stage_storage[kAxes >= 1 ? sizeof(AxesStage<kLargest>) : 1];
 
 template <int N>
 void drain(AxesPipe<N>& pipe, AxesLog<T, N>& log) {
@@ -130,7 +58,7 @@ int run_axes(ControlLoop& loop) {
     const char* name = kAxesCaseNames[N - 1];
     loop.stop();
     auto* pipe = new (g_pipe_storage) AxesPipe<N>(axes_setup<N>(kAxesRate_Hz<T>));
-    EmulatedCoupledStage<T, N>& stage = *new (g_stage_storage) EmulatedCoupledStage<T, N>();
+    AxesStage<N>& stage = *new (g_stage_storage) AxesStage<N>();
     JsonLine j;
     j.str("board", bsp::kBoardName).str("name", name);
     static CoupledStageConfig stage_config;
@@ -142,17 +70,7 @@ int run_axes(ControlLoop& loop) {
     }
     AxesLog<T, N> log = AxesLog<T, N>::make(*pipe);
 
-    g_tick.pipe = pipe;
-    g_tick.stage = &stage;
-    g_tick.max_ticks = ticks;
-    g_tick.ticks = 0;
-    g_tick.control = g_tick.whole = g_tick.reconfigure = g_tick.plant = WorkStats{};
-    g_tick.last_swaps = swaps<N>(*pipe);
-    g_tick.last_armed = false;
-    g_tick.monitor.reset(bsp::config::kTimestamp_Hz / rate, bsp::config::kTimestampMask);
-    g_tick.running = true;
-    if (!bsp::tick_timer_start(rate, &axes_tick<N>)) {
-        g_tick.running = false;
+    if (!start_axes_loop<N>(*pipe, stage, nullptr, rate, ticks)) {
         j.str("error", "tick_timer").str("message", "rate not possible").flush();
         pipe->~AxesPipe<N>();
         return 1;
@@ -162,7 +80,7 @@ int run_axes(ControlLoop& loop) {
     for (;;) {
         drain<N>(*pipe, log);
         asm volatile("cpsid i" ::: "memory");
-        if (!g_tick.running) {
+        if (!axes_loop().running) {
             asm volatile("cpsie i" ::: "memory");
             break;
         }
@@ -173,7 +91,7 @@ int run_axes(ControlLoop& loop) {
     }
     drain<N>(*pipe, log);
 
-    const AxesTickState& st = g_tick;
+    const AxesLoopState& st = axes_loop();
     const char* unit = bsp::config::kWorkUnit;
     const uint32_t overruns = st.monitor.late() + st.monitor.missed();
     const bool within = st.control.max <= bsp::config::kAxesTickBudget;

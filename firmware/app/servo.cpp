@@ -14,6 +14,11 @@
 //   invalid  -> the reference as if absent; the error (group, field,
 //               message) goes to the semihosting console (QEMU's stdout/stderr,
 //               never the UART), and status faults bit 8 (board fault 0) is set.
+// A valid profile with the axes blob beside it (common/piezoloop/axes/
+// emulation_axes_profile.hpp) is a stage of 2 or 3 coupled axes: the
+// image then runs that many axes (app/servo_axes.cpp), up to the board's
+// kSelfTestAxes; an invalid or too large one is reported the same way and
+// the board runs the profile's first axis alone.
 // Hard output limits are always the board's compiled-in ones.
 //
 // Then the stored parameter set (bsp::param_storage(): a flash sector on
@@ -29,16 +34,17 @@
 // After boot the UART carries nothing but link frames, starting with one
 // 0x00 delimiter so a client's decoder starts in sync. Only a CPU fault
 // prints text there (bsp/cortex-m/fault.cpp), and then the program ends.
-#include <array>
 #include <cstdint>
 #include <span>
 
 #include "app/control_loop.hpp"
 #include "app/selftest.hpp"
 #include "app/selftest_cases.hpp"
+#include "app/servo_axes.hpp"
+#include "app/servo_service.hpp"
 #include "board_config.hpp"
 #include "bsp/bsp.hpp"
-#include "bsp/cortex-m/semihosting.hpp"
+#include "piezoloop/axes/emulation_axes_profile.hpp"
 #include "piezoloop/emulated_stage.hpp"
 #include "piezoloop/emulation_profile.hpp"
 #include "piezoloop/reference_stage.hpp"
@@ -47,62 +53,65 @@
 #ifndef PIEZOLOOP_SELFTEST_AUTORUN
 #define PIEZOLOOP_SELFTEST_AUTORUN 0
 #endif
-#ifndef PIEZOLOOP_VERSION
-#define PIEZOLOOP_VERSION "0.0.0"
-#endif
 
 namespace {
 
 using namespace piezoloop;
 using namespace piezoloop::fw;
 
-// Board fault bits of the status reply (TickStats::board_faults, shifted to
-// faults bit 8 and up).
-constexpr uint32_t kFaultProfileInvalid = 1u << 0;
-
 struct Boot {
-    uint32_t rate_Hz = kLoopRateInt_Hz;
-    uint32_t board_faults = 0;
     bool reference_controller = true;  // no profile: the reference controller unless a stored set replaces it
+    bool axes = false;                 // a valid axes blob: run the coupled axes
+    EmulationProfile profile{};
 };
 Boot g_boot;
 
 // ---- boot: the emulated boards' profile -------------------------------------
 
-void semihosting_note(const char* a, const char* b = "", const char* c = "", const char* d = "") {
-    if constexpr (!bsp::config::kHasConverters) {
-        for (const char* s : {a, b, c, d})
-            if (s != nullptr && s[0] != '\0') (void)bsp::semihosting::call(0x04, s);  // SYS_WRITE0
-        (void)bsp::semihosting::call(0x04, "\n");
-    }
+// RAM the loader wrote before reset; nothing in the image points there.
+std::span<const uint8_t> loader_area(uint32_t address, std::size_t bytes) {
+    const auto* area = reinterpret_cast<const uint8_t*>(uintptr_t{address});
+    asm volatile("" : "+r"(area));
+    return {area, bytes};
+}
+
+void note_rejected(const char* what, const Status& s) {
+    service_loop().board_faults |= kFaultProfileInvalid;
+    semihosting_note(what, s.group != nullptr ? s.group : "", s.group != nullptr ? "." : "", s.field);
+    semihosting_note("  ", s.message);
 }
 
 // The pipeline, the stage and the rate from the profile (or the reference);
-// false if nothing can run.
+// false if nothing can run. With a valid axes blob only the profile is
+// kept (g_boot): servo_axes builds the coupled axes.
 bool start_servo(ControlLoop& loop) {
     PipelineSetup setup = pipeline_setup(board_analog());
     StageConfig stage = ideal_stage(reference::plant(), kLoopRate_Hz);
     g_boot = Boot{};
     if constexpr (!bsp::config::kHasConverters) {
-        // RAM the loader wrote before reset; nothing in the image points there.
-        const auto* area = reinterpret_cast<const uint8_t*>(uintptr_t{kEmulationProfileAddress});
-        asm volatile("" : "+r"(area));
-        const std::span<const uint8_t> bytes(area, kEmulationProfileMaxBytes);
+        const std::span<const uint8_t> bytes = loader_area(kEmulationProfileAddress, kEmulationProfileMaxBytes);
         if (profile_present(bytes)) {
-            EmulationProfile p;
+            EmulationProfile& p = g_boot.profile;
             if (const Status s = decode_profile(bytes, p); s.ok()) {
                 setup = pipeline_setup(BoardAnalog{bsp::config::kHardLimits, p.position_full_scale_um,
                                                    p.voltage_full_scale_V},
                                        static_cast<float>(p.loop_rate_Hz));
                 stage = p.stage;
-                g_boot.rate_Hz = p.loop_rate_Hz;
+                service_loop().rate_Hz = p.loop_rate_Hz;
                 g_boot.reference_controller = false;
                 semihosting_note("piezoloop: emulation profile loaded");
+                const std::span<const uint8_t> axes =
+                    loader_area(kEmulationAxesProfileAddress, kEmulationAxesProfileMaxBytes);
+                if (axes_profile_present(axes)) {
+                    if (const Status a = check_axes_profile(axes, p); a.ok()) {
+                        g_boot.axes = true;
+                        return true;
+                    } else {
+                        note_rejected("piezoloop: axes profile rejected, running its first axis alone: ", a);
+                    }
+                }
             } else {
-                g_boot.board_faults |= kFaultProfileInvalid;
-                semihosting_note("piezoloop: emulation profile invalid, running the reference stage: ",
-                                 s.group != nullptr ? s.group : "", s.group != nullptr ? "." : "", s.field);
-                semihosting_note("  ", s.message);
+                note_rejected("piezoloop: emulation profile invalid, running the reference stage: ", s);
             }
         }
     }
@@ -113,101 +122,16 @@ bool start_servo(ControlLoop& loop) {
     return true;
 }
 
-// The stored set, else the safe default: the reference controller where
-// there is no profile. False if nothing can run.
-bool apply_stored_set(BoardPipeline& pipe, BoardDevice& dev) {
-    const link::StorageState st = dev.boot_from_storage();
-    if (st != link::StorageState::kAbsent) {
-        const link::StatusReply why = dev.make_status();
-        semihosting_note("piezoloop: stored parameter set ", link::storage_state_name(st), " ", why.storage_field.data());
-    }
-    if (st == link::StorageState::kApplied || !g_boot.reference_controller) return true;
-    return pipe.stage(reference::params(true, true, false)).ok();
-}
+// ---- the single-axis loop for the link service ------------------------------
 
-// ---- link hooks ---------------------------------------------------------------
-
-// Masks the tick interrupt (PRIMASK) around main-loop changes the tick
-// reads. A masked section starts right after a tick has run, so it has a
-// whole period before the next tick is due (plus half a period before a
-// delayed tick counts as missed): StartWave's section configures the wave
-// generator, which on the soft-float Cortex-M3 takes thousands of
-// instructions.
-uint32_t g_saved_primask = 0;
-void mask_tick(bool masked) {
-    if (masked) {
-        ControlLoop& loop = control_loop();
-        const uint32_t t = loop.ticks();
-        while (loop.running() && loop.ticks() == t) {
-        }
-        uint32_t p;
-        asm volatile("mrs %0, primask\n\tcpsid i" : "=r"(p)::"memory");
-        g_saved_primask = p;
-    } else {
-        asm volatile("msr primask, %0" ::"r"(g_saved_primask) : "memory");
-    }
-}
+uint32_t loop_ticks() { return control_loop().ticks(); }
+bool loop_running() { return control_loop().running(); }
+LoopStatus loop_status() { return control_loop().status(); }
+bool loop_tripped() { return control_loop().pipeline().limiter().tripped(); }
 
 bool restart_stage() {
     bsp::emulated_stage().reset();
     return true;
-}
-
-// The emulated boards' serial: fixed per image (they have no unique ID).
-// A board with one (STM32) defines PIEZOLOOP_BOARD_UNIQUE_SERIAL and
-// bsp::board_serial_number() in its board_config.hpp.
-constexpr const char* board_serial() {
-    const char* b = bsp::kBoardName;
-    if (b[0] == 'q' && b[5] == 'm' && b[6] == '7') return "QEMU-M7-0001";
-    if (b[0] == 'q' && b[5] == 'm' && b[6] == '3') return "QEMU-M3-0001";
-    return "STM32H743-0001";
-}
-
-link::TickStats tick_stats(ControlLoop& loop) {
-    const LoopStatus st = loop.status();
-    link::TickStats t;
-    t.overruns = st.late + st.missed;
-    t.time_min = st.control.min;
-    t.time_max = st.control.max;
-    t.time_mean = static_cast<float>(st.control.mean_tenths()) / 10.0f;
-    // Instructions on the QEMU boards (no time base), cycles on hardware.
-    t.counter_Hz = bsp::config::kHasConverters ? static_cast<float>(bsp::config::kCpuClock_Hz) : 0.0f;
-    t.board_faults = g_boot.board_faults;
-    return t;
-}
-
-// LEDs: the heartbeat toggles every 0.5 s of ticks (so it stops when the
-// loop stops), the fault LED shows a tripped output limiter.
-void update_leds(ControlLoop& loop, uint32_t& last_toggle, bool& on) {
-    const uint32_t t = loop.ticks();
-    if (t - last_toggle >= g_boot.rate_Hz / 2) {
-        on = !on;
-        last_toggle = t;
-        bsp::set_led(bsp::Led::kHeartbeat, on);
-    }
-    bsp::set_led(bsp::Led::kFault, loop.pipeline().limiter().tripped());
-}
-
-void send_frame(std::span<const uint8_t> frame) {
-    bsp::console_write(reinterpret_cast<const char*>(frame.data()), frame.size());
-}
-
-[[noreturn]] void serve(ControlLoop& loop, BoardDevice& dev) {
-    uint32_t last_toggle = 0;
-    bool heartbeat = false;
-    std::array<uint8_t, 64> rx{};
-    for (;;) {
-        update_leds(loop, last_toggle, heartbeat);
-        std::size_t n = 0;
-        char c = 0;
-        while (n < rx.size() && bsp::console_read(c)) rx[n++] = static_cast<uint8_t>(c);
-        if (n != 0) {
-            dev.set_tick_stats(tick_stats(loop));  // fresh for a status request
-            dev.receive(std::span<const uint8_t>(rx.data(), n), send_frame);
-        }
-        // Every pass, so log blocks stream as the recorder fills.
-        dev.poll_log(send_frame);
-    }
 }
 
 }  // namespace
@@ -215,23 +139,27 @@ void send_frame(std::span<const uint8_t> frame) {
 int app_main() {
     if constexpr (PIEZOLOOP_SELFTEST_AUTORUN) return run_selftest();
     ControlLoop& loop = control_loop();
+    service_loop() = ServiceLoop{};
     if (!start_servo(loop)) return 1;
-    link::DeviceInfo info;
-    info.board = bsp::kBoardName;
-    info.firmware_version = PIEZOLOOP_VERSION;
-#ifdef PIEZOLOOP_BOARD_UNIQUE_SERIAL
-    info.serial = bsp::board_serial_number();  // STM32: the unique ID, as the USB serial number
-#else
-    info.serial = board_serial();
-#endif
     link::DeviceHooks hooks;
     hooks.mask_tick = &mask_tick;
-    if constexpr (!bsp::config::kHasConverters) hooks.restart_stage = &restart_stage;
     hooks.storage = bsp::param_storage();
-    BoardDevice& dev = loop.attach_device(info, hooks);
-    if (!apply_stored_set(loop.pipeline(), dev)) return 1;
-    if (!loop.start(g_boot.rate_Hz, 0)) return 1;
-    const char sync = 0;  // a delimiter: the client's decoder starts clean
-    bsp::console_write(&sync, 1);
-    serve(loop, dev);
+    if (g_boot.axes) return run_servo_axes(g_boot.profile, hooks);
+
+    if constexpr (!bsp::config::kHasConverters) hooks.restart_stage = &restart_stage;
+    // Before the stored set: its load masks the tick (mask_tick).
+    ServiceLoop& svc = service_loop();
+    svc.ticks = &loop_ticks;
+    svc.running = &loop_running;
+    svc.status = &loop_status;
+    svc.tripped = &loop_tripped;
+    BoardDevice& dev = loop.attach_device(device_info(), hooks);
+    // The stored set, else the safe default: the reference controller
+    // where there is no profile.
+    const link::StorageState st = load_stored_set(dev);
+    if (st != link::StorageState::kApplied && g_boot.reference_controller &&
+        !loop.pipeline().stage(reference::params(true, true, false)).ok())
+        return 1;
+    if (!loop.start(svc.rate_Hz, 0)) return 1;
+    serve(dev);
 }

@@ -145,9 +145,10 @@ void add_get(CLI::App& app) {
     add_axis_option(cmd, *axis, true);
     cmd->callback([group, axis] {
         guarded([&] {
-            if (*group != "all") (void)hostlink::parse_group(*group);
+            const bool board_group = *group != "all" && link::board_group(hostlink::parse_group(*group));
             Client c = open_device();
-            const int a = resolve_axis(*axis, c.axis_count(), true);
+            // A board group (recorder, link, the matrices) needs no axis.
+            const int a = board_group && axis->empty() ? 0 : resolve_axis(*axis, c.axis_count(), true);
             if (*group == "all") {
                 json out;
                 for (const link::ParamGroup g : kGroupOrder) out[link::group_name(g)] = get_group_of(c, g, a);
@@ -429,7 +430,7 @@ struct RecordArgs {
     std::string signals = "r,y,e,u";
     double duration_s = 0.0;
     uint32_t decimation = 1;
-    bool start_wave = false, restart_stage = false;
+    bool start_wave = false, restart_stage = false, every_axis = false;
     std::string out, plot, axis;
     WaveRequest w;
     bool wave_given = false;
@@ -442,11 +443,13 @@ int run_record(const RecordArgs& a) {
     auto has = [&](uint8_t id) { return std::find(o.signals.begin(), o.signals.end(), id) != o.signals.end(); };
     if (!a.plot.empty() && !(has(0) && has(1) && has(3))) throw std::invalid_argument("--plot: needs the signals r, y and u");
     if (a.restart_stage && !a.start_wave) throw std::invalid_argument("--restart-stage: only with --start-wave");
+    if (a.every_axis && !a.start_wave) throw std::invalid_argument("--every-axis: only with --start-wave");
     options::check_record_options(a.duration_s, a.decimation, a.stall_s);
     o.duration_s = a.duration_s;
     o.decimation = a.decimation;
     o.start_wave = a.start_wave;
     o.restart_stage = a.restart_stage;
+    o.every_axis = a.every_axis;
     o.stall_s = a.stall_s;
     o.out_csv = a.out;
 
@@ -484,6 +487,9 @@ void add_record(CLI::App& app) {
     cmd->add_option("--decimation", a->decimation, "keep every N-th tick, 1 to 2^24");
     cmd->add_flag("--start-wave", a->start_wave,
                   "start the trajectory with the recorder (and the loop, if disarmed) at the same tick");
+    cmd->add_flag("--every-axis", a->every_axis,
+                  "with --start-wave on a board of axes: start every axis's wave (as set with `wave --no-start "
+                  "--axis A`) at the same tick");
     cmd->add_flag("--restart-stage", a->restart_stage,
                   "with --start-wave: emulated stage and loop from rest (a record equal to `piezoloop sim`)");
     cmd->add_option("--out", a->out, "CSV file: t_s and one column per signal with its unit");

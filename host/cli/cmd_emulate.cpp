@@ -1,5 +1,6 @@
 // `piezoloop emulate`: an emulated board in QEMU (servo.elf on mps2-an500 /
-// mps2-an385) with a scenario's stage loaded as its emulation profile, the
+// mps2-an385) with a scenario's stage loaded as its emulation profile (a
+// stage of coupled axes with the axes blob beside it), the
 // link on a local TCP port, and with --storage a host file as the board's
 // parameter storage (docs/storage.md); `piezoloop devices`: the USB boards attached and
 // how to start an emulated one.
@@ -20,6 +21,8 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -29,8 +32,10 @@
 #include "commands.hpp"
 #include "device_common.hpp"
 #include "link/tcp_transport.hpp"
+#include "piezoloop/axes/emulation_axes_profile.hpp"
 #include "piezoloop/emulation_profile.hpp"
 #include "sim/build_case.hpp"
+#include "sim/coupled_stage_build.hpp"
 #include "status_text.hpp"
 
 extern char** environ;
@@ -141,11 +146,9 @@ fs::path firmware_image(const EmulateArgs& a) {
     return p;
 }
 
-// The scenario's stage, loop rate and full scales as the board's profile.
-EmulationProfile scenario_profile(const EmulateArgs& a, json& info) {
-    const sim::Scenario s = sim::load_scenario(a.scenario);
-    sim::require_single_axis(s, "emulate");
-    const sim::CaseSpec* c = a.case_name.empty() ? nullptr : &s.find_case(a.case_name);
+// One axis's stage (a single-axis scenario, or plant.axes[i] alone), loop
+// rate and full scales as the board's profile.
+EmulationProfile axis_profile(const sim::Scenario& s, const sim::CaseSpec* c) {
     sim::LoopModel m;
     sim::build_stage(s, c, 10, m);
     EmulationProfile p;
@@ -159,10 +162,62 @@ EmulationProfile scenario_profile(const EmulateArgs& a, json& info) {
     p.stage.rate_Hz = static_cast<float>(p.loop_rate_Hz);
     if (const Status st = validate(p); !st.ok())
         throw std::invalid_argument(s.name + ": the emulated board cannot run this stage: " + piezoloop::describe(st));
+    return p;
+}
+
+// The boards' axis counts (their self-tests' kSelfTestAxes).
+int board_axes(const std::string& board) { return board == "qemu-m7" ? 3 : 2; }
+
+// The scenario's stage as the board's profile and, for a stage of coupled
+// axes, the axes blob beside it (axes.axes == 0: one axis).
+EmulationProfile scenario_profile(const EmulateArgs& a, json& info, EmulationAxesProfile& axes) {
+    const sim::Scenario s = sim::load_scenario(a.scenario);
+    const sim::CaseSpec* c = a.case_name.empty() ? nullptr : &s.find_case(a.case_name);
+    axes.axes = 0;
     info["scenario"] = s.name;
     if (c != nullptr) info["case"] = c->name;
-    info["loop_rate_Hz"] = p.loop_rate_Hz;
-    return p;
+    if (!s.multi_axis()) {
+        const EmulationProfile p = axis_profile(s, c);
+        info["loop_rate_Hz"] = p.loop_rate_Hz;
+        return p;
+    }
+    const int n = static_cast<int>(s.axes.size());
+    if (n > board_axes(a.board))
+        throw std::invalid_argument("--scenario: " + s.name + " has " + std::to_string(n) + " axes, " + a.board +
+                                    " runs at most " + std::to_string(board_axes(a.board)) +
+                                    (a.board == "qemu-m7" ? "" : " (3 axes: --board qemu-m7)"));
+    std::vector<EmulationProfile> per_axis;
+    for (int i = 0; i < n; ++i) {
+        const sim::Scenario alone = sim::axis_alone(s, static_cast<std::size_t>(i));
+        const sim::CaseSpec* ac = c == nullptr || c->axis_cases.empty() ? c : &c->axis_cases[static_cast<std::size_t>(i)];
+        per_axis.push_back(axis_profile(alone, ac));
+    }
+    axes.axes = n;
+    axes.stage = sim::coupled_stage_config(s);
+    for (int i = 0; i < n; ++i) {
+        const std::size_t k = static_cast<std::size_t>(i);
+        axes.position_full_scale_um[k] = per_axis[k].position_full_scale_um;
+        axes.voltage_full_scale_V[k] = per_axis[k].voltage_full_scale_V;
+        axes.stage.axis[k] = per_axis[k].stage;  // as a case builds it (its hysteresis override included)
+    }
+    CoupledStage scratch;
+    if (const Status st = validate(axes, per_axis[0], scratch); !st.ok())
+        throw std::invalid_argument(s.name + ": the emulated board cannot run this stage: " + piezoloop::describe(st));
+    info["loop_rate_Hz"] = per_axis[0].loop_rate_Hz;
+    info["axes"] = n;
+    return per_axis[0];
+}
+
+// A blob into the temporary folder, loaded at `address` by QEMU's generic loader.
+void load_blob(std::vector<std::string>& args, const fs::path& file, std::span<const uint8_t> blob, uint32_t address) {
+    std::ofstream f(file, std::ios::binary);
+    f.write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(blob.size()));
+    f.close();
+    if (!f) throw std::runtime_error("cannot write " + file.string());
+    char addr[32];
+    std::snprintf(addr, sizeof addr, "0x%x", address);
+    args.emplace_back("-device");
+    args.push_back("loader,file=" + file.string() + ",addr=" + addr);
 }
 
 int free_port() {
@@ -185,8 +240,13 @@ int run_emulate(const EmulateArgs& a) {
     // The storage before the image: a bad --storage is the user's to fix
     // whatever the build tree holds.
     const fs::path storage = a.storage.empty() ? fs::path() : storage_file(a.storage);
-    const fs::path image = firmware_image(a);
+    // The scenario's stage next: what the board cannot run is refused
+    // whatever the build tree holds.
     json info = {{"board", a.board}};
+    EmulationAxesProfile axes;
+    const std::optional<EmulationProfile> profile =
+        a.scenario.empty() ? std::nullopt : std::optional(scenario_profile(a, info, axes));
+    const fs::path image = firmware_image(a);
     fs::path tmpdir;
     std::vector<std::string> args;
     const char* qemu_env = std::getenv("QEMU_SYSTEM_ARM");
@@ -212,21 +272,20 @@ int run_emulate(const EmulateArgs& a) {
     args.push_back(image.string());
     args.emplace_back("-serial");
     args.push_back("tcp:127.0.0.1:" + std::to_string(port) + ",server=on,wait=off");
-    if (!a.scenario.empty()) {
-        const EmulationProfile p = scenario_profile(a, info);
+    if (profile) {
+        const EmulationProfile& p = *profile;
+        tmpdir = fs::temp_directory_path() / ("piezoloop-emulate-" + std::to_string(::getpid()));
+        fs::create_directories(tmpdir);
         std::array<uint8_t, kEmulationProfileMaxBytes> blob{};
         const std::size_t n = encode_profile(p, blob);
         if (n == 0) throw std::runtime_error("emulation profile does not fit");
-        tmpdir = fs::temp_directory_path() / ("piezoloop-emulate-" + std::to_string(::getpid()));
-        fs::create_directories(tmpdir);
-        const fs::path file = tmpdir / "profile.bin";
-        std::ofstream f(file, std::ios::binary);
-        f.write(reinterpret_cast<const char*>(blob.data()), static_cast<std::streamsize>(n));
-        f.close();
-        char addr[32];
-        std::snprintf(addr, sizeof addr, "0x%x", kEmulationProfileAddress);
-        args.emplace_back("-device");
-        args.push_back("loader,file=" + file.string() + ",addr=" + addr);
+        load_blob(args, tmpdir / "profile.bin", std::span(blob).first(n), kEmulationProfileAddress);
+        if (axes.axes != 0) {
+            std::array<uint8_t, kEmulationAxesProfileMaxBytes> axes_blob{};
+            const std::size_t m = encode_axes_profile(axes, axes_blob);
+            if (m == 0) throw std::runtime_error("emulation axes profile does not fit");
+            load_blob(args, tmpdir / "axes.bin", std::span(axes_blob).first(m), kEmulationAxesProfileAddress);
+        }
     }
     struct TmpCleanup {
         fs::path dir;

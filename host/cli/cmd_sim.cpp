@@ -60,6 +60,7 @@ struct SimArgs {
     std::string board_case;
     std::string axis;                // a stage of coupled axes: the axis that runs the wave
     std::vector<std::string> holds;  // --hold-um: NAME=UM, or UM for every held axis
+    bool start_together = false;     // --start-together
 };
 
 // What a board case cannot carry: exit 2, the field named.
@@ -194,6 +195,7 @@ int run_multi_axis(const SimArgs& a, const sim::Scenario& s) {
     req.sim = sim_request(a);
     req.axis = a.axis;
     req.holds = a.holds;
+    req.start_together = a.start_together;
     // --hash prints no notes: the controllers' realisation check is skipped.
     req.check_realisation = !a.hash_only;
     const sim::MultiAxisSimPlan plan = sim::plan_multi_axis_sim(s, req);
@@ -227,6 +229,7 @@ int run(const SimArgs& a) {
     if (!a.list && s.multi_axis()) return run_multi_axis(a, s);
     if (!a.axis.empty()) throw std::invalid_argument("--axis: the scenario's stage has one axis (leave --axis out)");
     if (!a.holds.empty()) throw std::invalid_argument("--hold-um: the scenario's stage has one axis (leave --hold-um out)");
+    if (a.start_together) throw std::invalid_argument("--start-together: the scenario's stage has one axis");
     if (a.list) {
         nlohmann::json out;
         out["scenario"] = s.name;
@@ -355,6 +358,9 @@ void add_sim(CLI::App& app) {
     cmd->add_option("--hold-um", a->holds,
                     "a stage of coupled axes: NAME=UM, a held axis's setpoint (repeatable), or UM for every held "
                     "axis (default: the wave's first value)");
+    cmd->add_flag("--start-together", a->start_together,
+                  "a stage of coupled axes: the driven wave starts at tick 0 beside the held axes' approaches (as a "
+                  "board's `record --start-wave --every-axis`), not after them");
     cmd->add_flag("--hash", a->hash_only, "print only the log hash of r, y, u (compare with the board self-test)");
     cmd->callback([a] {
         guarded([&] { return run(*a); });

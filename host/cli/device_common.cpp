@@ -11,6 +11,7 @@
 #include "link/params_json.hpp"
 #include "link/usb_transport.hpp"
 #include "options/option_checks.hpp"
+#include "sim/multi_axis_loop.hpp"
 #include "sim/scenario.hpp"
 
 namespace piezoloop::cli {
@@ -197,6 +198,61 @@ void ProgressBar::done() {
     last_ = -1;
 }
 
+namespace {
+
+// One axis's controller groups, in an order the board accepts; their names
+// are appended to `sent`.
+void send_axis_groups(hostlink::Client& c, const PipelineParams& params, uint8_t axis, const link::HelloReply& h,
+                      const std::string& prefix, nlohmann::json& sent, std::vector<std::string>& clipped,
+                      const std::function<void(const std::string&)>& note) {
+    CaseGroups g = case_groups(params);
+    std::vector<std::string> clipped_here;
+    g.limits = clip_to_hard_limits(g.limits, h, clipped_here);
+    for (const std::string& m : clipped_here) {
+        note("clipped: " + prefix + m);
+        clipped.push_back(prefix + m);
+    }
+    c.set(g.limits, axis);
+    sent.push_back(prefix + "limits");
+    // RC needs feedback: switch it off before the feedback changes, on after.
+    if (!g.rc.enabled) {
+        c.set(g.rc, axis);
+        sent.push_back(prefix + "rc");
+    }
+    // pi_series needs a feedback (its output feeds the inverse): set the
+    // feedback first when going to it, the feedforward first otherwise (so
+    // leaving pi_series never sees it without a feedback).
+    const bool series = g.feedforward.kind == FeedforwardKind::kPiSeries;
+    if (!series) {
+        c.set(g.feedforward, axis);
+        sent.push_back(prefix + "feedforward");
+    }
+    c.set(g.feedback, axis);
+    sent.push_back(prefix + "feedback");
+    if (series) {
+        c.set(g.feedforward, axis);
+        sent.push_back(prefix + "feedforward");
+    }
+    if (g.rc.enabled) {
+        c.set(g.rc, axis);
+        sent.push_back(prefix + "rc");
+    }
+}
+
+// A case's matrix (empty: identity) as the board group's row-major n x n
+// block (the layout's entries beyond the board's axes stay the identity's).
+template <class G>
+G matrix_group(const std::vector<std::vector<double>>& m, std::size_t n) {
+    G g{};
+    g.axis_count = static_cast<uint8_t>(n);
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t j = 0; j < n; ++j)
+            g.gain[i * link::kMaxLinkAxes + j] = m.empty() ? (i == j ? 1.0f : 0.0f) : static_cast<float>(m[i][j]);
+    return g;
+}
+
+}  // namespace
+
 nlohmann::json send_scenario_case(hostlink::Client& c, const std::string& scenario, const std::string& case_name,
                                   double frequency_Hz, const std::function<void(const std::string&)>& note) {
     using nlohmann::json;
@@ -210,6 +266,11 @@ nlohmann::json send_scenario_case(hostlink::Client& c, const std::string& scenar
         throw std::invalid_argument("scenario " + s.name + " is discretised at " + std::to_string(s.rate_Hz) +
                                     " Hz, the board runs at " + std::to_string(h.loop_rate_Hz) +
                                     " Hz (`piezoloop emulate --scenario` starts a board at the scenario's rate)");
+    const std::size_t axes = s.multi_axis() ? s.axes.size() : 1;
+    if (axes != h.axis_count)
+        throw std::invalid_argument("scenario " + s.name + " has " + std::to_string(axes) + " axes, the board " +
+                                    std::to_string(h.axis_count) +
+                                    " (`piezoloop emulate --scenario` starts a board with the scenario's axes)");
     // Built for the board's sample type, as `piezoloop sim --sample` does:
     // a Q31 board gets the fixed-point scaling of the feedback sections.
     sim::CaseSpec cb = cs;
@@ -222,50 +283,35 @@ nlohmann::json send_scenario_case(hostlink::Client& c, const std::string& scenar
     sim::BuildOptions bo;
     bo.reference_frequency_Hz = frequency_Hz;
     bo.check_realisation = false;
-    sim::BuiltCase b;
+    sim::MultiAxisModel m;
     try {
-        b = sim::build_case(s, cb, bo);
+        m = sim::build_multi_axis_case(s, cb, bo);
     } catch (const std::exception& e) {
-        std::string m = e.what();
-        if (m.find("periodic reference") != std::string::npos) m += " (give --frequency-hz)";
-        throw std::invalid_argument(m);
+        std::string msg = e.what();
+        if (msg.find("periodic reference") != std::string::npos) msg += " (give --frequency-hz)";
+        throw std::invalid_argument(msg);
     }
     if (c.status().armed)
         throw std::invalid_argument("the loop is armed: limits and block kinds change only while disarmed "
                                     "(`piezoloop --device " + c.address() + " disarm` first)");
-    CaseGroups g = case_groups(b.model.params);
-    std::vector<std::string> clipped;
-    g.limits = clip_to_hard_limits(g.limits, h, clipped);
-    for (const std::string& m : clipped) note("clipped: " + m);
     json sent = json::array();
-    c.set(g.limits);
-    sent.push_back("limits");
-    // RC needs feedback: switch it off before the feedback changes, on after.
-    if (!g.rc.enabled) {
-        c.set(g.rc);
-        sent.push_back("rc");
-    }
-    // pi_series needs a feedback (its output feeds the inverse): set the
-    // feedback first when going to it, the feedforward first otherwise (so
-    // leaving pi_series never sees it without a feedback).
-    const bool series = g.feedforward.kind == FeedforwardKind::kPiSeries;
-    if (!series) {
-        c.set(g.feedforward);
-        sent.push_back("feedforward");
-    }
-    c.set(g.feedback);
-    sent.push_back("feedback");
-    if (series) {
-        c.set(g.feedforward);
-        sent.push_back("feedforward");
-    }
-    if (g.rc.enabled) {
-        c.set(g.rc);
-        sent.push_back("rc");
+    std::vector<std::string> clipped;
+    for (std::size_t i = 0; i < axes; ++i)
+        send_axis_groups(c, m.axes[i].model.params, static_cast<uint8_t>(i), h, axes > 1 ? m.names[i] + "." : "",
+                         sent, clipped, note);
+    if (axes > 1) {
+        c.set(matrix_group<link::OutputMatrixParams>(m.output_matrix, axes));
+        sent.push_back("output_matrix");
+        link::InputMatrixParams in = matrix_group<link::InputMatrixParams>(m.input_matrix, axes);
+        for (std::size_t i = 0; i < axes && !m.input_offset_um.empty(); ++i)
+            in.offset_um[i] = static_cast<float>(m.input_offset_um[i]);
+        c.set(in);
+        sent.push_back("input_matrix");
     }
     json out = {{"device", c.address()}, {"scenario", s.name}, {"case", cs.name}, {"label", cs.label},
                 {"sent", sent},          {"clipped", clipped}};
-    for (const std::string& n : b.notes) out["notes"].push_back(n);
+    for (const sim::BuiltCase& b : m.axes)
+        for (const std::string& n : b.notes) out["notes"].push_back(n);
     return out;
 }
 

@@ -277,7 +277,7 @@ json to_json(const link::HelloReply& h) {
                                      "recorder", "wave_table", "excitation", "storage"};
     for (unsigned i = 0; i < std::size(cap_names); ++i)
         if (h.capabilities & (1u << i)) caps.push_back(cap_names[i]);
-    return {{"protocol_version", h.protocol_version},
+    json j = {{"protocol_version", h.protocol_version},
             {"board", h.board.data()},
             {"firmware_version", h.firmware_version.data()},
             {"serial", h.serial.data()},
@@ -296,7 +296,18 @@ json to_json(const link::HelloReply& h) {
             {"max_play_operators", h.max_play_operators},
             {"max_wave_table", h.max_wave_table},
             {"rc_capacity", h.rc_capacity},
-            {"excitation_capacity", h.excitation_capacity}};
+            {"excitation_capacity", h.excitation_capacity},
+            {"axis_count", h.axis_count}};
+    // A board of axes: each axis's full scales and hard limits.
+    if (h.axis_count > 1) {
+        j["axes"] = json::array();
+        for (std::size_t a = 0; a < h.axis_count && a < link::kMaxLinkAxes; ++a)
+            j["axes"].push_back({{"position_full_scale_um", h.axis_position_full_scale_um[a]},
+                                 {"voltage_full_scale_V", h.axis_voltage_full_scale_V[a]},
+                                 {"hard_limits", {{"u_min_V", h.axis_hard_u_min_V[a]}, {"u_max_V", h.axis_hard_u_max_V[a]},
+                                                  {"slew_max_V_per_s", h.axis_hard_slew_max_V_per_s[a]}}}});
+    }
+    return j;
 }
 
 namespace {

@@ -220,7 +220,10 @@ RecordResult record(Client& c, const RecordOptions& o) {
         if (o.restart_stage) flags |= wave_flag::kRestartStage;
         c.start_excitation(*o.excitation, flags, o.axis);
     } else if (o.start_wave) {
-        if (st.axis_wave_running[o.axis]) c.stop_wave(o.axis);
+        if (o.every_axis && h.axis_count < 2)
+            throw std::invalid_argument("--every-axis: this board has one axis");
+        for (uint8_t a = 0; a < h.axis_count; ++a)
+            if ((a == o.axis || o.every_axis) && st.axis_wave_running[a]) c.stop_wave(a);
         if (o.restart_stage && st.armed) {
             c.disarm();
             r.notes.push_back("disarmed to restart the loop from rest with the wave");
@@ -232,7 +235,7 @@ RecordResult record(Client& c, const RecordOptions& o) {
         r.approach_ticks = approach_ticks(h, st, r.wave, o.restart_stage, o.axis);
         r.expected_frames = static_cast<std::size_t>(
             std::llround((o.duration_s * r.rate_Hz + static_cast<double>(r.approach_ticks)) / o.decimation));
-        c.start_wave(flags, o.axis);
+        c.start_wave(flags, o.every_axis ? link::StartWave::kEveryAxis : o.axis);
     } else {
         c.recorder_arm();
     }

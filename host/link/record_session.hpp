@@ -32,6 +32,9 @@ struct RecordOptions {
     uint32_t decimation = 1;                     // keep every N-th tick
     std::optional<link::TrajectoryParams> wave;  // set before recording (not started)
     bool start_wave = false;      // start the wave with the recorder (and the loop, if disarmed)
+    // With start_wave on a board of axes: every axis's wave (its trajectory
+    // group as set) from the same tick, not only `axis`'s.
+    bool every_axis = false;
     // Instead of a wave: start this excitation with the recorder (and the
     // loop, if disarmed) at one tick; the setpoint holds.
     std::optional<ExcitationConfig> excitation;

@@ -95,10 +95,11 @@ MultiAxisSimPlan plan_multi_axis_sim(const Scenario& s, const MultiAxisSimReques
 
     // Every axis approaches its first value from rest; the driven axis's
     // wave starts when the longest approach ends, so the held axes hold
-    // before it moves.
-    uint64_t lead = 0;
-    for (size_t i = 0; i < n; ++i) lead = std::max(lead, multi_axis_approach_ticks(p.model, o, static_cast<int>(i)));
+    // before it moves (or at once, beside them: start_together).
     const uint64_t own = multi_axis_approach_ticks(p.model, o, driven);
+    uint64_t lead = own;
+    for (size_t i = 0; i < n && !r.start_together; ++i)
+        lead = std::max(lead, multi_axis_approach_ticks(p.model, o, static_cast<int>(i)));
     p.approach_ticks = lead;
     p.period_ticks = ro.period_ticks;
     o.wave_tick = lead - own;

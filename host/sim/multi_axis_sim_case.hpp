@@ -20,6 +20,10 @@ struct MultiAxisSimRequest {
     std::string axis;                // the driven axis's name
     std::vector<std::string> holds;  // "NAME=UM" per held axis, or "UM" for every held axis
     bool check_realisation = true;   // the notes' realisation check of each controller (seconds for slow poles)
+    // Every axis's wave from tick 0, the driven one's approach beside the
+    // others' (a board's `record --start-wave --every-axis`); else the
+    // driven wave waits until the longest approach has ended.
+    bool start_together = false;
 };
 
 struct MultiAxisSimPlan {

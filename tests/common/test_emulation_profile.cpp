@@ -1,4 +1,5 @@
-// The emulated boards' profile blob: round trip, the layout at fixed offsets
+// The emulated boards' profile blob (and the axes blob beside it for a
+// stage of coupled axes): round trip, the layout at fixed offsets
 // (counted here from the documented field list, independently of the
 // encoder), and every rejection -- which names the field and leaves the
 // output untouched. Exact comparisons throughout: the blob carries bit
@@ -12,6 +13,7 @@
 #include <limits>
 #include <vector>
 
+#include "piezoloop/axes/emulation_axes_profile.hpp"
 #include "piezoloop/emulation_profile.hpp"
 #include "piezoloop/link/crc32.hpp"
 #include "piezoloop/reference_stage.hpp"
@@ -305,4 +307,129 @@ TEST(EmulationProfile, IdealStageIsTheBarePlant) {
         const float u = 18.0f * tri - 9.0f + static_cast<float>(s >> 8) * (0.01f / 16777216.0f);
         ASSERT_EQ(std::bit_cast<uint32_t>(stage.step(u)), std::bit_cast<uint32_t>(plant.step(u))) << "sample " << k;
     }
+}
+
+// ---- the axes blob (axes/emulation_axes_profile.hpp) ----------------------
+
+namespace {
+
+// Three axes: axis 0 the sample profile's stage, axes 1 and 2 variants of
+// it, and four coupling paths of one and two sections.
+EmulationAxesProfile sample_axes(const EmulationProfile& first) {
+    EmulationAxesProfile a;
+    a.axes = 3;
+    a.stage.axes = 3;
+    for (int i = 1; i < 3; ++i) {
+        const std::size_t k = static_cast<std::size_t>(i);
+        a.position_full_scale_um[k] = 40.0f * static_cast<float>(i);
+        a.voltage_full_scale_V[k] = 100.0f + static_cast<float>(i);
+        a.stage.axis[k] = first.stage;
+        a.stage.axis[k].sensor.seed = 777u + k;
+        a.stage.axis[k].plant.linear_gain_um_per_V = 0.5f + 0.125f * static_cast<float>(i);
+    }
+    a.stage.paths = 4;
+    const int from[4] = {0, 1, 0, 1}, to[4] = {1, 0, 2, 2};
+    for (int k = 0; k < 4; ++k) {
+        CouplingPath& p = a.stage.coupling[static_cast<std::size_t>(k)];
+        p.from = from[k];
+        p.to = to[k];
+        p.sections = k % 2 + 1;
+        p.filter[0] = SosSection{0.01 * (k + 1), 0.002, 0.0, -0.5, 0.06};
+        p.filter[1] = SosSection{1.0, -0.25, 0.0, 0.125, 0.0};
+    }
+    return a;
+}
+
+std::vector<uint8_t> encode_axes(const EmulationAxesProfile& a) {
+    std::vector<uint8_t> b(kEmulationAxesProfileMaxBytes, 0xA5);
+    const std::size_t n = encode_axes_profile(a, b);
+    EXPECT_EQ(n, kBlobHeaderBytes + kEmulationAxesBodyBytes);
+    b.resize(n);
+    return b;
+}
+
+}  // namespace
+
+TEST(EmulationAxesProfile, RoundTripIsExactAndAxisZeroIsTheProfiles) {
+    const EmulationProfile first = sample_profile();
+    ASSERT_TRUE(validate(first).ok());
+    const EmulationAxesProfile a = sample_axes(first);
+    const std::vector<uint8_t> b = encode_axes(a);
+    EmulationAxesProfile out;
+    CoupledStage scratch;
+    const Status s = decode_axes_profile(b, first, out, scratch);
+    ASSERT_TRUE(s.ok()) << (s.group ? s.group : "") << "." << s.field << ": " << s.message;
+    EXPECT_EQ(out.axes, 3);
+    EXPECT_EQ(out.stage.axes, 3);
+    EXPECT_EQ(out.position_full_scale_um[0], first.position_full_scale_um);
+    EXPECT_EQ(out.voltage_full_scale_V[0], first.voltage_full_scale_V);
+    EmulationProfile axis0 = first, again = first;
+    axis0.stage = out.stage.axis[0];
+    EXPECT_TRUE(same(axis0, first));
+    // Every travelling value comes back: encoded again, the same bytes.
+    EXPECT_EQ(encode_axes(out), b);
+    for (int i = 1; i < 3; ++i) {
+        again.stage = out.stage.axis[static_cast<std::size_t>(i)];
+        EmulationProfile want = first;
+        want.stage = a.stage.axis[static_cast<std::size_t>(i)];
+        EXPECT_TRUE(same(again, want)) << "axis " << i;
+    }
+    // The layout: axes, then axis 1's full scales at the body's start + 1.
+    EXPECT_EQ(le32(b, 0), kEmulationAxesMagic);
+    EXPECT_EQ(b[16], 3u);
+    EXPECT_EQ(le32(b, 17), std::bit_cast<uint32_t>(40.0f));
+    EXPECT_EQ(le32(b, 21), std::bit_cast<uint32_t>(101.0f));
+    // The paths' count after the two axis blocks.
+    EXPECT_EQ(b[16 + 1 + 2 * (8 + kEmulationStageBytes)], 4u);
+}
+
+TEST(EmulationAxesProfile, RejectionsNameTheFieldAndLeaveOutUntouched) {
+    const EmulationProfile first = sample_profile();
+    const EmulationAxesProfile good = sample_axes(first);
+    struct AxesCase {
+        const char* name;
+        void (*edit)(EmulationAxesProfile&);
+        const char* group;
+        const char* field;
+    };
+    const AxesCase cases[] = {
+        {"one axis", [](EmulationAxesProfile& a) { a.axes = 1; }, nullptr, "axes"},
+        {"four axes", [](EmulationAxesProfile& a) { a.axes = 4; }, nullptr, "axes"},
+        {"full scale", [](EmulationAxesProfile& a) { a.position_full_scale_um[2] = 0.0f; }, "axis[2]",
+         "position_full_scale_um"},
+        {"voltage scale", [](EmulationAxesProfile& a) { a.voltage_full_scale_V[1] = -1.0f; }, "axis[1]",
+         "voltage_full_scale_V"},
+        {"another rate", [](EmulationAxesProfile& a) { a.stage.axis[1].rate_Hz = 40000.0f; }, "axis[1]", "rate_Hz"},
+        {"a path to itself", [](EmulationAxesProfile& a) { a.stage.coupling[1].to = 1; }, "coupling[1]", "to"},
+        {"a path to no axis", [](EmulationAxesProfile& a) { a.stage.coupling[2].to = 3; }, "coupling[2]", "to"},
+        {"seven paths", [](EmulationAxesProfile& a) { a.stage.paths = 7; }, nullptr, "paths"},
+    };
+    for (const AxesCase& c : cases) {
+        EmulationAxesProfile bad = good;
+        c.edit(bad);
+        const std::vector<uint8_t> b = encode_axes(bad);
+        EmulationAxesProfile out;
+        out.axes = 99;
+        CoupledStage scratch;
+        const Status s = decode_axes_profile(b, first, out, scratch);
+        ASSERT_FALSE(s.ok()) << c.name;
+        EXPECT_STREQ(s.field, c.field) << c.name;
+        if (c.group == nullptr) {
+            EXPECT_EQ(s.group, nullptr) << c.name;
+        } else {
+            ASSERT_NE(s.group, nullptr) << c.name;
+            EXPECT_STREQ(s.group, c.group) << c.name;
+        }
+        EXPECT_EQ(out.axes, 99) << c.name << ": out written";
+    }
+    // Framing: another blob's magic, a flipped body byte (CRC).
+    std::vector<uint8_t> b = encode_axes(good);
+    EmulationAxesProfile out;
+    CoupledStage scratch;
+    EXPECT_STREQ(decode_axes_profile(encode(first), first, out, scratch).field, "magic");
+    b[40] ^= 0x10;
+    EXPECT_STREQ(decode_axes_profile(b, first, out, scratch).field, "crc");
+    // Below the board cases and the profile, inside what memory.ld leaves out.
+    EXPECT_LE(kEmulationAxesProfileAddress + kEmulationAxesProfileMaxBytes, 0x003FE000u);
+    EXPECT_GE(kEmulationAxesProfileAddress, 0x00400000u - 16u * 1024u);
 }

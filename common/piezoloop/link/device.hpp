@@ -560,17 +560,31 @@ private:
         if (!decode(h, body, m, send)) return;
         const uint8_t f = m.flags;
         if (!check_flags(h, f, "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage", send)) return;
-        if (!check_axis(h, m.axis, send)) return;
-        PipelineType& p = *axes_[m.axis];
-        const ParamPolicy<PipelineType>& policy = policies_[m.axis];
-        if (!policy.wave_set())
-            return fail(h, ErrorCode::kNotConfigured, in_group("trajectory", error("waveform", "set the trajectory group first")), send);
-        if (stream_.open() && stream_axis_ == m.axis)
-            return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a setpoint stream is running: stop it first")), send);
-        if (p.wave_running())
-            return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", "a wave is running: stop it first")), send);
+        const bool every = N > 1 && m.axis == StartWave::kEveryAxis;
+        if (!every && !check_axis(h, m.axis, send)) return;
+        const int first = every ? 0 : m.axis;
+        const int last = every ? N - 1 : m.axis;
+        for (int a = first; a <= last; ++a) {
+            const char* why = nullptr;
+            ErrorCode code = ErrorCode::kBusy;
+            if (!policies_[a].wave_set()) {
+                why = "set the trajectory group first";
+                code = ErrorCode::kNotConfigured;
+            } else if (stream_.open() && stream_axis_ == a) {
+                why = "a setpoint stream is running: stop it first";
+            } else if (axes_[a]->wave_running()) {
+                why = "a wave is running: stop it first";
+            }
+            if (why != nullptr) return fail(h, code, in_group("trajectory", error("waveform", every ? a : -1, why)), send);
+        }
         if (!check_arm_flags(h, f, send)) return;
-        start_at_tick(h, f, [&] { return p.start_wave(policy.wave_config()); }, send);
+        // Every wave is configured before any starts: a refused one starts none.
+        start_at_tick(h, f, [&] {
+            for (int a = first; a <= last; ++a)
+                if (const Status s = axes_[a]->prepare_wave(policies_[a].wave_config()); !s.ok()) return s;
+            for (int a = first; a <= last; ++a) axes_[a]->run_wave();
+            return ok_status();
+        }, send);
     }
 
     // StartExcitation: as StartWave, with the excitation in place of the

@@ -263,6 +263,9 @@ struct StartWave {
     static constexpr uint8_t kRestartStage = 1u << 2;  // emulated stage back at rest (DeviceHooks::restart_stage)
     static constexpr uint8_t kDetached = 1u << 3;      // the wave runs on when the client goes silent
     static constexpr uint8_t kKnownFlags = kArmLoop | kArmRecorder | kRestartStage | kDetached;
+    // kEveryAxis: every axis's wave at the same tick (a board of axes: the
+    // waves of X, Y and Z share one clock from their first sample).
+    static constexpr uint8_t kEveryAxis = 0xFF;
     uint8_t flags = 0;
     uint8_t axis = 0;  // first on the wire
     bool operator==(const StartWave&) const = default;

@@ -205,6 +205,49 @@ TYPED_TEST(DeviceAxes, EveryAxisHasItsOwnGroups) {
     }
 }
 
+// StartWave with axis 255 starts every axis's wave at the same tick
+// boundary, or, if one axis cannot start, none (the error names it by index).
+TYPED_TEST(DeviceAxes, EveryAxisWaveStartsTogetherOrNotAtAll) {
+    constexpr int N = TypeParam::kAxes;
+    AxesRig<typename TypeParam::Sample, N> rig;
+    rig.configure_reference();
+    StartWave every{StartWave::kArmLoop};
+    every.axis = StartWave::kEveryAxis;
+    TrajectoryParams t;
+    t.waveform = Waveform::kTriangle;
+    t.amplitude_um = 2.0f;
+    t.frequency_Hz = 100.0f;
+    if (N == 1) {
+        ASSERT_EQ(rig.set(t, 0).type(), MsgType::kAck);
+        expect_error(rig.request(every), ErrorCode::kInvalidParam, nullptr, "axis");
+        return;
+    }
+    for (uint8_t a = 0; a + 1 < N; ++a) ASSERT_EQ(rig.set(t, a).type(), MsgType::kAck);
+    const Reply refused = rig.request(every);
+    expect_error(refused, ErrorCode::kNotConfigured, "trajectory", "waveform");
+    EXPECT_EQ(refused.as<ErrorReply>().index, N - 1);
+    rig.tick();
+    for (int a = 0; a < N; ++a) {
+        EXPECT_FALSE(rig.multi->axis(a).armed()) << a;
+        EXPECT_FALSE(rig.multi->axis(a).wave_running()) << a;
+    }
+    ASSERT_EQ(rig.set(t, static_cast<uint8_t>(N - 1)).type(), MsgType::kAck);
+    ASSERT_EQ(rig.request(every).type(), MsgType::kAck);
+    rig.tick(3);
+    for (int a = 0; a < N; ++a) {
+        EXPECT_TRUE(rig.multi->axis(a).armed()) << a;
+        EXPECT_TRUE(rig.multi->axis(a).wave_running()) << a;
+        // Same configuration, same start: the same reference on every axis.
+        EXPECT_EQ(bits(rig.multi->axis(a).last().r), bits(rig.multi->axis(0).last().r)) << a;
+    }
+    // A running wave refuses the next every-axis start, naming its axis.
+    StartWave again;
+    again.axis = StartWave::kEveryAxis;
+    const Reply busy = rig.request(again);
+    expect_error(busy, ErrorCode::kBusy, "trajectory", "waveform");
+    EXPECT_EQ(busy.as<ErrorReply>().index, 0);
+}
+
 TYPED_TEST(DeviceAxes, AnAxisBeyondTheCountIsRefusedAndChangesNothing) {
     constexpr int N = TypeParam::kAxes;
     AxesRig<typename TypeParam::Sample, N> rig;

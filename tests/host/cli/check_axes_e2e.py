@@ -1,0 +1,141 @@
+#!/usr/bin/env python3
+"""A stage of coupled axes on an emulated board, end to end, equal to the
+simulator bit for bit:
+
+  piezoloop emulate --board qemu-m7 --scenario configs/stages/xyz_flexure.json
+  piezoloop --device tcp:... set --scenario ... --case pi_notch_decoupled
+  piezoloop --device tcp:... set trajectory --axis A --json ...   (x runs, y and z hold)
+  piezoloop --device tcp:... record --axis A --start-wave --every-axis --restart-stage ...
+
+against `piezoloop sim --axis x --hold-um y=.. --hold-um z=..` (qemu-m7: the
+XYZ flexure, float; qemu-m3: the XY flexure, Q31). Every axis is recorded
+once, each record from rest; its r and y equal the simulator's columns of
+that axis, row for row (the output matrix and the coupling reach every y, so
+that checks the board's whole multi-axis tick). Also: every axis's set kept
+over a reboot (emulate --storage), the board's axes in
+Hello and the status, the case's matrices on the board, every axis's wave
+started at one tick, and what is refused naming the axis.
+
+Usage: check_axes_e2e.py PIEZOLOOP SERVO_ELF CONFIGS_DIR qemu-m7|qemu-m3
+Exit 77 (skipped) without QEMU or the image."""
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from board_checks import Checks, Emulators, skip_without_qemu  # noqa: E402
+
+exe, image, configs, board = sys.argv[1:5]
+skip_without_qemu(image)
+if board == "qemu-m7":
+    scenario, names, sample = os.path.join(configs, "stages", "xyz_flexure.json"), ["x", "y", "z"], "float"
+    holds = {"y": 50.0, "z": 7.5}
+else:
+    scenario, names, sample = os.path.join(configs, "stages", "xy_flexure.json"), ["x", "y"], "q31"
+    holds = {"y": 50.0}
+case, rate, seconds = "pi_notch_decoupled", 20000, 0.1
+driven = {"waveform": "triangle", "amplitude_um": 40.0, "offset_um": 50.0, "frequency_Hz": 10.0}
+tmp = tempfile.mkdtemp(prefix="check_axes_e2e_")
+check = Checks()
+emus = Emulators(exe)
+
+
+def run(*args, timeout=300):
+    return subprocess.run([exe, *args], capture_output=True, text=True, timeout=timeout)
+
+
+def rows(path):
+    with open(path) as f:
+        return list(csv.DictReader(row for row in f if not row.startswith("#")))
+
+
+try:
+    store = os.path.join(tmp, "params.bin")
+    emu, d, info = emus.start("--board", board, "--scenario", scenario, "--image", image, "--storage", store)
+    check(info.get("axes") == len(names) and info.get("loop_rate_Hz") == rate,
+          f"emulate: {board} with the scenario's {len(names)} axes at {rate} Hz", json.dumps(info))
+    st = run(*d, "status", "--axis", "all")
+    s = json.loads(st.stdout) if st.returncode == 0 else {}
+    check(st.returncode == 0 and s["hello"]["axis_count"] == len(names) and
+          s["status"]["tick"]["board_faults"] == 0 and [a["axis"] for a in s.get("axes", [])] == names,
+          "status --axis all: every axis, no board fault (both blobs accepted)", st.stderr + st.stdout[:400])
+
+    r = run(*d, "set", "--scenario", scenario, "--case", case)
+    j = json.loads(r.stdout) if r.returncode == 0 else {}
+    want_sent = {f"{n}.{g}" for n in names for g in ("limits", "feedforward", "feedback")} | {"output_matrix"}
+    check(r.returncode == 0 and want_sent <= set(j.get("sent", [])),
+          "set --scenario: every axis's limits, feedforward and feedback, and the output matrix", r.stderr)
+    with open(scenario) as f:
+        sc = json.load(f)
+    matrix = next(c for c in sc["cases"] if c["name"] == case)["controller"]["output_matrix"]
+    g = run(*d, "get", "output_matrix")
+    om = json.loads(g.stdout) if g.returncode == 0 else {}
+    n = len(names)
+    on_board = [om.get("gain", [])[3 * i:3 * i + n] for i in range(n)]
+    import struct
+
+    def f32(v):
+        return struct.unpack("f", struct.pack("f", v))[0]
+    check(g.returncode == 0 and om.get("axis_count") == n and
+          all(on_board[i][k] == f32(matrix[i][k]) for i in range(n) for k in range(n)),
+          "get output_matrix: the case's decoupling matrix", g.stdout)
+
+    bad = run(*d, "wave", "--axis", "w", "--amplitude-um", "1")
+    check(bad.returncode == 2 and "--axis" in bad.stderr and "|".join(names) in bad.stderr,
+          "wave --axis w: exit 2 naming the board's axes", bad.stderr)
+
+    # x runs the triangle, the others hold (a zero-amplitude sine at their
+    # hold, as `sim --hold-um` holds them).
+    for a in names:
+        t = driven if a == "x" else {"waveform": "sine", "amplitude_um": 0.0, "offset_um": holds[a],
+                                     "frequency_Hz": driven["frequency_Hz"]}
+        r = run(*d, "set", "trajectory", "--axis", a, "--json", json.dumps(t))
+        check(r.returncode == 0, f"set trajectory --axis {a}", r.stderr)
+
+    r = run(*d, "save")
+    saved = run(*d, "get", "all", "--axis", "all")
+    check(r.returncode == 0 and saved.returncode == 0, "save: every axis's set and the matrices stored", r.stderr)
+
+    sim_csv = os.path.join(tmp, "sim.csv")
+    hold_args = [x for a, v in holds.items() for x in ("--hold-um", f"{a}={v}")]
+    sim = run("sim", "--scenario", scenario, "--case", case, "--sample", sample, "--axis", "x", *hold_args,
+              "--start-together",
+              "--trajectory", "triangle", "--frequency-hz", "10", "--amplitude-um", "80", "--midpoint-um", "50",
+              "--duration-s", str(seconds), "--out", sim_csv)
+    check(sim.returncode == 0, "piezoloop sim --axis x with the others held", sim.stderr)
+    ref = rows(sim_csv) if sim.returncode == 0 else []
+
+    for a in names:
+        out = os.path.join(tmp, f"rec_{a}.csv")
+        r = run(*d, "record", "--axis", a, "--signals", "r,y,e,u", "--duration-s", str(seconds), "--start-wave",
+                "--every-axis", "--restart-stage", "--out", out)
+        j = json.loads(r.stdout) if r.stdout.strip() else {}
+        check(r.returncode == 0 and j.get("lost_blocks") == 0 and j.get("tick_gaps") == 0 and
+              j.get("recorder_overruns") == 0,
+              f"record --axis {a} --every-axis: from rest, nothing lost", r.stderr + r.stdout[:300])
+        rec = rows(out) if r.returncode == 0 else []
+        common = min(len(rec), len(ref))
+        diff = [i for i in range(common)
+                if float(rec[i]["r_um"]) != float(ref[i][f"r_{a}_um"]) or
+                float(rec[i]["y_um"]) != float(ref[i][f"y_{a}_um"])]
+        check(common >= int(rate * seconds) and not diff,
+              f"axis {a}: r and y equal `piezoloop sim --sample {sample}` bit for bit over {common} ticks",
+              f"{len(rec)} vs {len(ref)} rows, first difference at row {diff[0] if diff else None}")
+
+    # The waves of a record are its client's: they stop when it ends.
+    st = json.loads(run(*d, "status", "--axis", "all").stdout)
+    check(not any(x["wave_running"] for x in st["axes"]), "the record's waves stopped with its client",
+          json.dumps(st.get("axes")))
+    check(emus.stop(emu) == 0, "SIGTERM ends emulate and QEMU")
+    emu, d, info = emus.start("--board", board, "--scenario", scenario, "--image", image, "--storage", store)
+    again = run(*d, "get", "all", "--axis", "all")
+    check(info.get("storage_at_boot") == "applied" and again.stdout == saved.stdout,
+          "rebooted: the stored set of every axis is back", info.get("storage_at_boot", "") + again.stderr)
+finally:
+    emus.stop_all()
+    shutil.rmtree(tmp, ignore_errors=True)
+check.exit()
