@@ -81,6 +81,8 @@ int run_axes(const CommissionArgs& a) {
 }
 
 int run_commission(CommissionArgs a) {
+    if (!a.axes.empty() && !a.session.axis.empty())
+        throw std::invalid_argument("--axis: not with --axes (a scenario's axes, each commissioned)");
     if (!a.axes.empty()) return run_axes(a);
     a.session.request.range_um = range_number(a.range);
     const bool on_board = a.session.scenario.empty();
@@ -89,6 +91,8 @@ int run_commission(CommissionArgs a) {
     if (!on_board && !device_address().empty())
         throw std::invalid_argument("--scenario: commissions the simulator; drop it to commission the board given by --device");
     if (!on_board && a.no_save) throw std::invalid_argument("--no-save: only on a board (--device)");
+    if (!on_board && !a.session.axis.empty())
+        throw std::invalid_argument("--axis: a board's axis; a scenario's coupled axes are commissioned with --axes");
     a.session.save = !a.no_save;
     auto say = [](const std::string& line) { std::cerr << "commission: " << line << "\n"; };
     std::optional<hostlink::Client> board;
@@ -121,6 +125,9 @@ void add_commission(CLI::App& app) {
     cmd->add_option("--axes", a->axes,
                     "a scenario's coupled axes: x,y[,z] (every axis) or all; each commissioned, then decoupled "
                     "(simulator)");
+    cmd->add_option("--axis", a->session.axis,
+                    "a board of axes: x | y | z, the axis commissioned (default: the only axis; required on a "
+                    "multi-axis board); the others hold with their own controllers");
     cmd->add_option("--target-bandwidth-hz", a->session.request.target_bandwidth_Hz,
                     "crossover to design for (default: a third of the first lightly damped mode, at most rate / 20)");
     cmd->add_flag("--no-save", a->no_save, "board: load and verify, but do not save the result on the board");

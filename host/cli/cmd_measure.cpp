@@ -47,6 +47,7 @@ struct FrfArgs {
     bool restart_stage = false;
     bool mimo = false;
     std::string output_matrix;
+    std::string axis;  // a board's measured axis
 };
 
 // Where the recording came from: the JSON's "source", the plot's title.
@@ -139,6 +140,7 @@ int run_frf_mimo(const FrfArgs& a) {
         throw std::invalid_argument("--mimo: measures a scenario's stage of coupled axes on the simulator (--scenario); "
                                     "boards run one axis so far");
     if (!a.case_name.empty()) throw std::invalid_argument("--case: not with --mimo (open loop on the stage alone)");
+    if (!a.axis.empty()) throw std::invalid_argument("--axis: not with --mimo (it measures every axis)");
     if (!a.sample.empty()) throw std::invalid_argument("--sample: not with --mimo (the stage is driven directly)");
     if (a.mode != "open") throw std::invalid_argument("--mode: --mimo measures open loop only");
     if (a.signal != "multisine") throw std::invalid_argument("--signal: --mimo uses orthogonal multisines only");
@@ -186,8 +188,10 @@ int run_frf_mimo(const FrfArgs& a) {
 
 int run_frf(const FrfArgs& a) {
     if (a.mimo) return run_frf_mimo(a);
+    const bool given_board = measure_on_board(a.scenario, a.case_name, a.restart_stage);
+    if (!a.axis.empty() && !given_board) throw std::invalid_argument("--axis: only on a board (--device)");
     if (!a.output_matrix.empty()) throw std::invalid_argument("--output-matrix: only with --mimo");
-    const bool on_board = measure_on_board(a.scenario, a.case_name, a.restart_stage);
+    const bool on_board = given_board;
     if (on_board && !a.sample.empty()) throw std::invalid_argument("--sample: only with --scenario (a board has its own)");
     const measure::FrfRequest r = frf_request(a);
     const auto t0 = std::chrono::steady_clock::now();
@@ -197,18 +201,21 @@ int run_frf(const FrfArgs& a) {
     json recording;
     if (on_board) {
         hostlink::Client c = open_device(5000);
-        (void)hostlink::plan_frf_device(c, r);  // refuses before anything moves
+        const auto axis = static_cast<uint8_t>(resolve_axis(a.axis, c.axis_count(), false));
+        (void)hostlink::plan_frf_device(c, r, axis);  // refuses before anything moves
         rate_Hz = c.info().loop_rate_Hz;
         ProgressBar bar("measure frf");
         const StopSignals stop_signals;
         hostlink::MeasureOptions o;
         o.restart_stage = a.restart_stage;
+        o.axis = axis;
         o.progress = [&](double f) { bar.update(f); };
         o.stop_requested = [] { return StopSignals::requested(); };
         hostlink::DeviceFrfRun d = interruptible("measure frf", [&] { return hostlink::run_frf_device(c, r, o); });
         bar.done();
         run = std::move(d.run);
         src.source = {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}};
+        if (c.axis_count() > 1) src.source["axis"] = a.axis;
         src.label = std::string(c.info().board.data()) + " (" + c.address() + ")";
         recording = hostlink::recording_summary(d.record);
     } else {
@@ -286,6 +293,9 @@ void add_measure(CLI::App& app) {
                     "with --mimo: the decoupling matrix between axis commands and channels, a JSON file with "
                     "\"output_matrix\" as `analyze coupling` prints it (default: the identity)");
     cmd->add_option("--plot", a->plot, "magnitude, phase and standard deviation as a PNG (tools/plot.py)");
+    cmd->add_option("--axis", a->axis,
+                    "a board of axes: x | y | z, the measured axis (default: the only axis; required on a multi-axis "
+                    "board); the others hold with their own controllers");
     cmd->add_flag("--restart-stage", a->restart_stage,
                   "emulated board: its stage restarts at rest with the excitation (the recording then equals the "
                   "simulator's: same log hash)");

@@ -54,16 +54,20 @@ struct Target {
     const sim::CaseSpec* case_spec = nullptr;
     measure::MeasureBounds bounds;
     json source;
+    uint8_t axis = 0;  // a board's measured axis
 
     Target(const std::string& scenario_path, const std::string& case_name, const std::string& sample,
-           bool restart_stage) {
+           bool restart_stage, const std::string& axis_name) {
         if (measure_on_board(scenario_path, case_name, restart_stage)) {
             if (!sample.empty()) throw std::invalid_argument("--sample: only with --scenario (a board has its own)");
             board.emplace(open_device(5000));
-            bounds = hostlink::board_bounds(*board);
+            axis = static_cast<uint8_t>(resolve_axis(axis_name, board->axis_count(), false));
+            bounds = hostlink::board_bounds(*board, axis);
             source = {{"kind", "board"}, {"device", board->address()}, {"board", board->info().board.data()},
                       {"rate_Hz", bounds.rate_Hz}};
+            if (board->axis_count() > 1) source["axis"] = axis_name;
         } else {
+            if (!axis_name.empty()) throw std::invalid_argument("--axis: only on a board (--device)");
             scenario = sim::load_scenario(scenario_path);
             sim::require_single_axis(*scenario, "measure");
             case_spec = measured_case(*scenario, case_name, sample, case_storage);
@@ -76,9 +80,10 @@ struct Target {
 // Progress on stderr and Ctrl-C for a board; the simulator's bar otherwise.
 struct StepLoopsProgress {
     explicit StepLoopsProgress(const char* label) : bar(label) {}
-    hostlink::MeasureOptions board_options(bool restart_stage) {
+    hostlink::MeasureOptions board_options(bool restart_stage, uint8_t axis) {
         hostlink::MeasureOptions o;
         o.restart_stage = restart_stage;
+        o.axis = axis;
         o.progress = [this](double f) { bar.update(f); };
         o.stop_requested = [] { return StopSignals::requested(); };
         return o;
@@ -94,19 +99,23 @@ struct StepLoopsProgress {
 
 // --scenario (simulator) or the global --device (board), and the emulated
 // board's restart.
-void add_source_options(CLI::App* cmd, std::string& scenario, std::string& sample, bool& restart_stage) {
+void add_source_options(CLI::App* cmd, std::string& scenario, std::string& sample, bool& restart_stage,
+                        std::string& axis) {
     cmd->add_option("--scenario", scenario, "scenario file (configs/*.json): measure the simulated stage instead of a board")
         ->check(CLI::ExistingFile);
     cmd->add_option("--sample", sample, "simulator: core sample type (default: the case's, else float)")
         ->check(CLI::IsMember({"float", "q31"}));
     cmd->add_flag("--restart-stage", restart_stage,
                   "emulated board: its stage restarts at rest with the measurement (as the simulator starts)");
+    cmd->add_option("--axis", axis,
+                    "a board of axes: x | y | z, the measured axis (default: the only axis; required on a multi-axis "
+                    "board); the others hold with their own controllers");
 }
 
 // ---------------------------------------------------------------- step
 
 struct StepArgs {
-    std::string scenario, case_name, sample, mode, out, csv;
+    std::string scenario, case_name, sample, mode, out, csv, axis;
     // Optional, not NaN-defaulted: a NaN given on the command line must be refused, not taken as absent.
     std::optional<double> step_um, step_V, from_um, bias_V;
     double duration_s = 0.1;
@@ -127,14 +136,14 @@ measure::StepRequest step_request(const StepArgs& a, Target& t) {
 }
 
 int run_step(const StepArgs& a) {
-    Target t(a.scenario, a.case_name, a.sample, a.restart_stage);
+    Target t(a.scenario, a.case_name, a.sample, a.restart_stage, a.axis);
     const measure::StepRequest r = step_request(a, t);
     if (r.closed && t.scenario && a.case_name.empty())
         throw std::invalid_argument("--case: closed loop needs the case whose controller closes it");
     (void)measure::plan_step(t.bounds, r);  // refuses before anything runs (and before --out is touched)
     StepLoopsProgress p("measure step");
     const measure::StepRun run = t.board ? interruptible("measure step", [&] {
-        return hostlink::run_step_device(*t.board, r, p.board_options(a.restart_stage));
+        return hostlink::run_step_device(*t.board, r, p.board_options(a.restart_stage, t.axis));
     })
                                          : measure::run_step_sim(*t.scenario, t.case_spec, r, p.sim_progress());
     p.bar.done();
@@ -161,7 +170,7 @@ void add_step(CLI::App* measure) {
     CLI::App* cmd = measure->add_subcommand(
         "step", "Step response: open loop (command step, V) or closed loop (reference step, um); overshoot, "
                 "10-90 % rise and 2 % settling time (docs/measurement.md)");
-    add_source_options(cmd, a->scenario, a->sample, a->restart_stage);
+    add_source_options(cmd, a->scenario, a->sample, a->restart_stage, a->axis);
     cmd->add_option("--case", a->case_name, "case: its controller (closed loop) and any hysteresis override");
     cmd->add_option("--step-um", a->step_um, "closed loop: reference step (um)");
     cmd->add_option("--step-v", a->step_V, "open loop: command step (V)");
@@ -180,7 +189,7 @@ void add_step(CLI::App* measure) {
 // ---------------------------------------------------------------- loops
 
 struct LoopsArgs {
-    std::string scenario, case_name, sample, out, json_out, shape = "triangle";
+    std::string scenario, case_name, sample, out, json_out, shape = "triangle", axis;
     std::vector<double> amplitudes_V;
     double frequency_Hz = 1.0;
     std::optional<double> base_V;
@@ -189,13 +198,13 @@ struct LoopsArgs {
 };
 
 int run_loops(const LoopsArgs& a) {
-    Target t(a.scenario, a.case_name, a.sample, a.restart_stage);
+    Target t(a.scenario, a.case_name, a.sample, a.restart_stage, a.axis);
     const measure::LoopsRequest r =
         measure::loops_request(a.amplitudes_V, a.base_V, a.frequency_Hz, a.cycles, a.shape, t.bounds);
     (void)measure::plan_loops(t.bounds, r);  // refuses before anything runs
     StepLoopsProgress p("measure loops");
     const measure::LoopsRun run = t.board ? interruptible("measure loops", [&] {
-        return hostlink::run_loops_device(*t.board, r, p.board_options(a.restart_stage));
+        return hostlink::run_loops_device(*t.board, r, p.board_options(a.restart_stage, t.axis));
     })
                                           : measure::run_loops_sim(*t.scenario, t.case_spec, r, p.sim_progress());
     p.bar.done();
@@ -221,7 +230,7 @@ void add_loops(CLI::App* measure) {
     CLI::App* cmd = measure->add_subcommand(
         "loops", "Open-loop hysteresis loops of several amplitudes, as the CSV identify pi / identify dahl read, "
                  "and the hysteresis of each (docs/measurement.md)");
-    add_source_options(cmd, a->scenario, a->sample, a->restart_stage);
+    add_source_options(cmd, a->scenario, a->sample, a->restart_stage, a->axis);
     cmd->add_option("--case", a->case_name, "case: its hysteresis override and sample type");
     add_number_list(cmd, "--amplitudes-v", a->amplitudes_V, "peak-to-peak command of each loop above the base, V (a,b,...)")
         ->required();

@@ -10,6 +10,7 @@
 
 #include "commission/commission_figures.hpp"
 #include "commission/sim_stage.hpp"
+#include "device_common.hpp"
 #include "format/number.hpp"
 #include "link/board_stage.hpp"
 #include "lti/model_json.hpp"
@@ -216,18 +217,23 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     // reports its defaults, which are put back).
     std::optional<link::TrajectoryParams> trajectory;
     std::optional<link::RecorderParams> recorder;
+    // A board of axes: the axis commissioned (the others hold with their
+    // own controllers).
+    const auto axis = static_cast<uint8_t>(board ? resolve_axis(a.axis, board->axis_count(), false) : 0);
     auto put_back = [&] {
-        if (trajectory) board->set(*trajectory);
+        if (trajectory) board->set(*trajectory, axis);
         if (recorder) board->set(*recorder);
     };
     if (board) {
-        trajectory = board->get<link::TrajectoryParams>();
+        trajectory = board->get<link::TrajectoryParams>(axis);
         recorder = board->get<link::RecorderParams>();
         hostlink::MeasureOptions o;
+        o.axis = axis;
         o.stop_requested = stop_requested;
         o.progress = a.recording_progress;
         stage = std::make_unique<CommissionedStage>(std::make_unique<hostlink::BoardStage>(*board, o), "--device");
         source = {{"kind", "board"}, {"device", board->address()}, {"board", board->info().board.data()}};
+        if (board->axis_count() > 1) source["axis"] = axis_name(axis);
     } else {
         sim::Scenario s = sim::load_scenario(a.scenario);
         source = {{"kind", "simulator"}, {"scenario", s.name}, {"case", ""}};

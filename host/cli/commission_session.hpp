@@ -17,7 +17,7 @@ namespace piezoloop::cli {
 
 struct CommissionSession {
     std::string scenario;  // the simulator's stage; empty: the board
-    std::string axis;      // a scenario of coupled axes: the axis commissioned (the others hold still)
+    std::string axis;      // the axis commissioned, of a scenario's coupled axes or a board's (the others hold)
     std::string out;       // directory for the files
     bool save = true;      // board: save the verified result (`save`)
     commission::CommissionRequest request;

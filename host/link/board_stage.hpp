@@ -3,7 +3,8 @@
 // (link/measure_session), and a controller verified by loading it as the
 // board's feedback, feedforward and reference pre-filter (repetitive control
 // off, the board's limits group as it is) and recording a centred triangle
-// (link/record_session). `piezoloop --device ADDR commission`.
+// (link/record_session). `piezoloop --device ADDR commission`. On a board of
+// axes it is the axis of MeasureOptions::axis; the others hold.
 #pragma once
 
 #include "commission/stage_access.hpp"
@@ -17,7 +18,7 @@ public:
     BoardStage(Client& c, MeasureOptions o) : c_(c), o_(std::move(o)) {}
     std::string describe() const override;
     commission::LoopFacts loop() override;
-    measure::MeasureBounds bounds() override { return board_bounds(c_); }
+    measure::MeasureBounds bounds() override { return board_bounds(c_, o_.axis); }
     measure::StepRun step(const measure::StepRequest& r) override { return run_step_device(c_, r, o_); }
     measure::FrfRun frf(const measure::FrfRequest& r) override { return run_frf_device(c_, r, o_).run; }
     measure::LoopsRun loops(const measure::LoopsRequest& r) override { return run_loops_device(c_, r, o_); }
@@ -29,8 +30,9 @@ private:
 };
 
 // The controller (continuous, e in µm -> u in V) as the board's feedback
-// group: Tustin sections at its loop rate, scaled for its Q31 full scales
-// on a Q31 board.
-link::FeedbackParams feedback_group(const design::Zpk& controller, const link::HelloReply& h, bool series = false);
+// group of `axis`: Tustin sections at its loop rate, scaled for the axis's
+// Q31 full scales on a Q31 board.
+link::FeedbackParams feedback_group(const design::Zpk& controller, const link::HelloReply& h, bool series = false,
+                                    uint8_t axis = 0);
 
 }  // namespace piezoloop::hostlink

@@ -1,6 +1,7 @@
 #include "link/measure_session.hpp"
 #include "link/recorded_signals.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <optional>
 #include <stdexcept>
@@ -16,14 +17,14 @@ struct ControllerGroups {
     link::RepetitiveParams rc;
 };
 
-ControllerGroups read_controller(Client& c) {
-    return {c.get<link::FeedforwardParams>(), c.get<link::FeedbackParams>(), c.get<link::RepetitiveParams>()};
+ControllerGroups read_controller(Client& c, uint8_t axis) {
+    return {c.get<link::FeedforwardParams>(axis), c.get<link::FeedbackParams>(axis), c.get<link::RepetitiveParams>(axis)};
 }
 
-void write_controller(Client& c, const ControllerGroups& g) {
-    c.set(g.ff);
-    c.set(g.fb);
-    c.set(g.rc);
+void write_controller(Client& c, const ControllerGroups& g, uint8_t axis) {
+    c.set(g.ff, axis);
+    c.set(g.fb, axis);
+    c.set(g.rc, axis);
 }
 
 // The recorder group the measurement's recording replaces, put back after
@@ -32,16 +33,33 @@ void restore_recorder(Client& c, const link::RecorderParams& before) {
     if (!(c.get<link::RecorderParams>() == before)) c.set(before);
 }
 
-// The board must be free and able to move before anything is changed.
-void check_ready(Client& c, bool closed, const link::StatusReply& st) {
-    if (st.wave_running || st.streaming || st.excitation_running)
-        throw std::invalid_argument(std::string("the board is running a ") +
-                                    (st.wave_running ? "wave" : st.streaming ? "setpoint stream" : "excitation") +
-                                    ": stop it first (`piezoloop stop`)");
-    if (st.tripped)
-        throw std::invalid_argument(std::string("the board's limiter is tripped (") + trip_reason_name(st.trip_reason) +
-                                    "): clear it first (`piezoloop clear-trip`)");
-    if (closed && c.get<link::FeedbackParams>().kind == FeedbackKind::kNone)
+// An axis of the board (std::invalid_argument naming --axis otherwise).
+void check_axis(Client& c, uint8_t axis) {
+    if (axis >= c.info().axis_count)
+        throw std::invalid_argument("--axis: this board has " + std::to_string(c.info().axis_count) + " axes");
+}
+
+const char* axis_letter(std::size_t a) { return a == 0 ? "x" : a == 1 ? "y" : "z"; }
+
+// The board must be free and able to move before anything is changed: no
+// wave, stream or excitation on any axis, no axis tripped (arming arms
+// every axis).
+void check_ready(Client& c, bool closed, const link::StatusReply& st, uint8_t axis) {
+    const std::size_t n = std::min<std::size_t>(st.axis_count, link::kMaxLinkAxes);
+    const auto on = [&](std::size_t a) { return n > 1 ? " on axis " + std::string(axis_letter(a)) : std::string(); };
+    for (std::size_t a = 0; a < n; ++a) {
+        if (st.axis_wave_running[a] || st.axis_excitation_running[a])
+            throw std::invalid_argument(std::string("the board is running a ") +
+                                        (st.axis_wave_running[a] ? "wave" : "excitation") + on(a) +
+                                        ": stop it first (`piezoloop stop`)");
+        if (st.axis_tripped[a])
+            throw std::invalid_argument("the board's limiter" + on(a) + " is tripped (" +
+                                        trip_reason_name(static_cast<TripReason>(st.axis_trip_reason[a])) +
+                                        "): clear it first (`piezoloop clear-trip`)" +
+                                        (n > 1 ? "; every axis needs its limits group set" : ""));
+    }
+    if (st.streaming) throw std::invalid_argument("the board is running a setpoint stream: stop it first (`piezoloop stop`)");
+    if (closed && c.get<link::FeedbackParams>(axis).kind == FeedbackKind::kNone)
         throw std::invalid_argument("--mode closed: the board has no feedback controller; load one first (`piezoloop set`)");
 }
 
@@ -58,29 +76,29 @@ const std::vector<double>& column(const RecordResult& rec, uint8_t id) {
 // runs as it is. The recorder group is put back too. An excitation still
 // running when something fails is stopped.
 template <class F>
-void prepared(Client& c, bool closed, std::vector<std::string>& warnings, F&& measure) {
+void prepared(Client& c, bool closed, uint8_t axis, std::vector<std::string>& warnings, F&& measure) {
     const link::StatusReply st = c.status();
     const link::RecorderParams recorder = c.get<link::RecorderParams>();
     std::optional<ControllerGroups> saved;
     try {
         if (!closed) {
-            saved = read_controller(c);
+            saved = read_controller(c, axis);
             if (st.armed) {
                 c.disarm();
                 warnings.push_back("the loop was armed: disarmed for the open-loop measurement");
             }
-            write_controller(c, ControllerGroups{});
+            write_controller(c, ControllerGroups{}, axis);
         }
         measure();
         if (!closed) c.disarm();
-        if (saved) write_controller(c, *saved);
+        if (saved) write_controller(c, *saved, axis);
         restore_recorder(c, recorder);
     } catch (...) {
         try {
-            c.stop_excitation();
+            c.stop_excitation(axis);
             c.recorder_stop();
             if (!closed) c.disarm();
-            if (saved) write_controller(c, *saved);
+            if (saved) write_controller(c, *saved, axis);
             restore_recorder(c, recorder);
         } catch (const std::exception&) {
         }
@@ -96,6 +114,7 @@ RecordResult record_excitation(Client& c, const ExcitationConfig& e, uint64_t ti
     ro.signals = {kSignalR, kSignalY, kSignalU, kSignalD};
     ro.duration_s = static_cast<double>(ticks) / static_cast<double>(c.info().loop_rate_Hz);
     ro.excitation = e;
+    ro.axis = o.axis;
     ro.restart_stage = restart_stage;
     ro.stop_requested = o.stop_requested;
     ro.progress = o.progress;
@@ -106,25 +125,26 @@ RecordResult record_excitation(Client& c, const ExcitationConfig& e, uint64_t ti
 
 }  // namespace
 
-measure::FrfPlan plan_frf_device(Client& c, const measure::FrfRequest& r) {
+measure::FrfPlan plan_frf_device(Client& c, const measure::FrfRequest& r, uint8_t axis) {
     const link::HelloReply& h = c.info();
     if ((h.capabilities & link::cap::kExcitation) == 0 || h.excitation_capacity == 0)
         throw std::invalid_argument("this board's firmware has no excitation: update it");
     if (h.recorder_channels < 4)
         throw std::invalid_argument("this board records " + std::to_string(h.recorder_channels) +
                                     " channels; a measurement records r, y, u and d");
-    const LimitsConfig limits = c.get<link::LimitsParams>().limits;
+    check_axis(c, axis);
+    const LimitsConfig limits = c.get<link::LimitsParams>(axis).limits;
     return measure::plan_frf(h.loop_rate_Hz, limits, h.excitation_capacity, r, "board's");
 }
 
 DeviceFrfRun run_frf_device(Client& c, const measure::FrfRequest& r, const MeasureOptions& o) {
-    const measure::FrfPlan plan = plan_frf_device(c, r);
-    check_ready(c, r.closed, c.status());
+    const measure::FrfPlan plan = plan_frf_device(c, r, o.axis);
+    check_ready(c, r.closed, c.status(), o.axis);
     DeviceFrfRun out;
     out.run.plan = plan;
     link::StatusReply st;
     const auto t0 = std::chrono::steady_clock::now();
-    prepared(c, r.closed, out.run.warnings, [&] {
+    prepared(c, r.closed, o.axis, out.run.warnings, [&] {
         out.record = record_excitation(c, measure::excitation_config(plan, r), plan.ticks, o.restart_stage, o);
         st = c.status();
     });
@@ -132,9 +152,9 @@ DeviceFrfRun run_frf_device(Client& c, const measure::FrfRequest& r, const Measu
     const RecordResult& rec = out.record;
     out.run.log_hash = rec.log_hash.value_or(0);
     // The board counts over the whole excitation, the transient periods included.
-    out.run.clipped_samples = st.excitation_clipped;
+    out.run.clipped_samples = st.axis_excitation_clipped[o.axis];
     out.run.clipped_transient = 0;
-    out.run.trip = trip_reason_name(st.trip_reason);
+    out.run.trip = trip_reason_name(static_cast<TripReason>(st.axis_trip_reason[o.axis]));
     const auto first = static_cast<std::ptrdiff_t>(plan.measured_start);
     const auto last = static_cast<std::ptrdiff_t>(plan.ticks);
     auto measured = [&](uint8_t id) {
@@ -153,14 +173,15 @@ nlohmann::json recording_summary(const RecordResult& rec) {
     return out;
 }
 
-measure::MeasureBounds board_bounds(Client& c) {
+measure::MeasureBounds board_bounds(Client& c, uint8_t axis) {
     const link::HelloReply& h = c.info();
     if ((h.capabilities & link::cap::kExcitation) == 0)
         throw std::invalid_argument("this board's firmware has no excitation: update it");
+    check_axis(c, axis);
     measure::MeasureBounds b;
     b.rate_Hz = h.loop_rate_Hz;
-    b.limits = c.get<link::LimitsParams>().limits;
-    const double fs = h.position_full_scale_um;
+    b.limits = c.get<link::LimitsParams>(axis).limits;
+    const double fs = h.axis_count > 1 ? h.axis_position_full_scale_um[axis] : h.position_full_scale_um;
     b.closed_range = {-fs, fs};
     b.whose = "board's";
     return b;
@@ -168,35 +189,35 @@ measure::MeasureBounds board_bounds(Client& c) {
 
 measure::StepRun run_step_device(Client& c, const measure::StepRequest& r, const MeasureOptions& o) {
     measure::StepRun out;
-    out.plan = measure::plan_step(board_bounds(c), r);
+    out.plan = measure::plan_step(board_bounds(c, o.axis), r);
     const link::StatusReply before = c.status();
-    check_ready(c, r.closed, before);
+    check_ready(c, r.closed, before, o.axis);
     const double rate_Hz = c.info().loop_rate_Hz;
     // Closed loop d adds to the setpoint the board holds.
-    const ExcitationConfig e = measure::step_excitation(out.plan, r, rate_Hz, before.r_um);
+    const ExcitationConfig e = measure::step_excitation(out.plan, r, rate_Hz, before.axis_r_um[o.axis]);
     RecordResult rec;
     link::StatusReply st;
     const auto t0 = std::chrono::steady_clock::now();
-    prepared(c, r.closed, out.warnings, [&] {
+    prepared(c, r.closed, o.axis, out.warnings, [&] {
         rec = record_excitation(c, e, out.plan.hold_ticks + out.plan.post_ticks, o.restart_stage, o);
         st = c.status();
     });
     out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     out.log_hash = rec.log_hash.value_or(0);
-    out.clipped_samples = st.excitation_clipped;
-    out.trip = trip_reason_name(st.trip_reason);
+    out.clipped_samples = st.axis_excitation_clipped[o.axis];
+    out.trip = trip_reason_name(static_cast<TripReason>(st.axis_trip_reason[o.axis]));
     measure::analyse_step_run(column(rec, kSignalR), column(rec, kSignalY), column(rec, kSignalU), rate_Hz, out);
     return out;
 }
 
 measure::LoopsRun run_loops_device(Client& c, const measure::LoopsRequest& r, const MeasureOptions& o) {
     measure::LoopsRun out;
-    out.plan = measure::plan_loops(board_bounds(c), r);
-    check_ready(c, false, c.status());
+    out.plan = measure::plan_loops(board_bounds(c, o.axis), r);
+    check_ready(c, false, c.status(), o.axis);
     const double rate_Hz = c.info().loop_rate_Hz;
     std::vector<std::vector<double>> u, y;
     const auto t0 = std::chrono::steady_clock::now();
-    prepared(c, false, out.warnings, [&] {
+    prepared(c, false, o.axis, out.warnings, [&] {
         for (std::size_t j = 0; j < r.amplitudes_V.size(); ++j) {
             // One recording per amplitude, each from its excitation's first
             // tick; the loop stays armed in between (at u = 0 V until the next
@@ -207,11 +228,11 @@ measure::LoopsRun run_loops_device(Client& c, const measure::LoopsRequest& r, co
             if (o.progress) oj.progress = [&, j, n](double f) { o.progress((static_cast<double>(j) + f) / n); };
             const RecordResult rec = record_excitation(c, measure::loop_excitation(out.plan, r, j, rate_Hz),
                                                        out.plan.amplitude_ticks, o.restart_stage && j == 0, oj);
-            out.clipped_samples += c.status().excitation_clipped;
+            out.clipped_samples += c.status().axis_excitation_clipped[o.axis];
             u.push_back(column(rec, kSignalU));
             y.push_back(column(rec, kSignalY));
         }
-        out.trip = trip_reason_name(c.status().trip_reason);
+        out.trip = trip_reason_name(static_cast<TripReason>(c.status().axis_trip_reason[o.axis]));
     });
     out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     measure::analyse_loops_run(r, rate_Hz, u, y, out);

@@ -28,13 +28,18 @@ struct MeasureOptions {
     // Emulated boards: the stage restarts at rest with the excitation, so the
     // recording equals the simulator's for the same stage (log hash).
     bool restart_stage = false;
+    // The measured axis on a board of axes (its groups, its excitation and
+    // its signals); the loop arms every axis, so every axis's limits group
+    // must be set, and the others hold their setpoints with their own
+    // controllers.
+    uint8_t axis = 0;
     std::function<bool()> stop_requested;   // polled while recording (SIGINT)
     std::function<void(double)> progress;  // fraction of the recording received
 };
 
 // plan_frf against what the board says (hello, limits group). Throws
 // std::invalid_argument naming the option, before anything moves.
-measure::FrfPlan plan_frf_device(Client& c, const measure::FrfRequest& r);
+measure::FrfPlan plan_frf_device(Client& c, const measure::FrfRequest& r, uint8_t axis = 0);
 
 struct DeviceFrfRun {
     measure::FrfRun run;
@@ -54,7 +59,7 @@ nlohmann::json recording_summary(const RecordResult& rec);
 // A board's bounds for steps and loops: its loop rate, its limits group, and
 // for a closed loop the core's position scale (+- full scale: the board does
 // not know its stage's travel).
-measure::MeasureBounds board_bounds(Client& c);
+measure::MeasureBounds board_bounds(Client& c, uint8_t axis = 0);
 
 // Closed loop the step is added to the setpoint the board holds (the offset
 // brings the reference to `from` first).

@@ -15,6 +15,7 @@ from .measure import (FrequencyResponse, Loops, StepResponse, check_request, che
                       loops_from_result, response_from_report, step_from_report)
 
 GROUPS = ("feedforward", "feedback", "rc", "limits", "trajectory", "recorder", "link")
+BOARD_GROUPS = ("recorder", "link", "input_matrix", "output_matrix")
 
 
 @dataclass
@@ -70,13 +71,17 @@ class Device:
         """{"device", "hello" (identity, hard limits), "status" (armed, faults, ...)}."""
         return self._dev.status()
 
-    def get(self, group: str) -> dict:
-        """A parameter group by its schema name (`piezoloop schema`), or "all"."""
+    def get(self, group: str, *, axis: Optional[str] = None) -> dict:
+        """A parameter group by its schema name (`piezoloop schema`), or "all".
+        axis: "x", "y" or "z" on a board of axes (required there for an
+        axis's group; the board's groups recorder, link, input_matrix and
+        output_matrix take none)."""
+        a = text("axis", axis, True) or ""
         if group == "all":
-            return {g: self._dev.get(g) for g in GROUPS}
-        return self._dev.get(group)
+            return {g: self._dev.get(g, "" if g in BOARD_GROUPS else a) for g in GROUPS}
+        return self._dev.get(group, a)
 
-    def set(self, group: str, **fields) -> dict:
+    def set(self, group: str, *, axis: Optional[str] = None, **fields) -> dict:
         """Merge `fields` (schema names; nested groups as dicts) onto the
         board's group and send it; returns the group read back. An unknown
         field raises ValueError, a value the board refuses DeviceError, both
@@ -84,7 +89,7 @@ class Device:
         value (leave the field out), NaN no JSON number: both raise
         ValueError naming the field."""
         finite_json(group, fields)
-        return self._dev.set(group, json.dumps(fields))
+        return self._dev.set(group, json.dumps(fields), text("axis", axis, True) or "")
 
     def set_scenario(self, scenario: str | os.PathLike, case: str, frequency_hz: float = 0.0) -> dict:
         """Send a scenario case's controller (limits, feedforward, feedback,
@@ -126,14 +131,17 @@ class Device:
                restart_stage: bool = False, trajectory: Optional[str] = None, frequency_hz: float = 10.0,
                amplitude_um: Optional[float] = None, offset: Optional[str] = None,
                scenario: Optional[str | os.PathLike] = None, cycles: int = 0, decimation: int = 1,
-               stall_s: float = 5.0, out_csv: Optional[str | os.PathLike] = None) -> Recording:
+               stall_s: float = 5.0, out_csv: Optional[str | os.PathLike] = None, axis: Optional[str] = None,
+               every_axis: bool = False) -> Recording:
         """Record `signals` for duration_s seconds of device time, as
         `piezoloop record`: "r,y,u" or ["r", "y", "u"]. With trajectory ("triangle", "sine", "square",
         "raster") and amplitude_um (peak-to-peak, um) the reference wave is
         set first; offset "unipolar"/"bipolar" or the scenario's convention.
         start_wave starts it with the recorder (arming the loop);
         restart_stage starts the emulated stage and the loop from rest (a
-        record equal to piezoloop.sim). Ctrl-C stops the recorder cleanly
+        record equal to piezoloop.sim). axis: the axis of the signals, the
+        wave and its start on a board of axes; every_axis: start_wave starts
+        every axis's wave (as set) at the same tick. Ctrl-C stops the recorder cleanly
         and raises KeyboardInterrupt; the loop stays as it was. A record cut
         short (the board gone or stalled, frames lost) raises LinkError
         saying why, with what arrived as its .recording."""
@@ -142,7 +150,8 @@ class Device:
             wave = self._wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles)
         r = self._dev.record(names("signals", signals), number("duration_s", duration_s),
                              whole("decimation", decimation), bool(start_wave), bool(restart_stage), wave,
-                             number("stall_s", stall_s), os.fspath(out_csv) if out_csv else "")
+                             number("stall_s", stall_s), os.fspath(out_csv) if out_csv else "",
+                             text("axis", axis, True) or "", bool(every_axis))
         s = r["summary"]
         rec = Recording(signals=r["signals"], summary=s, log_hash=s.get("log_hash", ""),
                         lost_blocks=int(s["lost_blocks"]))
@@ -156,7 +165,7 @@ class Device:
 
     def wave(self, trajectory: str = "triangle", frequency_hz: float = 10.0, amplitude_um: float = 0.0, *,
              offset: Optional[str] = None, scenario: Optional[str | os.PathLike] = None, cycles: int = 0,
-             arm: bool = False) -> dict:
+             arm: bool = False, axis: Optional[str] = None) -> dict:
         """Set the board's reference wave and start it, as `piezoloop wave`:
         trajectory "triangle", "sine", "square" or "raster", amplitude_um the
         peak-to-peak range, offset "unipolar"/"bipolar" or the scenario's
@@ -164,7 +173,7 @@ class Device:
         (stop() stops it). arm: arm the loop at the wave's first tick (it must
         be disarmed). Returns {"trajectory", "wave_running", "armed"}."""
         return self._dev.wave(self._wave_request(trajectory, frequency_hz, amplitude_um, offset, scenario, cycles),
-                              bool(arm))
+                              bool(arm), text("axis", axis, True) or "")
 
     def stop(self) -> dict:
         """Stop the running wave and setpoint stream, whoever started them; the
@@ -207,7 +216,7 @@ class Device:
 
     def measure_frf(self, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
                     mode: str = "open", signal: str = "multisine", periods: int = 10, transient_periods: int = 1,
-                    restart_stage: bool = False) -> FrequencyResponse:
+                    restart_stage: bool = False, axis: Optional[str] = None) -> FrequencyResponse:
         """The board's frequency response, as `piezoloop --device measure frf`:
         the board's excitation recorded tick by tick. Open loop its
         controller groups are set to none for the measurement and put back
@@ -216,17 +225,19 @@ class Device:
         then equals piezoloop.measure_frf's on the same scenario, bit for
         bit). A request beyond the board's limits raises ValueError before
         anything moves; Ctrl-C stops the excitation, puts the groups back and
-        raises KeyboardInterrupt."""
+        raises KeyboardInterrupt. axis: the measured axis of a board of axes
+        (the others hold with their own controllers)."""
         check_request(from_hz, to_hz, amplitude_v, mode, signal)
         report = self._dev.measure_frf(number("from_hz", from_hz), number("to_hz", to_hz),
                                        number("amplitude_v", amplitude_v), number("bias_v", bias_v), mode, signal,
                                        whole("periods", periods), whole("transient_periods", transient_periods),
-                                       bool(restart_stage))
+                                       bool(restart_stage), text("axis", axis, True) or "")
         return response_from_report(report)
 
     def measure_step(self, *, step_um: Optional[float] = None, step_v: Optional[float] = None,
                      from_um: Optional[float] = None, bias_v: Optional[float] = None, duration_s: float = 0.1,
-                     mode: Optional[str] = None, restart_stage: bool = False) -> StepResponse:
+                     mode: Optional[str] = None, restart_stage: bool = False,
+                     axis: Optional[str] = None) -> StepResponse:
         """The board's step response, as `piezoloop --device measure step`:
         open loop (step_v, the controller groups set to none and put back)
         or closed loop (step_um, the board's controller; from the setpoint
@@ -236,32 +247,34 @@ class Device:
         opt = lambda name, v: None if v is None else number(name, v)
         report = self._dev.measure_step(opt("step_um", step_um), opt("step_v", step_v), opt("from_um", from_um),
                                         opt("bias_v", bias_v), mode or "", number("duration_s", duration_s),
-                                        bool(restart_stage))
+                                        bool(restart_stage), text("axis", axis, True) or "")
         return step_from_report(report)
 
     def measure_loops(self, amplitudes_v: Sequence[float], *, bias_v: Optional[float] = None,
                       frequency_hz: float = 1.0, cycles: int = 2, shape: str = "triangle",
-                      restart_stage: bool = False) -> Loops:
+                      restart_stage: bool = False, axis: Optional[str] = None) -> Loops:
         """Open-loop hysteresis loops on the board, as `piezoloop --device
         measure loops` (the controller groups set to none and put back)."""
         check_shape(shape)
         r = self._dev.measure_loops(numbers("amplitudes_v", amplitudes_v),
                                     None if bias_v is None else number("bias_v", bias_v),
                                     number("frequency_hz", frequency_hz), whole("cycles", cycles), shape,
-                                    bool(restart_stage))
+                                    bool(restart_stage), text("axis", axis, True) or "")
         return loops_from_result(r)
 
     def commission(self, range_um: float, out: str | os.PathLike, *, target_bandwidth_hz: Optional[float] = None,
-                   save: bool = True, progress: Optional[Callable[[str], None]] = None) -> dict:
+                   save: bool = True, progress: Optional[Callable[[str], None]] = None,
+                   axis: Optional[str] = None) -> dict:
         """Commissions the board's stage from measurements alone, as
         `piezoloop --device commission` (docs/commissioning.md): measured,
         designed, checked on the measured response, loaded, verified on the
         board and, when verified and `save`, saved on the board. Writes the
         report and files to `out`; returns the summary. Ctrl-C stops it with
-        the board disarmed."""
+        the board disarmed. axis: the axis commissioned on a board of axes
+        (the others hold with their own controllers)."""
         check_commission(range_um, target_bandwidth_hz)
         return self._dev.commission(float(range_um), float(target_bandwidth_hz or 0.0), path("out", out), bool(save),
-                                    progress)
+                                    progress, text("axis", axis, True) or "")
 
 
 def devices() -> list:

@@ -75,6 +75,18 @@ public:
         if (!client_) throw hostlink::LinkError("the device is closed");
         return *client_;
     }
+
+    // An axis by name ("" on a one-axis board: its axis), as the command
+    // line's --axis, the error naming `axis`. all: "all" is every axis
+    // (cli::kAllAxes).
+    int axis_of(const std::string& name, bool all = false) {
+        try {
+            return cli::resolve_axis(name, client().axis_count(), all);
+        } catch (const std::invalid_argument& e) {
+            const std::string m = e.what();
+            throw std::invalid_argument(m.rfind("--axis", 0) == 0 ? m.substr(2) : m);
+        }
+    }
     void close() { client_.reset(); }
 
     pyb::object status() {
@@ -88,12 +100,12 @@ public:
         return to_python(out);
     }
 
-    pyb::object get(const std::string& group) {
+    pyb::object get(const std::string& group, const std::string& axis) {
         const link::ParamGroup g = hostlink::parse_group(group);
         json out;
         {
             pyb::gil_scoped_release release;
-            out = get_group(g);
+            out = get_group(g, group_axis(g, axis));
         }
         return to_python(out);
     }
@@ -102,20 +114,21 @@ public:
     // changed (as `piezoloop set GROUP --json`); the group as read back. A
     // refused group leaves the board's unchanged (the board checks a group
     // whole before swapping it in).
-    pyb::object set(const std::string& group, const std::string& fields_json) {
+    pyb::object set(const std::string& group, const std::string& fields_json, const std::string& axis) {
         const link::ParamGroup g = hostlink::parse_group(group);
         const json fields = json::parse(fields_json);
         json out;
         {
             pyb::gil_scoped_release release;
+            const uint8_t a = group_axis(g, axis);
             params::with_group(g, [&](auto tag) {
                 using G = typename decltype(tag)::type;
-                const G current = client().get<G>();
+                const G current = client().get<G>(a);
                 G v = current;
                 hostlink::merge_json(fields, v);
-                if (!(v == current)) client().set(v);
+                if (!(v == current)) client().set(v, a);
             });
-            out = get_group(g);
+            out = get_group(g, a);
         }
         return to_python(out);
     }
@@ -142,10 +155,13 @@ public:
 
     pyb::dict record(const std::string& signals, double duration_s, double decimation, bool start_wave,
                      bool restart_stage, std::optional<cli::WaveRequest> wave, double stall_s,
-                     const std::string& out_csv) {
+                     const std::string& out_csv, const std::string& axis, bool every_axis) {
         hostlink::RecordOptions o;
         o.signals = hostlink::parse_signal_list(signals);
         if (restart_stage && !start_wave) throw std::invalid_argument("restart_stage: only with start_wave");
+        if (every_axis && !start_wave) throw std::invalid_argument("every_axis: only with start_wave");
+        o.axis = static_cast<uint8_t>(axis_of(axis));
+        o.every_axis = every_axis;
         options::check_record_options(duration_s, decimation, stall_s);
         o.duration_s = duration_s;
         o.decimation = static_cast<uint32_t>(decimation);
@@ -181,10 +197,11 @@ public:
     // which the session leaves clean (excitation stopped, groups put back),
     // and then raises KeyboardInterrupt.
     template <class Body>
-    void measure_session(bool restart_stage, Body body) {
+    void measure_session(bool restart_stage, const std::string& axis, Body body) {
         Interrupt ctrl_c;
         hostlink::MeasureOptions o;
         o.restart_stage = restart_stage;
+        o.axis = static_cast<uint8_t>(axis_of(axis));
         o.stop_requested = ctrl_c.poll();
         try {
             pyb::gil_scoped_release release;
@@ -196,13 +213,14 @@ public:
     }
 
     // `piezoloop --device measure frf`: the JSON of frf_report.
-    pyb::object measure_frf(const measure::FrfRequest& r, bool restart_stage) {
+    pyb::object measure_frf(const measure::FrfRequest& r, bool restart_stage, const std::string& axis) {
         json out;
-        measure_session(restart_stage, [&](Client& c, const hostlink::MeasureOptions& o) {
+        measure_session(restart_stage, axis, [&](Client& c, const hostlink::MeasureOptions& o) {
             const hostlink::DeviceFrfRun d = hostlink::run_frf_device(c, r, o);
             out = measure::frf_report(r, d.run, {{"kind", "board"}, {"device", c.address()},
                                                  {"board", c.info().board.data()}});
             out["recording"] = hostlink::recording_summary(d.record);
+            if (c.axis_count() > 1) out["source"]["axis"] = axis;
         });
         return to_python(out);
     }
@@ -210,12 +228,12 @@ public:
     // `piezoloop --device measure step`: the JSON `measure step --out`
     // writes; a closed-loop step starts from the setpoint the board holds
     // unless from_um is given.
-    pyb::object measure_step(const measure::StepInput& so, bool restart_stage) {
+    pyb::object measure_step(const measure::StepInput& so, bool restart_stage, const std::string& axis) {
         json out;
-        measure_session(restart_stage, [&](Client& c, const hostlink::MeasureOptions& o) {
-            const measure::MeasureBounds b = hostlink::board_bounds(c);
+        measure_session(restart_stage, axis, [&](Client& c, const hostlink::MeasureOptions& o) {
+            const measure::MeasureBounds b = hostlink::board_bounds(c, o.axis);
             std::optional<double> setpoint_um;
-            if (!so.from_um) setpoint_um = c.status().r_um;
+            if (!so.from_um) setpoint_um = c.status().axis_r_um[o.axis];
             const measure::StepRequest r = measure::step_request(so, b, setpoint_um);
             out = measure::step_report(r, hostlink::run_step_device(c, r, o), board_source(c, b));
         });
@@ -224,12 +242,13 @@ public:
 
     // `piezoloop --device measure loops`: as piezoloop.measure_loops.
     pyb::object measure_loops(const std::vector<double>& amplitudes_V, std::optional<double> base_V,
-                              double frequency_Hz, int cycles, const std::string& shape, bool restart_stage) {
+                              double frequency_Hz, int cycles, const std::string& shape, bool restart_stage,
+                              const std::string& axis) {
         measure::LoopsRequest r;
         measure::LoopsRun run;
         json source;
-        measure_session(restart_stage, [&](Client& c, const hostlink::MeasureOptions& o) {
-            const measure::MeasureBounds b = hostlink::board_bounds(c);
+        measure_session(restart_stage, axis, [&](Client& c, const hostlink::MeasureOptions& o) {
+            const measure::MeasureBounds b = hostlink::board_bounds(c, o.axis);
             r = measure::loops_request(amplitudes_V, base_V, frequency_Hz, cycles, shape, b);
             run = hostlink::run_loops_device(c, r, o);
             source = board_source(c, b);
@@ -240,14 +259,15 @@ public:
     // `piezoloop --device commission`: as piezoloop.commission, on the board;
     // the progress lines go to `progress` (with the GIL) when given.
     pyb::object commission(double range_um, double target_bandwidth_Hz, const std::string& out, bool save,
-                           const pyb::object& progress) {
+                           const pyb::object& progress, const std::string& axis) {
         cli::CommissionSession s;
+        s.axis = axis;
         s.request.range_um = range_um;
         s.request.target_bandwidth_Hz = target_bandwidth_Hz;
         s.out = out;
         s.save = save;
         json summary;
-        measure_session(false, [&](Client& c, const hostlink::MeasureOptions& o) {
+        measure_session(false, axis, [&](Client& c, const hostlink::MeasureOptions& o) {
             summary = cli::run_commission_session(&c, s, progress_lines(progress), o.stop_requested);
         });
         return to_python(summary);
@@ -256,18 +276,20 @@ public:
     // `piezoloop wave`: the trajectory group set and started, detached (it
     // runs on when this client goes quiet); arm: the loop armed at its
     // first tick (it must be disarmed).
-    pyb::object wave(const cli::WaveRequest& w, bool arm) {
+    pyb::object wave(const cli::WaveRequest& w, bool arm, const std::string& axis) {
         json out;
         {
             pyb::gil_scoped_release release;
             Client& c = client();
-            c.set(cli::wave_params(w, c.info().loop_rate_Hz));
-            if (c.status().wave_running) c.stop_wave();
-            c.start_wave(hostlink::wave_flag::kDetached | (arm ? hostlink::wave_flag::kArm : 0));
+            const auto a = static_cast<uint8_t>(axis_of(axis));
+            c.set(cli::wave_params(w, c.info().loop_rate_Hz), a);
+            if (c.status().axis_wave_running[a]) c.stop_wave(a);
+            c.start_wave(hostlink::wave_flag::kDetached | (arm ? hostlink::wave_flag::kArm : 0), a);
             const link::StatusReply st = c.status();
-            out = {{"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>())},
-                   {"wave_running", st.wave_running},
-                   {"armed", st.armed}};
+            out = {{"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>(a))},
+                   {"wave_running", st.axis_wave_running[a]},
+                   {"armed", st.axis_armed[a]}};
+            if (c.axis_count() > 1) out["axis"] = cli::axis_name(a);
         }
         return to_python(out);
     }
@@ -312,9 +334,15 @@ public:
     }
 
 private:
-    json get_group(link::ParamGroup g) {
+    // A group's axis: 0 for a board group (recorder, link, the matrices).
+    uint8_t group_axis(link::ParamGroup g, const std::string& axis) {
+        if (link::board_group(g) && axis.empty()) return 0;
+        if (link::board_group(g)) throw std::invalid_argument("axis: " + std::string(link::group_name(g)) + " is the board's");
+        return static_cast<uint8_t>(axis_of(axis));
+    }
+    json get_group(link::ParamGroup g, uint8_t axis) {
         json out;
-        params::with_group(g, [&](auto tag) { out = hostlink::to_json(client().get<typename decltype(tag)::type>()); });
+        params::with_group(g, [&](auto tag) { out = hostlink::to_json(client().get<typename decltype(tag)::type>(axis)); });
         return out;
     }
 
@@ -361,15 +389,18 @@ void add_device(pyb::module_& m) {
         .def("stream", &Device::stream)
         .def("measure_frf",
              [](Device& d, double from_Hz, double to_Hz, double amplitude_V, double bias_V, const std::string& mode,
-                const std::string& signal, int periods, int transient_periods, bool restart_stage) {
+                const std::string& signal, int periods, int transient_periods, bool restart_stage,
+                const std::string& axis) {
                  return d.measure_frf(frf_request(from_Hz, to_Hz, amplitude_V, bias_V, mode, signal, periods,
                                                   transient_periods),
-                                      restart_stage);
+                                      restart_stage, axis);
              })
         .def("measure_step",
              [](Device& d, std::optional<double> step_um, std::optional<double> step_V, std::optional<double> from_um,
-                std::optional<double> bias_V, const std::string& mode, double duration_s, bool restart_stage) {
-                 return d.measure_step(step_options(step_um, step_V, from_um, bias_V, mode, duration_s), restart_stage);
+                std::optional<double> bias_V, const std::string& mode, double duration_s, bool restart_stage,
+                const std::string& axis) {
+                 return d.measure_step(step_options(step_um, step_V, from_um, bias_V, mode, duration_s), restart_stage,
+                                       axis);
              })
         .def("measure_loops", &Device::measure_loops)
         .def("commission", &Device::commission);

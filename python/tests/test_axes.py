@@ -2,7 +2,9 @@
 from Python against the command line: piezoloop.sim with axis= and its hash
 and figures equal to `piezoloop sim --axis`, measure_frf(mimo=True) equal
 to the CSV `piezoloop measure frf --mimo` writes, analyze_coupling equal to
-`piezoloop analyze coupling` on it; the refusals name the argument."""
+`piezoloop analyze coupling` on it; the refusals name the argument. And a
+board of axes (qemu-m3) recorded with axis= equal to the command line's
+simulator."""
 import csv
 import json
 import os
@@ -11,7 +13,7 @@ import numpy as np
 import pytest
 
 import piezoloop
-from conftest import CONFIGS, cli
+from conftest import CONFIGS, cli, need_qemu
 
 XY = os.path.join(CONFIGS, "stages", "xy_flexure.json")
 XYZ = os.path.join(CONFIGS, "stages", "xyz_flexure.json")
@@ -147,3 +149,40 @@ def test_mimo_refusals():
         piezoloop.measure_frf(XY, 50.0, 1e6, 1.0, bias_v=5.0, mimo=True)
     with pytest.raises(TypeError, match="response"):
         piezoloop.analyze_coupling(42)
+
+
+def test_board_of_axes_records_every_axis_as_the_cli_sim(tmp_path):
+    """qemu-m3 with the XY flexure: the case sent with set_scenario, each
+    axis's trajectory set with axis=, a record of y started with every
+    axis's wave (every_axis) from rest: y's r and y equal `piezoloop sim
+    --axis x --hold-um y=50 --start-together` bit for bit. An unknown axis,
+    and an axis group without axis= on a board of axes, raise ValueError
+    naming the axis."""
+    need_qemu("qemu-m3")
+    xy = XY
+    with piezoloop.emulate("qemu-m3", scenario=xy) as emu, piezoloop.connect(emu.address) as dev:
+        sent = dev.set_scenario(xy, "pi_notch_decoupled")
+        assert {"x.limits", "y.limits", "output_matrix"} <= set(sent["sent"])
+        with pytest.raises(ValueError, match=r"axis: this board has 2 axes: give --axis x\|y"):
+            dev.get("limits")
+        with pytest.raises(ValueError, match=r"axis: 'w' is not an axis of this board"):
+            dev.get("limits", axis="w")
+        assert dev.get("output_matrix")["axis_count"] == 2
+        dev.set("trajectory", axis="x", waveform="triangle", amplitude_um=40.0, offset_um=50.0, frequency_Hz=10.0)
+        y = dev.set("trajectory", axis="y", waveform="sine", amplitude_um=0.0, offset_um=50.0, frequency_Hz=10.0)
+        assert y["offset_um"] == 50.0
+        rec = dev.record(0.1, "r,y", axis="y", start_wave=True, every_axis=True, restart_stage=True)
+    out = tmp_path / "sim.csv"
+    cli("sim", "--scenario", xy, "--case", "pi_notch_decoupled", "--sample", "q31", "--axis", "x", "--hold-um",
+        "y=50", "--start-together", "--trajectory", "triangle", "--frequency-hz", "10", "--amplitude-um", "80",
+        "--midpoint-um", "50", "--duration-s", "0.1", "--out", str(out))
+    with open(out) as f:
+        ref = list(csv.DictReader(f))
+    # y's record runs its own approach (longer than x's) plus 0.1 s: the
+    # simulator's rows are x's approach plus 0.1 s.
+    n = min(len(rec.signals["r_um"]), len(ref))
+    assert rec.complete and n >= 2000
+    # The CSV's 9 significant digits: the record's values at the same.
+    nine = lambda v: [float(f"{x:.9g}") for x in v]
+    assert nine(rec.signals["r_um"][:n]) == [float(r["r_y_um"]) for r in ref[:n]]
+    assert nine(rec.signals["y_um"][:n]) == [float(r["y_y_um"]) for r in ref[:n]]

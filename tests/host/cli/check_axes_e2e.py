@@ -14,12 +14,14 @@ that axis, row for row (the output matrix and the coupling reach every y, so
 that checks the board's whole multi-axis tick). Also: every axis's set kept
 over a reboot (emulate --storage), the board's axes in
 Hello and the status, the case's matrices on the board, every axis's wave
-started at one tick, and what is refused naming the axis.
+started at one tick, one axis's frequency response measured with --axis
+(its first mode where the stage has it), and what is refused naming the axis.
 
 Usage: check_axes_e2e.py PIEZOLOOP SERVO_ELF CONFIGS_DIR qemu-m7|qemu-m3
 Exit 77 (skipped) without QEMU or the image."""
 import csv
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -125,6 +127,24 @@ try:
         check(common >= int(rate * seconds) and not diff,
               f"axis {a}: r and y equal `piezoloop sim --sample {sample}` bit for bit over {common} ticks",
               f"{len(rec)} vs {len(ref)} rows, first difference at row {diff[0] if diff else None}")
+
+    # A board's axis measured on its own (open loop; the others hold with
+    # their controllers): y's first mode, 850 Hz on both flexures.
+    frf = os.path.join(tmp, "frf_y.json")
+    bad = run(*d, "measure", "frf", "--from-hz", "200", "--to-hz", "2000", "--amplitude-v", "0.2", "--bias-v", "5",
+              "--out", frf)
+    check(bad.returncode == 2 and "give --axis " + "|".join(names) in bad.stderr,
+          "measure frf without --axis on a board of axes: exit 2 naming them", bad.stderr)
+    r = run(*d, "measure", "frf", "--axis", "y", "--from-hz", "200", "--to-hz", "2000", "--amplitude-v", "0.2",
+            "--bias-v", "5", "--out", frf)
+    peak_Hz = None
+    if r.returncode == 0:
+        with open(frf) as f:
+            m = json.load(f)
+        mag = [math.hypot(*c) for c in m["response"]]
+        peak_Hz = m["frequency_Hz"][mag.index(max(mag))]
+    check(r.returncode == 0 and m["source"].get("axis") == "y" and peak_Hz is not None and 800 <= peak_Hz <= 900,
+          f"measure frf --axis y: y's first mode at {peak_Hz} Hz (850 Hz)", r.stderr)
 
     # The waves of a record are its client's: they stop when it ends.
     st = json.loads(run(*d, "status", "--axis", "all").stdout)

@@ -89,6 +89,14 @@ for name, args in [
 # emulate runs a stage of axes on a board that carries them (qemu-m3: two).
 expect("emulate: three axes on qemu-m3", ["emulate", "--scenario", xyz, "--board", "qemu-m3"], 2,
        "--scenario: xyz_flexure has 3 axes, qemu-m3 runs at most 2 (3 axes: --board qemu-m7)")
+# --axis picks a board's axis; on the simulator it is refused, naming it.
+expect("measure frf --axis on the simulator", ["measure", "frf", "--scenario", scenario, "--axis", "y", "--from-hz", "10",
+       "--to-hz", "100", "--amplitude-v", "0.1", "--out", os.path.join(tmp, "axis_frf.json")], 2,
+       "--axis: only on a board (--device)")
+expect("measure step --axis on the simulator", ["measure", "step", "--scenario", scenario, "--axis", "y", "--step-v", "1",
+       "--out", os.path.join(tmp, "axis_step.json")], 2, "--axis: only on a board (--device)")
+expect("commission --axis on the simulator", ["commission", "--scenario", scenario, "--axis", "y", "--range-um", "10",
+       "--out", os.path.join(tmp, "axis_commission")], 2, "--axis: a board's axis")
 # commission on a stage of axes commissions them all (--axes), and says so.
 expect("multi-axis scenario (commission without --axes)",
        ["commission", "--scenario", xyz, "--range-um", "10", "--out", os.path.join(tmp, "xyz_commission")], 2,
