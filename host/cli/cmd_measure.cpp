@@ -24,6 +24,7 @@
 #include "cli/progress_bar.hpp"
 #include "commands.hpp"
 #include "device_common.hpp"
+#include "link/mimo_measure_session.hpp"
 #include "link/measure_session.hpp"
 #include "format/number.hpp"
 #include "lti/freqresp.hpp"
@@ -135,10 +136,79 @@ Eigen::MatrixXd read_output_matrix(const std::string& path) {
 }
 
 // --mimo: the n x n response of a scenario's coupled axes (simulator only).
+// The coupling pairs of a measured n x n response, named by the axes.
+json coupling_pairs(const measure::MimoFrfEstimate& e, const std::vector<std::string>& names) {
+    const measure::Coupling c = measure::coupling(e.frequency_Hz, e.response, std::nullopt);
+    json pairs = json::array();
+    for (const measure::CouplingPair& p : c.pairs)
+        pairs.push_back({{"pair", names[static_cast<std::size_t>(p.output)] + "<-" + names[static_cast<std::size_t>(p.input)]},
+                         {"low_frequency_db", std::isfinite(p.low_frequency_db) ? json(p.low_frequency_db) : json(nullptr)},
+                         {"max_db", std::isfinite(p.max_db) ? json(p.max_db) : json(nullptr)},
+                         {"max_Hz", p.max_Hz}});
+    return pairs;
+}
+
+// --mimo on a board of axes: one axis at a time (link/mimo_measure_session).
+int run_frf_mimo_board(const FrfArgs& a) {
+    if (!a.output_matrix.empty())
+        throw std::invalid_argument("--output-matrix: the board's own output_matrix group applies (`piezoloop set "
+                                    "output_matrix`)");
+    if (a.restart_stage) throw std::invalid_argument("--restart-stage: not with --mimo on a board");
+    hostlink::Client c = open_device(5000);
+    const int n = c.axis_count();
+    if (n < 2) throw std::invalid_argument("--mimo: this board has one axis (measure it without --mimo)");
+    measure::MimoFrfRequest r;
+    r.inputs = n;
+    r.rate_Hz = c.info().loop_rate_Hz;
+    r.from_Hz = a.from_Hz;
+    r.to_Hz = a.to_Hz;
+    r.amplitude_V = a.amplitude_V;
+    r.bias_V.assign(static_cast<std::size_t>(n), a.bias_V);
+    r.periods = a.periods;
+    r.transient_periods = a.transient_periods;
+    ProgressBar bar("measure frf --mimo");
+    const StopSignals stop_signals;
+    hostlink::MeasureOptions o;
+    o.progress = [&](double f) { bar.update(f); };
+    o.stop_requested = [] { return StopSignals::requested(); };
+    const hostlink::DeviceMimoFrfRun run =
+        interruptible("measure frf --mimo", [&] { return hostlink::run_mimo_frf_device(c, r, o); });
+    bar.done();
+    measure::write_mimo_frf(a.out, run.estimate);
+    std::vector<std::string> names;
+    for (int i = 0; i < n; ++i) names.emplace_back(axis_name(i));
+    json blocks = json::array();
+    for (const hostlink::RecordResult& rec : run.records) blocks.push_back(hostlink::recording_summary(rec));
+    json out = measure::mimo_frf_summary(run.estimate);
+    out["out"] = a.out;
+    out["axes"] = names;
+    out["source"] = {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}};
+    out["design"] = "one axis at a time";
+    out["output_matrix"] = "the board's";
+    out["coupling"] = coupling_pairs(run.estimate, names);
+    out["clipped_samples"] = run.clipped_samples;
+    out["recordings"] = blocks;
+    out["wall_s"] = run.wall_s;
+    std::cout << out.dump(1) << "\n";
+    std::cerr << "measure frf --mimo: " << run.estimate.frequency_Hz.size() << " lines x " << n << " x " << n
+              << " on the board, one axis at a time, in " << format::significant(run.wall_s, 3) << " s wall\n";
+    return 0;
+}
+
 int run_frf_mimo(const FrfArgs& a) {
+    if (a.scenario.empty() && !device_address().empty()) {
+        if (!a.case_name.empty() || !a.sample.empty() || a.mode != "open" || a.signal != "multisine" || !a.plot.empty() ||
+            !a.axis.empty())
+            throw std::invalid_argument(!a.axis.empty() ? "--axis: not with --mimo (it measures every axis)"
+                                        : a.mode != "open" ? "--mode: --mimo measures open loop only"
+                                        : a.signal != "multisine" ? "--signal: --mimo uses multisines only"
+                                        : !a.plot.empty() ? "--plot: not with --mimo (analyze coupling reads the CSV)"
+                                                          : "--case, --sample: the simulator's (--scenario)");
+        return run_frf_mimo_board(a);
+    }
     if (!device_address().empty() || a.scenario.empty())
-        throw std::invalid_argument("--mimo: measures a scenario's stage of coupled axes on the simulator (--scenario); "
-                                    "boards run one axis so far");
+        throw std::invalid_argument("--mimo: a scenario's stage of coupled axes (--scenario, simulator) or the board of "
+                                    "axes given by --device, not both");
     if (!a.case_name.empty()) throw std::invalid_argument("--case: not with --mimo (open loop on the stage alone)");
     if (!a.axis.empty()) throw std::invalid_argument("--axis: not with --mimo (it measures every axis)");
     if (!a.sample.empty()) throw std::invalid_argument("--sample: not with --mimo (the stage is driven directly)");
@@ -157,16 +227,10 @@ int run_frf_mimo(const FrfArgs& a) {
     const measure::MimoFrfSimRun run = measure::run_mimo_frf_sim(s, r, d, [&](double f) { progress_bar(f, t0, shown); });
     const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     measure::write_mimo_frf(a.out, run.estimate);
-    const measure::Coupling c = measure::coupling(run.estimate.frequency_Hz, run.estimate.response, std::nullopt);
-    json pairs = json::array();
-    for (const measure::CouplingPair& p : c.pairs)
-        pairs.push_back({{"pair", s.axes[static_cast<std::size_t>(p.output)].name + "<-" +
-                                      s.axes[static_cast<std::size_t>(p.input)].name},
-                         {"low_frequency_db", std::isfinite(p.low_frequency_db) ? json(p.low_frequency_db) : json(nullptr)},
-                         {"max_db", std::isfinite(p.max_db) ? json(p.max_db) : json(nullptr)},
-                         {"max_Hz", p.max_Hz}});
-    json axes = json::array();
-    for (const sim::AxisSpec& ax : s.axes) axes.push_back(ax.name);
+    std::vector<std::string> names;
+    for (const sim::AxisSpec& ax : s.axes) names.push_back(ax.name);
+    const json pairs = coupling_pairs(run.estimate, names);
+    const json axes = names;
     const double simulated_s = static_cast<double>(run.plan.block_samples) * run.plan.inputs / s.rate_Hz;
     json out = measure::mimo_frf_summary(run.estimate);
     out["out"] = a.out;

@@ -24,15 +24,25 @@ bool has(const std::vector<uint8_t>& ids, uint8_t id) { return std::find(ids.beg
 
 // The device records exactly recorder_channels channels: the requested ones
 // first, then others to fill (not written out).
+uint8_t signal_axis(const RecordOptions& o, std::size_t k) { return o.signal_axes.empty() ? o.axis : o.signal_axes[k]; }
+
+// The log's channel id of the k-th requested signal: axis * kSignalCount + signal.
+uint8_t channel_id(const RecordOptions& o, std::size_t k) {
+    return static_cast<uint8_t>(signal_axis(o, k) * kSignalCount + o.signals[k]);
+}
+
 link::RecorderParams recorder_params(const RecordOptions& o, const link::HelloReply& h) {
     link::RecorderParams rec;
     rec.channel_count = h.recorder_channels;
-    std::vector<uint8_t> ch = o.signals;
-    for (uint8_t s = 0; s < kSignalCount && ch.size() < h.recorder_channels; ++s)
-        if (!has(ch, s)) ch.push_back(s);
-    for (std::size_t i = 0; i < ch.size(); ++i) {
-        rec.channels[i] = ch[i];
-        rec.axes[i] = o.axis;
+    std::vector<uint8_t> ids;  // channel ids
+    for (std::size_t k = 0; k < o.signals.size(); ++k) ids.push_back(channel_id(o, k));
+    for (uint8_t s = 0; s < kSignalCount && ids.size() < h.recorder_channels; ++s) {
+        const auto id = static_cast<uint8_t>(o.axis * kSignalCount + s);
+        if (!has(ids, id)) ids.push_back(id);
+    }
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+        rec.channels[i] = ids[i] % kSignalCount;
+        rec.axes[i] = ids[i] / kSignalCount;
     }
     rec.trigger_axis = o.axis;
     rec.decimation = o.decimation;
@@ -142,7 +152,10 @@ void write_csv(CsvFile& file, const RecordResult& r) {
         file.comment("incomplete: " + std::to_string(r.frames) + " of " + std::to_string(r.expected_frames) +
                       " frames;" + r.problems());
     std::vector<std::string> names{"t_s"};
-    for (const uint8_t id : r.signals) names.push_back(std::string(signal_name(id)) + "_" + signal_unit(id));
+    for (std::size_t k = 0; k < r.signals.size(); ++k) {
+        const std::string axis = r.signal_axes.empty() ? "" : std::string(1, "xyz"[r.signal_axes[k] % 3]) + "_";
+        names.push_back(std::string(signal_name(r.signals[k])) + "_" + axis + signal_unit(r.signals[k]));
+    }
     file.header(names);
     std::vector<double> row(r.signals.size() + 1);
     for (std::size_t i = 0; i < r.frames; ++i) {
@@ -192,6 +205,7 @@ RecordResult record(Client& c, const RecordOptions& o) {
     r.board = h.board.data();
     r.rate_Hz = h.loop_rate_Hz;
     r.signals = o.signals;
+    r.signal_axes = o.signal_axes;
     r.decimation = o.decimation;
     r.stall_s = o.stall_s;
     if (o.signals.size() > h.recorder_channels)
@@ -205,6 +219,14 @@ RecordResult record(Client& c, const RecordOptions& o) {
 
     if (o.axis >= h.axis_count)
         throw std::invalid_argument("--axis: this board has " + std::to_string(h.axis_count) + " axes");
+    if (!o.signal_axes.empty() && o.signal_axes.size() != o.signals.size())
+        throw std::invalid_argument("signal_axes: one axis per signal");
+    for (std::size_t k = 0; k < o.signal_axes.size(); ++k) {
+        if (o.signal_axes[k] >= h.axis_count)
+            throw std::invalid_argument("signal_axes: this board has " + std::to_string(h.axis_count) + " axes");
+        for (std::size_t j = 0; j < k; ++j)
+            if (channel_id(o, j) == channel_id(o, k)) throw std::invalid_argument("signal_axes: a signal twice");
+    }
     if (o.wave) c.set(*o.wave, o.axis);
     c.set(recorder_params(o, h));
     r.wave = c.get<link::TrajectoryParams>(o.axis);
@@ -252,15 +274,13 @@ RecordResult record(Client& c, const RecordOptions& o) {
 
     // Frames within the requested duration, in physical units.
     while (r.frames < log.size() && log.tick(r.frames) <= last_tick) ++r.frames;
-    // The log's channel ids are axis * kSignalCount + signal.
-    const auto channel_id = [&](uint8_t id) { return static_cast<uint8_t>(o.axis * kSignalCount + id); };
     std::vector<int> cols;
-    for (const uint8_t id : o.signals) {
+    for (std::size_t j = 0; j < o.signals.size(); ++j) {
         int k = -1;
         for (std::size_t i = 0; i < log.channel_count(); ++i)
-            if (log.channels()[i] == channel_id(id)) k = static_cast<int>(i);
+            if (log.channels()[i] == channel_id(o, j)) k = static_cast<int>(i);
         if (r.frames > 0 && k < 0)
-            throw LinkError("the log blocks do not carry signal " + std::string(signal_name(id)));
+            throw LinkError("the log blocks do not carry signal " + std::string(signal_name(o.signals[j])));
         cols.push_back(k);
     }
     r.t_s.resize(r.frames);
@@ -268,11 +288,12 @@ RecordResult record(Client& c, const RecordOptions& o) {
     for (std::size_t i = 0; i < r.frames; ++i) {
         r.t_s[i] = static_cast<double>(log.tick(i)) / r.rate_Hz;
         for (std::size_t k = 0; k < o.signals.size(); ++k)
-            r.values[k][i] = log_sample_physical(log.raw(i)[cols[k]], channel_id(o.signals[k]), log.format(), h);
+            r.values[k][i] = log_sample_physical(log.raw(i)[cols[k]], channel_id(o, k), log.format(), h);
     }
     // log_hash: the fold of `piezoloop sim --hash` (r, y, u bit patterns of
     // each frame, in the board's sample type) over the recorded frames.
-    if (has(o.signals, kSignalR) && has(o.signals, kSignalY) && has(o.signals, kSignalU) && r.frames > 0) {
+    const bool one_axis = std::all_of(o.signal_axes.begin(), o.signal_axes.end(), [&](uint8_t a) { return a == o.axis; });
+    if (one_axis && has(o.signals, kSignalR) && has(o.signals, kSignalY) && has(o.signals, kSignalU) && r.frames > 0) {
         const auto col = [&](uint8_t id) { return cols[std::find(o.signals.begin(), o.signals.end(), id) - o.signals.begin()]; };
         reference::LogHash hash;
         const int kr = col(kSignalR), ky = col(kSignalY), ku = col(kSignalU);
@@ -283,7 +304,7 @@ RecordResult record(Client& c, const RecordOptions& o) {
         }
         r.log_hash = hash.value();
     }
-    compute_figures(o.signals, r);
+    if (one_axis) compute_figures(o.signals, r);
     if (file) write_csv(*file, r);
     return r;
 }

@@ -28,6 +28,10 @@ std::vector<uint8_t> parse_signal_list(const std::string& list);
 struct RecordOptions {
     std::vector<uint8_t> signals;                // recorded and written, in this order
     uint8_t axis = 0;                            // the axis of the signals, the wave and the excitation
+    // Per signal, its axis when signals of several axes are recorded (empty:
+    // every signal is `axis`'s). Such a record has no log hash and no
+    // tracking figures; its CSV columns name the axis (y_y_um).
+    std::vector<uint8_t> signal_axes;
     double duration_s = 0.0;                     // device time
     uint32_t decimation = 1;                     // keep every N-th tick
     std::optional<link::TrajectoryParams> wave;  // set before recording (not started)
@@ -57,6 +61,7 @@ struct RecordResult {
     std::string device, board;
     double rate_Hz = 0.0;
     std::vector<uint8_t> signals;
+    std::vector<uint8_t> signal_axes;  // RecordOptions::signal_axes
     uint32_t decimation = 1;
     double stall_s = 0.0;
     std::size_t frames = 0, expected_frames = 0;
