@@ -51,11 +51,12 @@ std::vector<std::string> split(const std::string& text) {
 
 // --axes x,y,z with --range-um UM (every axis) or x=UM,y=UM,z=UM.
 int run_axes(const CommissionArgs& a) {
-    if (!device_address().empty())
-        throw std::invalid_argument("--axes: commissions a scenario's coupled axes on the simulator (--scenario); a "
-                                    "board's link carries one axis");
-    if (a.session.scenario.empty()) throw std::invalid_argument("--axes: needs --scenario");
-    if (a.no_save) throw std::invalid_argument("--no-save: only on a board (--device)");
+    const bool on_board = a.session.scenario.empty();
+    if (on_board && device_address().empty())
+        throw std::invalid_argument("--axes: needs --scenario (simulator) or --device ADDR (a board of axes)");
+    if (!on_board && !device_address().empty())
+        throw std::invalid_argument("--scenario: commissions the simulator; drop it to commission the board given by --device");
+    if (!on_board && a.no_save) throw std::invalid_argument("--no-save: only on a board (--device)");
     AxesCommission c;
     c.scenario = a.session.scenario;
     c.out = a.session.out;
@@ -73,8 +74,11 @@ int run_axes(const CommissionArgs& a) {
     }
     auto say = [](const std::string& line) { std::cerr << "commission: " << line << "\n"; };
     const StopSignals stop_signals;
+    std::optional<hostlink::Client> board;
+    if (on_board) board.emplace(open_device());
     const nlohmann::json out = interruptible("commission", [&] {
-        return run_axes_commission(c, say, [] { return StopSignals::requested(); });
+        return board ? run_axes_commission_board(*board, c, !a.no_save, say, [] { return StopSignals::requested(); })
+                     : run_axes_commission(c, say, [] { return StopSignals::requested(); });
     });
     std::cout << out.dump(1) << "\n";
     return out["verified"].get<bool>() ? kExitOk : kExitFailure;
@@ -123,8 +127,8 @@ void add_commission(CLI::App& app) {
                     "travel the loop must hold (um); with --axes one for every axis or NAME=UM,... each")
         ->required();
     cmd->add_option("--axes", a->axes,
-                    "a scenario's coupled axes: x,y[,z] (every axis) or all; each commissioned, then decoupled "
-                    "(simulator)");
+                    "coupled axes (a scenario's or the --device board's): x,y[,z] (every axis) or all; each "
+                    "commissioned, then decoupled");
     cmd->add_option("--axis", a->session.axis,
                     "a board of axes: x | y | z, the axis commissioned (default: the only axis; required on a "
                     "multi-axis board); the others hold with their own controllers");

@@ -23,35 +23,98 @@ namespace {
 
 using nlohmann::json;
 
-// The coupled stage's response: open loop, about the middle of the command
-// span, at a small signal, 1 % of the span peak: a hysteresis's play
-// operators whose thresholds exceed the excursion then stay stuck, so the
-// stage answers linearly at its initial slope (at 10 % the xy flexure's
-// plays move, and their distortion, which the orthogonal multisines of
-// every axis at once spread over all lines, swamps the few-percent
-// coupling: y<-x read -18 dB instead of -30 dB). The static gain needs only
-// the lowest lines, so the band is 10 to 100 Hz (ten lines share the
-// amplitude) and eight periods are averaged: on the flexures the noise floor
-// of an uncoupled pair is then near -60 dB, room for a 20 dB reduction of a
-// -30 dB coupling.
-constexpr double kFrfFrom_Hz = 10.0, kFrfTo_Hz = 100.0, kFrfAmplitude = 0.01;
-constexpr int kFrfPeriods = 8;
-// A pair is measured when its response stands this far above the noise at
-// the low lines; below it, the pair has no coupling the measurement can see
-// (an axis that does not move the other) and no reduction is asked of it.
-constexpr double kMeasuredSnr_dB = 20.0;
-constexpr double kCheckFrequency_Hz = 10.0;
 
 // Low-frequency coupling per pair "y<-x" (output <- input), dB.
-json pair_db(const sim::Scenario& s, const measure::Coupling& c) {
+json pair_db(const std::vector<std::string>& names, const measure::Coupling& c) {
     json j = json::object();
     for (const measure::CouplingPair& p : c.pairs)
-        j[s.axes[static_cast<std::size_t>(p.output)].name + "<-" + s.axes[static_cast<std::size_t>(p.input)].name] =
-            p.low_frequency_db;
+        j[names[static_cast<std::size_t>(p.output)] + "<-" + names[static_cast<std::size_t>(p.input)]] = p.low_frequency_db;
     return j;
 }
 
+std::string joined(const std::vector<std::string>& names, const char* separator) {
+    std::string all;
+    for (const std::string& n : names) all += (all.empty() ? "" : separator) + n;
+    return all;
+}
+
 }  // namespace
+
+std::map<std::string, double> axes_ranges(const AxesCommission& a, const std::vector<std::string>& names,
+                                          const std::string& what) {
+    const auto index = [&](const std::string& name, const char* option) {
+        const auto it = std::find(names.begin(), names.end(), name);
+        if (it == names.end())
+            throw std::invalid_argument(std::string(option) + ": \"" + name + "\" is not an axis of " + what +
+                                        " (axes: " + joined(names, ", ") + ")");
+        return static_cast<std::size_t>(it - names.begin());
+    };
+    // Every axis, once: the decoupling is over the whole stage.
+    std::vector<std::string> axes = a.axes;
+    if (axes == std::vector<std::string>{"all"}) axes = names;
+    std::set<std::size_t> seen;
+    for (const std::string& name : axes)
+        if (!seen.insert(index(name, "--axes")).second)
+            throw std::invalid_argument("--axes: \"" + name + "\" is named twice");
+    if (seen.size() != names.size())
+        throw std::invalid_argument("--axes: name every axis of " + what + " (" + joined(names, ",") +
+                                    "): they are decoupled together");
+    std::map<std::string, double> range_um;
+    for (const auto& [name, r] : a.range_um) range_um[names[index(name, "--range-um")]] = r;
+    for (const std::string& x : names) {
+        if (!range_um.count(x) && a.range_every_um > 0.0) range_um[x] = a.range_every_um;
+        const auto r = range_um.find(x);
+        if (r == range_um.end() || !(r->second > 0.0))
+            throw std::invalid_argument("--range-um: no range > 0 for axis " + x + " (give one for all, or NAME=UM each)");
+    }
+    return range_um;
+}
+
+json coupling_change(const std::vector<std::string>& names, const measure::MimoFrfEstimate& eb,
+                     const measure::MimoFrfEstimate& ea, bool& decoupled) {
+    const measure::Coupling cb = measure::coupling(eb.frequency_Hz, eb.response);
+    const measure::Coupling ca = measure::coupling(ea.frequency_Hz, ea.response);
+    json reduction = json::object(), unmeasured = json::object();
+    decoupled = true;
+    for (std::size_t k = 0; k < cb.pairs.size(); ++k) {
+        const measure::CouplingPair& p = cb.pairs[k];
+        const std::string pair = names[static_cast<std::size_t>(p.output)] + "<-" + names[static_cast<std::size_t>(p.input)];
+        double snr_db = 0.0;
+        for (const int l : cb.low_lines) snr_db += eb.snr_db[static_cast<std::size_t>(l)](p.output, p.input);
+        snr_db /= static_cast<double>(cb.low_lines.size());
+        const double r = p.low_frequency_db - ca.pairs[k].low_frequency_db;
+        reduction[pair] = r;
+        if (snr_db < kMeasuredSnr_dB)
+            unmeasured[pair] = "at the noise floor (SNR " + format::significant(snr_db, 3) + " dB at the low lines): no coupling to remove";
+        else
+            decoupled = decoupled && r >= kRequiredReduction_dB;
+    }
+    std::vector<double> low_Hz;
+    for (const int l : cb.low_lines) low_Hz.push_back(eb.frequency_Hz[static_cast<std::size_t>(l)]);
+    return {{"low_frequency_lines_Hz", low_Hz},
+            {"before_db", pair_db(names, cb)},
+            {"after_db", pair_db(names, ca)},
+            {"reduction_db", reduction},
+            {"not_measured", unmeasured},
+            {"required_reduction_db", kRequiredReduction_dB}};
+}
+
+std::string coupling_table_md(const json& coupling) {
+    std::ostringstream md;
+    md << "\nLow-frequency coupling (mean over the lines at ";
+    const json& low = coupling["low_frequency_lines_Hz"];
+    for (std::size_t k = 0; k < low.size(); ++k) md << (k ? ", " : "") << format::significant(low[k].get<double>(), 4);
+    md << " Hz), open loop, before and after the output matrix D = G0^-1 diag(G0):\n\n"
+          "| pair | before (dB) | after (dB) | reduction (dB) |\n|---|---|---|---|\n";
+    for (const auto& [pair, db] : coupling["before_db"].items())
+        md << "| " << pair << " | " << format::significant(db.get<double>(), 4) << " | "
+           << format::significant(coupling["after_db"][pair].get<double>(), 4) << " | "
+           << format::significant(coupling["reduction_db"][pair].get<double>(), 4)
+           << (coupling["not_measured"].contains(pair) ? " (" + coupling["not_measured"][pair].get<std::string>() + ")"
+                                                        : std::string())
+           << " |\n";
+    return md.str();
+}
 
 json run_axes_commission(const AxesCommission& a, const std::function<void(const std::string&)>& progress,
                          const std::function<bool()>& stop_requested) {
@@ -60,29 +123,9 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
     };
     const sim::Scenario s = sim::load_scenario(a.scenario);
     if (!s.multi_axis()) throw std::invalid_argument("--axes: the scenario's stage has one axis (leave --axes out)");
-    // Every axis, once: the decoupling is over the whole stage.
-    std::vector<std::string> axes = a.axes;
-    if (axes == std::vector<std::string>{"all"}) {
-        axes.clear();
-        for (const sim::AxisSpec& x : s.axes) axes.push_back(x.name);
-    }
-    std::set<std::size_t> seen;
-    for (const std::string& name : axes)
-        if (!seen.insert(sim::axis_named(s, name, "--axes")).second)
-            throw std::invalid_argument("--axes: \"" + name + "\" is named twice");
-    if (seen.size() != s.axes.size()) {
-        throw std::invalid_argument("--axes: name every axis of the stage (" + sim::axis_names(s, ",") +
-                                    "): they are decoupled together");
-    }
-    std::map<std::string, double> range_um;
-    for (const auto& [name, r] : a.range_um) range_um[s.axes[sim::axis_named(s, name, "--range-um")].name] = r;
-    for (const sim::AxisSpec& x : s.axes) {
-        if (!range_um.count(x.name) && a.range_every_um > 0.0) range_um[x.name] = a.range_every_um;
-        const auto r = range_um.find(x.name);
-        if (r == range_um.end() || !(r->second > 0.0))
-            throw std::invalid_argument("--range-um: no range > 0 for axis " + x.name +
-                                        " (give one for all, or NAME=UM each)");
-    }
+    std::vector<std::string> names;
+    for (const sim::AxisSpec& x : s.axes) names.push_back(x.name);
+    const std::map<std::string, double> range_um = axes_ranges(a, names, "the stage");
     const std::filesystem::path dir(a.out);
     std::filesystem::create_directories(dir);
 
@@ -125,38 +168,14 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
     const measure::MimoFrfSimRun before = measure::run_mimo_frf_sim(s, fr);
     const measure::MimoFrfEstimate& eb = before.estimate;
     const measure::StaticDecoupling d = measure::static_decoupling(eb.frequency_Hz, eb.response);
-    const measure::Coupling cb = measure::coupling(eb.frequency_Hz, eb.response);
 
     // 3. Through the output matrix.
     say("coupling: measuring again through the decoupling output matrix");
     const measure::MimoFrfSimRun after = measure::run_mimo_frf_sim(s, fr, d.output_matrix);
-    const measure::Coupling ca = measure::coupling(after.estimate.frequency_Hz, after.estimate.response);
-    json reduction = json::object(), unmeasured = json::object();
     bool decoupled = true;
-    for (std::size_t k = 0; k < cb.pairs.size(); ++k) {
-        const measure::CouplingPair& p = cb.pairs[k];
-        const std::string pair = s.axes[static_cast<std::size_t>(p.output)].name + "<-" +
-                                 s.axes[static_cast<std::size_t>(p.input)].name;
-        double snr_db = 0.0;
-        for (const int l : cb.low_lines) snr_db += eb.snr_db[static_cast<std::size_t>(l)](p.output, p.input);
-        snr_db /= static_cast<double>(cb.low_lines.size());
-        const double r = p.low_frequency_db - ca.pairs[k].low_frequency_db;
-        reduction[pair] = r;
-        if (snr_db < kMeasuredSnr_dB)
-            unmeasured[pair] = "at the noise floor (SNR " + format::significant(snr_db, 3) + " dB at the low lines): no coupling to remove";
-        else
-            decoupled = decoupled && r >= kRequiredReduction_dB;
-    }
-    std::vector<double> low_Hz;
-    for (const int l : cb.low_lines) low_Hz.push_back(eb.frequency_Hz[static_cast<std::size_t>(l)]);
-    out["coupling"] = {{"low_frequency_lines_Hz", low_Hz},
-                       {"before_db", pair_db(s, cb)},
-                       {"after_db", pair_db(s, ca)},
-                       {"reduction_db", reduction},
-                       {"not_measured", unmeasured},
-                       {"required_reduction_db", kRequiredReduction_dB},
-                       {"static_gain", design::matrix_json(d.g0)},
-                       {"condition_1", d.condition_1}};
+    out["coupling"] = coupling_change(names, eb, after.estimate, decoupled);
+    out["coupling"]["static_gain"] = design::matrix_json(d.g0);
+    out["coupling"]["condition_1"] = d.condition_1;
     out["output_matrix"] = design::matrix_json(d.output_matrix);
     out["decoupled"] = decoupled;
 
@@ -228,15 +247,7 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
            << (r.contains("bandwidth_Hz") ? format::significant(r["bandwidth_Hz"].get<double>(), 4) : std::string("-")) << " | "
            << x.name << "/report.md |\n";
     }
-    md << "\nLow-frequency coupling (mean over the lines at ";
-    for (std::size_t k = 0; k < low_Hz.size(); ++k) md << (k ? ", " : "") << format::significant(low_Hz[k], 4);
-    md << " Hz), open loop, before and after the output matrix D = G0^-1 diag(G0):\n\n"
-          "| pair | before (dB) | after (dB) | reduction (dB) |\n|---|---|---|---|\n";
-    for (const auto& [pair, db] : out["coupling"]["before_db"].items())
-        md << "| " << pair << " | " << format::significant(db.get<double>(), 4) << " | "
-           << format::significant(out["coupling"]["after_db"][pair].get<double>(), 4) << " | "
-           << format::significant(reduction[pair].get<double>(), 4)
-           << (unmeasured.contains(pair) ? " (" + unmeasured[pair].get<std::string>() + ")" : std::string()) << " |\n";
+    md << coupling_table_md(out["coupling"]);
     md << "\nA " << format::significant(kCheckFrequency_Hz, 4)
        << " Hz triangle over each axis's range, the others holding their centres (scenario.json, case "
           "commissioned; cross motion in % of the driven axis's range):\n\n"

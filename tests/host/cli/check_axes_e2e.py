@@ -194,6 +194,15 @@ try:
     check(gain is not None and gain >= 15.0,
           f"through the board's decoupling output matrix every coupled pair is {gain} dB lower (>= 15 dB)", err)
 
+    # Commissioning on the board: what it cannot do is refused before
+    # anything moves (the whole run takes minutes: docs/commissioning.md).
+    r = run(*d, "commission", "--axes", "x,y" if n == 3 else "x", "--range-um", "10", "--out", os.path.join(tmp, "c"))
+    check(r.returncode == 2 and f"--axes: name every axis of the board ({','.join(names)})" in r.stderr,
+          "commission --axes naming too few axes: exit 2, the board's axes named", r.stderr)
+    r = run(*d, "commission", "--axis", "w", "--range-um", "10", "--out", os.path.join(tmp, "c"))
+    check(r.returncode == 2 and "--axis: 'w' is not an axis of this board" in r.stderr,
+          "commission --axis w: exit 2 naming the board's axes", r.stderr)
+
     # The waves of a record are its client's: they stop when it ends.
     st = json.loads(run(*d, "status", "--axis", "all").stdout)
     check(not any(x["wave_running"] for x in st["axes"]), "the record's waves stopped with its client",
