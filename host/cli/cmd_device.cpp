@@ -86,23 +86,6 @@ void add_axis_option(CLI::App* cmd, std::string& axis, bool all) {
                         : "x | y | z (default: the only axis; required on a multi-axis board)");
 }
 
-// One axis's entries of the status (its axes block).
-json axis_status(const link::StatusReply& st, int a) {
-    return {{"axis", axis_name(a)},
-            {"armed", st.axis_armed[a]},
-            {"tripped", st.axis_tripped[a]},
-            {"trip_reason", trip_reason_name(static_cast<TripReason>(st.axis_trip_reason[a]))},
-            {"wave_running", st.axis_wave_running[a]},
-            {"excitation_running", st.axis_excitation_running[a]},
-            {"swaps", st.axis_swaps[a]},
-            {"r_um", st.axis_r_um[a]},
-            {"y_um", st.axis_y_um[a]},
-            {"u_V", st.axis_u_V[a]},
-            {"channel_u_V", st.channel_u_V[a]},
-            {"channel_clamped", st.channel_clamped[a]},
-            {"channel_slew_limited", st.channel_slew_limited[a]}};
-}
-
 // Groups in the order a session sends them: limits first (the limiter is
 // "not configured" until then), rc after the feedback it needs.
 const link::ParamGroup kGroupOrder[] = {link::ParamGroup::kLimits, link::ParamGroup::kFeedforward,
@@ -125,9 +108,9 @@ void add_status(CLI::App& app) {
             json out = {{"device", c.address()}, {"hello", hostlink::to_json(c.info())}, {"status", hostlink::to_json(st)}};
             if (a == kAllAxes) {
                 out["axes"] = json::array();
-                for (int i = 0; i < c.axis_count(); ++i) out["axes"].push_back(axis_status(st, i));
+                for (int i = 0; i < c.axis_count(); ++i) out["axes"].push_back(hostlink::axis_status_json(st, i));
             } else if (c.axis_count() > 1 || !axis->empty()) {
-                out["axis"] = axis_status(st, a);
+                out["axis"] = hostlink::axis_status_json(st, a);
             }
             print(out);
         });

@@ -329,6 +329,23 @@ json storage_json(const link::StatusReply& s) {
 
 }  // namespace
 
+json axis_status_json(const link::StatusReply& st, int a) {
+    const std::size_t i = static_cast<std::size_t>(a);
+    return {{"axis", std::string(1, "xyz"[a % 3])},
+            {"armed", st.axis_armed[i]},
+            {"tripped", st.axis_tripped[i]},
+            {"trip_reason", trip_reason_name(static_cast<TripReason>(st.axis_trip_reason[i]))},
+            {"wave_running", st.axis_wave_running[i]},
+            {"excitation_running", st.axis_excitation_running[i]},
+            {"swaps", st.axis_swaps[i]},
+            {"r_um", st.axis_r_um[i]},
+            {"y_um", st.axis_y_um[i]},
+            {"u_V", st.axis_u_V[i]},
+            {"channel_u_V", st.channel_u_V[i]},
+            {"channel_clamped", st.channel_clamped[i]},
+            {"channel_slew_limited", st.channel_slew_limited[i]}};
+}
+
 json to_json(const link::StatusReply& s) {
     const char* const recorder_states[] = {"idle", "armed", "triggered", "done"};
     json faults = json::array();

@@ -25,6 +25,8 @@ nlohmann::json to_json(const link::InputMatrixParams& g);
 nlohmann::json to_json(const link::OutputMatrixParams& g);
 nlohmann::json to_json(const link::HelloReply& h);
 nlohmann::json to_json(const link::StatusReply& s);
+// Axis a's entries of the status (its axes block), named x, y or z.
+nlohmann::json axis_status_json(const link::StatusReply& s, int a);
 
 void merge_json(const nlohmann::json& j, link::FeedforwardParams& g);
 void merge_json(const nlohmann::json& j, link::FeedbackParams& g);

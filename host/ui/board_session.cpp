@@ -1,5 +1,8 @@
 #include "ui/board_session.hpp"
 
+#include "link/recorded_signals.hpp"
+
+#include <algorithm>
 #include <chrono>
 #include <limits>
 
@@ -7,6 +10,7 @@
 #include "link/params_json.hpp"
 #include "piezoloop/params/field_check.hpp"
 #include "status_text.hpp"
+#include "ui/field_refusal.hpp"
 
 namespace piezoloop::ui {
 
@@ -29,8 +33,33 @@ std::string field_of_message(const std::string& group, const std::string& messag
 }
 
 template <class G>
-json read_group(hostlink::Client& c) {
-    return hostlink::to_json(c.get<G>());
+json read_group(hostlink::Client& c, uint8_t axis = 0) {
+    return hostlink::to_json(c.get<G>(link::board_group(G::kGroup) ? 0 : axis));
+}
+
+// The console recorder's channel ids (axis * kSignalCount + signal): one
+// axis, its first recorder_channels signals (r, y, e, u); a board of axes,
+// x's r and y, then every other axis's y (and with two axes y's r too).
+std::vector<uint8_t> console_channels(const link::HelloReply& h) {
+    std::vector<uint8_t> ids;
+    if (h.axis_count <= 1) {
+        for (uint8_t i = 0; i < h.recorder_channels; ++i) ids.push_back(i);
+        return ids;
+    }
+    ids = {hostlink::kSignalR, hostlink::kSignalY};
+    for (uint8_t a = 1; a < h.axis_count && ids.size() < h.recorder_channels; ++a) {
+        if (h.axis_count == 2 && ids.size() + 2 <= h.recorder_channels)
+            ids.push_back(static_cast<uint8_t>(a * kSignalCount + hostlink::kSignalR));
+        ids.push_back(static_cast<uint8_t>(a * kSignalCount + hostlink::kSignalY));
+    }
+    return ids;
+}
+
+// A channel's name in the console: axis 0's signals by their own name (r,
+// y, ...), another axis's with the axis before it (y.y, z.y).
+std::string channel_name(uint8_t id) {
+    const std::string signal = hostlink::signal_name(static_cast<uint8_t>(id % kSignalCount));
+    return id < kSignalCount ? signal : std::string(1, "xyz"[(id / kSignalCount) % 3]) + "." + signal;
 }
 
 }  // namespace
@@ -51,9 +80,9 @@ const std::vector<std::string>& BoardSession::form_groups() {
 BoardSession::BoardSession(hostlink::Client client, double history_s) : client_(std::move(client)) {
     address_ = client_.address();
     hello_ = client_.info();
+    channels_ = console_channels(hello_);
     std::vector<Signal> signals;
-    for (uint8_t id = 0; id < hello_.recorder_channels; ++id)
-        signals.push_back({hostlink::signal_name(id), hostlink::signal_unit(id)});
+    for (const uint8_t id : channels_) signals.push_back({channel_name(id), hostlink::signal_unit(id)});
     const auto capacity = static_cast<std::size_t>(history_s * hello_.loop_rate_Hz);
     history_ = std::make_unique<SampleHistory>(std::move(signals), hello_.loop_rate_Hz, capacity);
 }
@@ -74,7 +103,15 @@ void BoardSession::start() {
 void BoardSession::arm_console_recorder() {
     link::RecorderParams rec;
     rec.channel_count = hello_.recorder_channels;
-    for (uint8_t i = 0; i < hello_.recorder_channels; ++i) rec.channels[i] = i;
+    // The board records exactly recorder_channels channels: the console's,
+    // then axis 0's others to fill.
+    std::vector<uint8_t> ids = channels_;
+    for (uint8_t s = 0; s < kSignalCount && ids.size() < hello_.recorder_channels; ++s)
+        if (std::find(ids.begin(), ids.end(), s) == ids.end()) ids.push_back(s);
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+        rec.channels[i] = ids[i] % kSignalCount;
+        rec.axes[i] = ids[i] / kSignalCount;
+    }
     rec.decimation = 1;
     rec.mode = RecordMode::kContinuous;
     rec.trigger = TriggerMode::kImmediate;
@@ -154,8 +191,10 @@ void BoardSession::append_log_frames(std::size_t from) {
         const uint32_t* raw = log.raw(i);
         for (std::size_t ch = 0; ch < channels; ++ch) {
             const uint8_t id = log.channels()[ch];
-            if (id < values.size())
-                values[id] = static_cast<float>(hostlink::log_sample_physical(raw[ch], id, log.format(), hello_));
+            const auto at = std::find(channels_.begin(), channels_.end(), id);
+            if (at != channels_.end())
+                values[static_cast<std::size_t>(at - channels_.begin())] =
+                    static_cast<float>(hostlink::log_sample_physical(raw[ch], id, log.format(), hello_));
         }
         history_->append(recording_offset_ + log.tick(i), values, arrival);
     }
@@ -164,8 +203,8 @@ void BoardSession::append_log_frames(std::size_t from) {
     have_last_ = true;
 }
 
-measure::FrfPlan BoardSession::plan_frf(const measure::FrfRequest& r) {
-    return locked([&](hostlink::Client& c) { return hostlink::plan_frf_device(c, r); });
+measure::FrfPlan BoardSession::plan_frf(const measure::FrfRequest& r, uint8_t axis) {
+    return locked([&](hostlink::Client& c) { return hostlink::plan_frf_device(c, r, axis); });
 }
 
 hostlink::DeviceFrfRun BoardSession::measure_frf(const measure::FrfRequest& r, hostlink::MeasureOptions o) {
@@ -174,12 +213,12 @@ hostlink::DeviceFrfRun BoardSession::measure_frf(const measure::FrfRequest& r, h
     return run;
 }
 
-measure::MeasureBounds BoardSession::measure_bounds() {
-    return locked([](hostlink::Client& c) { return hostlink::board_bounds(c); });
+measure::MeasureBounds BoardSession::measure_bounds(uint8_t axis) {
+    return locked([axis](hostlink::Client& c) { return hostlink::board_bounds(c, axis); });
 }
 
-double BoardSession::setpoint_um() {
-    return locked([](hostlink::Client& c) { return static_cast<double>(c.status().r_um); });
+double BoardSession::setpoint_um(uint8_t axis) {
+    return locked([axis](hostlink::Client& c) { return static_cast<double>(c.status().axis_r_um[axis]); });
 }
 
 measure::StepRun BoardSession::measure_step(const measure::StepRequest& r, hostlink::MeasureOptions o) {
@@ -278,6 +317,7 @@ void BoardSession::poll_status_locked() {
     json j;
     {
         const link::StatusReply st = client_.status();
+        last_status_ = st;
         j["status"] = hostlink::to_json(st);
         j["storage_text"] = storage_state_text(st.storage);
         const hostlink::ClientCounters& cc = client_.counters();
@@ -294,6 +334,15 @@ void BoardSession::poll_status_locked() {
     }
     j["fault_meanings"] = meanings;
     j["trip_meaning"] = trip_meaning(j["status"]["trip_reason"].get<std::string>());
+    if (hello_.axis_count > 1) {
+        const link::StatusReply& st = last_status_;
+        j["axes"] = json::array();
+        for (int a = 0; a < hello_.axis_count; ++a) {
+            json ax = hostlink::axis_status_json(st, a);
+            ax["trip_meaning"] = trip_meaning(ax["trip_reason"].get<std::string>());
+            j["axes"].push_back(ax);
+        }
+    }
     j["device"] = address_;
     j["measuring"] = measuring_.load();
     j["hello"] = hostlink::to_json(hello_);
@@ -334,31 +383,48 @@ void BoardSession::clear_trip() {
 }
 
 void BoardSession::stop_motion() {
-    locked([](hostlink::Client& c) {
-        c.stop_wave();
+    locked([this](hostlink::Client& c) {
+        for (int a = 0; a < hello_.axis_count; ++a) c.stop_wave(static_cast<uint8_t>(a));
         c.stream_stop(false);
         return 0;
     });
     poll_status();
 }
 
-json BoardSession::group_json(const std::string& group) {
+uint8_t BoardSession::axis_index(const std::string& name) const {
+    if (name.empty() && hello_.axis_count <= 1) return 0;
+    for (int a = 0; a < hello_.axis_count; ++a)
+        if (name == std::string(1, "xyz"[a])) return static_cast<uint8_t>(a);
+    const std::string names = hello_.axis_count == 2 ? "x, y" : hello_.axis_count == 3 ? "x, y, z" : "x";
+    throw std::invalid_argument("axis: " + (name.empty() ? std::string("give one") : "'" + name + "' is none") +
+                                " of this board's axes (" + names + ")");
+}
+
+uint8_t axis_field(const BoardSession& board, const std::string& name) {
+    try {
+        return board.axis_index(name);
+    } catch (const std::invalid_argument& e) {
+        throw FieldRefusal("axis", e.what());
+    }
+}
+
+json BoardSession::group_json(const std::string& group, uint8_t axis) {
     const link::ParamGroup g = hostlink::parse_group(group);
     json out;
     locked([&](hostlink::Client& c) {
-        params::with_group(g, [&](auto tag) { out = read_group<typename decltype(tag)::type>(c); });
+        params::with_group(g, [&](auto tag) { out = read_group<typename decltype(tag)::type>(c, axis); });
         return 0;
     });
     return out;
 }
 
-json BoardSession::groups_json() {
+json BoardSession::groups_json(uint8_t axis) {
     json out;
-    for (const std::string& g : form_groups()) out[g] = group_json(g);
+    for (const std::string& g : form_groups()) out[g] = group_json(g, axis);
     return out;
 }
 
-SetOutcome BoardSession::set_group(const std::string& group, const json& fields) {
+SetOutcome BoardSession::set_group(const std::string& group, const json& fields, uint8_t axis) {
     if (std::find(form_groups().begin(), form_groups().end(), group) == form_groups().end())
         throw std::invalid_argument("group: '" + group + "' is not one the console edits");
     const link::ParamGroup g = hostlink::parse_group(group);
@@ -367,7 +433,8 @@ SetOutcome BoardSession::set_group(const std::string& group, const json& fields)
     locked([&](hostlink::Client& c) {
         params::with_group(g, [&](auto tag) {
             using G = typename decltype(tag)::type;
-            G value = c.get<G>();
+            const uint8_t a = link::board_group(G::kGroup) ? 0 : axis;
+            G value = c.get<G>(a);
             try {
                 hostlink::merge_json(fields, value);
                 params::FieldCheck check;
@@ -378,7 +445,7 @@ SetOutcome BoardSession::set_group(const std::string& group, const json& fields)
                     out.index = s.index;
                     out.message = piezoloop::describe(s);
                 } else {
-                    c.set(value);
+                    c.set(value, a);
                 }
             } catch (const hostlink::DeviceError& e) {
                 out.ok = false;
@@ -392,9 +459,9 @@ SetOutcome BoardSession::set_group(const std::string& group, const json& fields)
                 out.field = field_of_message(group, e.what());
                 out.message = e.what();
             }
-            out.values = read_group<G>(c);
+            out.values = read_group<G>(c, a);
         });
-        if (g == link::ParamGroup::kLimits) {
+        if (g == link::ParamGroup::kLimits && axis == 0) {
             const std::lock_guard lock(status_m_);
             limits_ = out.values;
         }
@@ -407,6 +474,7 @@ SetOutcome BoardSession::set_group(const std::string& group, const json& fields)
 json BoardSession::start_wave(const json& request) {
     cli::WaveRequest w;
     bool arm = false;
+    uint8_t axis = 0;
     for (auto it = request.begin(); it != request.end(); ++it) {
         const std::string& k = it.key();
         if (k == "trajectory") w.trajectory = it->get<std::string>();
@@ -415,18 +483,19 @@ json BoardSession::start_wave(const json& request) {
         else if (k == "offset") w.offset = it->get<std::string>();
         else if (k == "cycles") w.cycles = it->get<uint32_t>();
         else if (k == "arm") arm = it->get<bool>();
+        else if (k == "axis") axis = axis_index(it->get<std::string>());
         else throw std::invalid_argument("wave." + k + ": unknown field (trajectory, frequency_Hz, amplitude_um, "
-                                         "offset, cycles, arm)");
+                                         "offset, cycles, arm, axis)");
     }
     cli::check_wave_request(w);
     json out;
     locked([&](hostlink::Client& c) {
         const link::TrajectoryParams p = cli::wave_params(w, hello_.loop_rate_Hz);
-        c.set(p);
-        if (c.status().wave_running) c.stop_wave();
+        c.set(p, axis);
+        if (c.status().axis_wave_running[axis]) c.stop_wave(axis);
         const bool armed = c.status().armed;
-        c.start_wave(hostlink::wave_flag::kDetached | (arm && !armed ? hostlink::wave_flag::kArm : 0));
-        out = {{"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>())}};
+        c.start_wave(hostlink::wave_flag::kDetached | (arm && !armed ? hostlink::wave_flag::kArm : 0), axis);
+        out = {{"trajectory", hostlink::to_json(c.get<link::TrajectoryParams>(axis))}};
         return 0;
     });
     poll_status();

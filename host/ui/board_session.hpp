@@ -2,8 +2,10 @@
 // log blocks as they arrive (into the SampleHistory the pages' scopes
 // read) and polls the board's status, and the requests the pages make
 // (arm, disarm, parameters, waves) between its reads. The board's recorder
-// runs continuously, r, y, e, u (as many as the board records), for as long
-// as the console runs; its recorder group is the console's, not a form's.
+// runs continuously, r, y, e, u (as many as the board records; on a board
+// of axes x's r and y and every other axis's y, named "y.y", "z.y"), for as
+// long as the console runs; its recorder group is the console's, not a
+// form's.
 // A measurement (frequency response, step, loops) takes the link and the
 // recorder over for its run: the history then gets the measurement's r, y
 // and u (e is not recorded meanwhile: a gap), the status is polled between
@@ -71,16 +73,21 @@ public:
     void disarm();
     void clear_trip();
     void stop_motion();  // the wave and any setpoint stream; the setpoint holds
-    nlohmann::json groups_json();  // every group a form edits
-    nlohmann::json group_json(const std::string& group);
-    SetOutcome set_group(const std::string& group, const nlohmann::json& fields);
-    // {trajectory, frequency_Hz, amplitude_um, offset, cycles, arm}: set the
-    // trajectory group and start it (detached from this link's silence).
+    // A board of axes: an axis's groups by its name ("x", "y", "z"; "" on a
+    // one-axis board); the board's groups (link) take none.
+    int axis_count() const { return hello_.axis_count; }
+    uint8_t axis_index(const std::string& name) const;  // std::invalid_argument naming `axis`
+    nlohmann::json groups_json(uint8_t axis = 0);  // every group a form edits
+    nlohmann::json group_json(const std::string& group, uint8_t axis = 0);
+    SetOutcome set_group(const std::string& group, const nlohmann::json& fields, uint8_t axis = 0);
+    // {trajectory, frequency_Hz, amplitude_um, offset, cycles, arm, axis}:
+    // set the axis's trajectory group and start it (detached from this
+    // link's silence).
     nlohmann::json start_wave(const nlohmann::json& request);
 
     // `measure frf`'s plan against the board (hostlink::plan_frf_device):
     // std::invalid_argument naming the option, before anything moves.
-    measure::FrfPlan plan_frf(const measure::FrfRequest& r);
+    measure::FrfPlan plan_frf(const measure::FrfRequest& r, uint8_t axis = 0);
     // `measure frf` on the board (hostlink::run_frf_device), the link held
     // for its whole run; o.progress is called with the link held.
     hostlink::DeviceFrfRun measure_frf(const measure::FrfRequest& r, hostlink::MeasureOptions o);
@@ -89,8 +96,8 @@ public:
     // Steps and loops (hostlink::board_bounds, run_step_device,
     // run_loops_device), as measure_frf; the board's bounds and the setpoint
     // it holds (a closed-loop step starts there) for their requests.
-    measure::MeasureBounds measure_bounds();
-    double setpoint_um();
+    measure::MeasureBounds measure_bounds(uint8_t axis = 0);
+    double setpoint_um(uint8_t axis = 0);
     measure::StepRun measure_step(const measure::StepRequest& r, hostlink::MeasureOptions o);
     measure::LoopsRun measure_loops(const measure::LoopsRequest& r, hostlink::MeasureOptions o);
     // `piezoloop commission` on the board (cli::run_commission_session), as
@@ -126,6 +133,8 @@ private:
     hostlink::Client client_;
     std::string address_;
     link::HelloReply hello_{};
+    std::vector<uint8_t> channels_;   // the console recorder's channel ids, the history's signals in order
+    link::StatusReply last_status_{};  // the last status poll (the link's lock held)
     std::unique_ptr<SampleHistory> history_;
     std::mutex link_;
     std::thread thread_;
@@ -142,5 +151,9 @@ private:
     std::string link_error_;
     std::atomic<uint64_t> status_serial_{0};
 };
+
+// A form's "axis" field on `board` (empty on a one-axis board), refused at
+// that field (FieldRefusal) when it names no axis of the board.
+uint8_t axis_field(const BoardSession& board, const std::string& name);
 
 }  // namespace piezoloop::ui

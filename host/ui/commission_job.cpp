@@ -52,12 +52,15 @@ CommissionForm parse_commission_form(const json& j, const std::string& scenario)
         } else if (k == "save") {
             if (!v.is_boolean()) throw FieldRefusal("save", "save: must be true or false");
             f.save = v.get<bool>();
+        } else if (k == "axis") {
+            if (!v.is_string()) throw FieldRefusal("axis", "axis: must be x, y or z");
+            f.axis = v.get<std::string>();
         } else if (k == "on") {
             const std::string on = v.is_string() ? v.get<std::string>() : "";
             if (on != "board" && on != "simulator") throw FieldRefusal("on", "on: must be board or simulator");
             f.simulator = on == "simulator";
         } else {
-            throw FieldRefusal("", k + ": unknown field (range_um, target_bandwidth_Hz, save, on)");
+            throw FieldRefusal("", k + ": unknown field (range_um, target_bandwidth_Hz, save, on, axis)");
         }
     }
     if (!range) throw FieldRefusal("range_um", "range_um: required");
@@ -71,10 +74,11 @@ FieldRefusal commission_refusal(const std::string& message) { return renamed_ref
 MeasurementJob::Work commission_work(BoardSession& board, const std::string& scenario, const json& form) {
     const CommissionForm f = parse_commission_form(form, scenario);
     // The board must be free now (not a refusal after the click's reply).
-    if (!f.simulator) (void)board.measure_bounds();
+    if (!f.simulator) (void)board.measure_bounds(axis_field(board, f.axis));
     return [&board, f, scenario, form](const MeasurementJob::Context& job) {
         cli::CommissionSession s;
         s.request = f.request;
+        if (!f.simulator) s.axis = f.axis;
         s.save = f.save && !f.simulator;
         s.out = fresh_directory();
         if (f.simulator) s.scenario = scenario;

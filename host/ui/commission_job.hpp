@@ -26,6 +26,7 @@ struct CommissionForm {
     commission::CommissionRequest request;
     bool save = true;
     bool simulator = false;
+    std::string axis;  // a board of axes: the axis commissioned (x, y, z)
 };
 // `scenario`: the console's --scenario ("" without): the simulator needs it.
 CommissionForm parse_commission_form(const nlohmann::json& j, const std::string& scenario);

@@ -188,6 +188,8 @@ void ConsoleServer::Impl::routes() {
                     hello["signals"] = signals;
                     hello["rate_Hz"] = board.history().rate_Hz();
                     hello["simulator"] = !options.scenario.empty();  // commissioning may run simulated
+                    hello["axes"] = json::array();  // the board's axes by name
+                    for (int a = 0; a < board.axis_count(); ++a) hello["axes"].push_back(std::string(1, "xyz"[a]));
                     {
                         const std::lock_guard lock(v->m);
                         hello["scope"] = to_json(v->settings);
@@ -332,12 +334,17 @@ void ConsoleServer::Impl::routes() {
         }
     });
 
-    server.Get("/api/params", [this](const httplib::Request&, httplib::Response& res) {
+    // ?axis=x|y|z on a board of axes: that axis's groups.
+    server.Get("/api/params", [this](const httplib::Request& req, httplib::Response& res) {
         try {
+            const uint8_t axis = board.axis_index(req.get_param_value("axis"));
             const json schema = hostlink::parameter_schema();
             json groups = json::object();
             for (const std::string& g : BoardSession::form_groups()) groups[g] = schema["properties"][g];
-            send_json(res, {{"groups", BoardSession::form_groups()}, {"schema", groups}, {"values", board.groups_json()}});
+            send_json(res, {{"groups", BoardSession::form_groups()}, {"schema", groups}, {"values", board.groups_json(axis)},
+                            {"axis", req.get_param_value("axis")}});
+        } catch (const std::invalid_argument& e) {
+            send_json(res, {{"error", e.what()}}, 400);
         } catch (const BoardBusy& e) {
             send_json(res, {{"error", e.what()}}, 409);
         } catch (const std::exception& e) {
@@ -397,7 +404,8 @@ void ConsoleServer::Impl::routes() {
         return board.status_json();
     });
     control(R"(/api/params/([a-z_]+))", [this](const httplib::Request& req) {
-        return board.set_group(req.matches[1], json::parse(req.body)).to_json();
+        return board.set_group(req.matches[1], json::parse(req.body), board.axis_index(req.get_param_value("axis")))
+            .to_json();
     });
     control("/api/wave", [this](const httplib::Request& req) { return board.start_wave(json::parse(req.body)); });
 

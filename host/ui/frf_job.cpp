@@ -174,12 +174,15 @@ FrfForm parse_frf_form(const json& j) {
         } else if (k == "restart_stage") {
             if (!v.is_boolean()) throw FieldRefusal("restart_stage", "restart_stage: must be true or false");
             f.restart_stage = v.get<bool>();
+        } else if (k == "axis") {
+            if (!v.is_string()) throw FieldRefusal("axis", "axis: must be x, y or z");
+            f.axis = v.get<std::string>();
         } else if (k == "fit_order") {
             if (!v.is_string()) throw FieldRefusal("fit_order", "fit_order: must be text, N/M");
             order = v.get<std::string>();
         } else {
             throw FieldRefusal("", k + ": unknown field (from_Hz, to_Hz, amplitude_V, bias_V, periods, "
-                                       "transient_periods, signal, mode, restart_stage, fit_order)");
+                                       "transient_periods, signal, mode, restart_stage, fit_order, axis)");
         }
     }
     for (const char* k : {"from_Hz", "to_Hz", "amplitude_V"})
@@ -192,16 +195,18 @@ FieldRefusal form_refusal(const std::string& plan_message) { return renamed_refu
 
 json FrfJob::start(const json& form) {
     const FrfForm f = parse_frf_form(form);
+    const uint8_t axis = axis_field(board_, f.axis);
     try {
-        (void)board_.plan_frf(f.request);
+        (void)board_.plan_frf(f.request, axis);
     } catch (const BoardBusy&) {
         throw;
     } catch (const std::invalid_argument& e) {
         throw form_refusal(e.what());
     }
-    return job_.start(form, [this, f, form](const MeasurementJob::Context& c) {
+    return job_.start(form, [this, f, form, axis](const MeasurementJob::Context& c) {
         hostlink::MeasureOptions o;
         o.restart_stage = f.restart_stage;
+        o.axis = axis;
         o.stop_requested = c.stop_requested;
         o.progress = [&](double x) { c.report(x < 1.0 ? "recording" : "estimating", x); };
         try {

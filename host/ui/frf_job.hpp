@@ -27,6 +27,7 @@ struct FrfForm {
     measure::FrfRequest request;
     bool restart_stage = false;
     int fit_poles = 0, fit_zeros = 0;  // 0 poles: no fit
+    std::string axis;                  // a board of axes: the measured axis (x, y, z)
 };
 FrfForm parse_frf_form(const nlohmann::json& j);
 

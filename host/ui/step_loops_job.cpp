@@ -56,9 +56,10 @@ auto checked(F f, FieldRefusal (*refusal)(const std::string&)) {
     }
 }
 
-hostlink::MeasureOptions board_options(bool restart_stage, const MeasurementJob::Context& job) {
+hostlink::MeasureOptions board_options(bool restart_stage, uint8_t axis, const MeasurementJob::Context& job) {
     hostlink::MeasureOptions o;
     o.restart_stage = restart_stage;
+    o.axis = axis;
     o.stop_requested = job.stop_requested;
     o.progress = [report = job.report](double x) { report(x < 1.0 ? "recording" : "analysing", x); };
     return o;
@@ -77,6 +78,11 @@ auto on_board(bool restart_stage, F f) {
 
 std::vector<double> doubles(const json& v) { return v.get<std::vector<double>>(); }
 
+std::string axis_text(const json& v) {
+    if (!v.is_string()) throw FieldRefusal("axis", "axis: must be x, y or z");
+    return v.get<std::string>();
+}
+
 }  // namespace
 
 StepForm parse_step_form(const json& j) {
@@ -92,12 +98,13 @@ StepForm parse_step_form(const json& j) {
         else if (k == "from_um") in.from_um = optional_number(v, "from_um");
         else if (k == "duration_s") in.duration_s = number(v, "duration_s");
         else if (k == "restart_stage") f.restart_stage = flag(v, "restart_stage");
+        else if (k == "axis") f.axis = axis_text(v);
         else if (k == "mode") {
             in.mode = v.is_string() ? v.get<std::string>() : "?";
             if (in.mode != "" && in.mode != "open" && in.mode != "closed")
                 throw FieldRefusal("mode", "mode: must be open or closed");
         } else {
-            throw FieldRefusal("", k + ": unknown field (mode, step_V, bias_V, step_um, from_um, duration_s, restart_stage)");
+            throw FieldRefusal("", k + ": unknown field (mode, step_V, bias_V, step_um, from_um, duration_s, restart_stage, axis)");
         }
     }
     return f;
@@ -124,7 +131,8 @@ LoopsForm parse_loops_form(const json& j) {
             f.shape = v.is_string() ? v.get<std::string>() : "";
             if (f.shape != "triangle" && f.shape != "sine") throw FieldRefusal("shape", "shape: must be triangle or sine");
         } else if (k == "restart_stage") f.restart_stage = flag(v, "restart_stage");
-        else throw FieldRefusal("", k + ": unknown field (amplitudes_V, bias_V, frequency_Hz, cycles, shape, restart_stage)");
+        else if (k == "axis") f.axis = axis_text(v);
+        else throw FieldRefusal("", k + ": unknown field (amplitudes_V, bias_V, frequency_Hz, cycles, shape, restart_stage, axis)");
     }
     if (!amplitudes) throw FieldRefusal("amplitudes_V", "amplitudes_V: required");
     return f;
@@ -135,21 +143,22 @@ FieldRefusal loops_refusal(const std::string& message) { return renamed_refusal(
 
 MeasurementJob::Work step_work(BoardSession& board, const json& form) {
     const StepForm f = parse_step_form(form);
-    const measure::MeasureBounds b = checked([&] { return board.measure_bounds(); }, step_refusal);
+    const uint8_t axis = axis_field(board, f.axis);
+    const measure::MeasureBounds b = checked([&] { return board.measure_bounds(axis); }, step_refusal);
     const measure::StepRequest r = checked(
         [&] {
             // A closed step starts where the board holds, as on the command line.
             std::optional<double> held;
-            if (!f.input.from_um) held = board.setpoint_um();
+            if (!f.input.from_um) held = board.setpoint_um(axis);
             const measure::StepRequest req = measure::step_request(f.input, b, held);
             (void)measure::plan_step(b, req);
             return req;
         },
         step_refusal);
     const json source = source_json(board, b);
-    return [&board, f, r, form, source](const MeasurementJob::Context& job) {
+    return [&board, f, r, form, source, axis](const MeasurementJob::Context& job) {
         const measure::StepRun run = on_board(f.restart_stage, [&] {
-            return checked([&] { return board.measure_step(r, board_options(f.restart_stage, job)); }, step_refusal);
+            return checked([&] { return board.measure_step(r, board_options(f.restart_stage, axis, job)); }, step_refusal);
         });
         json out = measure::step_report(r, run, source);
         out["request"] = form;
@@ -159,7 +168,8 @@ MeasurementJob::Work step_work(BoardSession& board, const json& form) {
 
 MeasurementJob::Work loops_work(BoardSession& board, const json& form) {
     const LoopsForm f = parse_loops_form(form);
-    const measure::MeasureBounds b = checked([&] { return board.measure_bounds(); }, loops_refusal);
+    const uint8_t axis = axis_field(board, f.axis);
+    const measure::MeasureBounds b = checked([&] { return board.measure_bounds(axis); }, loops_refusal);
     const measure::LoopsRequest r = checked(
         [&] {
             const measure::LoopsRequest req =
@@ -169,9 +179,9 @@ MeasurementJob::Work loops_work(BoardSession& board, const json& form) {
         },
         loops_refusal);
     const json source = source_json(board, b);
-    return [&board, f, r, form, source](const MeasurementJob::Context& job) {
+    return [&board, f, r, form, source, axis](const MeasurementJob::Context& job) {
         const measure::LoopsRun run = on_board(f.restart_stage, [&] {
-            return checked([&] { return board.measure_loops(r, board_options(f.restart_stage, job)); }, loops_refusal);
+            return checked([&] { return board.measure_loops(r, board_options(f.restart_stage, axis, job)); }, loops_refusal);
         });
         json out = measure::loops_report(r, run, source);
         out["request"] = form;

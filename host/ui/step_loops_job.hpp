@@ -26,6 +26,7 @@ namespace piezoloop::ui {
 struct StepForm {
     measure::StepInput input;
     bool restart_stage = false;
+    std::string axis;  // a board of axes: the measured axis (x, y, z)
 };
 StepForm parse_step_form(const nlohmann::json& j);
 
@@ -38,6 +39,7 @@ struct LoopsForm {
     int cycles = 2;
     std::string shape = "triangle";
     bool restart_stage = false;
+    std::string axis;  // a board of axes: the measured axis (x, y, z)
 };
 LoopsForm parse_loops_form(const nlohmann::json& j);
 

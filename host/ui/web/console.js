@@ -24,10 +24,17 @@ const state = {
   nextCursor: 'A',
   psdCursors: {},      // spectrum cursors A, B: {bin, f_Hz, density}
   nextPsdCursor: 'A',
+  axes: ['x'],         // the board's axes
+  axis: '',            // a board of axes: the axis the forms, the wave and the measurements act on
 };
 window.piezoloop = state;  // for the browser tests and the curious
 
 function $(id) { return document.getElementById(id); }
+
+// A board of axes: the selected axis, in a query or a request's body.
+function multiAxis() { return state.axes.length > 1; }
+function axisQuery() { return multiAxis() ? `?axis=${state.axis}` : ''; }
+function withAxis(body) { return multiAxis() ? Object.assign({}, body, { axis: state.axis }) : body; }
 
 async function api(method, path, body) {
   const headers = { 'X-Piezoloop-Token': token };
@@ -339,7 +346,11 @@ function showStatus(st) {
     ['setpoint r', s.r_um === undefined ? '' : `${s.r_um.toFixed(4)} µm`],
     ['reading y', s.y_um === undefined ? '' : `${s.y_um.toFixed(4)} µm`],
     ['output u', s.u_V === undefined ? '' : `${s.u_V.toFixed(4)} V`],
-  ].concat(st.link_error ? [['link', st.link_error, 'tripped']] : []));
+  ].concat((st.axes || []).map((a) => [`axis ${a.axis}`,
+    `${a.armed ? 'armed' : 'disarmed'}, ${a.tripped ? `tripped (${a.trip_reason})` : 'not tripped'}, wave ` +
+    `${a.wave_running ? 'running' : 'stopped'}, r ${a.r_um.toFixed(4)} µm, y ${a.y_um.toFixed(4)} µm, ` +
+    `u ${a.u_V.toFixed(4)} V`, a.tripped ? 'tripped' : (a.armed ? 'armed' : '')]))
+    .concat(st.link_error ? [['link', st.link_error, 'tripped']] : []));
   const faults = $('faults');
   faults.replaceChildren();
   for (const f of st.fault_meanings || []) {
@@ -504,7 +515,7 @@ function renderGroup(group, schema, values) {
       err.textContent = `not JSON: ${e.message}`;
       return;
     }
-    const r = await api('POST', `/api/params/${group}`, body);
+    const r = await api('POST', `/api/params/${group}${axisQuery()}`, body);
     if (!r.ok) {
       err.textContent = r.data.error || r.data;
       return;
@@ -528,7 +539,7 @@ function showFieldError(form, e) {
 }
 
 async function loadParams() {
-  const r = await api('GET', '/api/params');
+  const r = await api('GET', `/api/params${axisQuery()}`);
   const box = $('params');
   box.replaceChildren();
   if (!r.ok) {
@@ -552,7 +563,7 @@ function waveForm() {
       cycles: Number(f.cycles.value),
       arm: f.arm.checked,
     };
-    const r = await api('POST', '/api/wave', body);
+    const r = await api('POST', '/api/wave', withAxis(body));
     $('wave-error').textContent = r.ok ? '' : r.data.error;
     if (r.ok) loadParams();
   };
@@ -588,7 +599,7 @@ function frfForm() {
       restart_stage: f.restart_stage.checked,
       fit_order: f.fit_order.value.trim(),
     };
-    const r = await api('POST', '/api/frf/start', body);
+    const r = await api('POST', '/api/frf/start', withAxis(body));
     if (!r.ok) showFrfError(r.data.field || '', r.data.error || String(r.data));
   };
   $('frf-stop').onclick = () => api('POST', '/api/frf/stop');
@@ -741,7 +752,7 @@ function jobForm(name, read) {
       showJobError(name, e.field || '', e.message);
       return;
     }
-    const r = await api('POST', `/api/${name}/start`, body);
+    const r = await api('POST', `/api/${name}/start`, withAxis(body));
     if (!r.ok) showJobError(name, r.data.field || '', r.data.error || String(r.data));
   };
   $(`${name}-stop`).onclick = () => api('POST', `/api/${name}/stop`);
@@ -997,6 +1008,15 @@ function connect() {
     // Commissioning the simulated stage needs the console's --scenario.
     const sim = document.querySelector('#commission [name="on"] option[value="simulator"]');
     if (sim && !h.simulator) sim.remove();
+    state.axes = h.axes && h.axes.length ? h.axes : ['x'];
+    if (multiAxis()) {
+      const sel = $('axis');
+      if (!state.axis) state.axis = state.axes[0];
+      sel.replaceChildren(...state.axes.map((a) => new Option(a, a)));
+      sel.value = state.axis;
+      sel.onchange = () => { state.axis = sel.value; loadParams(); };
+      $('axis-box').hidden = false;
+    }
     showControl(h);
     loadParams();
     // The first page takes control when nobody has it; later ones watch.

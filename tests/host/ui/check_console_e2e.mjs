@@ -27,7 +27,9 @@
 //     same board gives the same log hash and the same response, bit for bit
 //     (both restart the emulated stage at rest).
 //
-//   node check_console_e2e.mjs PIEZOLOOP SERVO_ELF CONFIGS_DIR device|scenario [SCOPE.png [BODE.png]]
+//   - (axes) a board of axes: see axesConsole.
+//
+//   node check_console_e2e.mjs PIEZOLOOP SERVO_ELF CONFIGS_DIR device|scenario|axes [SCOPE.png [BODE.png]]
 // Exit 77 (skipped) without QEMU, the image or /usr/bin/chromium.
 import { spawn, spawnSync } from 'node:child_process';
 import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
@@ -508,7 +510,73 @@ async function commissionFromPage(page, context, url) {
   return res;
 }
 
+// axes: a board of three coupled axes (the XYZ flexure on qemu-m7): the
+// axis selector, the forms of the selected axis (y's own u_max_V), a refusal
+// on y at its field leaving y and x as they were, a wave started on y from
+// the page (the status's per-axis lines), the scope's other axes' signals.
+async function axesConsole() {
+  const xyz = path.join(configs, 'stages', 'xyz_flexure.json');
+  const emu = start(['emulate', '--board', 'qemu-m7', '--scenario', xyz]);
+  const device = JSON.parse((await firstLines(emu, /^\{.*\}\n/))[0]).device;
+  const set = run(['--device', device, 'set', '--scenario', xyz, '--case', 'pi_notch']);
+  const y9 = run(['--device', device, 'set', 'limits', '--axis', 'y', '--json', '{"u_max_V": 9}']);
+  if (!check(set.code === 0 && y9.code === 0, 'the XYZ case on the board, y\'s u_max_V set to 9 V', set.err + y9.err)) return;
+  const ui = start(['--device', device, 'ui', '--seat-answer-s', '120']);
+  const started = await firstLines(ui, /console of tcp:127\.0\.0\.1:(\d+) at\s+(http:\/\/127\.0\.0\.1:\d+\/\?token=[0-9a-f]{32})/);
+  const url = started[2];
+  const browser = await chromium.launch({ executablePath: chromiumPath, args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run'] });
+  try {
+    const page = await (await browser.newContext({ viewport: { width: 1400, height: 1000 } })).newPage();
+    await page.goto(url);
+    if (!await waitFor(page, () => window.piezoloop.ready && window.piezoloop.controls && window.piezoloop.framesDrawn > 3, null, 'the page controls and draws')) return;
+    const options = await page.$$eval('#axis option', (os) => os.map((o) => o.value));
+    check(await page.isVisible('#axis-box') && JSON.stringify(options) === '["x","y","z"]', 'the axis selector offers x, y and z', JSON.stringify(options));
+    const names = await page.evaluate(() => window.piezoloop.signals.map((s) => s.name));
+    check(['r', 'y', 'y.y', 'z.y'].every((n) => names.includes(n)), 'the scope records x\'s r and y and the other axes\' y (y.y, z.y)', JSON.stringify(names));
+    const umax = '#group-limits [name="u_max_V"]';
+    await waitFor(page, (s) => document.querySelector(s), umax, 'the limits form');
+    const x = await page.inputValue(umax);
+    await page.selectOption('#axis', 'y');
+    await waitFor(page, (s) => document.querySelector(s) && document.querySelector(s).value === '9', umax, 'y\'s limits form');
+    check(x === '10' && await page.inputValue(umax) === '9', 'the forms show the selected axis\'s groups (x 10 V, y 9 V)', `${x}, ${await page.inputValue(umax)}`);
+    await page.fill(umax, '50');
+    await page.click('#group-limits button[type="submit"]');
+    await waitFor(page, () => document.querySelector('#group-limits [data-error-for="u_max_V"]')?.textContent, null, 'the refusal at u_max_V');
+    check((await page.textContent('#group-limits [data-error-for="u_max_V"]')).includes('the board refused') && await page.inputValue(umax) === '9',
+      'y\'s u_max_V above the hard limit: the board\'s refusal at the field, the form back at 9 V');
+    await page.selectOption('#wave [name="trajectory"]', 'triangle');
+    await page.fill('#wave [name="frequency_Hz"]', '20');
+    await page.fill('#wave [name="amplitude_um"]', '4');
+    await page.check('#wave [name="arm"]');
+    await page.click('#wave button[type="submit"]');
+    const yWave = () => page.evaluate(() => (window.piezoloop.status.axes || []).find((a) => a.axis === 'y') || {});
+    await waitFor(page, () => {
+      const a = (window.piezoloop.status.axes || []).find((x) => x.axis === 'y');
+      return a && a.wave_running && a.armed;
+    }, null, 'the wave on y');
+    const axes = await page.evaluate(() => window.piezoloop.status.axes.map((a) => [a.axis, a.wave_running]));
+    check(JSON.stringify(axes) === '[["x",false],["y",true],["z",false]]' && /axis y\s*armed, not tripped, wave running/.test(await page.textContent('#status')),
+      'a wave started on y from the page runs on y alone, and the status says so per axis',
+      `${JSON.stringify(axes)} ${await page.textContent('#wave-error')}`);
+    await waitFor(page, () => {
+      const v = window.piezoloop.frame && window.piezoloop.frame.series['y.y'];
+      const f = v ? [...v].filter(Number.isFinite) : [];
+      return f.length > 10 && Math.max(...f) - Math.min(...f) > 1;
+    }, null, 'y.y moving on the scope');
+    check(true, 'the scope draws y.y following the wave (more than 1 um peak to peak)');
+    await page.click('#stop');
+    await waitFor(page, () => !(window.piezoloop.status.axes || []).find((x) => x.axis === 'y').wave_running, null, 'Stop');
+    check(!(await yWave()).wave_running, 'Stop stops y\'s wave');
+  } finally {
+    await browser.close();
+  }
+  check(await stop(ui) === 0, 'the console ends cleanly on SIGTERM');
+  const got = (a) => { const r = run(['--device', device, 'get', 'limits', '--axis', a]); return r.code === 0 ? JSON.parse(r.out).u_max_V : NaN; };
+  check(got('y') === 9 && got('x') === 10, 'the board still holds y 9 V and x 10 V after the refused 50', `${got('y')}, ${got('x')}`);
+}
+
 async function main() {
+  if (mode === 'axes') return axesConsole();
   let device = null;
   let ui;
   let frf = null;
