@@ -49,14 +49,21 @@ std::vector<std::string> split(const std::string& text) {
     return parts;
 }
 
-// --axes x,y,z with --range-um UM (every axis) or x=UM,y=UM,z=UM.
-int run_axes(const CommissionArgs& a) {
+// The board (--device) or the simulator (--scenario), one of the two;
+// true: the board.
+bool commission_on_board(const CommissionArgs& a) {
     const bool on_board = a.session.scenario.empty();
     if (on_board && device_address().empty())
-        throw std::invalid_argument("--axes: needs --scenario (simulator) or --device ADDR (a board of axes)");
+        throw std::invalid_argument("--scenario: give a scenario (simulator) or --device ADDR before `commission` (board)");
     if (!on_board && !device_address().empty())
         throw std::invalid_argument("--scenario: commissions the simulator; drop it to commission the board given by --device");
     if (!on_board && a.no_save) throw std::invalid_argument("--no-save: only on a board (--device)");
+    return on_board;
+}
+
+// --axes x,y,z with --range-um UM (every axis) or x=UM,y=UM,z=UM.
+int run_axes(const CommissionArgs& a) {
+    const bool on_board = commission_on_board(a);
     AxesCommission c;
     c.scenario = a.session.scenario;
     c.out = a.session.out;
@@ -89,12 +96,7 @@ int run_commission(CommissionArgs a) {
         throw std::invalid_argument("--axis: not with --axes (a scenario's axes, each commissioned)");
     if (!a.axes.empty()) return run_axes(a);
     a.session.request.range_um = range_number(a.range);
-    const bool on_board = a.session.scenario.empty();
-    if (on_board && device_address().empty())
-        throw std::invalid_argument("--scenario: give a scenario (simulator) or --device ADDR before `commission` (board)");
-    if (!on_board && !device_address().empty())
-        throw std::invalid_argument("--scenario: commissions the simulator; drop it to commission the board given by --device");
-    if (!on_board && a.no_save) throw std::invalid_argument("--no-save: only on a board (--device)");
+    const bool on_board = commission_on_board(a);
     if (!on_board && !a.session.axis.empty())
         throw std::invalid_argument("--axis: a board's axis; a scenario's coupled axes are commissioned with --axes");
     a.session.save = !a.no_save;

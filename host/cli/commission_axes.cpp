@@ -99,6 +99,32 @@ json coupling_change(const std::vector<std::string>& names, const measure::MimoF
             {"required_reduction_db", kRequiredReduction_dB}};
 }
 
+std::string axes_table_md(const std::vector<std::string>& names, const std::map<std::string, double>& range_um,
+                          const json& per_axis) {
+    std::ostringstream md;
+    md << "| axis | range (um) | chosen | verified | bandwidth (Hz) | report |\n|---|---|---|---|---|---|\n";
+    for (const std::string& x : names) {
+        const json& r = per_axis[x];
+        md << "| " << x << " | " << format::significant(range_um.at(x), 4) << " | "
+           << (r["chosen"].is_string() ? r["chosen"].get<std::string>() : std::string("none")) << " | "
+           << (r.value("verified", false) ? "yes" : "no") << " | "
+           << (r.contains("bandwidth_Hz") ? format::significant(r["bandwidth_Hz"].get<double>(), 4) : std::string("-"))
+           << " | " << x << "/report.md |\n";
+    }
+    return md.str();
+}
+
+std::string cross_motion_table_md(const json& checks) {
+    std::ostringstream md;
+    md << "| driven | e_max (%) | held axis | cross motion with D (%) | without D (%) |\n|---|---|---|---|---|\n";
+    for (const auto& [name, c] : checks.items())
+        for (const auto& [held, pct] : c["cross_motion_pct"].items())
+            md << "| " << name << " | " << format::significant(c["e_max_pct"].get<double>(), 4) << " | " << held << " | "
+               << format::significant(pct.get<double>(), 4) << " | "
+               << format::significant(c["cross_motion_pct_without_decoupling"][held].get<double>(), 4) << " |\n";
+    return md.str();
+}
+
 std::string coupling_table_md(const json& coupling) {
     std::ostringstream md;
     md << "\nLow-frequency coupling (mean over the lines at ";
@@ -238,25 +264,12 @@ json run_axes_commission(const AxesCommission& a, const std::function<void(const
     }
     std::ostringstream md;
     md << "# Commissioning of " << s.name << ", axis by axis\n\n";
-    md << "| axis | range (um) | chosen | verified | bandwidth (Hz) | report |\n|---|---|---|---|---|---|\n";
-    for (const sim::AxisSpec& x : s.axes) {
-        const json& r = per_axis[x.name];
-        md << "| " << x.name << " | " << format::significant(range_um.at(x.name), 4) << " | "
-           << (r["chosen"].is_string() ? r["chosen"].get<std::string>() : std::string("none")) << " | "
-           << (r.value("verified", false) ? "yes" : "no") << " | "
-           << (r.contains("bandwidth_Hz") ? format::significant(r["bandwidth_Hz"].get<double>(), 4) : std::string("-")) << " | "
-           << x.name << "/report.md |\n";
-    }
+    md << axes_table_md(names, range_um, per_axis);
     md << coupling_table_md(out["coupling"]);
     md << "\nA " << format::significant(kCheckFrequency_Hz, 4)
        << " Hz triangle over each axis's range, the others holding their centres (scenario.json, case "
           "commissioned; cross motion in % of the driven axis's range):\n\n"
-          "| driven | e_max (%) | held axis | cross motion with D (%) | without D (%) |\n|---|---|---|---|---|\n";
-    for (const auto& [name, c] : checks.items())
-        for (const auto& [held, pct] : c["cross_motion_pct"].items())
-            md << "| " << name << " | " << format::significant(c["e_max_pct"].get<double>(), 4) << " | " << held << " | "
-               << format::significant(pct.get<double>(), 4) << " | "
-               << format::significant(c["cross_motion_pct_without_decoupling"][held].get<double>(), 4) << " |\n";
+       << cross_motion_table_md(checks);
     {
         std::ofstream f(dir / "report.md");
         if (!(f << md.str())) throw std::runtime_error("--out: cannot write " + (dir / "report.md").string());

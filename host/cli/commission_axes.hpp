@@ -83,8 +83,12 @@ std::map<std::string, double> axes_ranges(const AxesCommission& a, const std::ve
 nlohmann::json coupling_change(const std::vector<std::string>& names, const measure::MimoFrfEstimate& eb,
                                const measure::MimoFrfEstimate& ea, bool& decoupled);
 
-// Its table for report.md.
+// report.md's tables: the coupling change's, each axis's commissioning
+// (the sessions' summaries), and the cross-motion checks.
 std::string coupling_table_md(const nlohmann::json& coupling);
+std::string axes_table_md(const std::vector<std::string>& names, const std::map<std::string, double>& range_um,
+                          const nlohmann::json& per_axis);
+std::string cross_motion_table_md(const nlohmann::json& checks);
 
 // Throws std::invalid_argument naming --axes / --range-um / --scenario
 // before anything runs; as run_commission_session otherwise.

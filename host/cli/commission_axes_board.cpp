@@ -212,25 +212,12 @@ json run_axes_commission_board(hostlink::Client& c, const AxesCommission& a, boo
 
     std::ostringstream md;
     md << "# Commissioning of the board's axes (" << c.info().board.data() << ", " << c.address() << ")\n\n";
-    md << "| axis | range (um) | chosen | verified | bandwidth (Hz) | report |\n|---|---|---|---|---|---|\n";
-    for (const std::string& x : names) {
-        const json& r = per_axis[x];
-        md << "| " << x << " | " << format::significant(range_um.at(x), 4) << " | "
-           << (r["chosen"].is_string() ? r["chosen"].get<std::string>() : std::string("none")) << " | "
-           << (r.value("verified", false) ? "yes" : "no") << " | "
-           << (r.contains("bandwidth_Hz") ? format::significant(r["bandwidth_Hz"].get<double>(), 4) : std::string("-"))
-           << " | " << x << "/report.md |\n";
-    }
+    md << axes_table_md(names, range_um, per_axis);
     md << coupling_table_md(out["coupling"]);
     md << "\nA " << format::significant(kCheckFrequency_Hz, 4)
        << " Hz triangle over each axis's range on the board, the others holding their centres (their sensors' "
           "peak-to-peak in % of the driven axis's range):\n\n"
-          "| driven | e_max (%) | held axis | cross motion with D (%) | without D (%) |\n|---|---|---|---|---|\n";
-    for (const auto& [name, ck] : checks.items())
-        for (const auto& [held, pct] : ck["cross_motion_pct"].items())
-            md << "| " << name << " | " << format::significant(ck["e_max_pct"].get<double>(), 4) << " | " << held
-               << " | " << format::significant(pct.get<double>(), 4) << " | "
-               << format::significant(ck["cross_motion_pct_without_decoupling"][held].get<double>(), 4) << " |\n";
+       << cross_motion_table_md(checks);
     md << "\n" << kept << "\n";
     {
         std::ofstream f(dir / "report.md");
