@@ -35,7 +35,8 @@ template <int N>
 using AxesStage = EmulatedCoupledStage<CoreSample, N>;
 template <int N>
 using AxesDevice =
-    link::Device<CoreSample, kRcCapacity, kRecChannels, kRecCapacity, kSetpointCapacity, kExcCapacity, N>;
+    link::Device<CoreSample, kRcCapacity, kRecChannels, kRecCapacity, kSetpointCapacity, kExcCapacity, N, true,
+                 kBoardRecChannels>;
 
 struct AxesLoopState {
     void* pipe = nullptr;

@@ -31,6 +31,9 @@ inline constexpr uint32_t kLoopRateInt_Hz = 100000;
 #endif
 inline constexpr int kRcCapacity = 128;
 inline constexpr std::size_t kRecChannels = 4;
+// A board of axes streams its board recorder: eight (axis, signal) channels
+// (r and y of three axes and two more, at the loop rate on the QEMU boards).
+inline constexpr std::size_t kBoardRecChannels = 8;
 inline constexpr std::size_t kRecCapacity = PIEZOLOOP_RECORDER_CAPACITY;
 inline constexpr std::size_t kSetpointCapacity = 1024;
 inline constexpr std::size_t kExcCapacity = PIEZOLOOP_EXCITATION_CAPACITY;

@@ -44,7 +44,7 @@
 namespace piezoloop::fw {
 
 template <class T, int N>
-using FwAxesPipeline = MultiAxisPipeline<T, N, kRcCapacity, kRecChannels, kRecCapacity, kExcCapacity>;
+using FwAxesPipeline = MultiAxisPipeline<T, N, kRcCapacity, kRecChannels, kRecCapacity, kExcCapacity, kBoardRecChannels>;
 
 // The loop rate: float 100 kHz, Q31 50 kHz (the M3's two axes).
 template <class T>

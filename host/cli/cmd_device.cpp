@@ -437,7 +437,20 @@ int run_record(const RecordArgs& a) {
     o.out_csv = a.out;
 
     Client c = open_device(5000);
-    o.axis = static_cast<uint8_t>(resolve_axis(a.axis, c.axis_count(), false));
+    const int axis = resolve_axis(a.axis, c.axis_count(), true);
+    if (axis == kAllAxes) {
+        // Every axis's signals, axis by axis (columns r_x_um, y_x_um, r_y_um, ...).
+        const std::vector<uint8_t> ids = o.signals;
+        o.signals.clear();
+        for (uint8_t i = 0; i < c.axis_count(); ++i)
+            for (const uint8_t id : ids) {
+                o.signals.push_back(id);
+                o.signal_axes.push_back(i);
+            }
+        if (!a.plot.empty()) throw std::invalid_argument("--plot: one axis (not with --axis all)");
+        if (a.wave_given) throw std::invalid_argument("--trajectory: one axis's wave (set each with `wave --no-start --axis A`)");
+    }
+    o.axis = static_cast<uint8_t>(axis == kAllAxes ? 0 : axis);
     if (a.wave_given) o.wave = wave_params(a.w, c.info().loop_rate_Hz);
     ProgressBar bar("record");
     o.progress = [&](double f) { bar.update(f); };
@@ -478,7 +491,7 @@ void add_record(CLI::App& app) {
     cmd->add_option("--out", a->out, "CSV file: t_s and one column per signal with its unit");
     cmd->add_option("--plot", a->plot, "draw r, y, e and u to a PNG (tools/plot_sim.py)");
     cmd->add_option("--stall-s", a->stall_s, "give up when no frames arrive for this long, 0.1 to 3600 s");
-    add_axis_option(cmd, a->axis, false);
+    add_axis_option(cmd, a->axis, true);
     WaveRequest& w = a->w;
     // Checked by check_wave_request (device_common), as the Python module's.
     auto* t = cmd->add_option("--trajectory", w.trajectory,

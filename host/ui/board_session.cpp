@@ -39,7 +39,8 @@ json read_group(hostlink::Client& c, uint8_t axis = 0) {
 
 // The console recorder's channel ids (axis * kSignalCount + signal): one
 // axis, its first recorder_channels signals (r, y, e, u); a board of axes,
-// x's r and y, then every other axis's y (and with two axes y's r too).
+// x's r and y, then each other axis's y and r while there is room (eight
+// channels: r and y of every axis, then x's e and u).
 std::vector<uint8_t> console_channels(const link::HelloReply& h) {
     std::vector<uint8_t> ids;
     if (h.axis_count <= 1) {
@@ -47,11 +48,12 @@ std::vector<uint8_t> console_channels(const link::HelloReply& h) {
         return ids;
     }
     ids = {hostlink::kSignalR, hostlink::kSignalY};
-    for (uint8_t a = 1; a < h.axis_count && ids.size() < h.recorder_channels; ++a) {
-        if (h.axis_count == 2 && ids.size() + 2 <= h.recorder_channels)
-            ids.push_back(static_cast<uint8_t>(a * kSignalCount + hostlink::kSignalR));
+    for (uint8_t a = 1; a < h.axis_count && ids.size() < h.recorder_channels; ++a)
         ids.push_back(static_cast<uint8_t>(a * kSignalCount + hostlink::kSignalY));
-    }
+    for (uint8_t a = 1; a < h.axis_count && ids.size() < h.recorder_channels; ++a)
+        ids.push_back(static_cast<uint8_t>(a * kSignalCount + hostlink::kSignalR));
+    for (uint8_t s = 0; s < kSignalCount && ids.size() < h.recorder_channels; ++s)
+        if (std::find(ids.begin(), ids.end(), s) == ids.end()) ids.push_back(s);
     return ids;
 }
 

@@ -3,9 +3,9 @@
 // read) and polls the board's status, and the requests the pages make
 // (arm, disarm, parameters, waves) between its reads. The board's recorder
 // runs continuously, r, y, e, u (as many as the board records; on a board
-// of axes x's r and y and every other axis's y, named "y.y", "z.y"), for as
-// long as the console runs; its recorder group is the console's, not a
-// form's.
+// of axes every axis's r and y, another axis's named "y.r", "y.y", "z.y",
+// while there is room), for as long as the console runs; its recorder group
+// is the console's, not a form's.
 // A measurement (frequency response, step, loops) takes the link and the
 // recorder over for its run: the history then gets the measurement's r, y
 // and u (e is not recorded meanwhile: a gap), the status is polled between

@@ -81,12 +81,13 @@ public:
     Status configure(const CoupledStageConfig& c) {
         if (c.axes < 1 || c.axes > kMaxStageAxes) return error("axes", "must be in [1, 3]");
         if (c.paths < 0 || c.paths > kMaxCouplingPaths) return error("paths", "must be in [0, 6]");
-        std::array<StageModel, kMaxStageAxes> axis{};
         for (int i = 0; i < c.axes; ++i) {
             const StageConfig& a = c.axis[static_cast<std::size_t>(i)];
             if (i > 0 && !(a.rate_Hz == c.axis[0].rate_Hz))
                 return detail::in_axis(i, error("rate_Hz", "must equal axis[0].rate_Hz (one loop rate)"));
-            if (const Status s = axis[static_cast<std::size_t>(i)].configure(a); !s.ok()) return detail::in_axis(i, s);
+            // One axis at a time: a board's boot stack holds one StageModel.
+            StageModel probe;
+            if (const Status s = probe.configure(a); !s.ok()) return detail::in_axis(i, s);
         }
         std::array<BiquadCascade<float, kMaxCouplingSections>, kMaxCouplingPaths> filter{};
         for (int k = 0; k < c.paths; ++k) {
@@ -110,7 +111,10 @@ public:
                 return in_group(detail::kCouplingGroups[k][1], s);
         }
         config_ = c;
-        axis_ = axis;
+        for (int i = 0; i < c.axes; ++i) {
+            const Status s = axis_[static_cast<std::size_t>(i)].configure(c.axis[static_cast<std::size_t>(i)]);
+            (void)s;  // accepted above
+        }
         filter_ = filter;
         reset();
         return ok_status();

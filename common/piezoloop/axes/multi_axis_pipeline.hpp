@@ -58,15 +58,17 @@ struct MultiAxisSetup {
     std::array<HardLimits, N> channels{};  // each DAC channel's hard limits (V)
 };
 
+// RecChannels: each axis's own recorder; BoardRecChannels: the board's
+// recorder of (axis, signal) channels (several axes' signals at once).
 template <class T, int N, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024,
-          std::size_t ExcCapacity = 1024>
+          std::size_t ExcCapacity = 1024, std::size_t BoardRecChannels = RecChannels>
 class MultiAxisPipeline {
     static_assert(N >= 1 && N <= kMaxAxes, "MultiAxisPipeline<N>: 1 to 3 axes");
 
 public:
     using AxisPipeline = Pipeline<T, RcCapacity, RecChannels, RecCapacity, ExcCapacity>;
     using Samples = std::array<T, N>;
-    using RecorderType = Recorder<T, RecChannels, RecCapacity, N * kSignalCount>;
+    using RecorderType = Recorder<T, BoardRecChannels, RecCapacity, N * kSignalCount>;
     using SampleType = T;
 
     explicit MultiAxisPipeline(const MultiAxisSetup<N>& setup)

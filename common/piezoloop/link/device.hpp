@@ -74,8 +74,11 @@ struct DeviceHooks {
     storage::ParamStorage* storage = nullptr;
 };
 
+// BoardRecChannels: the channels of a MultiAxisPipeline's board recorder
+// (the recorder a device of axes streams), RecChannels each axis's own.
 template <class T, int RcCapacity = 1024, std::size_t RecChannels = 4, std::size_t RecCapacity = 1024,
-          std::size_t SetpointCapacity = 1024, std::size_t ExcCapacity = 1024, int N = 1, bool MultiAxis = (N > 1)>
+          std::size_t SetpointCapacity = 1024, std::size_t ExcCapacity = 1024, int N = 1, bool MultiAxis = (N > 1),
+          std::size_t BoardRecChannels = RecChannels>
 class Device {
     static_assert(is_sample_type_v<T>, "Device<T>: T is float or Q31");
     static_assert(N >= 1 && N <= kMaxAxes, "Device: 1 to 3 axes");
@@ -86,10 +89,11 @@ public:
     static constexpr int kAxes = N;
     // An axis's pipeline (the single one, or each of the multi-axis pipeline's).
     using PipelineType = Pipeline<T, RcCapacity, RecChannels, RecCapacity, ExcCapacity>;
-    using MultiType = MultiAxisPipeline<T, N, RcCapacity, RecChannels, RecCapacity, ExcCapacity>;
+    using MultiType = MultiAxisPipeline<T, N, RcCapacity, RecChannels, RecCapacity, ExcCapacity, BoardRecChannels>;
     using RecorderType =
         std::conditional_t<MultiAxis, typename MultiType::RecorderType, typename PipelineType::RecorderType>;
-    using LogStreamType = LogStream<T, RecorderType, RecChannels>;
+    static constexpr std::size_t kRecorderChannels = RecorderType::kChannels;
+    using LogStreamType = LogStream<T, RecorderType, kRecorderChannels>;
     static constexpr std::size_t kFramesPerBlock = LogStreamType::kFramesPerBlock;
 
     Device(PipelineType& pipeline, const DeviceInfo& info = {}, const DeviceHooks& hooks = {})
@@ -314,7 +318,7 @@ public:
         r.position_full_scale_um = s.position.full_scale;
         r.voltage_full_scale_V = s.voltage.full_scale;
         r.setpoint_capacity = static_cast<uint16_t>(SetpointCapacity);
-        r.recorder_channels = static_cast<uint8_t>(RecChannels);
+        r.recorder_channels = static_cast<uint8_t>(kRecorderChannels);
         r.recorder_capacity = static_cast<uint32_t>(RecCapacity);
         r.rc_capacity = static_cast<uint32_t>(RcCapacity);
         r.excitation_capacity = static_cast<uint32_t>(ExcCapacity);

@@ -5,13 +5,15 @@ simulator bit for bit:
   piezoloop emulate --board qemu-m7 --scenario configs/stages/xyz_flexure.json
   piezoloop --device tcp:... set --scenario ... --case pi_notch_decoupled
   piezoloop --device tcp:... set trajectory --axis A --json ...   (x runs, y and z hold)
-  piezoloop --device tcp:... record --axis A --start-wave --every-axis --restart-stage ...
+  piezoloop --device tcp:... record --axis all --signals r,y --start-wave --every-axis --restart-stage ...
 
-against `piezoloop sim --axis x --hold-um y=.. --hold-um z=..` (qemu-m7: the
-XYZ flexure, float; qemu-m3: the XY flexure, Q31). Every axis is recorded
-once, each record from rest; its r and y equal the simulator's columns of
-that axis, row for row (the output matrix and the coupling reach every y, so
-that checks the board's whole multi-axis tick). Also: every axis's set kept
+against `piezoloop sim --axis x --hold-um y=.. --hold-um z=.. --start-together`
+(qemu-m7: the XYZ flexure, float; qemu-m3: the XY flexure, Q31). Every
+axis's r and y, recorded at once from rest (the board recorder's eight
+channels), equal the simulator's columns of that axis, row for row (the
+output matrix and the coupling reach every y, so that checks the board's
+whole multi-axis tick); one axis's record (--axis y) has the same samples.
+Also: every axis's set kept
 over a reboot (emulate --storage), the board's axes in
 Hello and the status, the case's matrices on the board, every axis's wave
 started at one tick, one axis's frequency response measured with --axis
@@ -111,22 +113,31 @@ try:
     check(sim.returncode == 0, "piezoloop sim --axis x with the others held", sim.stderr)
     ref = rows(sim_csv) if sim.returncode == 0 else []
 
+    # Every axis's r and y in one record (the board recorder's eight
+    # channels), from rest, every wave from one tick.
+    out = os.path.join(tmp, "rec_all.csv")
+    r = run(*d, "record", "--axis", "all", "--signals", "r,y", "--duration-s", str(seconds), "--start-wave",
+            "--every-axis", "--restart-stage", "--out", out)
+    j = json.loads(r.stdout) if r.stdout.strip() else {}
+    check(r.returncode == 0 and j.get("lost_blocks") == 0 and j.get("tick_gaps") == 0 and
+          j.get("recorder_overruns") == 0, "record --axis all --every-axis: every axis from rest, nothing lost",
+          r.stderr + r.stdout[:300])
+    rec = rows(out) if r.returncode == 0 else []
+    common = min(len(rec), len(ref))
     for a in names:
-        out = os.path.join(tmp, f"rec_{a}.csv")
-        r = run(*d, "record", "--axis", a, "--signals", "r,y,e,u", "--duration-s", str(seconds), "--start-wave",
-                "--every-axis", "--restart-stage", "--out", out)
-        j = json.loads(r.stdout) if r.stdout.strip() else {}
-        check(r.returncode == 0 and j.get("lost_blocks") == 0 and j.get("tick_gaps") == 0 and
-              j.get("recorder_overruns") == 0,
-              f"record --axis {a} --every-axis: from rest, nothing lost", r.stderr + r.stdout[:300])
-        rec = rows(out) if r.returncode == 0 else []
-        common = min(len(rec), len(ref))
         diff = [i for i in range(common)
-                if float(rec[i]["r_um"]) != float(ref[i][f"r_{a}_um"]) or
-                float(rec[i]["y_um"]) != float(ref[i][f"y_{a}_um"])]
+                if float(rec[i][f"r_{a}_um"]) != float(ref[i][f"r_{a}_um"]) or
+                float(rec[i][f"y_{a}_um"]) != float(ref[i][f"y_{a}_um"])]
         check(common >= int(rate * seconds) and not diff,
               f"axis {a}: r and y equal `piezoloop sim --sample {sample}` bit for bit over {common} ticks",
               f"{len(rec)} vs {len(ref)} rows, first difference at row {diff[0] if diff else None}")
+    # One axis's signals (its own columns r_um, y_um) are the same samples.
+    r = run(*d, "record", "--axis", "y", "--signals", "r,y,e,u", "--duration-s", str(seconds), "--start-wave",
+            "--every-axis", "--restart-stage", "--out", os.path.join(tmp, "rec_y.csv"))
+    one = rows(os.path.join(tmp, "rec_y.csv")) if r.returncode == 0 else []
+    n_y = min(len(one), common)
+    check(n_y >= int(rate * seconds) and all(one[i]["y_um"] == rec[i]["y_y_um"] for i in range(n_y)),
+          "record --axis y: y's column equals the all-axes record's y_y_um", r.stderr)
 
     # A board's axis measured on its own (open loop; the others hold with
     # their controllers): y's first mode, 850 Hz on both flexures.
