@@ -233,7 +233,7 @@ void add_arm(CLI::App& app) {
         ->callback([] {
             guarded([] {
                 Client c = open_device();
-                c.stop_wave();
+                c.stop_waves();
                 c.stream_stop(false);
                 const link::StatusReply st = c.status();
                 print({{"device", c.address()}, {"wave_running", st.wave_running}, {"streaming", st.streaming},

@@ -98,7 +98,7 @@ json cross_motion(hostlink::Client& c, int n, int driven, const std::vector<std:
     ro.start_wave = true;
     ro.every_axis = true;
     const hostlink::RecordResult rec = hostlink::record(c, ro);
-    for (int a = 0; a < n; ++a) c.stop_wave(static_cast<uint8_t>(a));
+    c.stop_waves();
     c.disarm();
     if (!rec.complete()) throw hostlink::LinkError("the check's recording is incomplete:" + rec.problems());
     const std::size_t period = static_cast<std::size_t>(std::llround(c.info().loop_rate_Hz / kCheckFrequency_Hz));

@@ -218,6 +218,9 @@ void Client::stop_wave(uint8_t axis) {
     m.axis = axis;
     expect_ack(m);
 }
+void Client::stop_waves() {
+    for (uint8_t a = 0; a < axis_count(); ++a) stop_wave(a);
+}
 
 namespace {
 // Lengthens the per-request timeout for one request.

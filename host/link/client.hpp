@@ -146,6 +146,8 @@ public:
     // on every axis).
     void start_wave(uint8_t flags = 0, uint8_t axis = 0);
     void stop_wave(uint8_t axis = 0);
+    // Every axis's wave (a board of axes has one per axis); the setpoints hold.
+    void stop_waves();
     // An excitation of one axis at the next tick (flags: wave_flag::*, the
     // same bits); the board's loop rate replaces c.sample_rate_Hz.
     void start_excitation(const ExcitationConfig& c, uint8_t flags = 0, uint8_t axis = 0);

@@ -8,15 +8,6 @@
 
 namespace piezoloop::hostlink {
 
-namespace {
-
-// The groups an open-loop measurement sets to none, to be put back after it.
-struct ControllerGroups {
-    link::FeedforwardParams ff;
-    link::FeedbackParams fb;
-    link::RepetitiveParams rc;
-};
-
 ControllerGroups read_controller(Client& c, uint8_t axis) {
     return {c.get<link::FeedforwardParams>(axis), c.get<link::FeedbackParams>(axis), c.get<link::RepetitiveParams>(axis)};
 }
@@ -27,11 +18,11 @@ void write_controller(Client& c, const ControllerGroups& g, uint8_t axis) {
     c.set(g.rc, axis);
 }
 
-// The recorder group the measurement's recording replaces, put back after
-// it (an unconfigured recorder reports its defaults, which are put back).
 void restore_recorder(Client& c, const link::RecorderParams& before) {
     if (!(c.get<link::RecorderParams>() == before)) c.set(before);
 }
+
+namespace {
 
 // An axis of the board (std::invalid_argument naming --axis otherwise).
 void check_axis(Client& c, uint8_t axis) {

@@ -37,6 +37,19 @@ struct MeasureOptions {
     std::function<void(double)> progress;  // fraction of the recording received
 };
 
+// An axis's controller groups, which an open-loop measurement sets to none
+// and puts back after it.
+struct ControllerGroups {
+    link::FeedforwardParams ff;
+    link::FeedbackParams fb;
+    link::RepetitiveParams rc;
+};
+ControllerGroups read_controller(Client& c, uint8_t axis);
+void write_controller(Client& c, const ControllerGroups& g, uint8_t axis);
+// The recorder group a measurement's recording replaces, put back after it
+// (an unconfigured recorder reports its defaults, which are put back).
+void restore_recorder(Client& c, const link::RecorderParams& before);
+
 // plan_frf against what the board says (hello, limits group). Throws
 // std::invalid_argument naming the option, before anything moves.
 measure::FrfPlan plan_frf_device(Client& c, const measure::FrfRequest& r, uint8_t axis = 0);

@@ -12,44 +12,23 @@ namespace piezoloop::hostlink {
 
 namespace {
 
-struct AxisController {
-    link::FeedforwardParams ff;
-    link::FeedbackParams fb;
-    link::RepetitiveParams rc;
-};
-
 // Every axis's controller groups set to none and put back afterwards (the
 // board left disarmed), the recorder group too, whatever happens; the
 // excitations stopped on the way out.
 template <class F>
 void open_loop_axes(Client& c, int n, F&& measure) {
     const link::RecorderParams recorder = c.get<link::RecorderParams>();
-    std::vector<AxisController> saved;
-    for (int a = 0; a < n; ++a) {
-        const auto ax = static_cast<uint8_t>(a);
-        saved.push_back({c.get<link::FeedforwardParams>(ax), c.get<link::FeedbackParams>(ax),
-                         c.get<link::RepetitiveParams>(ax)});
-    }
+    std::vector<ControllerGroups> saved;
+    for (int a = 0; a < n; ++a) saved.push_back(read_controller(c, static_cast<uint8_t>(a)));
     const auto put_back = [&] {
         for (int a = 0; a < n; ++a) c.stop_excitation(static_cast<uint8_t>(a));
         c.disarm();
-        for (int a = 0; a < n; ++a) {
-            const auto ax = static_cast<uint8_t>(a);
-            const AxisController& k = saved[static_cast<std::size_t>(a)];
-            c.set(k.ff, ax);
-            c.set(k.fb, ax);
-            c.set(k.rc, ax);
-        }
-        if (!(c.get<link::RecorderParams>() == recorder)) c.set(recorder);
+        for (int a = 0; a < n; ++a) write_controller(c, saved[static_cast<std::size_t>(a)], static_cast<uint8_t>(a));
+        restore_recorder(c, recorder);
     };
     try {
         c.disarm();
-        for (int a = 0; a < n; ++a) {
-            const auto ax = static_cast<uint8_t>(a);
-            c.set(link::RepetitiveParams{}, ax);
-            c.set(link::FeedforwardParams{}, ax);
-            c.set(link::FeedbackParams{}, ax);
-        }
+        for (int a = 0; a < n; ++a) write_controller(c, ControllerGroups{}, static_cast<uint8_t>(a));
         measure();
         put_back();
     } catch (...) {

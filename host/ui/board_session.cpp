@@ -385,8 +385,8 @@ void BoardSession::clear_trip() {
 }
 
 void BoardSession::stop_motion() {
-    locked([this](hostlink::Client& c) {
-        for (int a = 0; a < hello_.axis_count; ++a) c.stop_wave(static_cast<uint8_t>(a));
+    locked([](hostlink::Client& c) {
+        c.stop_waves();
         c.stream_stop(false);
         return 0;
     });

@@ -300,7 +300,7 @@ public:
         {
             pyb::gil_scoped_release release;
             Client& c = client();
-            c.stop_wave();
+            c.stop_waves();
             c.stream_stop(false);
             const link::StatusReply st = c.status();
             out = {{"wave_running", st.wave_running}, {"streaming", st.streaming}, {"armed", st.armed}};

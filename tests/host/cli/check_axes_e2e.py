@@ -218,6 +218,15 @@ try:
     st = json.loads(run(*d, "status", "--axis", "all").stdout)
     check(not any(x["wave_running"] for x in st["axes"]), "the record's waves stopped with its client",
           json.dumps(st.get("axes")))
+    # `stop` stops every axis's wave, not only x's.
+    w = run(*d, "wave", "--axis", names[-1], "--trajectory", "sine", "--frequency-hz", "10", "--amplitude-um", "1",
+            "--arm")
+    run_before = json.loads(run(*d, "status", "--axis", "all").stdout)["axes"][-1]["wave_running"]
+    r = run(*d, "stop")
+    st = json.loads(run(*d, "status", "--axis", "all").stdout)
+    check(w.returncode == 0 and run_before and r.returncode == 0 and not any(x["wave_running"] for x in st["axes"]),
+          f"stop stops a wave on {names[-1]} (every axis's wave)", w.stderr + r.stderr)
+    run(*d, "disarm")
     check(emus.stop(emu) == 0, "SIGTERM ends emulate and QEMU")
     emu, d, info = emus.start("--board", board, "--scenario", scenario, "--image", image, "--storage", store)
     again = run(*d, "get", "all", "--axis", "all")
