@@ -75,6 +75,8 @@ expect("record unknown signal", [*d, "record", "--signals", "r,q", "--duration-s
 expect("record repeated signal", [*d, "record", "--signals", "r,r", "--duration-s", "1"], 2, "r twice")
 expect("record restart without start", [*d, "record", "--restart-stage", "--duration-s", "1"], 2,
        "--restart-stage: only with --start-wave")
+expect("record every axis without start", [*d, "record", "--every-axis", "--duration-s", "1"], 2,
+       "--every-axis: only with --start-wave")
 expect("record plot without u", [*d, "record", "--signals", "r,y", "--plot", "x.png", "--duration-s", "1"], 2,
        "--plot: needs the signals r, y and u")
 expect("record without duration", [*d, "record"], None, "--duration-s")

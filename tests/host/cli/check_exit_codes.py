@@ -79,6 +79,8 @@ expect("sim: a stage of axes without --axis", sim_xyz, 2, "--axis: a stage of ax
 expect("sim: an unknown --axis", sim_xyz + ["--axis", "w"], 2, "--axis: must be one of the axes x, y, z (got \"w\")")
 expect("sim: --hold-um of an unknown axis", sim_xyz + ["--axis", "x", "--hold-um", "w=3"], 2, "--hold-um: must be one of")
 expect("sim: --hold-um beyond the full scale", sim_xyz + ["--axis", "x", "--hold-um", "y=500"], 2, "--hold-um y: must be in")
+expect("sim: --start-together on one axis", ["sim", "--scenario", scenario, "--case", "no_such_case", "--start-together"], 2,
+       "--start-together: the scenario's stage has one axis")
 expect("sim: --axis on one axis", ["sim", "--scenario", scenario, "--case", "no_such_case", "--axis", "x"], 2, "--axis:")
 for name, args in [
         ("measure frf without --mimo", ["measure", "frf", "--scenario", xyz, "--from-hz", "10", "--to-hz", "1000", "--amplitude-v", "0.1",

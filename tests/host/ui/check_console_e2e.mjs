@@ -533,6 +533,16 @@ async function axesConsole() {
     check(await page.isVisible('#axis-box') && JSON.stringify(options) === '["x","y","z"]', 'the axis selector offers x, y and z', JSON.stringify(options));
     const names = await page.evaluate(() => window.piezoloop.signals.map((s) => s.name));
     check(['r', 'y', 'y.y', 'z.y'].every((n) => names.includes(n)), 'the scope records x\'s r and y and the other axes\' y (y.y, z.y)', JSON.stringify(names));
+    const token = url.split('token=')[1];
+    const refusedAxis = await page.evaluate(async (t) => {
+      const h = { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' };
+      const p = await fetch('/api/params?axis=w', { headers: h });
+      const s = await fetch('/api/step/start', { method: 'POST', headers: h, body: JSON.stringify({ step_V: 0.1, axis: 'w' }) });
+      return { params: p.status, paramsError: (await p.json()).error, step: s.status, stepField: (await s.json()).field };
+    }, token);
+    check(refusedAxis.params === 400 && refusedAxis.paramsError.includes('axis:') && refusedAxis.step === 400 &&
+      refusedAxis.stepField === 'axis', 'an axis the board has not got is refused naming axis (parameters, a measurement)',
+      JSON.stringify(refusedAxis));
     const umax = '#group-limits [name="u_max_V"]';
     await waitFor(page, (s) => document.querySelector(s), umax, 'the limits form');
     const x = await page.inputValue(umax);
