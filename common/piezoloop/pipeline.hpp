@@ -212,6 +212,8 @@ public:
         return true;
     }
     uint32_t rejected_setpoints() const { return rejected_setpoints_; }
+    // The held setpoint (a wave's last value once it ended).
+    T setpoint() const { return setpoint_; }
 
     // The tick touches the generator only while a wave runs, so it is
     // configured here only while none does. The wave's first tick starts

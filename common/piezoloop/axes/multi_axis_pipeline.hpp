@@ -30,8 +30,10 @@
 //
 // The board's recorder (recorder()) records any signal of any axis: its
 // signal index i is signal i % kSignalCount of axis i / kSignalCount, at the
-// tick index of axis 0 (every axis counts the same ticks). Each axis's own
-// recorder records that axis's signals, as a Pipeline's does.
+// tick index of axis 0 (every axis counts the same ticks); index
+// kBoardSyncSignal (and any index past the axes' signals) is the sync word
+// set_sync() gave the tick (a scan's events). Each axis's own recorder
+// records that axis's signals, as a Pipeline's does.
 //
 // The matrices are limit-critical: set_input_matrix and set_output_matrix
 // validate first (a refused matrix changes nothing) and are refused while
@@ -43,6 +45,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 #include <utility>
 
 #include "piezoloop/axes/axis_matrix.hpp"
@@ -51,6 +54,10 @@
 #include "piezoloop/status.hpp"
 
 namespace piezoloop {
+
+// The board recorder's index of the sync word: after the signals of
+// kMaxAxes axes, the same on every board.
+inline constexpr uint8_t kBoardSyncSignal = static_cast<uint8_t>(kMaxAxes * kSignalCount);
 
 template <int N>
 struct MultiAxisSetup {
@@ -68,7 +75,7 @@ class MultiAxisPipeline {
 public:
     using AxisPipeline = Pipeline<T, RcCapacity, RecChannels, RecCapacity, ExcCapacity>;
     using Samples = std::array<T, N>;
-    using RecorderType = Recorder<T, BoardRecChannels, RecCapacity, N * kSignalCount>;
+    using RecorderType = Recorder<T, BoardRecChannels, RecCapacity, kBoardSyncSignal + 1>;
     using SampleType = T;
 
     explicit MultiAxisPipeline(const MultiAxisSetup<N>& setup)
@@ -155,8 +162,16 @@ public:
         }
         return channels_.apply(u_axis_);
     }
+    // The tick's sync word for the board's recorder (the reading-independent
+    // half, before end_tick; it holds until changed). Float records it as
+    // its value, Q31 as its raw bits.
+    void set_sync(uint32_t word) {
+        if constexpr (std::is_same_v<T, float>) sync_ = static_cast<float>(word);
+        else sync_ = T::from_raw(static_cast<int32_t>(word));
+    }
     void end_tick() {
         recorder_.push_from(axes_[0].tick_count(), [this](uint8_t i) {
+            if (i >= N * kSignalCount) return sync_;
             const TickSignals<T>& s = axes_[i / kSignalCount].last();
             T v;
             __builtin_memcpy(&v, reinterpret_cast<const unsigned char*>(&s) + (i % kSignalCount) * sizeof(T),
@@ -227,6 +242,7 @@ private:
     Status setup_status_{};
     AxisTransform<T, N> input_{};  // identity
     Samples u_axis_{};
+    T sync_{};
     // Main loop -> tick handover (written before the flag is set).
     AxisTransform<T, N> input_next_{}, output_next_{};
     std::atomic<bool> input_pending_{false}, output_pending_{false};

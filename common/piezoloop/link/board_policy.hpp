@@ -5,8 +5,9 @@
 // Recorder: its channels are (axis, signal) pairs. The board's recorder
 // (MultiAxisPipeline::recorder(), or a single-axis device's pipeline
 // recorder) indexes its signals as axis * kSignalCount + signal, so on one
-// axis a channel's index is its signal, as before axes. It is configured at
-// once, inside the tick mask.
+// axis a channel's index is its signal, as before axes; the board's sync word
+// (channel "sync", axis 0) is kMaxAxes * kSignalCount on every board of axes.
+// It is configured at once, inside the tick mask.
 //
 // Matrices (input_matrix, output_matrix): 3 x 3 layouts whose top-left
 // axis_count x axis_count block is the board's matrix (the rest must be the
@@ -124,8 +125,9 @@ private:
         RecorderParams r;
         r.channel_count = static_cast<uint8_t>(kRecChannels);
         for (std::size_t i = 0; i < kRecChannels; ++i) {
-            r.channels[i] = static_cast<uint8_t>(c.channels[i] % kSignalCount);
-            r.axes[i] = static_cast<uint8_t>(c.channels[i] / kSignalCount);
+            const bool sync = c.channels[i] >= kMaxAxes * kSignalCount;
+            r.channels[i] = sync ? params::kSyncChannel : static_cast<uint8_t>(c.channels[i] % kSignalCount);
+            r.axes[i] = sync ? 0 : static_cast<uint8_t>(c.channels[i] / kSignalCount);
         }
         r.decimation = c.decimation;
         r.mode = c.mode;
@@ -141,7 +143,8 @@ private:
     typename RecorderType::Config recorder_config(const RecorderParams& v) const {
         typename RecorderType::Config c{};
         for (std::size_t i = 0; i < kRecChannels; ++i)
-            c.channels[i] = static_cast<uint8_t>(v.axes[i] * kSignalCount + v.channels[i]);
+            c.channels[i] = v.channels[i] == params::kSyncChannel ? static_cast<uint8_t>(kMaxAxes * kSignalCount)
+                                                                  : static_cast<uint8_t>(v.axes[i] * kSignalCount + v.channels[i]);
         c.decimation = v.decimation;
         c.mode = v.mode;
         c.trigger = v.trigger;
@@ -160,10 +163,18 @@ private:
             return fail(ErrorCode::kUnsupported,
                         error("channel_count", "must equal the device's recorder channel count (hello)"));
         if (const Status s = check_.check(v); !s.ok()) return fail(ErrorCode::kInvalidParam, s);
-        for (std::size_t i = 0; i < kRecChannels; ++i)
+        for (std::size_t i = 0; i < kRecChannels; ++i) {
             if (v.axes[i] >= N)
                 return fail(ErrorCode::kInvalidParam,
                             error("axes", static_cast<int>(i), axis_range_message<N>()));
+            if (v.channels[i] == params::kSyncChannel && (!kMatrices || N < 2))
+                return fail(ErrorCode::kInvalidParam,
+                            error("channels", static_cast<int>(i),
+                                  "sync: the scan signal of a board of two or three axes; this board has one axis"));
+            if (v.channels[i] == params::kSyncChannel && v.axes[i] != 0)
+                return fail(ErrorCode::kInvalidParam,
+                            error("axes", static_cast<int>(i), "must be 0 for sync (the board's signal)"));
+        }
         if (v.trigger_axis >= N) return fail(ErrorCode::kInvalidParam, error("trigger_axis", axis_range_message<N>()));
         if (const Status s = RecorderType::validate(recorder_config(v)); !s.ok())
             return fail(ErrorCode::kInvalidParam, s);

@@ -40,6 +40,7 @@
 
 #include "piezoloop/axes/multi_axis_pipeline.hpp"
 #include "piezoloop/link/board_policy.hpp"
+#include "piezoloop/link/device_scan.hpp"
 #include "piezoloop/link/framing.hpp"
 #include "piezoloop/link/log_stream.hpp"
 #include "piezoloop/link/messages.hpp"
@@ -84,6 +85,12 @@ class Device {
     static_assert(N >= 1 && N <= kMaxAxes, "Device: 1 to 3 axes");
     static_assert(MultiAxis || N == 1, "Device: more than one axis needs a MultiAxisPipeline");
     static constexpr bool kFloat = std::is_same_v<T, float>;
+    // A board of two or three axes runs scans (StartScan).
+    static constexpr bool kScans = MultiAxis && N >= 2;
+    struct NoScan {
+        template <class P>
+        explicit constexpr NoScan(P&) {}
+    };
 
 public:
     static constexpr int kAxes = N;
@@ -104,7 +111,8 @@ public:
           info_(info),
           hooks_(hooks),
           policies_{ParamPolicy<PipelineType>(pipeline)},
-          board_(pipeline.recorder(), {&pipeline.setup()}, nullptr, hooks.mask_tick) {}
+          board_(pipeline.recorder(), {&pipeline.setup()}, nullptr, hooks.mask_tick),
+          scan_(pipeline) {}
 
     Device(MultiType& multi, const DeviceInfo& info = {}, const DeviceHooks& hooks = {})
         requires(MultiAxis)
@@ -183,6 +191,7 @@ public:
             }
             case MsgType::kStartWave: start_wave(h, body, send); return;
             case MsgType::kStartExcitation: start_excitation(h, body, send); return;
+            case MsgType::kStartScan: start_scan(h, body, send); return;
             case MsgType::kStopExcitation: {
                 StopExcitation m;
                 if (!decode(h, body, m, send) || !check_axis(h, m.axis, send)) return;
@@ -193,6 +202,7 @@ public:
                 StopWave m;
                 if (!decode(h, body, m, send) || !check_axis(h, m.axis, send)) return;
                 axes_[m.axis]->stop_wave();
+                if constexpr (kScans) scan_.request_stop();  // a scan moves every axis
                 return ack(h, send);
             }
             case MsgType::kStreamStart: {
@@ -200,6 +210,8 @@ public:
                 if (!decode(h, body, m, send) || !check_axis(h, m.axis, send)) return;
                 if (axes_[m.axis]->wave_running())
                     return fail(h, ErrorCode::kBusy, error("stream", "a wave is running: stop it first"), send);
+                if (scan_active())
+                    return fail(h, ErrorCode::kBusy, error("stream", "a scan is running: stop it first"), send);
                 if (stream_.open() && m.axis != stream_axis_)
                     return fail(h, ErrorCode::kBusy, error("stream", "a stream to another axis is open: stop it first"),
                                 send);
@@ -289,6 +301,7 @@ public:
     void on_tick() {
         T setpoint;
         if (stream_.on_tick(setpoint)) axes_[stream_axis_]->set_setpoint(setpoint);
+        if constexpr (kScans) scan_.on_tick();
     }
 
     // ---- state, for host tests and the firmware -------------------------------
@@ -310,7 +323,7 @@ public:
         r.loop_rate_Hz = s.rate_Hz;
         r.capabilities = (kFloat ? cap::kFloat : cap::kQ31) | cap::kDahl | cap::kRepetitive | cap::kSetpointStream |
                          cap::kRecorder | cap::kWaveTable | cap::kExcitation |
-                         (hooks_.storage != nullptr ? cap::kStorage : 0u) | (MultiAxis ? cap::kAxisMatrices : 0u);
+                         (hooks_.storage != nullptr ? cap::kStorage : 0u) | (MultiAxis ? cap::kAxisMatrices : 0u) | (kScans ? cap::kScan : 0u);
         r.sample_format = kFloat ? SampleFormat::kFloat32 : SampleFormat::kQ31;
         r.hard_u_min_V = s.hard.u_min_V;
         r.hard_u_max_V = s.hard.u_max_V;
@@ -380,6 +393,12 @@ public:
             }
             if (p.limiter().trip_reason() == TripReason::kInvalidHardLimits) f |= fault::kHardLimitsInvalid;
         }
+        if constexpr (kScans) {
+            r.scan_state = static_cast<uint8_t>(scan_.state());
+            r.scan_approach_ticks = scan_.approach_ticks();
+            r.scan_ticks = scan_.ticks();
+            r.scan_frames_completed = scan_.frames_completed();
+        }
         r.r_um = r.axis_r_um[0];
         r.y_um = r.axis_y_um[0];
         r.u_V = r.axis_u_V[0];
@@ -410,7 +429,8 @@ private:
           info_(info),
           hooks_(hooks),
           policies_{ParamPolicy<PipelineType>(multi.axis(static_cast<int>(I)))...},
-          board_(multi.recorder(), {&multi.axis(static_cast<int>(I)).setup()...}, &multi, hooks.mask_tick) {}
+          board_(multi.recorder(), {&multi.axis(static_cast<int>(I)).setup()...}, &multi, hooks.mask_tick),
+          scan_(multi) {}
 
     // ---- every axis -------------------------------------------------------------
 
@@ -427,7 +447,11 @@ private:
     bool any_running() const {
         for (const PipelineType* p : axes_)
             if (p->wave_running() || p->excitation_running()) return true;
-        return false;
+        return scan_active();
+    }
+    bool scan_active() const {
+        if constexpr (kScans) return scan_.active();
+        else return false;
     }
     int tripped_axis() const {
         for (int a = 0; a < N; ++a)
@@ -507,6 +531,7 @@ private:
             p->stop_wave();
             p->stop_excitation();
         }
+        if constexpr (kScans) scan_.request_stop();
         if (board_.link().on_client_loss == params::ClientLossAction::kDisarm) disarm_all();
         client_bound_ = false;
         client_lost_ = true;
@@ -578,6 +603,8 @@ private:
                 why = "a setpoint stream is running: stop it first";
             } else if (axes_[a]->wave_running()) {
                 why = "a wave is running: stop it first";
+            } else if (scan_active()) {
+                why = "a scan is running: stop it first";
             }
             if (why != nullptr) return fail(h, code, in_group("trajectory", error("waveform", every ? a : -1, why)), send);
         }
@@ -589,6 +616,41 @@ private:
             for (int a = first; a <= last; ++a) axes_[a]->run_wave();
             return ok_status();
         }, send);
+    }
+
+    // StartScan: as StartWave, on every axis at once, with the scan feed in
+    // place of the axes' waves. The approach starts where the stage is: a
+    // loop that stays armed from its held setpoints, else from the
+    // readings (a restarted stage's are zero).
+    template <class Send>
+    void start_scan(const FrameHeader& h, std::span<const uint8_t> body, Send& send) {
+        StartScan m;
+        if (!decode(h, body, m, send)) return;
+        if constexpr (!kScans) {
+            fail(h, ErrorCode::kUnsupported, in_group("scan", error("pattern", "a scan needs a board of two or three axes")),
+                 send);
+        } else {
+            const uint8_t f = m.flags;
+            if (!check_flags(h, f, "unknown bits: only bit0 arm loop, bit1 arm recorder, bit2 restart stage, bit3 detached",
+                             send))
+                return;
+            if (scan_.active())
+                return fail(h, ErrorCode::kBusy, in_group("scan", error("pattern", "a scan is running: stop it first")), send);
+            for (int a = 0; a < N; ++a) {
+                const char* why = nullptr;
+                if (axes_[a]->wave_running()) why = "a wave is running: stop it first";
+                else if (stream_.open() && stream_axis_ == a) why = "a setpoint stream is running: stop it first";
+                if (why != nullptr) return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", a, why)), send);
+            }
+            if (!check_arm_flags(h, f, send)) return;
+            start_at_tick(h, f, [&] {
+                const bool stays_armed = (f & StartWave::kArmLoop) == 0;
+                std::array<T, 3> from{};
+                for (int a = 0; a < N; ++a)
+                    from[a] = stays_armed && axes_[a]->armed() ? axes_[a]->setpoint() : axes_[a]->last().y;
+                return scan_.start(m.config, from[0], from[1], from[2]);
+            }, send);
+        }
     }
 
     // StartExcitation: as StartWave, with the excitation in place of the
@@ -903,6 +965,7 @@ private:
     StorageState boot_state_ = StorageState::kAbsent;
     StorageWhy boot_why_{};
     storage::StoredParams stored_{};  // scratch of Save and Load (kept off the main loop's stack)
+    std::conditional_t<kScans, DeviceScan<T, MultiType>, NoScan> scan_;
 };
 
 }  // namespace piezoloop::link

@@ -37,6 +37,7 @@
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/recorder.hpp"
 #include "piezoloop/repetitive.hpp"
+#include "piezoloop/scan/scan_config.hpp"
 #include "piezoloop/trajectory.hpp"
 
 namespace piezoloop::link {
@@ -55,7 +56,9 @@ namespace piezoloop::link {
 // channel's clamps; the axis-scoped requests carry axis:u8; the recorder's
 // channels are (axis, signal) pairs; the input_matrix and output_matrix
 // groups; StartWave's body is always axis and flags.
-inline constexpr uint8_t kProtocolVersion = 5;
+// Version 6: scans. StartScan; the recorder's channel "sync" (the scan's
+// sync word); StatusReply ends with the scan's state.
+inline constexpr uint8_t kProtocolVersion = 6;
 
 enum class MsgType : uint8_t {
     // Requests, host -> device.
@@ -78,6 +81,7 @@ enum class MsgType : uint8_t {
     kSave = 0x11,    // store the current parameter set in the board's storage
     kLoad = 0x12,    // validate and apply the stored set
     kForget = 0x13,  // erase the board's storage
+    kStartScan = 0x14,  // run a scan on the axes of a board of two or three
     // Replies, device -> host, with the request's sequence id.
     kAck = 0x80,
     kHelloReply = 0x81,
@@ -89,7 +93,7 @@ enum class MsgType : uint8_t {
     kLogBlock = 0xC0,
 };
 
-constexpr bool is_request(uint8_t t) { return (t >= 0x01 && t <= 0x13); }
+constexpr bool is_request(uint8_t t) { return (t >= 0x01 && t <= 0x14); }
 
 // Every message type with its body and replies, as docs/protocol.md's
 // table of message types states them (generated from this list by
@@ -101,7 +105,7 @@ struct MessageTypeDoc {
     const char* body;
     const char* reply;  // "" for replies and unasked messages
 };
-inline constexpr std::array<MessageTypeDoc, 26> kMessageTypes = {{
+inline constexpr std::array<MessageTypeDoc, 27> kMessageTypes = {{
     {MsgType::kHello, "Hello", "empty", "HelloReply"},
     {MsgType::kGetStatus, "GetStatus", "empty", "StatusReply"},
     {MsgType::kGetParams, "GetParams", "group:u8, axis:u8", "ParamsReply"},
@@ -123,6 +127,7 @@ inline constexpr std::array<MessageTypeDoc, 26> kMessageTypes = {{
     {MsgType::kLoad, "Load", "empty",
      "Ack / Error(unsupported, armed, not_configured, storage, invalid_param, busy)"},
     {MsgType::kForget, "Forget", "empty", "Ack / Error(unsupported, armed, storage)"},
+    {MsgType::kStartScan, "StartScan", "see below", "Ack / Error"},
     {MsgType::kAck, "Ack", "request_type:u8", ""},
     {MsgType::kHelloReply, "HelloReply", "see below", ""},
     {MsgType::kStatusReply, "StatusReply", "see below", ""},
@@ -181,6 +186,7 @@ inline constexpr uint32_t kWaveTable = 1u << 6;       // kSteps / kTable wavefor
 inline constexpr uint32_t kExcitation = 1u << 7;      // StartExcitation / StopExcitation, signal d
 inline constexpr uint32_t kStorage = 1u << 8;         // Save / Load / Forget: the board keeps a parameter set
 inline constexpr uint32_t kAxisMatrices = 1u << 9;    // input_matrix / output_matrix groups take any valid matrix
+inline constexpr uint32_t kScan = 1u << 10;           // StartScan, the recorder's sync channel (two or three axes)
 }  // namespace cap
 
 enum class SampleFormat : uint8_t { kFloat32 = 0, kQ31 = 1 };
@@ -331,6 +337,80 @@ struct StartExcitation {
     void read(Reader& r) {
         params::read_group(r, *this);
         if (config.point != ExcitationPoint::kCommand && config.point != ExcitationPoint::kReference) r.mark_bad();
+    }
+};
+
+// Runs a scan (scan/scan_generator.hpp, docs/scan.md) on a board of two
+// or three axes: x on axis 0, y on axis 1, z (held at hold_z_um) on axis 2.
+// Each axis first moves from where the stage is (the held setpoint of a loop
+// that stays armed, else its reading) to the scan's first point with the
+// minimum-jerk approach, then the scan's clock runs; the recorder's "sync"
+// channel carries each tick's events. The flags work as StartWave's (the
+// approach's first tick, the arm, the recorder's arm and the stage's restart
+// at one tick boundary). StopWave of any axis stops it where it is.
+struct StartScan;
+template <class V, params::GroupRef<StartScan> M>
+constexpr void describe(V& v, M& m) {
+    using namespace params;
+    auto& c = m.config;
+    v.value(u8("flags", "StartWave's bits (arm loop, arm recorder, restart stage, detached)"), m.flags);
+    v.value(u8("pattern", "0 raster, 1 spiral, 2 Lissajous, 3 cycloid; other values malformed"), c.pattern);
+    v.value(f32("centre_x_um", "um", "the pattern's centre"), c.centre_x_um);
+    v.value(f32("centre_y_um", "um", "the pattern's centre"), c.centre_y_um);
+    v.value(f32("hold_z_um", "um", "where the third axis is held"), c.hold_z_um);
+    v.value(f32("rotation_deg", "deg", "the pattern turned about the centre, [-360, 360]"), c.rotation_deg);
+    v.value(u32("frames", "1", "frames to scan; 0 repeats until StopWave"), c.frames);
+    v.value(u32("pixels_per_line", "1", "pixel clocks a line, [1, 65536]"), c.pixels_per_line);
+    v.value(f32("size_x_um", "um", "raster, cycloid: used width; Lissajous: x peak to peak"), c.size_x_um);
+    v.value(f32("size_y_um", "um", "raster, cycloid: height; Lissajous: y peak to peak"), c.size_y_um);
+    v.value(u32("lines_per_frame", "1", "raster, cycloid: [1, 65536]"), c.lines_per_frame);
+    v.value(f32("line_rate_Hz", "Hz", "raster: lines a second"), c.line_rate_Hz);
+    v.value(f32("retrace_speed_factor", "1", "raster: retrace speed / trace speed, [1, 16]"), c.retrace_speed_factor);
+    v.value(f32("overscan_fraction", "1", "raster: constant-speed run beyond each end, share of the width, [0, 1]"),
+            c.overscan_fraction);
+    v.value(f32("turnaround_s", "s", "raster: each turnaround (>= 2 ticks)"), c.turnaround_s);
+    v.value(u8("slow_axis", "raster: 0 staircase, 1 ramp; other values malformed"), c.slow_axis);
+    v.value(boolean("bidirectional", "raster: both sweeps are lines"), c.bidirectional);
+    v.value(u8("fast_axis", "raster: 0 triangle, 1 sine; other values malformed"), c.fast_axis);
+    v.value(u8("spiral_mode", "spiral: 0 constant angular velocity, 1 constant linear velocity; other values malformed"),
+            c.spiral_mode);
+    v.value(f32("radius_um", "um", "spiral: outer radius; cycloid: circle radius"), c.radius_um);
+    v.value(u32("turns", "1", "spiral: [1, 65536]"), c.turns);
+    v.value(f32("turn_rate_Hz", "Hz", "spiral, cycloid: turns a second"), c.turn_rate_Hz);
+    v.value(f32("linear_speed_um_s", "um/s", "spiral (CLV): tangential speed"), c.linear_speed_um_s);
+    v.value(f32("frequency_x_Hz", "Hz", "Lissajous: x"), c.frequency_x_Hz);
+    v.value(f32("frequency_y_Hz", "Hz", "Lissajous: y"), c.frequency_y_Hz);
+    v.value(f32("phase_y_deg", "deg", "Lissajous: y's phase"), c.phase_y_deg);
+    v.value(u32("turns_per_line", "1", "cycloid: [1, 65536]"), c.turns_per_line);
+}
+
+struct StartScan {
+    static constexpr MsgType kType = MsgType::kStartScan;
+    uint8_t flags = 0;
+    ScanConfig config{};  // sample_rate_Hz is not sent: the board's loop rate
+    bool operator==(const StartScan& o) const {
+        const ScanConfig &a = config, &b = o.config;
+        return flags == o.flags && a.pattern == b.pattern && a.centre_x_um == b.centre_x_um &&
+               a.centre_y_um == b.centre_y_um && a.hold_z_um == b.hold_z_um && a.rotation_deg == b.rotation_deg &&
+               a.frames == b.frames && a.pixels_per_line == b.pixels_per_line && a.size_x_um == b.size_x_um &&
+               a.size_y_um == b.size_y_um && a.lines_per_frame == b.lines_per_frame &&
+               a.line_rate_Hz == b.line_rate_Hz && a.retrace_speed_factor == b.retrace_speed_factor &&
+               a.overscan_fraction == b.overscan_fraction && a.turnaround_s == b.turnaround_s &&
+               a.slow_axis == b.slow_axis && a.bidirectional == b.bidirectional && a.fast_axis == b.fast_axis &&
+               a.spiral_mode == b.spiral_mode && a.radius_um == b.radius_um && a.turns == b.turns &&
+               a.turn_rate_Hz == b.turn_rate_Hz && a.linear_speed_um_s == b.linear_speed_um_s &&
+               a.frequency_x_Hz == b.frequency_x_Hz && a.frequency_y_Hz == b.frequency_y_Hz &&
+               a.phase_y_deg == b.phase_y_deg && a.turns_per_line == b.turns_per_line;
+    }
+    void write(Writer& w) const { params::write_group(w, *this); }
+    void read(Reader& r) {
+        params::read_group(r, *this);
+        const ScanConfig& c = config;
+        if (static_cast<uint8_t>(c.pattern) > static_cast<uint8_t>(ScanPattern::kCycloid) ||
+            static_cast<uint8_t>(c.slow_axis) > static_cast<uint8_t>(SlowAxis::kRamp) ||
+            static_cast<uint8_t>(c.fast_axis) > static_cast<uint8_t>(FastAxis::kSine) ||
+            static_cast<uint8_t>(c.spiral_mode) > static_cast<uint8_t>(SpiralMode::kConstantLinearVelocity))
+            r.mark_bad();
     }
 };
 
@@ -711,6 +791,12 @@ constexpr void describe(V& v, M& m) {
              m.channel_clamped, m.axis_count, Travel::kCount);
     v.values(u32("channel_slew_limited", "ticks", "ticks the channel limiter slew-limited"), m.channel_slew_limited,
              m.axis_count, Travel::kCount);
+    // The scan block (protocol 6).
+    v.value(u8("scan_state", "0 none since boot, 1 approaching its first point, 2 scanning, 3 ended (its frames, or a stop)"),
+            m.scan_state);
+    v.value(u32("scan_approach_ticks", "ticks", "the last scan's approach"), m.scan_approach_ticks);
+    v.value(u32("scan_ticks", "ticks", "ticks the last scan ran, approach included"), m.scan_ticks);
+    v.value(u32("scan_frames_completed", "1", "frames the last scan completed"), m.scan_frames_completed);
 }
 
 struct StatusReply {
@@ -754,6 +840,9 @@ struct StatusReply {
     std::array<uint32_t, kMaxLinkAxes> axis_swaps{}, axis_excitation_ticks{}, axis_excitation_clipped{};
     std::array<float, kMaxLinkAxes> axis_r_um{}, axis_y_um{}, axis_u_V{}, channel_u_V{};
     std::array<uint32_t, kMaxLinkAxes> channel_clamped{}, channel_slew_limited{};
+    // ---- scan block (protocol 6)
+    uint8_t scan_state = 0;
+    uint32_t scan_approach_ticks = 0, scan_ticks = 0, scan_frames_completed = 0;
     bool operator==(const StatusReply&) const = default;
 
     void write(Writer& w) const { params::write_group(w, *this); }

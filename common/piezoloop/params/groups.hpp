@@ -76,8 +76,14 @@ inline constexpr const char* kWaveformNames[] = {"sine", "triangle", "raster", "
 inline constexpr const char* kRecordModeNames[] = {"single_shot", "continuous"};
 inline constexpr const char* kTriggerModeNames[] = {"immediate", "rising", "falling"};
 inline constexpr const char* kSignalNames[] = {"r", "y", "e", "u", "u_ff", "u_fb", "u_rc", "d"};
+// A recorder channel's signal: one of an axis's signals, or "sync", the scan's
+// sync word (scan_config.hpp: frame, line and pixel bits), which is the
+// board's (a board of axes; its channel's axis is 0).
+inline constexpr const char* kChannelNames[] = {"r", "y", "e", "u", "u_ff", "u_fb", "u_rc", "d", "sync"};
+inline constexpr uint8_t kSyncChannel = 8;
 inline constexpr const char* kClientLossNames[] = {"hold", "disarm"};
 static_assert(std::size(kSignalNames) == kSignalCount);
+static_assert(std::size(kChannelNames) == kSignalCount + 1 && kSyncChannel == kSignalCount);
 static_assert(std::size(kWaveformNames) == static_cast<std::size_t>(Waveform::kTable) + 1);
 static_assert(std::size(kFeedforwardKindNames) == static_cast<std::size_t>(FeedforwardKind::kPiSeries) + 1);
 
@@ -145,7 +151,7 @@ struct TrajectoryParams {
 struct RecorderParams {
     static constexpr ParamGroup kGroup = ParamGroup::kRecorder;
     uint8_t channel_count = 0;
-    std::array<uint8_t, kMaxLogChannels> channels{};  // SignalId values, first channel_count used
+    std::array<uint8_t, kMaxLogChannels> channels{};  // SignalId values or kSyncChannel, first channel_count used
     uint32_t decimation = 1;
     RecordMode mode = RecordMode::kContinuous;
     TriggerMode trigger = TriggerMode::kImmediate;
@@ -296,7 +302,8 @@ template <class V, GroupRef<RecorderParams> G>
 constexpr void describe(V& v, G& g) {
     v.count(u8("channel_count", "recorded channels: the device's recorder channel count (hello)").range(0, kMaxLogChannels),
             g.channel_count);
-    v.values(enumeration("channels", kSignalNames, "signal of each channel, in frame order"), g.channels, g.channel_count,
+    v.values(enumeration("channels", kChannelNames, "signal of each channel, in frame order (sync: a board of axes)"),
+             g.channels, g.channel_count,
              Travel::kAll);
     v.values(u8("axes", "axis of each channel, 0..axis_count-1 (hello)").range(0, kMaxGroupAxes - 1), g.axes,
              g.channel_count, Travel::kAll);

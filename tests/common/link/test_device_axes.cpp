@@ -16,6 +16,7 @@
 
 #include "piezoloop/link/device.hpp"
 #include "piezoloop/reference_stage.hpp"
+#include "piezoloop/scan/scan_feed.hpp"
 #include "piezoloop/storage/memory_storage.hpp"
 #include "test_link_client.hpp"
 
@@ -156,7 +157,7 @@ TYPED_TEST(DeviceAxes, HelloAndStatusReportEveryAxis) {
     AxesRig<typename TypeParam::Sample, N> rig;
     rig.configure_reference();
     const HelloReply h = rig.request(Hello{}).template as<HelloReply>();
-    EXPECT_EQ(h.protocol_version, 5);
+    EXPECT_EQ(h.protocol_version, kProtocolVersion);
     EXPECT_EQ(h.axis_count, N);
     EXPECT_NE(h.capabilities & cap::kAxisMatrices, 0u);
     EXPECT_EQ(h.recorder_channels, 8);
@@ -517,4 +518,158 @@ TEST(DeviceAxesOne, OneAxisLogsExactlyWhatASinglePipelineDeviceLogs) {
         checked += sb.frame_count;
     }
     EXPECT_EQ(checked, 300u);
+}
+
+namespace {
+
+// A small raster the reference stage's setup can run quickly: 4 lines of 8
+// pixels at 2 kHz lines (the loop rate's ticks a pixel a whole number).
+ScanConfig small_raster() {
+    ScanConfig c;
+    c.pattern = ScanPattern::kRaster;
+    c.centre_x_um = 1.0f;
+    c.centre_y_um = -0.5f;
+    c.size_x_um = 2.0f;
+    c.size_y_um = 1.0f;
+    c.pixels_per_line = 8;
+    c.lines_per_frame = 4;
+    c.line_rate_Hz = 500.0f;
+    c.turnaround_s = 2e-4f;
+    c.frames = 1;
+    return c;
+}
+
+}  // namespace
+
+// StartScan on a board of axes: x and y follow a ScanFeed run alone from the
+// stage's readings (bit for bit), the recorder's sync channel carries its
+// events on the same ticks, the status follows the scan to its end, and the
+// sync word is 0 after it. StopWave stops a scan where it is.
+TYPED_TEST(DeviceAxes, ScanDrivesTheAxesWithItsSyncWord) {
+    using T = typename TypeParam::Sample;
+    constexpr int N = TypeParam::kAxes;
+    AxesRig<T, N> rig;
+    rig.configure_reference();
+    StartScan m{StartWave::kArmLoop | StartWave::kArmRecorder};
+    m.config = small_raster();
+    if (N == 1) {
+        expect_error(rig.request(m), ErrorCode::kUnsupported, "scan", "pattern");
+        RecorderParams rp = rig.template get<RecorderParams>();
+        rp.channels[2] = params::kSyncChannel;
+        expect_error(rig.set(rp), ErrorCode::kInvalidParam, "recorder", "channels");
+        return;
+    }
+    EXPECT_NE(rig.device->make_hello().capabilities & cap::kScan, 0u);
+    RecorderParams rp = rig.template get<RecorderParams>();
+    rp.mode = RecordMode::kContinuous;
+    rp.channels[0] = signal_index(SignalId::kR);
+    rp.axes[0] = 0;
+    rp.channels[1] = signal_index(SignalId::kR);
+    rp.axes[1] = 1;
+    rp.channels[2] = params::kSyncChannel;
+    rp.axes[2] = 1;
+    expect_error(rig.set(rp), ErrorCode::kInvalidParam, "recorder", "axes");
+    rp.axes[2] = 0;
+    ASSERT_EQ(rig.set(rp).type(), MsgType::kAck);
+    EXPECT_EQ(rig.template get<RecorderParams>().channels[2], params::kSyncChannel);
+
+    // Refused, naming the field, and nothing changes.
+    StartScan bad = m;
+    bad.config.pixels_per_line = 0;
+    expect_error(rig.request(bad), ErrorCode::kInvalidParam, "scan", "pixels_per_line");
+    rig.tick();
+    EXPECT_FALSE(rig.multi->axis(0).armed());
+    EXPECT_EQ(rig.device->make_status().scan_state, 0u);
+
+    ASSERT_EQ(rig.request(m).type(), MsgType::kAck);
+    // The reference: the same feed from the stage's readings (zero).
+    const SignalScale pos = rig.multi->axis(0).setup().position;
+    ScanFeed<T> feed(pos, pos, pos, rig.multi->axis(0).setup().rate_Hz);
+    ScanConfig c = m.config;
+    c.sample_rate_Hz = rig.multi->axis(0).setup().rate_Hz;
+    ASSERT_TRUE(feed.start(c, T{}, T{}, T{}).ok());
+    std::vector<ScanPoint<T>> expected;
+    while (!feed.done()) expected.push_back(feed.step());
+    ASSERT_GT(feed.approach_ticks(), 0u);
+
+    // A running scan refuses waves, streams and another scan.
+    TrajectoryParams t;
+    t.amplitude_um = 1.0f;
+    t.frequency_Hz = 10.0f;
+    ASSERT_EQ(rig.set(t, 0).type(), MsgType::kAck);
+    rig.tick();
+    EXPECT_EQ(rig.device->make_status().scan_state, static_cast<uint8_t>(ScanState::kApproaching));
+    expect_error(rig.request(StartWave{}), ErrorCode::kBusy, "trajectory", "waveform");
+    expect_error(rig.request(m), ErrorCode::kBusy, "scan", "pattern");
+    // Ticks in short runs, the log drained between them (the recorder holds 1024 frames).
+    std::vector<LogBlock> log;
+    auto run = [&](std::size_t ticks) {
+        for (std::size_t i = 0; i < ticks; ++i) {
+            rig.tick();
+            if (i % 64 == 63)
+                for (const LogBlock& b : rig.drain_log()) log.push_back(b);
+        }
+        for (const LogBlock& b : rig.drain_log()) log.push_back(b);
+    };
+    run(expected.size() + 1);
+    const StatusReply st = rig.device->make_status();
+    EXPECT_EQ(st.scan_state, static_cast<uint8_t>(ScanState::kEnded));
+    EXPECT_EQ(st.scan_approach_ticks, feed.approach_ticks());
+    EXPECT_EQ(st.scan_ticks, expected.size());
+    EXPECT_EQ(st.scan_frames_completed, 1u);
+    run(2);
+    ASSERT_EQ(rig.request(RecorderStop{}).type(), MsgType::kAck);
+    for (const LogBlock& b : rig.drain_log()) log.push_back(b);
+
+    std::size_t k = 0, events = 0;
+    for (const LogBlock& b : log) {
+        EXPECT_EQ(b.channels[2], kBoardSyncSignal);
+        for (std::size_t f = 0; f < b.frame_count; ++f, ++k) {
+            const uint32_t* s = &b.samples[f * 8];
+            const bool in_scan = k < expected.size();
+            const uint32_t sync = in_scan ? expected[k].sync : 0u;
+            if (in_scan) {
+                ASSERT_EQ(s[0], bits(expected[k].x)) << k;
+                ASSERT_EQ(s[1], bits(expected[k].y)) << k;
+            }
+            if constexpr (std::is_same_v<T, float>) ASSERT_EQ(s[2], std::bit_cast<uint32_t>(static_cast<float>(sync))) << k;
+            else ASSERT_EQ(s[2], sync) << k;
+            events += sync != 0;
+        }
+    }
+    EXPECT_EQ(k, expected.size() + 4);  // the scan, then three ticks after it
+    EXPECT_GE(events, 4u * 8u);  // every pixel clock at least
+
+    // StopWave stops a scan where it is: the setpoints hold.
+    StartScan again{};
+    again.config = small_raster();
+    again.config.frames = 0;
+    ASSERT_EQ(rig.request(again).type(), MsgType::kAck);
+    rig.tick(static_cast<int>(feed.approach_ticks()) + 50);
+    ASSERT_EQ(rig.request(StopWave{}).type(), MsgType::kAck);
+    rig.tick(2);
+    const T held = rig.multi->axis(0).setpoint();
+    rig.tick(20);
+    EXPECT_EQ(bits(rig.multi->axis(0).setpoint()), bits(held));
+    EXPECT_EQ(rig.device->make_status().scan_state, static_cast<uint8_t>(ScanState::kEnded));
+}
+
+// A pattern, slow axis, fast axis or spiral mode beyond its enum is malformed.
+TEST(DeviceScanMessage, EnumsBeyondTheirRangeAreMalformed) {
+    StartScan m;
+    m.config.pattern = static_cast<ScanPattern>(4);
+    std::array<uint8_t, kMaxBody> buf{};
+    Writer w(buf);
+    m.write(w);
+    Reader r(std::span<const uint8_t>(buf.data(), w.size()));
+    StartScan back;
+    back.read(r);
+    EXPECT_TRUE(r.bad_value());
+    m.config.pattern = ScanPattern::kCycloid;
+    Writer w2(buf);
+    m.write(w2);
+    Reader r2(std::span<const uint8_t>(buf.data(), w2.size()));
+    back.read(r2);
+    EXPECT_TRUE(r2.complete());
+    EXPECT_EQ(back, m);
 }
