@@ -1,8 +1,9 @@
 // `piezoloop scan`: a frame (or a few) scanned on the simulator's stage of
-// coupled axes over an emulated sample (docs/scan.md): the per-tick record
-// as CSV, the figures as JSON (also on stdout), the images at commanded and
-// at measured positions and the error maps as PNG (tools/plot_image.py).
-// Ctrl-C stops the scan, writes what arrived marked incomplete, and exits 4.
+// coupled axes, or on a board of two or three axes (--device), over an
+// emulated sample (docs/scan.md): the per-tick record as CSV, the figures as
+// JSON (also on stdout), the images at commanded and at measured positions
+// and the error maps as PNG (tools/plot_image.py). Ctrl-C stops the scan,
+// writes what arrived marked incomplete, and exits 4.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -19,6 +20,7 @@
 
 #include "commands.hpp"
 #include "device_common.hpp"
+#include "link/scan_session.hpp"
 #include "progress_bar.hpp"
 #include "scan/scan_case.hpp"
 #include "scan/scan_csv.hpp"
@@ -40,6 +42,9 @@ struct ScanArgs {
     std::string sample = "grating:pitch=2,height_nm=50";
     std::string centre;
     std::string out;
+    bool restart_stage = false;  // board: the emulated stage and the loop from rest
+    bool board_start = false;    // simulator: start as a board's StartScan with --restart-stage does
+    std::string sample_type;     // simulator: float | q31 (default: the case's)
 };
 
 [[noreturn]] void bad(const std::string& option, const std::string& why) {
@@ -82,8 +87,15 @@ nlohmann::json image_spec(const scan::ScanImageSpec& im, const std::filesystem::
             {"values", values}};
 }
 
-int run(const ScanArgs& a) {
-    const sim::Scenario s = sim::load_scenario(a.scenario);
+// The plan, the run and its figures: on the simulator, or on the board.
+struct ScanDone {
+    scan::ScanPlan plan;
+    scan::ScanOutcome outcome;
+    double rate_Hz = 0.0;
+    std::string incomplete_why;  // "" when complete
+};
+
+scan::ScanRequest request_of(const ScanArgs& a) {
     scan::ScanRequest req;
     req.case_name = a.case_name;
     req.pattern = a.pattern;
@@ -98,19 +110,95 @@ int run(const ScanArgs& a) {
     req.frames = a.frames;
     req.sample = a.sample;
     if (!a.centre.empty()) req.centre_um = pair_of("--centre-um", a.centre, ',', "X,Y in um, e.g. 50,50");
-    const scan::ScanPlan plan = scan::plan_scan(s, req, option_name);
+    return req;
+}
 
+ScanDone scan_simulator(const ScanArgs& a, const std::function<void(uint64_t, uint64_t)>& progress) {
+    if (a.restart_stage) bad("--restart-stage", "a board's option (give --device)");
+    sim::Scenario s = sim::load_scenario(a.scenario);
+    ScanDone d;
+    d.plan = scan::plan_scan(s, request_of(a), option_name);
+    if (!a.sample_type.empty()) {
+        if (a.sample_type != "float" && a.sample_type != "q31") bad("--sample-type", "must be float or q31");
+        // The case's core in the sample type asked for (as `sim --sample`).
+        sim::CaseSpec storage;
+        const sim::CaseSpec c = *measured_case(s, d.plan.case_name, a.sample_type, storage);
+        for (sim::CaseSpec& k : s.cases)
+            if (k.name == c.name) k = c;
+    }
+    d.rate_Hz = s.setup.rate_Hz;
+    d.outcome = scan::run_scan_case(s, d.plan, [] { return StopSignals::requested(); }, progress, a.board_start);
+    if (!d.outcome.run.complete) d.incomplete_why = "stopped before the end (Ctrl-C or SIGTERM)";
+    return d;
+}
+
+// On a board: the travel is the scenario's (the stage the board drives, as
+// `emulate --scenario` runs it) or, without one, the board's position range
+// with the centre given. The board runs the controllers it holds.
+ScanDone scan_board(const ScanArgs& a, const std::function<void(uint64_t, uint64_t)>& progress) {
+    if (!a.case_name.empty()) bad("--case", "the simulator's option: a board runs the controllers it holds (set --scenario)");
+    if (a.board_start) bad("--board-start", "the simulator's option (a board starts with --restart-stage)");
+    if (!a.sample_type.empty()) bad("--sample-type", "the simulator's option (a board runs its own core)");
+    hostlink::Client c = open_device();
+    const hostlink::DeviceScanBounds db = hostlink::device_scan_bounds(c);
+    scan::ScanBounds b;
+    b.rate_Hz = db.rate_Hz;
+    b.position = SignalScale{db.position_full_scale_um};
+    std::string stage = c.info().board.data();
+    if (!a.scenario.empty()) {
+        const sim::Scenario s = sim::load_scenario(a.scenario);
+        if (s.axes.size() < 2) bad("--scenario", "a scan needs a stage of two or three axes (plant.axes)");
+        if (s.setup.rate_Hz != db.rate_Hz)
+            bad("--scenario", "its loop rate (" + std::to_string(s.setup.rate_Hz) + " Hz) is not the board's (" +
+                                  std::to_string(db.rate_Hz) + " Hz)");
+        b.travel_x_um = scan::axis_travel_um(s, 0);
+        b.travel_y_um = scan::axis_travel_um(s, 1);
+        b.whose = "axis's travel";
+        stage = s.name + " on " + stage;
+    } else {
+        if (a.centre.empty()) bad("--centre-um", "needed on a board without --scenario (the stage's travel is not known)");
+        b.travel_x_um = {-db.x_full_scale_um, db.x_full_scale_um};
+        b.travel_y_um = {-db.y_full_scale_um, db.y_full_scale_um};
+        b.whose = "board's position range";
+    }
+    ScanDone d;
+    d.plan = scan::plan_scan(b, request_of(a), option_name);
+    d.rate_Hz = db.rate_Hz;
+    hostlink::DeviceScanOptions o;
+    o.scan = d.plan.config;
+    o.sample = d.plan.sample;
+    o.restart_stage = a.restart_stage;
+    o.stop_requested = [] { return StopSignals::requested(); };
+    o.progress = progress;
+    const auto t0 = std::chrono::steady_clock::now();
+    hostlink::DeviceScanResult r = hostlink::run_scan_device(c, o);
+    d.outcome.run = std::move(r.run);
+    d.outcome.simulate_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    scan::analyse_scan(d.plan, d.rate_Hz, stage, d.outcome);
+    d.outcome.figures["device"] = c.address();
+    d.outcome.figures["sync_mismatches"] = r.sync_mismatches;
+    d.outcome.figures["probe"] = "at the measured positions (a board streams no true position)";
+    if (!r.problems.empty()) {
+        d.incomplete_why = r.problems;
+        d.outcome.figures["incomplete"] = r.problems;
+    }
+    return d;
+}
+
+int run(const ScanArgs& a) {
+    const bool board = !device_address().empty();
+    if (!board && a.scenario.empty()) bad("--scenario", "required (or --device ADDR before `scan` for a board)");
     const std::filesystem::path dir(a.out);
     std::filesystem::create_directories(dir);
     const StopSignals stop_signals;
     const auto t0 = std::chrono::steady_clock::now();
     bool shown = false;
-    const scan::ScanOutcome r = scan::run_scan_case(
-        s, plan, [] { return StopSignals::requested(); },
-        [&](uint64_t k, uint64_t total) {
-            progress_bar(total ? std::min(1.0, static_cast<double>(k) / static_cast<double>(total)) : 1.0, t0,
-                         shown);
-        });
+    auto progress = [&](uint64_t k, uint64_t total) {
+        progress_bar(total ? std::min(1.0, static_cast<double>(k) / static_cast<double>(total)) : 1.0, t0, shown);
+    };
+    const ScanDone d = board ? scan_board(a, progress) : scan_simulator(a, progress);
+    const scan::ScanPlan& plan = d.plan;
+    const scan::ScanOutcome& r = d.outcome;
     scan::write_scan_csv(dir / "scan.csv", r.run.ticks);
     nlohmann::json j = r.figures;
     j["csv"] = "scan.csv: one row a tick from the scan's first tick (after the approach)";
@@ -126,20 +214,21 @@ int run(const ScanArgs& a) {
     }
     std::cout << j.dump(1) << "\n";
     const std::size_t ticks = j["ticks"], pixels = j["pixels"];
-    const double stage_s = static_cast<double>(ticks) / s.setup.rate_Hz;
+    const double stage_s = static_cast<double>(ticks) / d.rate_Hz;
     std::fprintf(stderr,
-                 "scan: %s, %zu ticks (%.3f s of stage time) simulated in %.3f s (%.0fx real time), %zu pixels, "
+                 "scan: %s, %zu ticks (%.3f s of stage time) %s in %.3f s (%.2fx real time), %zu pixels, "
                  "figures and images in %.3f s; wrote %s\n",
-                 r.run.complete ? "complete" : "stopped early", ticks, stage_s, r.simulate_wall_s,
+                 d.incomplete_why.empty() ? "complete" : "incomplete", ticks, stage_s,
+                 board ? "scanned on the board" : "simulated", r.simulate_wall_s,
                  r.simulate_wall_s > 0.0 ? stage_s / r.simulate_wall_s : 0.0, pixels, r.process_wall_s, dir.c_str());
     const double run_Hz = j["line_rate_Hz"].is_number() ? j["line_rate_Hz"].get<double>() : 0.0;
     if (plan.config.pattern == ScanPattern::kRaster && std::abs(run_Hz / a.line_rate_Hz - 1.0) > 0.05)
         std::fprintf(stderr,
                      "scan: note: lines ran at %.2f Hz, not %.2f Hz: a pixel takes whole ticks of the %.0f Hz loop "
                      "(a faster --retrace-speed leaves more of a line to the trace)\n",
-                     run_Hz, a.line_rate_Hz, s.setup.rate_Hz);
-    if (!r.run.complete)
-        throw LostData("scan interrupted (Ctrl-C or SIGTERM): what arrived is written, marked incomplete in "
+                     run_Hz, a.line_rate_Hz, d.rate_Hz);
+    if (!d.incomplete_why.empty())
+        throw LostData("scan incomplete (" + d.incomplete_why + "): what arrived is written, marked incomplete in "
                        "metrics.json");
     return 0;
 }
@@ -149,11 +238,18 @@ int run(const ScanArgs& a) {
 void add_scan(CLI::App& app) {
     auto a = std::make_shared<ScanArgs>();
     CLI::App* cmd = app.add_subcommand(
-        "scan", "Scan a frame on the simulator's XY stage over an emulated sample: images, errors and figures");
-    cmd->add_option("--scenario", a->scenario, "scenario of two or three axes (configs/stages/*.json)")
-        ->required()
+        "scan",
+        "Scan a frame on the simulator's XY stage, or a board's (--device), over an emulated sample: images, errors "
+        "and figures");
+    cmd->add_option("--scenario", a->scenario,
+                    "scenario of two or three axes (configs/stages/*.json); with --device, the stage the board drives "
+                    "(its travel)")
         ->check(CLI::ExistingFile);
-    cmd->add_option("--case", a->case_name, "controller case of the scenario (default: its first)");
+    cmd->add_option("--case", a->case_name, "simulator: controller case of the scenario (default: its first)");
+    cmd->add_option("--sample-type", a->sample_type, "simulator: the core's sample type, float | q31 (default: the case's)");
+    cmd->add_flag("--restart-stage", a->restart_stage, "board: the emulated stage and the loop start from rest");
+    cmd->add_flag("--board-start", a->board_start,
+                  "simulator: start as a board does with --restart-stage (to compare the two tick by tick)");
     cmd->add_option("--pattern", a->pattern, "raster | spiral | lissajous | cycloid (docs/scan.md)");
     cmd->add_option("--size-um", a->size, "scan size WxH in um (spiral: diameter min(W, H)), default 20x20");
     cmd->add_option("--pixels", a->pixels, "image NXxNY (raster: pixels a line x lines), default 256x256");

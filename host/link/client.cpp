@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "piezoloop/axes/multi_axis_pipeline.hpp"
 #include "piezoloop/q31.hpp"
 #include "piezoloop/sample.hpp"
 
@@ -273,6 +274,14 @@ void Client::start_wave(uint8_t flags, uint8_t axis) {
     expect_ack(m);
 }
 
+void Client::start_scan(const ScanConfig& c, uint8_t flags) {
+    if (flags & wave_flag::kArmRecorder) log_.clear();
+    link::StartScan m;
+    m.flags = flags;
+    m.config = c;
+    expect_ack(m);
+}
+
 void Client::recorder_arm() {
     log_.clear();
     expect_ack(link::RecorderArm{});
@@ -388,8 +397,10 @@ StreamResult Client::stream(std::span<const float> sp, uint16_t prefill, const s
     return res;
 }
 
-// A log channel id is axis * kSignalCount + signal (docs/protocol.md, LogBlock).
+// A log channel id is axis * kSignalCount + signal, or the board's sync
+// word (docs/protocol.md, LogBlock).
 const char* signal_name(uint8_t id) {
+    if (id == kBoardSyncSignal) return "sync";
     return id < link::kMaxLinkAxes * kSignalCount ? piezoloop::signal_name(static_cast<SignalId>(id % kSignalCount))
                                                    : "?";
 }

@@ -152,6 +152,10 @@ public:
     // same bits); the board's loop rate replaces c.sample_rate_Hz.
     void start_excitation(const ExcitationConfig& c, uint8_t flags = 0, uint8_t axis = 0);
     void stop_excitation(uint8_t axis = 0);
+    // A scan on a board of two or three axes (cap::kScan; flags:
+    // wave_flag::*); the board's loop rate replaces c.sample_rate_Hz.
+    // stop_waves() stops it.
+    void start_scan(const ScanConfig& c, uint8_t flags = 0);
 
     // A setpoint stream to one axis.
     link::SetpointAck stream_start(uint16_t prefill, uint8_t axis = 0);
@@ -241,6 +245,6 @@ private:
 double log_sample_physical(uint32_t raw, uint8_t signal_id, link::SampleFormat format, const link::HelloReply& hello);
 // Unit of a signal id: "um" for r, y, e, "V" for u, u_ff, u_fb, u_rc.
 const char* signal_unit(uint8_t signal_id);
-const char* signal_name(uint8_t signal_id);  // r, y, e, u, u_ff, u_fb, u_rc
+const char* signal_name(uint8_t signal_id);  // r, y, e, u, u_ff, u_fb, u_rc, sync
 
 }  // namespace piezoloop::hostlink

@@ -32,31 +32,50 @@ nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 
 }  // namespace
 
+ScanBounds scenario_bounds(const sim::Scenario& s) {
+    ScanBounds b;
+    b.rate_Hz = s.setup.rate_Hz;
+    b.position = s.setup.position;
+    b.travel_x_um = axis_travel_um(s, 0);
+    b.travel_y_um = axis_travel_um(s, 1);
+    b.whose = "axis's travel";
+    return b;
+}
+
 ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName& name) {
     auto bad = [&](const std::string& field, const std::string& why) {
         throw std::invalid_argument(name(field) + ": " + why);
     };
     if (s.axes.size() < 2) bad("scenario", "a scan needs a stage of two or three axes (plant.axes)");
     if (s.cases.empty()) bad("case", "the scenario has no cases");
-    ScanPlan p;
-    p.case_name = r.case_name.empty() ? s.cases.front().name : r.case_name;
+    const std::string case_name = r.case_name.empty() ? s.cases.front().name : r.case_name;
     const sim::CaseSpec* chosen = nullptr;
     for (const sim::CaseSpec& c : s.cases)
-        if (c.name == p.case_name) chosen = &c;
+        if (c.name == case_name) chosen = &c;
     if (chosen == nullptr) {
         std::string names;
         for (const sim::CaseSpec& c : s.cases) names += (names.empty() ? "" : ", ") + c.name;
-        bad("case", "'" + p.case_name + "' is not a case of the scenario (" + names + ")");
+        bad("case", "'" + case_name + "' is not a case of the scenario (" + names + ")");
     }
+    ScanPlan p = plan_scan(scenario_bounds(s), r, name);
+    p.case_name = case_name;
     p.case_label = chosen->label;
+    return p;
+}
+
+ScanPlan plan_scan(const ScanBounds& b, const ScanRequest& r, const FieldName& name) {
+    auto bad = [&](const std::string& field, const std::string& why) {
+        throw std::invalid_argument(name(field) + ": " + why);
+    };
+    ScanPlan p;
     p.pattern = r.pattern;
 
     const double w = r.size_x_um, h = r.size_y_um;
     if (!(w > 0.0 && w <= 1e6) || !(h > 0.0 && h <= 1e6)) bad("size_um", "each size must be in (0, 1e6] um");
     if (r.pixels_x < 2 || r.pixels_y < 2 || r.pixels_x > 4096 || r.pixels_y > 4096)
         bad("pixels", "each count must be a whole number in [2, 4096]");
-    if (!(r.line_rate_Hz > 0.0) || !(r.line_rate_Hz <= s.setup.rate_Hz / 4.0))
-        bad("line_rate_hz", "must be in (0, " + std::to_string(s.setup.rate_Hz / 4.0) + "] Hz (the loop rate / 4)");
+    if (!(r.line_rate_Hz > 0.0) || !(r.line_rate_Hz <= b.rate_Hz / 4.0))
+        bad("line_rate_hz", "must be in (0, " + std::to_string(b.rate_Hz / 4.0) + "] Hz (the loop rate / 4)");
     if (r.frames < 1 || r.frames > 1000) bad("frames", "must be in [1, 1000]");
     if (!(r.retrace_speed >= 1.0 && r.retrace_speed <= 16.0)) bad("retrace_speed", "must be in [1, 16]");
     if (r.retrace_speed != 1.0 && r.pattern != "raster") bad("retrace_speed", "applies to a raster only");
@@ -70,7 +89,7 @@ ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName
     p.pixels_x = r.pixels_x;
     p.pixels_y = r.pixels_y;
     const float rate = static_cast<float>(r.line_rate_Hz);
-    c.sample_rate_Hz = s.setup.rate_Hz;
+    c.sample_rate_Hz = b.rate_Hz;
     c.frames = static_cast<uint32_t>(r.frames);
     c.pixels_per_line = static_cast<uint32_t>(p.pixels_x);
     p.extent_x_um = w;
@@ -91,7 +110,7 @@ ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName
         c.turn_rate_Hz = rate;
         // pi NX pixels a turn (the outer turn's spacing one cell), at most
         // one every two ticks.
-        const double most = std::floor(s.setup.rate_Hz / (2.0 * r.line_rate_Hz));
+        const double most = std::floor(b.rate_Hz / (2.0 * r.line_rate_Hz));
         c.pixels_per_line = static_cast<uint32_t>(std::max(1.0, std::min(std::ceil(M_PI * p.pixels_x), most)));
         p.extent_x_um = p.extent_y_um = d;
     } else if (r.pattern == "lissajous") {
@@ -114,7 +133,7 @@ ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName
         bad("pattern", "must be raster, spiral, lissajous or cycloid, got '" + r.pattern + "'");
     }
     // The centre: given, or the middle of each axis's travel.
-    const auto tx = axis_travel_um(s, 0), ty = axis_travel_um(s, 1);
+    const auto tx = b.travel_x_um, ty = b.travel_y_um;
     if (!r.centre_um) {
         c.centre_x_um = static_cast<float>(0.5 * (tx.first + tx.second));
         c.centre_y_um = static_cast<float>(0.5 * (ty.first + ty.second));
@@ -124,7 +143,7 @@ ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName
         c.centre_x_um = static_cast<float>(r.centre_um->first);
         c.centre_y_um = static_cast<float>(r.centre_um->second);
     }
-    ScanGenerator<float> g(s.setup.position, s.setup.position, s.setup.position);
+    ScanGenerator<float> g(b.position, b.position, b.position);
     if (const Status st = g.configure(c); !st.ok()) bad(request_field(st.field), describe(st));
     const double reach = g.reach_um();
     const std::pair<double, double> travel[2] = {tx, ty};
@@ -134,15 +153,16 @@ ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName
             const std::string field = r.centre_um ? name("size_um") + " / " + name("centre_um") : name("size_um");
             throw std::invalid_argument(
                 field + ": the scan reaches " + (i == 0 ? "x" : "y") + " in [" + std::to_string(centre[i] - reach) +
-                ", " + std::to_string(centre[i] + reach) + "] um, beyond the axis's travel [" +
+                ", " + std::to_string(centre[i] + reach) + "] um, beyond the " + b.whose + " [" +
                 std::to_string(travel[i].first) + ", " + std::to_string(travel[i].second) + "] um");
         }
     return p;
 }
 
 ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::function<bool()> stop_requested,
-                          std::function<void(uint64_t tick, uint64_t total)> progress) {
+                          std::function<void(uint64_t tick, uint64_t total)> progress, bool board_start) {
     ScanRunOptions o;
+    o.board_start = board_start;
     o.case_name = p.case_name;
     o.scan = p.config;
     o.sample = p.sample;
@@ -152,22 +172,27 @@ ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::functi
     using Clock = std::chrono::steady_clock;
     const Clock::time_point t0 = Clock::now();
     out.run = run_scan(s, o);
+    out.simulate_wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    analyse_scan(p, s.setup.rate_Hz, s.name, out);
+    return out;
+}
+
+void analyse_scan(const ScanPlan& p, double rate, const std::string& stage, ScanOutcome& out) {
+    using Clock = std::chrono::steady_clock;
     const Clock::time_point t1 = Clock::now();
-    out.simulate_wall_s = std::chrono::duration<double>(t1 - t0).count();
     const ScanRunResult& r = out.run;
-    const double rate = s.setup.rate_Hz;
     const bool raster = p.config.pattern == ScanPattern::kRaster;
 
     const std::vector<ScanPixel> px = form_pixels(r.ticks);
     const ScanMetrics m = compute_metrics(r.ticks, px, rate, raster);
-    ScanGenerator<float> g(s.setup.position, s.setup.position, s.setup.position);
+    ScanGenerator<float> g;
     (void)g.configure(p.config);  // accepted by plan_scan already
     const double line_Hz = g.line_period_ticks() ? rate / g.line_period_ticks() : 0.0;
 
     auto pct = [](double v, double size) { return number(100.0 * v / size); };
     nlohmann::json& j = out.figures;
     j = {
-        {"scenario", s.name},
+        {"scenario", stage},
         {"case", p.case_name},
         {"case_label", p.case_label},
         {"sample_type", r.q31 ? "q31" : "float"},
@@ -218,7 +243,7 @@ ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::functi
             else place_by_cells(im, px, frame, where, what);
             return im;
         };
-        const std::string what = p.pattern + " on " + s.name + ", " + p.sample.describe();
+        const std::string what = p.pattern + " on " + stage + ", " + p.sample.describe();
         out.images.push_back({"image_commanded", "at commanded positions\n" + what, "height (nm)", "viridis",
                               form(Placement::kCommanded, Quantity::kHeight)});
         out.images.push_back({"image_measured", "at measured positions\n" + what, "height (nm)", "viridis",
@@ -242,7 +267,6 @@ ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::functi
         j["images_skipped"] = e.what();
     }
     out.process_wall_s = std::chrono::duration<double>(Clock::now() - t1).count();
-    return out;
 }
 
 }  // namespace piezoloop::scan

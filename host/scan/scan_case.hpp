@@ -62,9 +62,25 @@ struct ScanPlan {
 // retrace_speed, frames, centre_um, sample.
 using FieldName = std::function<std::string(const std::string& field)>;
 
+// Where a scan runs: the loop rate, the axes' position scale (Q31) and the
+// travel of x and y the scan must stay within.
+struct ScanBounds {
+    double rate_Hz = 0.0;
+    SignalScale position{};
+    std::pair<double, double> travel_x_um, travel_y_um;
+    std::string whose;  // "axis's travel", "board's position range"
+};
+// A scenario's: its loop rate and each axis's travel (axis_travel_um).
+ScanBounds scenario_bounds(const sim::Scenario& s);
+
 // Checks the request against the scenario; throws std::invalid_argument
 // "<field>: <why>" naming the field as `name` spells it.
 ScanPlan plan_scan(const sim::Scenario& s, const ScanRequest& r, const FieldName& name);
+// The same within given bounds (a board's), without a scenario: the case
+// is not used and the centre defaults to the middle of the travel.
+ScanPlan plan_scan(const ScanBounds& b, const ScanRequest& r, const FieldName& name);
+
+
 
 struct ScanImageSpec {
     std::string file_stem;  // image_commanded, image_measured, error_x, error_y
@@ -82,9 +98,14 @@ struct ScanOutcome {
     double process_wall_s = 0.0;        // of the pixels, figures and images
 };
 
+// The figures and images of out.run's ticks (a run's on the simulator or a
+// board's record); `stage` names the stage in the figures and the images'
+// titles.
+void analyse_scan(const ScanPlan& p, double rate_Hz, const std::string& stage, ScanOutcome& out);
+
 // Runs the plan and computes its figures and images. stop_requested and
 // progress as in ScanRunOptions (may be empty).
 ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::function<bool()> stop_requested,
-                          std::function<void(uint64_t tick, uint64_t total)> progress);
+                          std::function<void(uint64_t tick, uint64_t total)> progress, bool board_start = false);
 
 }  // namespace piezoloop::scan

@@ -89,12 +89,15 @@ ScanRunResult run_with(const sim::MultiAxisModel& m, const ScanRunOptions& o) {
             y[a] = pos[a].template to_sample<T>(y_um);
         }
     };
-    // At rest: one tick holding 0 to read where the stage is, then the scan
-    // from there (z held where it is).
+    // At rest. The simulator's own start: one tick holding 0 to read where
+    // the stage is, then the scan from there (z held where it is). The
+    // board's (StartScan with the loop's arm and the stage's restart): the
+    // scan from the restarted stage's zero readings, z held at 0, armed at
+    // the approach's first tick.
     for (int i = 0; i < N; ++i) y[static_cast<std::size_t>(i)] = pos[static_cast<std::size_t>(i)].template to_sample<T>(0.0f);
     for (int i = 0; i < N; ++i) pipe->axis(i).set_setpoint(y[static_cast<std::size_t>(i)]);
     pipe->arm_all();
-    tick();
+    if (!o.board_start) tick();
     T z{};
     if constexpr (N > 2) {
         z = y[2];
@@ -114,14 +117,13 @@ ScanRunResult run_with(const sim::MultiAxisModel& m, const ScanRunOptions& o) {
         const bool scanning = !feed.approaching();
         const ScanPoint<T> p = feed.feed(*pipe);
         // A tick's record pairs its reference with the reading its
-        // controller compares it with (the core's e = r - y): the stage as
-        // the previous step left it, where the probe also is.
+        // controller compares it with (the core's e = r - y, y after the
+        // input matrix, as a board records it): the stage as the previous
+        // step left it, where the probe also is.
         ScanTick t;
         if (scanning) {
             t.commanded_x_um = pos[0].to_physical(p.x);
             t.commanded_y_um = pos[1].to_physical(p.y);
-            t.measured_x_um = gain[0] == 1.0f ? reading[0] : reading[0] / gain[0];
-            t.measured_y_um = gain[1] == 1.0f ? reading[1] : reading[1] / gain[1];
             t.true_x_um = stage.position_um(0);
             t.true_y_um = stage.position_um(1);
             t.height_nm = probe.read_nm(stage);
@@ -129,7 +131,11 @@ ScanRunResult run_with(const sim::MultiAxisModel& m, const ScanRunOptions& o) {
         }
         tick();
         ++k;
-        if (scanning) res.ticks.push_back(t);
+        if (scanning) {
+            t.measured_x_um = pos[0].to_physical(pipe->axis(0).last().y);
+            t.measured_y_um = pos[1].to_physical(pipe->axis(1).last().y);
+            res.ticks.push_back(t);
+        }
     }
     res.complete = feed.done();
     res.frames_completed = feed.generator().frames_completed();

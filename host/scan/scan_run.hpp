@@ -8,8 +8,8 @@
 // the feed sets the setpoints (the reading-independent half), the pipeline
 // computes the commands from the previous tick's readings, the stage steps,
 // and the tick is recorded: commanded (the setpoints), measured (the
-// sensors' readings / their gains), true positions, the probe's height and
-// the sync word. The stage starts at rest (0 V) and is read for one tick
+// core's readings, after the input matrix), true positions, the probe's
+// height and the sync word. The stage starts at rest (0 V) and is read for one tick
 // with every axis holding 0; the scan then starts from those readings with
 // the feed's approach (not recorded).
 #pragma once
@@ -30,6 +30,9 @@ struct ScanRunOptions {
     std::string case_name;  // the scenario's case
     ScanConfig scan{};      // sample_rate_Hz is the scenario's loop rate
     SampleSurface sample{};
+    // Start as a board starts StartScan with the loop's arm and the stage's
+    // restart (false: the simulator's own start, see scan_run.cpp).
+    bool board_start = false;
     std::function<bool()> stop_requested;               // polled every 1024 ticks
     std::function<void(uint64_t tick, uint64_t total)> progress;  // every 2^15 ticks
 };

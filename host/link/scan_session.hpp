@@ -1,0 +1,58 @@
+// A scan on a board of two or three axes (StartScan, docs/scan.md): the
+// board's recorder takes x's and y's readings and the sync word every tick,
+// the scan starts with the recorder (and the loop, if disarmed) at one tick,
+// and the record becomes the same per-tick rows a scan on the simulator
+// gives (scan/scan_run.hpp), so both are analysed and written alike:
+//   commanded  the scan's path, computed here with the board's own
+//              generator and sample type (ScanGenerator is bit-identical on
+//              every target), from the scan's first tick after its approach;
+//   measured   each axis's y as the board's core has it (after the input
+//              matrix);
+//   sync       the board's recorded sync word;
+//   true, height: a board streams no true position, so true_* are NaN and
+//              the emulated sample is read at the measured position.
+// Ctrl-C (stop_requested) stops the scan on the board and keeps what
+// arrived, marked incomplete.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "link/client.hpp"
+#include "piezoloop/scan/scan_config.hpp"
+#include "scan/sample_surface.hpp"
+#include "scan/scan_run.hpp"
+
+namespace piezoloop::hostlink {
+
+struct DeviceScanOptions {
+    ScanConfig scan{};             // sample_rate_Hz: the board's loop rate
+    scan::SampleSurface sample{};  // read at the measured positions
+    bool restart_stage = false;    // emulated stage and loop from rest (StartScan's bit2)
+    double stall_s = 5.0;          // give up when no frames arrive for this long
+    std::function<bool()> stop_requested;
+    std::function<void(uint64_t tick, uint64_t total)> progress;
+};
+
+struct DeviceScanResult {
+    scan::ScanRunResult run;
+    std::string problems;        // why it is incomplete ("" when complete)
+    uint32_t sync_mismatches = 0;  // recorded sync words that differ from the generator's
+};
+
+// The bounds a scan on this board must keep (scan_case.hpp's ScanBounds):
+// its loop rate, x's position scale, and each axis's position range.
+struct DeviceScanBounds {
+    double rate_Hz = 0.0;
+    float position_full_scale_um = 0.0f;
+    float x_full_scale_um = 0.0f, y_full_scale_um = 0.0f;
+};
+DeviceScanBounds device_scan_bounds(Client& c);
+
+// Throws std::invalid_argument when the board runs no scans (cap::kScan) or
+// is tripped, DeviceError when it refuses the scan (naming the field), and
+// LinkError for a failure before the scan starts; a failure after it ends
+// the record early instead (result.problems).
+DeviceScanResult run_scan_device(Client& c, const DeviceScanOptions& o);
+
+}  // namespace piezoloop::hostlink
