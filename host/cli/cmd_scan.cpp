@@ -189,7 +189,6 @@ int run(const ScanArgs& a) {
     const bool board = !device_address().empty();
     if (!board && a.scenario.empty()) bad("--scenario", "required (or --device ADDR before `scan` for a board)");
     const std::filesystem::path dir(a.out);
-    std::filesystem::create_directories(dir);
     const StopSignals stop_signals;
     const auto t0 = std::chrono::steady_clock::now();
     bool shown = false;
@@ -199,6 +198,7 @@ int run(const ScanArgs& a) {
     const ScanDone d = board ? scan_board(a, progress) : scan_simulator(a, progress);
     const scan::ScanPlan& plan = d.plan;
     const scan::ScanOutcome& r = d.outcome;
+    std::filesystem::create_directories(dir);
     scan::write_scan_csv(dir / "scan.csv", r.run.ticks);
     nlohmann::json j = r.figures;
     j["csv"] = "scan.csv: one row a tick from the scan's first tick (after the approach)";

@@ -87,6 +87,7 @@ struct Layout {
 // In the order docs/protocol.md has them.
 const Layout kLayouts[] = {
     {"HelloReply", layout_markdown<link::HelloReply>},   {"StartExcitation", layout_markdown<link::StartExcitation>},
+    {"StartScan", layout_markdown<link::StartScan>},
     {"Setpoints", layout_markdown<link::SetpointBlock>}, {"SetpointAck", layout_markdown<link::SetpointAck>},
     {"StatusReply", layout_markdown<link::StatusReply>}, {"LogBlock", layout_markdown<link::LogBlock>},
     {"Error", layout_markdown<link::ErrorReply>},

@@ -44,7 +44,7 @@ import time
 import zlib
 
 PROFILE_ADDRESS = 0x003FFC00  # common/piezoloop/emulation_profile.hpp
-VERSION = 5
+VERSION = 6
 
 T_HELLO, T_STATUS, T_GET, T_SET, T_ARM, T_DISARM = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 T_START_WAVE, T_STOP_WAVE, T_REC_ARM, T_REC_STOP = 0x08, 0x09, 0x0D, 0x0E

@@ -120,6 +120,13 @@ int main(int argc, char** argv) {
     exc.config.periods = 2;
     write("start_excitation", frame(exc));
     write("stop_excitation", frame(StopExcitation{}));
+    StartScan scan;
+    scan.flags = StartWave::kArmLoop | StartWave::kArmRecorder;
+    scan.config.pixels_per_line = 8;
+    scan.config.lines_per_frame = 4;
+    write("start_scan", frame(scan));
+    scan.config.pattern = ScanPattern::kSpiral;
+    write("start_scan_spiral", frame(scan));
     write("save", frame(Save{}));
     write("load", frame(Load{}));
     write("forget", frame(Forget{}));

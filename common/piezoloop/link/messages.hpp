@@ -592,7 +592,7 @@ constexpr void describe(V& v, M& m) {
     v.value(f32("loop_rate_Hz", "Hz", "control tick rate"), m.loop_rate_Hz);
     v.value(u32("capabilities", "1",
                 "bit 0 float pipeline, 1 Q31 pipeline, 2 Dahl, 3 repetitive control, 4 setpoint stream, 5 recorder, "
-                "6 wave tables, 7 excitation, 8 parameter storage (Save / Load / Forget)"),
+                "6 wave tables, 7 excitation, 8 parameter storage (Save / Load / Forget), 9 axis matrices, 10 scans"),
             m.capabilities);
     v.value(u8("sample_format", "0 float32 (physical units), 1 Q31"), m.sample_format);
     v.value(f32("hard_u_min_V", "V", "board hard limits: never exceeded"), m.hard_u_min_V);

@@ -64,7 +64,7 @@ TEST(HostLinkSchema, EveryGroupAndFieldAsDeclared) {
     const json& q = g.at("rc").at("properties").at("q").at("properties").at("b1");
     EXPECT_EQ(q.at("default"), 0.3558);  // Shan2012's Q filter, the RC default
     const json& channels = g.at("recorder").at("properties").at("channels");
-    EXPECT_EQ(channels.at("items").at("enum").size(), 8u);
+    EXPECT_EQ(channels.at("items").at("enum").size(), 9u);  // the signals and the board's sync
     EXPECT_EQ(channels.at("maxItems"), 8);
 }
 
