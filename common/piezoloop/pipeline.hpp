@@ -248,6 +248,15 @@ public:
     // reading is zero, and an approach that starts now starts there. Only
     // while the tick does not run (the device's masked section).
     void stage_restarted() { last_.y = sample_zero<T>(); }
+    // Holds `r` (the stage's reading) from the next tick with the pre-filter
+    // at its steady state for it, as a wave's start from the reading does:
+    // for a caller that sets the setpoint each tick (a scan) starting where
+    // the stage is. Only while the tick does not run (the device's masked
+    // section).
+    void hold_from_reading(T r) {
+        setpoint_ = r;
+        settle_prefilter(r);
+    }
     // The setpoint holds the wave's last value.
     void stop_wave() { stop_request_.store(true, std::memory_order_release); }
     bool wave_running() const { return wave_running_.load(std::memory_order_acquire); }

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -132,56 +133,22 @@ ScanDone scan_simulator(const ScanArgs& a, const std::function<void(uint64_t, ui
     return d;
 }
 
-// On a board: the travel is the scenario's (the stage the board drives, as
-// `emulate --scenario` runs it) or, without one, the board's position range
-// with the centre given. The board runs the controllers it holds.
+// On a board: it runs the controllers it holds; the scenario, when given,
+// is the stage it drives (its travel).
 ScanDone scan_board(const ScanArgs& a, const std::function<void(uint64_t, uint64_t)>& progress) {
     if (!a.case_name.empty()) bad("--case", "the simulator's option: a board runs the controllers it holds (set --scenario)");
     if (a.board_start) bad("--board-start", "the simulator's option (a board starts with --restart-stage)");
     if (!a.sample_type.empty()) bad("--sample-type", "the simulator's option (a board runs its own core)");
     hostlink::Client c = open_device();
-    const hostlink::DeviceScanBounds db = hostlink::device_scan_bounds(c);
-    scan::ScanBounds b;
-    b.rate_Hz = db.rate_Hz;
-    b.position = SignalScale{db.position_full_scale_um};
-    std::string stage = c.info().board.data();
-    if (!a.scenario.empty()) {
-        const sim::Scenario s = sim::load_scenario(a.scenario);
-        if (s.axes.size() < 2) bad("--scenario", "a scan needs a stage of two or three axes (plant.axes)");
-        if (s.setup.rate_Hz != db.rate_Hz)
-            bad("--scenario", "its loop rate (" + std::to_string(s.setup.rate_Hz) + " Hz) is not the board's (" +
-                                  std::to_string(db.rate_Hz) + " Hz)");
-        b.travel_x_um = scan::axis_travel_um(s, 0);
-        b.travel_y_um = scan::axis_travel_um(s, 1);
-        b.whose = "axis's travel";
-        stage = s.name + " on " + stage;
-    } else {
-        if (a.centre.empty()) bad("--centre-um", "needed on a board without --scenario (the stage's travel is not known)");
-        b.travel_x_um = {-db.x_full_scale_um, db.x_full_scale_um};
-        b.travel_y_um = {-db.y_full_scale_um, db.y_full_scale_um};
-        b.whose = "board's position range";
-    }
+    std::optional<sim::Scenario> stage;
+    if (!a.scenario.empty()) stage = sim::load_scenario(a.scenario);
+    hostlink::BoardScan b = hostlink::scan_on_board(c, request_of(a), stage ? &*stage : nullptr, a.restart_stage,
+                                                   option_name, [] { return StopSignals::requested(); }, progress);
     ScanDone d;
-    d.plan = scan::plan_scan(b, request_of(a), option_name);
-    d.rate_Hz = db.rate_Hz;
-    hostlink::DeviceScanOptions o;
-    o.scan = d.plan.config;
-    o.sample = d.plan.sample;
-    o.restart_stage = a.restart_stage;
-    o.stop_requested = [] { return StopSignals::requested(); };
-    o.progress = progress;
-    const auto t0 = std::chrono::steady_clock::now();
-    hostlink::DeviceScanResult r = hostlink::run_scan_device(c, o);
-    d.outcome.run = std::move(r.run);
-    d.outcome.simulate_wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    scan::analyse_scan(d.plan, d.rate_Hz, stage, d.outcome);
-    d.outcome.figures["device"] = c.address();
-    d.outcome.figures["sync_mismatches"] = r.sync_mismatches;
-    d.outcome.figures["probe"] = "at the measured positions (a board streams no true position)";
-    if (!r.problems.empty()) {
-        d.incomplete_why = r.problems;
-        d.outcome.figures["incomplete"] = r.problems;
-    }
+    d.plan = std::move(b.plan);
+    d.outcome = std::move(b.outcome);
+    d.rate_Hz = b.rate_Hz;
+    d.incomplete_why = b.problems;
     return d;
 }
 

@@ -91,16 +91,6 @@ void fill_ticks(Client& c, const ScanConfig& cfg, const DeviceScanOptions& o, ui
 
 }  // namespace
 
-DeviceScanBounds device_scan_bounds(Client& c) {
-    const link::HelloReply& h = c.info();
-    DeviceScanBounds b;
-    b.rate_Hz = h.loop_rate_Hz;
-    b.position_full_scale_um = h.position_full_scale_um;
-    b.x_full_scale_um = axis_full_scale(h, 0);
-    b.y_full_scale_um = axis_full_scale(h, 1);
-    return b;
-}
-
 DeviceScanResult run_scan_device(Client& c, const DeviceScanOptions& o) {
     const link::HelloReply& h = c.info();
     if ((h.capabilities & link::cap::kScan) == 0)
@@ -178,6 +168,62 @@ DeviceScanResult run_scan_device(Client& c, const DeviceScanOptions& o) {
     out.run.complete = out.problems.empty() && ended;
     if (o.progress) o.progress(1, 1);
     return out;
+}
+
+scan::ScanPlan plan_board_scan(Client& c, const scan::ScanRequest& r, const sim::Scenario* stage,
+                               const scan::FieldName& name, std::string* label_out) {
+    const link::HelloReply& h = c.info();
+    scan::ScanBounds b;
+    b.rate_Hz = h.loop_rate_Hz;
+    b.position = SignalScale{h.position_full_scale_um};
+    std::string label = h.board.data();
+    if (stage != nullptr) {
+        if (stage->axes.size() < 2)
+            throw std::invalid_argument(name("scenario") + ": a scan needs a stage of two or three axes (plant.axes)");
+        if (stage->setup.rate_Hz != h.loop_rate_Hz)
+            throw std::invalid_argument(name("scenario") + ": its loop rate (" + std::to_string(stage->setup.rate_Hz) +
+                                        " Hz) is not the board's (" + std::to_string(h.loop_rate_Hz) + " Hz)");
+        b.travel_x_um = scan::axis_travel_um(*stage, 0);
+        b.travel_y_um = scan::axis_travel_um(*stage, 1);
+        b.whose = "axis's travel";
+        label = stage->name + " on " + label;
+    } else {
+        if (!r.centre_um)
+            throw std::invalid_argument(name("centre_um") +
+                                        ": needed on a board without a scenario (the stage's travel is not known)");
+        const double fx = axis_full_scale(h, 0), fy = axis_full_scale(h, 1);
+        b.travel_x_um = {-fx, fx};
+        b.travel_y_um = {-fy, fy};
+        b.whose = "board's position range";
+    }
+    if (label_out != nullptr) *label_out = label;
+    return scan::plan_scan(b, r, name);
+}
+
+BoardScan scan_on_board(Client& c, const scan::ScanRequest& r, const sim::Scenario* stage, bool restart_stage,
+                        const scan::FieldName& name, std::function<bool()> stop_requested,
+                        std::function<void(uint64_t tick, uint64_t total)> progress) {
+    BoardScan d;
+    std::string label;
+    d.plan = plan_board_scan(c, r, stage, name, &label);
+    d.rate_Hz = c.info().loop_rate_Hz;
+    DeviceScanOptions o;
+    o.scan = d.plan.config;
+    o.sample = d.plan.sample;
+    o.restart_stage = restart_stage;
+    o.stop_requested = std::move(stop_requested);
+    o.progress = std::move(progress);
+    const auto t0 = Clock::now();
+    DeviceScanResult res = run_scan_device(c, o);
+    d.outcome.run = std::move(res.run);
+    d.outcome.simulate_wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    scan::analyse_scan(d.plan, d.rate_Hz, label, d.outcome);
+    d.outcome.figures["device"] = c.address();
+    d.outcome.figures["sync_mismatches"] = res.sync_mismatches;
+    d.outcome.figures["probe"] = "at the measured positions (a board streams no true position)";
+    d.problems = res.problems;
+    if (!d.problems.empty()) d.outcome.figures["incomplete"] = d.problems;
+    return d;
 }
 
 }  // namespace piezoloop::hostlink

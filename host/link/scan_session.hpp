@@ -21,7 +21,9 @@
 #include "link/client.hpp"
 #include "piezoloop/scan/scan_config.hpp"
 #include "scan/sample_surface.hpp"
+#include "scan/scan_case.hpp"
 #include "scan/scan_run.hpp"
+#include "sim/scenario.hpp"
 
 namespace piezoloop::hostlink {
 
@@ -40,19 +42,30 @@ struct DeviceScanResult {
     uint32_t sync_mismatches = 0;  // recorded sync words that differ from the generator's
 };
 
-// The bounds a scan on this board must keep (scan_case.hpp's ScanBounds):
-// its loop rate, x's position scale, and each axis's position range.
-struct DeviceScanBounds {
-    double rate_Hz = 0.0;
-    float position_full_scale_um = 0.0f;
-    float x_full_scale_um = 0.0f, y_full_scale_um = 0.0f;
-};
-DeviceScanBounds device_scan_bounds(Client& c);
-
 // Throws std::invalid_argument when the board runs no scans (cap::kScan) or
 // is tripped, DeviceError when it refuses the scan (naming the field), and
 // LinkError for a failure before the scan starts; a failure after it ends
 // the record early instead (result.problems).
 DeviceScanResult run_scan_device(Client& c, const DeviceScanOptions& o);
+
+// A scan as a user asks for it (scan_case.hpp) on the board, planned, run
+// and analysed as `piezoloop scan` and Python's Device.scan do. The scan is
+// checked against the travel of `stage` (the scenario of the stage the
+// board drives, as `emulate --scenario` runs it; its loop rate must be the
+// board's) or, when null, against the board's position range, the centre
+// then given. std::invalid_argument names the request's field as `name`
+// spells it (scenario, centre_um, and plan_scan's).
+// The plan alone (nothing moves), and the stage's name for the figures.
+scan::ScanPlan plan_board_scan(Client& c, const scan::ScanRequest& r, const sim::Scenario* stage,
+                               const scan::FieldName& name, std::string* label = nullptr);
+struct BoardScan {
+    scan::ScanPlan plan;
+    scan::ScanOutcome outcome;  // figures add device, sync_mismatches, probe, incomplete
+    double rate_Hz = 0.0;
+    std::string problems;       // why it is incomplete ("" when complete)
+};
+BoardScan scan_on_board(Client& c, const scan::ScanRequest& r, const sim::Scenario* stage, bool restart_stage,
+                        const scan::FieldName& name, std::function<bool()> stop_requested,
+                        std::function<void(uint64_t tick, uint64_t total)> progress);
 
 }  // namespace piezoloop::hostlink

@@ -235,6 +235,31 @@ measure::LoopsRun BoardSession::measure_loops(const measure::LoopsRequest& r, ho
     return run;
 }
 
+void BoardSession::plan_scan(const scan::ScanRequest& r, const sim::Scenario* stage) {
+    locked([&](hostlink::Client& c) {
+        (void)hostlink::plan_board_scan(c, r, stage, [](const std::string& field) { return field; });
+    });
+}
+
+hostlink::BoardScan BoardSession::scan(const scan::ScanRequest& r, const sim::Scenario* stage, bool restart_stage,
+                                       std::function<bool()> stop_requested,
+                                       const std::function<void(uint64_t tick, uint64_t total)>& progress) {
+    hostlink::BoardScan out;
+    hostlink::MeasureOptions o;
+    o.stop_requested = std::move(stop_requested);
+    o.progress = [progress](double f) {
+        if (progress) progress(static_cast<uint64_t>(f * 1e6), 1000000u);
+    };
+    measure(std::move(o), [&](hostlink::Client& c, const hostlink::MeasureOptions& mo) {
+        out = hostlink::scan_on_board(
+            c, r, stage, restart_stage, [](const std::string& field) { return field; }, mo.stop_requested,
+            [&mo](uint64_t k, uint64_t total) {
+                mo.progress(total ? std::min(1.0, static_cast<double>(k) / static_cast<double>(total)) : 1.0);
+            });
+    });
+    return out;
+}
+
 json BoardSession::commission(cli::CommissionSession s, const std::function<void(const std::string&)>& note,
                               const std::function<bool()>& stop_requested) {
     json out;

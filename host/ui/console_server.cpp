@@ -20,6 +20,7 @@
 #include "ui/measurement_job.hpp"
 #include "ui/psd.hpp"
 #include "ui/scope_view.hpp"
+#include "ui/scan_job.hpp"
 #include "ui/step_loops_job.hpp"
 #include "ui/web_assets.hpp"
 
@@ -65,10 +66,11 @@ struct ConsoleServer::Impl {
     httplib::Server server;
     ControlSeat seat;
     FrfJob frf;
-    MeasurementJob step{"a step response"}, loops{"a hysteresis loop measurement"}, commissioning{"commissioning"};
+    MeasurementJob step{"a step response"}, loops{"a hysteresis loop measurement"}, commissioning{"commissioning"},
+        scanning{"a scan"};
     // The jobs whose progress and result the stream sends (events NAME and NAME-result).
     std::vector<std::pair<std::string, MeasurementJob*>> jobs = {
-        {"step", &step}, {"loops", &loops}, {"commission", &commissioning}};
+        {"step", &step}, {"loops", &loops}, {"commission", &commissioning}, {"scan", &scanning}};
     std::mutex viewers_m;
     std::map<std::string, std::shared_ptr<Viewer>> viewers;
     std::atomic<bool> stopping{false};
@@ -445,6 +447,20 @@ void ConsoleServer::Impl::routes() {
         });
     }
 
+    // A scan (a board of two or three axes): the console's scenario, if
+    // any, is the stage the board drives.
+    control("/api/scan/start", [this](const httplib::Request& req) {
+        const json form = json::parse(req.body, nullptr, false);
+        if (form.is_discarded()) throw FieldRefusal("", "the request is not JSON");
+        return scanning.start(form, scan_work(board, options.scenario, form));
+    });
+    control("/api/scan/stop", [this](const httplib::Request&) {
+        scanning.request_stop();
+        return scanning.progress_json();
+    });
+    server.Get("/api/scan", [this](const httplib::Request&, httplib::Response& res) {
+        send_json(res, {{"progress", scanning.progress_json()}, {"result", scanning.result_json()}});
+    });
     control("/api/commission/start", [this](const httplib::Request& req) {
         const json form = json::parse(req.body, nullptr, false);
         if (form.is_discarded()) throw FieldRefusal("", "the request is not JSON");

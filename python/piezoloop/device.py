@@ -11,6 +11,7 @@ import numpy as np
 from . import _piezoloop
 from ._args import finite_json, names, number, numbers, path, text, whole
 from .commission import check_commission
+from .scan import ScanResult, scan_args, scan_result
 from .measure import (FrequencyResponse, Loops, StepResponse, check_request, check_shape, check_step,
                       loops_from_result, response_from_report, step_from_report)
 
@@ -179,6 +180,25 @@ class Device:
         """Stop the running wave and setpoint stream, whoever started them; the
         setpoint holds its last value and the loop stays armed."""
         return self._dev.stop()
+
+    def scan(self, pattern: str = "raster", *, size_um: Sequence[float] = (20.0, 20.0),
+             pixels: Sequence[int] = (256, 256), line_rate_hz: float = 50.0, retrace_speed: float = 1.0,
+             frames: int = 1, sample: str = "grating:pitch=2,height_nm=50",
+             centre_um: Optional[Sequence[float]] = None, scenario: Optional[str | os.PathLike] = None,
+             restart_stage: bool = False) -> ScanResult:
+        """Scan on a board of two or three axes, as `piezoloop --device ADDR
+        scan` (docs/scan.md): the arguments as piezoloop.scan's; the board
+        runs the controllers it holds. scenario: the stage the board drives
+        (its travel, the default centre); without it centre_um is needed and
+        the scan stays within the board's position range. restart_stage: an
+        emulated stage and the loop start from rest. Returns a ScanResult
+        whose true_x_um / true_y_um are NaN (a board streams no true
+        position; the sample is read at the measured positions). A scan the
+        board cannot make raises ValueError naming the argument; a record cut
+        short raises the link's error."""
+        args = scan_args(pattern, size_um, pixels, line_rate_hz, retrace_speed, frames, sample, centre_um)
+        where = "" if scenario is None else path("scenario", scenario)
+        return scan_result(self._dev.scan(where, *args, bool(restart_stage)))
 
     def stream(self, setpoints_um, prefill: Optional[int] = None) -> dict:
         """Stream setpoints (um, one per loop tick) through the board's FIFO, as

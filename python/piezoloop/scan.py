@@ -68,15 +68,25 @@ def scan(scenario: str | os.PathLike, case: Optional[str] = None, pattern: str =
     the middle of each axis's travel. A request the scan cannot make (beyond
     an axis's travel, a line rate the loop cannot follow, ...) raises
     ValueError naming the argument. The GIL is released while it runs."""
+    args = scan_args(pattern, size_um, pixels, line_rate_hz, retrace_speed, frames, sample, centre_um)
+    return scan_result(_piezoloop.scan(path("scenario", scenario), text("case", case, True), *args))
+
+
+def scan_args(pattern, size_um, pixels, line_rate_hz, retrace_speed, frames, sample, centre_um) -> tuple:
+    """The request's arguments checked, in the binding's order (pattern,
+    W, H, NX, NY, line rate, retrace speed, frames, sample, centre)."""
     w, h = _pair("size_um", size_um, (20.0, 20.0))
     px = pixels if pixels is not None else (256, 256)
     if isinstance(px, (str, bytes)) or not hasattr(px, "__len__") or len(px) != 2:
         raise TypeError(f"pixels: two whole numbers (NX, NY), got {pixels!r}")
     nx, ny = whole("pixels[0]", px[0]), whole("pixels[1]", px[1])
     centre = None if centre_um is None else _pair("centre_um", centre_um, None)
-    r = _piezoloop.scan(path("scenario", scenario), text("case", case, True), text("pattern", pattern), w, h, nx, ny,
-                        number("line_rate_hz", line_rate_hz),
-                        number("retrace_speed", retrace_speed), whole("frames", frames), text("sample", sample), centre)
+    return (text("pattern", pattern), w, h, nx, ny, number("line_rate_hz", line_rate_hz),
+            number("retrace_speed", retrace_speed), whole("frames", frames), text("sample", sample), centre)
+
+
+def scan_result(r: dict) -> ScanResult:
+    """The binding's {ticks, images, figures} as a ScanResult."""
     images = {k: ScanImage(values=v["values"], extent_um=list(v["extent_um"]), title=v["title"], unit=v["unit"])
               for k, v in r["images"].items()}
     return ScanResult(ticks=dict(r["ticks"]), images=images, figures=r["figures"])

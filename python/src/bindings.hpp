@@ -17,6 +17,8 @@
 #include "measure/step_loops_plan.hpp"
 #include "measure/step_loops_report.hpp"
 
+#include "scan/scan_case.hpp"
+
 namespace piezoloop::py {
 
 namespace pyb = pybind11;
@@ -43,6 +45,15 @@ void add_device(pyb::module_& m);
 void add_measure(pyb::module_& m);
 void add_measure_mimo(pyb::module_& m);
 void add_scan(pyb::module_& m);
+
+// A scan's ticks, images and figures as piezoloop.scan returns them
+// (scan.cpp): {"ticks", "images", "figures"}.
+pyb::dict scan_result(const scan::ScanOutcome& r);
+// A scan request from the Python call's arguments (scan.cpp).
+scan::ScanRequest scan_request(const std::string& case_name, const std::string& pattern, double size_x_um,
+                               double size_y_um, int pixels_x, int pixels_y, double line_rate_Hz, double retrace_speed,
+                               int frames, const std::string& sample,
+                               std::optional<std::pair<double, double>> centre_um);
 
 // A `measure frf` request from the Python call's arguments (measure.cpp).
 measure::FrfRequest frf_request(double from_Hz, double to_Hz, double amplitude_V, double bias_V,

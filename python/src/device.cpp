@@ -20,6 +20,7 @@
 #include "measure/frf_report.hpp"
 #include "link/params_json.hpp"
 #include "link/record_session.hpp"
+#include "link/scan_session.hpp"
 #include "link/transport.hpp"
 #include "options/option_checks.hpp"
 #include "piezoloop/params/groups.hpp"
@@ -258,6 +259,21 @@ public:
 
     // `piezoloop --device commission`: as piezoloop.commission, on the board;
     // the progress lines go to `progress` (with the GIL) when given.
+    // A scan on a board of two or three axes (`piezoloop --device ADDR
+    // scan`); the scenario (may be empty) is the stage the board drives.
+    pyb::dict scan(const scan::ScanRequest& r, const std::string& scenario, bool restart_stage) {
+        hostlink::BoardScan b;
+        {
+            pyb::gil_scoped_release release;
+            std::optional<sim::Scenario> stage;
+            if (!scenario.empty()) stage = sim::load_scenario(scenario);
+            b = hostlink::scan_on_board(client(), r, stage ? &*stage : nullptr, restart_stage,
+                                        [](const std::string& field) { return field; }, {}, {});
+        }
+        if (!b.problems.empty()) throw hostlink::LinkError("scan incomplete:" + b.problems);
+        return scan_result(b.outcome);
+    }
+
     pyb::object commission(double range_um, double target_bandwidth_Hz, const std::string& out, bool save,
                            const pyb::object& progress, const std::string& axis) {
         cli::CommissionSession s;
@@ -403,7 +419,15 @@ void add_device(pyb::module_& m) {
                                        axis);
              })
         .def("measure_loops", &Device::measure_loops)
-        .def("commission", &Device::commission);
+        .def("commission", &Device::commission)
+        .def("scan",
+             [](Device& d, const std::string& scenario, const std::string& pattern, double size_x_um, double size_y_um,
+                int pixels_x, int pixels_y, double line_rate_Hz, double retrace_speed, int frames,
+                const std::string& sample, std::optional<std::pair<double, double>> centre_um, bool restart_stage) {
+                 return d.scan(scan_request("", pattern, size_x_um, size_y_um, pixels_x, pixels_y, line_rate_Hz,
+                                            retrace_speed, frames, sample, centre_um),
+                               scenario, restart_stage);
+             });
 }
 
 }  // namespace piezoloop::py

@@ -1,6 +1,7 @@
 // piezoloop.scan: a scan on the simulator's stage of coupled axes, planned
 // and run by scan::plan_scan and scan::run_scan_case exactly as `piezoloop
-// scan` runs it, so its figures are the ones the command prints.
+// scan` runs it, so its figures are the ones the command prints; and the
+// result's form for Device.scan (device.cpp).
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
@@ -49,6 +50,12 @@ pyb::dict run(const std::string& scenario, const scan::ScanRequest& req) {
         const scan::ScanPlan plan = scan::plan_scan(s, req, [](const std::string& field) { return field; });
         r = scan::run_scan_case(s, plan, {}, {});
     }
+    return scan_result(r);
+}
+
+}  // namespace
+
+pyb::dict scan_result(const scan::ScanOutcome& r) {
     const std::vector<scan::ScanTick>& t = r.run.ticks;
     pyb::dict ticks;
     ticks["commanded_x_um"] = column(t, &scan::ScanTick::commanded_x_um);
@@ -71,7 +78,24 @@ pyb::dict run(const std::string& scenario, const scan::ScanRequest& req) {
     return out;
 }
 
-}  // namespace
+scan::ScanRequest scan_request(const std::string& case_name, const std::string& pattern, double size_x_um,
+                               double size_y_um, int pixels_x, int pixels_y, double line_rate_Hz, double retrace_speed,
+                               int frames, const std::string& sample,
+                               std::optional<std::pair<double, double>> centre_um) {
+    scan::ScanRequest r;
+    r.case_name = case_name;
+    r.pattern = pattern;
+    r.size_x_um = size_x_um;
+    r.size_y_um = size_y_um;
+    r.pixels_x = pixels_x;
+    r.pixels_y = pixels_y;
+    r.line_rate_Hz = line_rate_Hz;
+    r.retrace_speed = retrace_speed;
+    r.frames = frames;
+    r.sample = sample;
+    r.centre_um = centre_um;
+    return r;
+}
 
 void add_scan(pyb::module_& m) {
     m.def(
@@ -79,19 +103,8 @@ void add_scan(pyb::module_& m) {
         [](const std::string& scenario, const std::string& case_name, const std::string& pattern, double size_x_um,
            double size_y_um, int pixels_x, int pixels_y, double line_rate_Hz, double retrace_speed, int frames, const std::string& sample,
            std::optional<std::pair<double, double>> centre_um) {
-            scan::ScanRequest r;
-            r.case_name = case_name;
-            r.pattern = pattern;
-            r.size_x_um = size_x_um;
-            r.size_y_um = size_y_um;
-            r.pixels_x = pixels_x;
-            r.pixels_y = pixels_y;
-            r.line_rate_Hz = line_rate_Hz;
-            r.retrace_speed = retrace_speed;
-            r.frames = frames;
-            r.sample = sample;
-            r.centre_um = centre_um;
-            return run(scenario, r);
+            return run(scenario, scan_request(case_name, pattern, size_x_um, size_y_um, pixels_x, pixels_y,
+                                              line_rate_Hz, retrace_speed, frames, sample, centre_um));
         },
         pyb::arg("scenario"), pyb::arg("case_name"), pyb::arg("pattern"), pyb::arg("size_x_um"),
         pyb::arg("size_y_um"), pyb::arg("pixels_x"), pyb::arg("pixels_y"), pyb::arg("line_rate_Hz"),

@@ -157,7 +157,8 @@ def test_board_of_axes_records_every_axis_as_the_cli_sim(tmp_path):
     axis's wave (every_axis) from rest: y's r and y equal `piezoloop sim
     --axis x --hold-um y=50 --start-together` bit for bit. An unknown axis,
     and an axis group without axis= on a board of axes, raise ValueError
-    naming the axis."""
+    naming the axis. Then Device.scan from the restarted stage equals
+    `piezoloop scan --board-start` tick by tick."""
     need_qemu("qemu-m3")
     xy = XY
     with piezoloop.emulate("qemu-m3", scenario=xy) as emu, piezoloop.connect(emu.address) as dev:
@@ -172,6 +173,26 @@ def test_board_of_axes_records_every_axis_as_the_cli_sim(tmp_path):
         y = dev.set("trajectory", axis="y", waveform="sine", amplitude_um=0.0, offset_um=50.0, frequency_Hz=10.0)
         assert y["offset_um"] == 50.0
         rec = dev.record(0.1, "r,y", axis="y", start_wave=True, every_axis=True, restart_stage=True)
+        # A scan from the stage at rest after the waves (the held setpoints
+        # and the reference pre-filters elsewhere): Device.scan equals the
+        # simulator started as the board starts it, tick by tick.
+        dev.stop()
+        dev.disarm()
+        scanned = dev.scan("raster", size_um=(20, 20), pixels=(16, 16), line_rate_hz=100, scenario=xy,
+                           restart_stage=True)
+        with pytest.raises(ValueError, match="centre_um"):
+            dev.scan("raster", size_um=(20, 20), pixels=(16, 16), line_rate_hz=100)
+    scan_dir = tmp_path / "scan"
+    cli("scan", "--scenario", xy, "--case", "pi_notch_decoupled", "--sample-type", "q31", "--board-start",
+        "--pattern", "raster", "--size-um", "20x20", "--pixels", "16x16", "--line-rate-hz", "100",
+        "--out", str(scan_dir))
+    with open(scan_dir / "scan.csv") as f:
+        sim_scan = list(csv.DictReader(f))
+    nine = lambda v: [float(f"{x:.9g}") for x in v]
+    assert scanned.figures["complete"] and scanned.figures["sync_mismatches"] == 0
+    for col in ("commanded_x_um", "commanded_y_um", "measured_x_um", "measured_y_um"):
+        assert nine(scanned.ticks[col]) == [float(r[col]) for r in sim_scan], col
+    assert [int(v) for v in scanned.ticks["sync"]] == [int(r["sync"]) for r in sim_scan]
     out = tmp_path / "sim.csv"
     cli("sim", "--scenario", xy, "--case", "pi_notch_decoupled", "--sample", "q31", "--axis", "x", "--hold-um",
         "y=50", "--start-together", "--trajectory", "triangle", "--frequency-hz", "10", "--amplitude-um", "80",

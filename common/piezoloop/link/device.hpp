@@ -646,9 +646,15 @@ private:
             start_at_tick(h, f, [&] {
                 const bool stays_armed = (f & StartWave::kArmLoop) == 0;
                 std::array<T, 3> from{};
+                std::array<bool, 3> from_reading{};
+                for (int a = 0; a < N; ++a) {
+                    from_reading[a] = !(stays_armed && axes_[a]->armed());
+                    from[a] = from_reading[a] ? axes_[a]->last().y : axes_[a]->setpoint();
+                }
+                if (const Status s = scan_.start(m.config, from[0], from[1], from[2]); !s.ok()) return s;
                 for (int a = 0; a < N; ++a)
-                    from[a] = stays_armed && axes_[a]->armed() ? axes_[a]->setpoint() : axes_[a]->last().y;
-                return scan_.start(m.config, from[0], from[1], from[2]);
+                    if (from_reading[a]) axes_[a]->hold_from_reading(from[a]);
+                return ok_status();
             }, send);
         }
     }

@@ -622,7 +622,7 @@ function showFrfProgress(p) {
   const pct = `${Math.round(100 * (p.fraction || 0))} %`;
   const text = {
     idle: 'no measurement yet',
-    running: `${p.phase} ${p.phase === 'recording' ? pct : ''}`,
+    running: `${p.phase} ${p.phase === 'recording' || p.phase === 'scanning' ? pct : ''}`,
     done: 'measured',
     failed: 'refused or failed',
     stopped: 'stopped',
@@ -752,7 +752,7 @@ function jobForm(name, read) {
       showJobError(name, e.field || '', e.message);
       return;
     }
-    const r = await api('POST', `/api/${name}/start`, withAxis(body));
+    const r = await api('POST', `/api/${name}/start`, name === 'scan' ? body : withAxis(body));
     if (!r.ok) showJobError(name, r.data.field || '', r.data.error || String(r.data));
   };
   $(`${name}-stop`).onclick = () => api('POST', `/api/${name}/stop`);
@@ -767,7 +767,7 @@ function showJobProgress(name, p) {
   state.measuring = anyRunning();
   $(`${name}-progress`).value = p.fraction || 0;
   const pct = `${Math.round(100 * (p.fraction || 0))} %`;
-  const text = { idle: $(`${name}-state`).textContent, running: `${p.phase} ${p.phase === 'recording' ? pct : ''}`,
+  const text = { idle: $(`${name}-state`).textContent, running: `${p.phase} ${p.phase === 'recording' || p.phase === 'scanning' ? pct : ''}`,
     done: 'measured', failed: 'refused or failed', stopped: 'stopped' };
   $(`${name}-state`).textContent = text[p.state] || p.state;
   if (p.state === 'running' && (!was || was.state !== 'running')) for (const e of jobErrors(name)) e.textContent = '';
@@ -920,6 +920,98 @@ function stepLoopsForms() {
   });
 }
 
+// ---- scans: `piezoloop --device ADDR scan` from the page ----------------------
+
+// A colour for t in [0, 1]: viridis-like (heights) or blue-white-red
+// (errors), by a few anchors linearly between.
+const colourMaps = {
+  viridis: [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]],
+  coolwarm: [[59, 76, 192], [221, 221, 221], [180, 4, 38]],
+};
+function colour(map, t) {
+  const a = colourMaps[map] || colourMaps.viridis;
+  const x = Math.min(1, Math.max(0, t)) * (a.length - 1);
+  const i = Math.min(a.length - 2, Math.floor(x));
+  const f = x - i;
+  return a[i].map((c, k) => Math.round(c + f * (a[i + 1][k] - c)));
+}
+
+// An image (ny x nx values, row j at y0 + j dy; null where no pixel fell:
+// grey) drawn with y up, scaled to the canvas; errors symmetric about 0.
+function drawImage(canvas, im) {
+  const { nx, ny, values } = im;
+  canvas.width = nx;
+  canvas.height = ny;
+  const finite = values.filter((v) => v !== null);
+  let lo = Math.min(...finite), hi = Math.max(...finite);
+  if (im.cmap === 'coolwarm') { hi = Math.max(Math.abs(lo), Math.abs(hi)); lo = -hi; }
+  const span = hi > lo ? hi - lo : 1;
+  const ctx = canvas.getContext('2d');
+  const px = ctx.createImageData(nx, ny);
+  for (let j = 0; j < ny; j++) {
+    for (let i = 0; i < nx; i++) {
+      const v = values[j * nx + i];
+      const [r, g, b] = v === null ? [160, 160, 160] : colour(im.cmap, (v - lo) / span);
+      const at = 4 * ((ny - 1 - j) * nx + i);
+      px.data.set([r, g, b, 255], at);
+    }
+  }
+  ctx.putImageData(px, 0, 0);
+  return { lo, hi };
+}
+
+function showScanResult(res) {
+  state.jobs.scan = state.jobs.scan || { seen: [] };
+  state.jobs.scan.result = res;
+  if (!res) return;
+  const t = res.tracking || {};
+  figures($('scan-figures'), Object.assign({}, res, {
+    rms_x_percent: t.rms_x_percent, max_x_percent: t.max_x_percent,
+    rms_y_percent: t.rms_y_percent, max_y_percent: t.max_y_percent,
+    pitch_commanded_um: res.pitch ? res.pitch.commanded_um : null,
+    pitch_measured_um: res.pitch ? res.pitch.measured_um : null,
+  }), [
+    ['complete', 'complete'], ['pixels', 'pixels'], ['line rate', 'line_rate_Hz', 1, 'Hz'],
+    ['x error RMS', 'rms_x_percent', 1, '%'], ['x error max', 'max_x_percent', 1, '%'],
+    ['y error RMS', 'rms_y_percent', 1, '%'], ['y error max', 'max_y_percent', 1, '%'],
+    ['used fraction', 'used_fraction'], ['frame time', 'frame_time_s', 1, 's'],
+    ['pitch, commanded', 'pitch_commanded_um', 1, 'µm'], ['pitch, measured', 'pitch_measured_um', 1, 'µm'],
+    ['sync words off the generator', 'sync_mismatches'],
+  ]);
+  const box = $('scan-images');
+  box.replaceChildren();
+  const order = ['image_commanded', 'image_measured', 'error_x', 'error_y'];
+  const images = Object.entries(res.images || {}).sort(([a], [b]) => order.indexOf(a) - order.indexOf(b));
+  for (const [name, im] of images) {
+    const figure = document.createElement('figure');
+    const canvas = document.createElement('canvas');
+    canvas.id = `scan-${name}`;
+    canvas.className = 'scan-image';
+    const { lo, hi } = drawImage(canvas, im);
+    const cap = document.createElement('figcaption');
+    cap.textContent = `${im.title.replace('\n', ': ')} (${fig(lo)} to ${fig(hi)} ${im.unit})`;
+    figure.append(canvas, cap);
+    box.append(figure);
+  }
+}
+
+function scanForm() {
+  jobForm('scan', (f) => {
+    const cx = f.centre_x.value.trim(), cy = f.centre_y.value.trim();
+    if ((cx === '') !== (cy === '')) throw Object.assign(new Error('give both x and y, or neither'), { field: 'centre_um' });
+    return {
+      pattern: f.pattern.value,
+      size_um: [Number(f.size_x.value), Number(f.size_y.value)],
+      pixels: [Number(f.pixels_x.value), Number(f.pixels_y.value)],
+      line_rate_Hz: Number(f.line_rate_Hz.value),
+      frames: Number(f.frames.value),
+      centre_um: cx === '' ? null : [Number(cx), Number(cy)],
+      sample: f.sample.value,
+      restart_stage: f.restart_stage.checked,
+    };
+  });
+}
+
 // ---- commissioning: `piezoloop commission` from the page ----------------------
 
 // A table of rows (objects) by columns [heading, key, scale]: each cell's
@@ -1009,6 +1101,8 @@ function connect() {
     const sim = document.querySelector('#commission [name="on"] option[value="simulator"]');
     if (sim && !h.simulator) sim.remove();
     state.axes = h.axes && h.axes.length ? h.axes : ['x'];
+    // Scans need a board of two or three axes (x and y move together).
+    $('scan-panel').hidden = !multiAxis();
     if (multiAxis()) {
       const sel = $('axis');
       if (!state.axis) state.axis = state.axes[0];
@@ -1041,6 +1135,8 @@ function connect() {
   es.addEventListener('step-result', (ev) => showStepResult(JSON.parse(ev.data)));
   es.addEventListener('loops', (ev) => showJobProgress('loops', JSON.parse(ev.data)));
   es.addEventListener('loops-result', (ev) => showLoopsResult(JSON.parse(ev.data)));
+  es.addEventListener('scan', (ev) => showJobProgress('scan', JSON.parse(ev.data)));
+  es.addEventListener('scan-result', (ev) => showScanResult(JSON.parse(ev.data)));
   es.addEventListener('commission', (ev) => showCommissionProgress(JSON.parse(ev.data)));
   es.addEventListener('commission-result', (ev) => showCommissionResult(JSON.parse(ev.data)));
   es.onerror = () => { $('device').textContent = 'disconnected: reconnecting…'; };
@@ -1074,6 +1170,7 @@ psdControls();
 waveForm();
 frfForm();
 stepLoopsForms();
+scanForm();
 commissionForm();
 showControl({ controls: false, seat_taken: false });
 connect();

@@ -30,6 +30,7 @@
 //   - (axes) a board of axes: see axesConsole.
 //
 //   node check_console_e2e.mjs PIEZOLOOP SERVO_ELF CONFIGS_DIR device|scenario|axes [SCOPE.png [BODE.png]]
+//   (axes: SCOPE.png is the scan panel's screenshot)
 // Exit 77 (skipped) without QEMU, the image or /usr/bin/chromium.
 import { spawn, spawnSync } from 'node:child_process';
 import { existsSync, mkdtempSync, readFileSync, rmSync } from 'node:fs';
@@ -513,7 +514,8 @@ async function commissionFromPage(page, context, url) {
 // axes: a board of three coupled axes (the XYZ flexure on qemu-m7): the
 // axis selector, the forms of the selected axis (y's own u_max_V), a refusal
 // on y at its field leaving y and x as they were, a wave started on y from
-// the page (the status's per-axis lines), the scope's other axes' signals.
+// the page (the status's per-axis lines), the scope's other axes' signals,
+// and a scan from the page (a refusal at its field, its figures and images).
 async function axesConsole() {
   const xyz = path.join(configs, 'stages', 'xyz_flexure.json');
   const emu = start(['emulate', '--board', 'qemu-m7', '--scenario', xyz]);
@@ -577,6 +579,41 @@ async function axesConsole() {
     await page.click('#stop');
     await waitFor(page, () => !(window.piezoloop.status.axes || []).find((x) => x.axis === 'y').wave_running, null, 'Stop');
     check(!(await yWave()).wave_running, 'Stop stops y\'s wave');
+
+    // A scan from the page: refused at its field first, then a 16 x 16
+    // raster about (50, 50) um (the console has no scenario: the centre is
+    // given), its figures and images drawn as the server holds them.
+    check(await page.isVisible('#scan-panel'), 'the scan panel is shown on a board of axes');
+    await page.fill('#scan [name="size_x"]', '1e7');
+    await page.fill('#scan [name="centre_x"]', '50');
+    await page.fill('#scan [name="centre_y"]', '50');
+    await page.click('#scan-start');
+    await waitFor(page, () => document.querySelector('#scan [data-error-for="size_um"]')?.textContent, null, 'the scan\'s refusal at size_um');
+    check((await page.textContent('#scan [data-error-for="size_um"]')).includes('size_um'), 'a scan beyond the range is refused at size_um');
+    await page.fill('#scan [name="size_x"]', '10');
+    await page.fill('#scan [name="size_y"]', '10');
+    await page.fill('#scan [name="pixels_x"]', '16');
+    await page.fill('#scan [name="pixels_y"]', '16');
+    await page.fill('#scan [name="line_rate_Hz"]', '100');
+    const scanStarted = Date.now();
+    await page.click('#scan-start');
+    if (await waitFor(page, () => window.piezoloop.jobs.scan && window.piezoloop.jobs.scan.result && window.piezoloop.jobs.scan.progress.state === 'done', null, 'the scan\'s result', 240000)) {
+      const res = await page.evaluate(() => window.piezoloop.jobs.scan.result);
+      const server = await page.evaluate(async (t) => (await (await fetch('/api/scan', { headers: { 'X-Piezoloop-Token': t } })).json()).result, token);
+      check(res.complete === true && res.sync_mismatches === 0 && res.pixels > 0 && JSON.stringify(res) === JSON.stringify(server),
+        'the scan from the page: complete, the sync word the generator\'s on every tick, the page\'s result the server\'s',
+        JSON.stringify({ complete: res.complete, sync: res.sync_mismatches, pixels: res.pixels, incomplete: res.incomplete }));
+      const drawn = await page.$$eval('#scan-images canvas', (cs) => cs.map((c) => [c.id, c.width, c.height]));
+      const sizes = ['image_commanded', 'image_measured', 'error_x', 'error_y'].map((k) => [`scan-${k}`, res.images[k].nx, res.images[k].ny]);
+      check(drawn.length === 4 && JSON.stringify(drawn) === JSON.stringify(sizes), 'its four images drawn at their grids', JSON.stringify(drawn));
+      const shown = await page.$eval('#scan-figures dd[data-key="rms_x_percent"]', (d) => JSON.parse(d.dataset.value));
+      check(shown === res.tracking.rms_x_percent, 'the x error RMS shown is the result\'s', `${shown} vs ${res.tracking.rms_x_percent}`);
+      console.log(`figure: a 16 x 16 raster scanned from the page in ${((Date.now() - scanStarted) / 1000).toFixed(1)} s`);
+      if (screenshot) {  // axes mode: the scan panel (docs/img/console_scan.png)
+        await page.locator('#scan-panel').scrollIntoViewIfNeeded();
+        await page.locator('#scan-panel').screenshot({ path: screenshot });
+      }
+    }
   } finally {
     await browser.close();
   }

@@ -1,0 +1,127 @@
+#include "ui/scan_job.hpp"
+
+#include <cmath>
+#include <optional>
+#include <utility>
+
+#include "ui/field_refusal.hpp"
+
+namespace piezoloop::ui {
+
+using nlohmann::json;
+
+namespace {
+
+double number(const json& v, const std::string& field) {
+    if (!v.is_number()) throw FieldRefusal(field, field + ": must be a number");
+    return v.get<double>();
+}
+
+int whole(const json& v, const std::string& field) {
+    const double x = number(v, field);
+    if (x != std::floor(x) || std::abs(x) > 1e6) throw FieldRefusal(field, field + ": must be a whole number");
+    return static_cast<int>(x);
+}
+
+std::pair<double, double> two(const json& v, const std::string& field) {
+    if (!v.is_array() || v.size() != 2) throw FieldRefusal(field, field + ": must be two numbers");
+    return {number(v[0], field), number(v[1], field)};
+}
+
+// A message of scan_on_board ("size_um: ...", "line_rate_hz: ...") at its
+// form field; the request's own names are the form's but for the line rate.
+FieldRefusal refusal(const std::string& message) {
+    const std::size_t colon = message.find(':');
+    std::string field = colon == std::string::npos ? "" : message.substr(0, colon);
+    if (field.find(" / ") != std::string::npos) field = field.substr(0, field.find(" / "));
+    if (field == "line_rate_hz") field = "line_rate_Hz";
+    for (const char* known : {"pattern", "size_um", "pixels", "line_rate_Hz", "frames", "sample", "centre_um",
+                              "retrace_speed", "scenario"})
+        if (field == known) return FieldRefusal(field, message);
+    return FieldRefusal("", message);
+}
+
+json image_json(const scan::ScanImageSpec& im) {
+    const scan::ImageGrid& g = im.grid;
+    json values = json::array();
+    for (const double v : g.value) values.push_back(std::isfinite(v) ? json(v) : json(nullptr));
+    return {{"title", im.title},
+            {"unit", im.clabel},
+            {"cmap", im.cmap},
+            {"nx", g.nx},
+            {"ny", g.ny},
+            {"extent_um", {g.x0_um - g.dx_um / 2, g.x_um(g.nx - 1) + g.dx_um / 2, g.y0_um - g.dy_um / 2,
+                           g.y_um(g.ny - 1) + g.dy_um / 2}},
+            {"values", values}};
+}
+
+}  // namespace
+
+MeasurementJob::Work scan_work(BoardSession& board, const std::string& scenario, const json& form) {
+    if (!form.is_object()) throw FieldRefusal("", "the request must be a JSON object");
+    scan::ScanRequest r;
+    bool restart_stage = false;
+    for (auto it = form.begin(); it != form.end(); ++it) {
+        const std::string& k = it.key();
+        const json& v = it.value();
+        if (k == "pattern") {
+            if (!v.is_string()) throw FieldRefusal(k, "pattern: must be raster, spiral, lissajous or cycloid");
+            r.pattern = v.get<std::string>();
+        } else if (k == "size_um") {
+            std::tie(r.size_x_um, r.size_y_um) = two(v, k);
+        } else if (k == "pixels") {
+            if (!v.is_array() || v.size() != 2) throw FieldRefusal(k, "pixels: must be two whole numbers");
+            r.pixels_x = whole(v[0], k);
+            r.pixels_y = whole(v[1], k);
+        } else if (k == "line_rate_Hz") {
+            r.line_rate_Hz = number(v, k);
+        } else if (k == "frames") {
+            r.frames = whole(v, k);
+        } else if (k == "sample") {
+            if (!v.is_string()) throw FieldRefusal(k, "sample: must be a text such as grating:pitch=2,height_nm=50");
+            r.sample = v.get<std::string>();
+        } else if (k == "centre_um") {
+            if (!v.is_null()) r.centre_um = two(v, k);
+        } else if (k == "restart_stage") {
+            if (!v.is_boolean()) throw FieldRefusal(k, "restart_stage: must be true or false");
+            restart_stage = v.get<bool>();
+        } else {
+            throw FieldRefusal("", k + ": unknown field (pattern, size_um, pixels, line_rate_Hz, frames, sample, "
+                                       "centre_um, restart_stage)");
+        }
+    }
+    std::optional<sim::Scenario> stage;
+    if (!scenario.empty()) stage = sim::load_scenario(scenario);
+    // The plan against the board before anything moves (scan_on_board plans
+    // again, identically, when it runs).
+    try {
+        board.plan_scan(r, stage ? &*stage : nullptr);
+    } catch (const std::invalid_argument& e) {
+        throw refusal(e.what());
+    }
+    return [&board, r, stage, restart_stage, form](const MeasurementJob::Context& job) {
+        hostlink::BoardScan b;
+        try {
+            b = board.scan(r, stage ? &*stage : nullptr, restart_stage, job.stop_requested,
+                           [&job](uint64_t k, uint64_t total) {
+                               job.report("scanning", total ? static_cast<double>(k) / static_cast<double>(total) : 1.0);
+                           });
+        } catch (const hostlink::DeviceError& e) {
+            if (e.field() == "flags" && restart_stage)
+                throw FieldRefusal("restart_stage", std::string("the board refused: ") + e.what());
+            throw;
+        } catch (const std::invalid_argument& e) {
+            throw refusal(e.what());
+        }
+        json out = b.outcome.figures;
+        out["request"] = form;
+        out["complete"] = b.problems.empty() && b.outcome.run.complete;
+        json images = json::object();
+        for (const scan::ScanImageSpec& im : b.outcome.images) images[im.file_stem] = image_json(im);
+        out["images"] = images;
+        if (!b.problems.empty()) job.note("incomplete:" + b.problems);
+        return out;
+    };
+}
+
+}  // namespace piezoloop::ui
