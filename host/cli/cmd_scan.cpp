@@ -74,18 +74,9 @@ std::string option_name(const std::string& field) {
 }
 
 nlohmann::json image_spec(const scan::ScanImageSpec& im, const std::filesystem::path& dir) {
-    const scan::ImageGrid& g = im.grid;
-    nlohmann::json values = nlohmann::json::array();
-    for (const double v : g.value) values.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr));
-    return {{"out", (dir / (im.file_stem + ".png")).string()},
-            {"title", im.title},
-            {"clabel", im.clabel},
-            {"cmap", im.cmap},
-            {"nx", g.nx},
-            {"ny", g.ny},
-            {"extent_um", {g.x0_um - g.dx_um / 2, g.x_um(g.nx - 1) + g.dx_um / 2, g.y0_um - g.dy_um / 2,
-                           g.y_um(g.ny - 1) + g.dy_um / 2}},
-            {"values", values}};
+    nlohmann::json j = scan::image_json(im);
+    j["out"] = (dir / (im.file_stem + ".png")).string();
+    return j;
 }
 
 // The plan, the run and its figures: on the simulator, or on the board.

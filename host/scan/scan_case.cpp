@@ -32,6 +32,20 @@ nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 
 }  // namespace
 
+nlohmann::json image_json(const ScanImageSpec& im) {
+    const ImageGrid& g = im.grid;
+    nlohmann::json values = nlohmann::json::array();
+    for (const double v : g.value) values.push_back(std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr));
+    return {{"title", im.title},
+            {"clabel", im.clabel},
+            {"cmap", im.cmap},
+            {"nx", g.nx},
+            {"ny", g.ny},
+            {"extent_um", {g.x0_um - g.dx_um / 2, g.x_um(g.nx - 1) + g.dx_um / 2, g.y0_um - g.dy_um / 2,
+                           g.y_um(g.ny - 1) + g.dy_um / 2}},
+            {"values", values}};
+}
+
 ScanBounds scenario_bounds(const sim::Scenario& s) {
     ScanBounds b;
     b.rate_Hz = s.setup.rate_Hz;

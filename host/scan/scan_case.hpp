@@ -90,6 +90,11 @@ struct ScanImageSpec {
     ImageGrid grid;
 };
 
+// An image as JSON: {title, clabel, cmap, nx, ny, extent_um: [x_min,
+// x_max, y_min, y_max] (cell edges), values: ny x nx row-major, row j at
+// y0 + j dy, null where no pixel fell} (tools/plot_image.py's, the console's).
+nlohmann::json image_json(const ScanImageSpec& im);
+
 struct ScanOutcome {
     ScanRunResult run;
     nlohmann::json figures;             // what `piezoloop scan` prints (metrics.json)

@@ -41,19 +41,6 @@ FieldRefusal refusal(const std::string& message) {
     return FieldRefusal("", message);
 }
 
-json image_json(const scan::ScanImageSpec& im) {
-    const scan::ImageGrid& g = im.grid;
-    json values = json::array();
-    for (const double v : g.value) values.push_back(std::isfinite(v) ? json(v) : json(nullptr));
-    return {{"title", im.title},
-            {"unit", im.clabel},
-            {"cmap", im.cmap},
-            {"nx", g.nx},
-            {"ny", g.ny},
-            {"extent_um", {g.x0_um - g.dx_um / 2, g.x_um(g.nx - 1) + g.dx_um / 2, g.y0_um - g.dy_um / 2,
-                           g.y_um(g.ny - 1) + g.dy_um / 2}},
-            {"values", values}};
-}
 
 }  // namespace
 
@@ -117,7 +104,7 @@ MeasurementJob::Work scan_work(BoardSession& board, const std::string& scenario,
         out["request"] = form;
         out["complete"] = b.problems.empty() && b.outcome.run.complete;
         json images = json::object();
-        for (const scan::ScanImageSpec& im : b.outcome.images) images[im.file_stem] = image_json(im);
+        for (const scan::ScanImageSpec& im : b.outcome.images) images[im.file_stem] = scan::image_json(im);
         out["images"] = images;
         if (!b.problems.empty()) job.note("incomplete:" + b.problems);
         return out;

@@ -989,7 +989,7 @@ function showScanResult(res) {
     canvas.className = 'scan-image';
     const { lo, hi } = drawImage(canvas, im);
     const cap = document.createElement('figcaption');
-    cap.textContent = `${im.title.replace('\n', ': ')} (${fig(lo)} to ${fig(hi)} ${im.unit})`;
+    cap.textContent = `${im.title.replace('\n', ': ')} (${fig(lo)} to ${fig(hi)} ${im.clabel})`;
     figure.append(canvas, cap);
     box.append(figure);
   }

@@ -97,6 +97,43 @@ StatusReply status() {
     m.channel_u_V = {3.0f, 4.25f, 0.0f};
     m.channel_clamped = {44, 45, 0};
     m.channel_slew_limited = {46, 47, 0};
+    m.scan_state = 3;
+    m.scan_approach_ticks = 0x00010203u;
+    m.scan_ticks = 0x04050607u;
+    m.scan_frames_completed = 9;
+    return m;
+}
+
+StartScan scan() {
+    StartScan m;
+    m.flags = 0x0B;
+    ScanConfig& c = m.config;
+    c.pattern = ScanPattern::kCycloid;
+    c.centre_x_um = 50.5f;
+    c.centre_y_um = -25.25f;
+    c.hold_z_um = 7.5f;
+    c.rotation_deg = -30.0f;
+    c.frames = 0x01020304u;
+    c.pixels_per_line = 256;
+    c.size_x_um = 20.0f;
+    c.size_y_um = 10.0f;
+    c.lines_per_frame = 0x0506u;
+    c.line_rate_Hz = 75.0f;
+    c.retrace_speed_factor = 4.0f;
+    c.overscan_fraction = 0.125f;
+    c.turnaround_s = 0.0025f;
+    c.slow_axis = SlowAxis::kRamp;
+    c.bidirectional = true;
+    c.fast_axis = FastAxis::kSine;
+    c.spiral_mode = SpiralMode::kConstantLinearVelocity;
+    c.radius_um = 6.0f;
+    c.turns = 0x0708u;
+    c.turn_rate_Hz = 250.0f;
+    c.linear_speed_um_s = 1500.0f;
+    c.frequency_x_Hz = 23.0f;
+    c.frequency_y_Hz = 19.0f;
+    c.phase_y_deg = 90.0f;
+    c.turns_per_line = 0x090Au;
     return m;
 }
 
@@ -175,7 +212,7 @@ std::map<std::string, std::string> bodies() {
     return {{"HelloReply", body_hex(hello())},           {"StatusReply", body_hex(status())},
             {"SetpointAck", body_hex(setpoint_ack())},   {"Setpoints", body_hex(setpoints())},
             {"Error", body_hex(error())},                {"StartExcitation", body_hex(excitation())},
-            {"LogBlock", body_hex(log_block())}};
+            {"LogBlock", body_hex(log_block())},         {"StartScan", body_hex(scan())}};
 }
 
 }  // namespace

@@ -205,7 +205,7 @@ TEST(LinkMessages, StatusReplyLayoutHasTheStorageThenTheAxesBlock) {
     Writer w(body);
     s.write(w);
     ASSERT_TRUE(w.ok());
-    EXPECT_EQ(w.size(), 269u + 42u);
+    EXPECT_EQ(w.size(), 269u + 42u + 13u);  // ..., one axis, the scan block
     EXPECT_EQ(body[113], 1);
     EXPECT_EQ(body[122], static_cast<uint8_t>(StorageState::kRejected));
     EXPECT_EQ(body[123], 'f');
@@ -214,7 +214,7 @@ TEST(LinkMessages, StatusReplyLayoutHasTheStorageThenTheAxesBlock) {
     s.axis_count = 3;
     Writer w3(body);
     s.write(w3);
-    EXPECT_EQ(w3.size(), 269u + 1u + 3u * 41u);
+    EXPECT_EQ(w3.size(), 269u + 1u + 3u * 41u + 13u);
 }
 
 TEST(LinkMessages, StorageRequestsAreRequests) {

@@ -85,7 +85,7 @@ TEST(ParamsFieldCheck, RangesNameTheFieldAndTheAllowedValues) {
     RecorderParams r;
     r.channel_count = 2;
     r.channels = {0, 9};
-    EXPECT_EQ(check_text(r), "recorder.channels[1]: must be one of r, y, e, u, u_ff, u_fb, u_rc, d");
+    EXPECT_EQ(check_text(r), "recorder.channels[1]: must be one of r, y, e, u, u_ff, u_fb, u_rc, d, sync");
     r.channels = {0, 1};
     r.decimation = 0;
     EXPECT_EQ(check_text(r), "recorder.decimation: must be in [1, 4294967295] ticks");

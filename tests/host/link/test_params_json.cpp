@@ -111,7 +111,7 @@ TEST(HostLinkParamsJson, ErrorsNameTheKey) {
         merge_json(json::parse(R"({"channels": ["r", "x"]})"), r);
         FAIL();
     } catch (const std::invalid_argument& e) {
-        EXPECT_STREQ(e.what(), "recorder.channels[1]: must be one of r|y|e|u|u_ff|u_fb|u_rc|d (got \"x\")");
+        EXPECT_STREQ(e.what(), "recorder.channels[1]: must be one of r|y|e|u|u_ff|u_fb|u_rc|d|sync (got \"x\")");
     }
     EXPECT_THROW(parse_group("gains"), std::invalid_argument);
     EXPECT_EQ(parse_group("rc"), link::ParamGroup::kRepetitive);
