@@ -155,7 +155,8 @@ class Device:
                every_axis: bool = False) -> Recording: ...
     def measure_frf(self, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
                     mode: str = "open", signal: str = "multisine", periods: int = 10, transient_periods: int = 1,
-                    restart_stage: bool = False, axis: Optional[str] = None) -> FrequencyResponse: ...
+                    restart_stage: bool = False, axis: Optional[str] = None,
+                    mimo: bool = False) -> Union[FrequencyResponse, MimoFrequencyResponse]: ...
     def measure_step(self, *, step_um: Optional[float] = None, step_v: Optional[float] = None,
                      from_um: Optional[float] = None, bias_v: Optional[float] = None, duration_s: float = 0.1,
                      mode: Optional[str] = None, restart_stage: bool = False,

@@ -12,8 +12,8 @@ from . import _piezoloop
 from ._args import finite_json, names, number, numbers, path, text, whole
 from .commission import check_commission
 from .scan import ScanResult, scan_args, scan_result
-from .measure import (FrequencyResponse, Loops, StepResponse, check_request, check_shape, check_step,
-                      loops_from_result, response_from_report, step_from_report)
+from .measure import (FrequencyResponse, Loops, MimoFrequencyResponse, StepResponse, check_request, check_shape,
+                      check_step, loops_from_result, response_from_report, step_from_report)
 
 GROUPS = ("feedforward", "feedback", "rc", "limits", "trajectory", "recorder", "link")
 BOARD_GROUPS = ("recorder", "link", "input_matrix", "output_matrix")
@@ -236,7 +236,7 @@ class Device:
 
     def measure_frf(self, from_hz: float, to_hz: float, amplitude_v: float, *, bias_v: float = 0.0,
                     mode: str = "open", signal: str = "multisine", periods: int = 10, transient_periods: int = 1,
-                    restart_stage: bool = False, axis: Optional[str] = None) -> FrequencyResponse:
+                    restart_stage: bool = False, axis: Optional[str] = None, mimo: bool = False):
         """The board's frequency response, as `piezoloop --device measure frf`:
         the board's excitation recorded tick by tick. Open loop its
         controller groups are set to none for the measurement and put back
@@ -246,7 +246,26 @@ class Device:
         bit). A request beyond the board's limits raises ValueError before
         anything moves; Ctrl-C stops the excitation, puts the groups back and
         raises KeyboardInterrupt. axis: the measured axis of a board of axes
-        (the others hold with their own controllers)."""
+        (the others hold with their own controllers).
+
+        mimo=True on a board of axes: the n x n response, as `piezoloop
+        --device ADDR measure frf --mimo` (open loop, one axis at a time,
+        bias_v on every axis, through the board's output matrix): a
+        MimoFrequencyResponse."""
+        if mimo:
+            if axis is not None:
+                raise ValueError("axis: not with mimo=True (it measures every axis)")
+            if restart_stage:
+                raise ValueError("restart_stage: not with mimo=True on a board")
+            if mode != "open":
+                raise ValueError("mode: mimo=True measures open loop only")
+            if signal != "multisine":
+                raise ValueError("signal: mimo=True uses multisines only")
+            r = self._dev.measure_frf_mimo(number("from_hz", from_hz), number("to_hz", to_hz),
+                                           number("amplitude_v", amplitude_v), number("bias_v", bias_v),
+                                           whole("periods", periods), whole("transient_periods", transient_periods))
+            return MimoFrequencyResponse(frequency_hz=r["frequency_Hz"], response=r["response"], std=r["std"],
+                                         snr_db=r["snr_db"], axes=list(r["report"]["axes"]), report=r["report"])
         check_request(from_hz, to_hz, amplitude_v, mode, signal)
         report = self._dev.measure_frf(number("from_hz", from_hz), number("to_hz", to_hz),
                                        number("amplitude_v", amplitude_v), number("bias_v", bias_v), mode, signal,

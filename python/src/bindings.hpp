@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "measure/frf_plan.hpp"
+#include "measure/mimo_frf_estimate.hpp"
 #include "measure/step_loops_plan.hpp"
 #include "measure/step_loops_report.hpp"
 
@@ -45,6 +46,11 @@ void add_device(pyb::module_& m);
 void add_measure(pyb::module_& m);
 void add_measure_mimo(pyb::module_& m);
 void add_scan(pyb::module_& m);
+
+// An n x n frequency response as {frequency_Hz, response, std, snr_db,
+// inputs, outputs, periods, rate_Hz}: arrays of lines x outputs x inputs
+// (measure_mimo.cpp).
+pyb::dict estimate_dict(const measure::MimoFrfEstimate& e);
 
 // A scan's ticks, images and figures as piezoloop.scan returns them
 // (scan.cpp): {"ticks", "images", "figures"}.

@@ -17,7 +17,9 @@
 #include "device_common.hpp"
 #include "link/client.hpp"
 #include "link/measure_session.hpp"
+#include "link/mimo_measure_session.hpp"
 #include "measure/frf_report.hpp"
+#include "measure/mimo_frf_file.hpp"
 #include "link/params_json.hpp"
 #include "link/record_session.hpp"
 #include "link/scan_session.hpp"
@@ -259,6 +261,53 @@ public:
 
     // `piezoloop --device commission`: as piezoloop.commission, on the board;
     // the progress lines go to `progress` (with the GIL) when given.
+    // `measure frf --mimo` on a board of axes: one axis at a time
+    // (hostlink::run_mimo_frf_device), through the board's output matrix.
+    pyb::dict measure_frf_mimo(double from_Hz, double to_Hz, double amplitude_V, double bias_V, int periods,
+                               int transient_periods) {
+        json report;
+        hostlink::DeviceMimoFrfRun run;
+        {
+            pyb::gil_scoped_release release;
+            Client& c = client();
+            const int n = c.axis_count();
+            if (n < 2) throw std::invalid_argument("mimo: this board has one axis (measure it without mimo)");
+            measure::MimoFrfRequest r;
+            r.inputs = n;
+            r.rate_Hz = c.info().loop_rate_Hz;
+            r.from_Hz = from_Hz;
+            r.to_Hz = to_Hz;
+            r.amplitude_V = amplitude_V;
+            r.bias_V.assign(static_cast<std::size_t>(n), bias_V);
+            r.periods = periods;
+            r.transient_periods = transient_periods;
+            try {
+                run = hostlink::run_mimo_frf_device(c, r);
+            } catch (const std::invalid_argument& e) {
+                // The plan's messages name the command line's options.
+                std::string m = e.what();
+                for (const auto& [option, arg] : {std::pair<std::string, std::string>{"--from-hz", "from_hz"},
+                                                  {"--to-hz", "to_hz"}, {"--amplitude-v", "amplitude_v"},
+                                                  {"--bias-v", "bias_v"}, {"--periods", "periods"},
+                                                  {"--transient-periods", "transient_periods"}})
+                    if (m.rfind(option, 0) == 0) m = arg + m.substr(option.size());
+                throw std::invalid_argument(m);
+            }
+            report = measure::mimo_frf_summary(run.estimate);
+            json axes = json::array();
+            for (int i = 0; i < n; ++i) axes.push_back(cli::axis_name(i));
+            report["axes"] = axes;
+            report["source"] = {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}};
+            report["design"] = "one axis at a time";
+            report["output_matrix"] = "the board's";
+            report["clipped_samples"] = run.clipped_samples;
+            report["wall_s"] = run.wall_s;
+        }
+        pyb::dict out = estimate_dict(run.estimate);
+        out["report"] = to_python(report);
+        return out;
+    }
+
     // A scan on a board of two or three axes (`piezoloop --device ADDR
     // scan`); the scenario (may be empty) is the stage the board drives.
     pyb::dict scan(const scan::ScanRequest& r, const std::string& scenario, bool restart_stage) {
@@ -420,6 +469,7 @@ void add_device(pyb::module_& m) {
              })
         .def("measure_loops", &Device::measure_loops)
         .def("commission", &Device::commission)
+        .def("measure_frf_mimo", &Device::measure_frf_mimo)
         .def("scan",
              [](Device& d, const std::string& scenario, const std::string& pattern, double size_x_um, double size_y_um,
                 int pixels_x, int pixels_y, double line_rate_Hz, double retrace_speed, int frames,

@@ -42,8 +42,8 @@ using Real3 = pyb::array_t<double, pyb::array::c_style | pyb::array::forcecast>;
     throw e;
 }
 
-// The estimate as {frequency_Hz, response, std, snr_db, inputs, outputs,
-// periods, rate_Hz}: arrays of lines x outputs x inputs.
+}  // namespace
+
 pyb::dict estimate_dict(const measure::MimoFrfEstimate& e) {
     const auto lines = static_cast<pyb::ssize_t>(e.frequency_Hz.size());
     const pyb::ssize_t no = e.outputs, ni = e.inputs;
@@ -71,6 +71,8 @@ pyb::dict estimate_dict(const measure::MimoFrfEstimate& e) {
     out["rate_Hz"] = e.rate_Hz;
     return out;
 }
+
+namespace {
 
 // The arrays back as an estimate (what the CSV writer and the coupling read).
 measure::MimoFrfEstimate estimate_from(const std::vector<double>& f_Hz, const Complex3& g, const Real3& sd,

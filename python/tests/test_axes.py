@@ -7,6 +7,7 @@ board of axes (qemu-m3) recorded with axis= equal to the command line's
 simulator."""
 import csv
 import json
+import math
 import os
 
 import numpy as np
@@ -182,6 +183,20 @@ def test_board_of_axes_records_every_axis_as_the_cli_sim(tmp_path):
                            restart_stage=True)
         with pytest.raises(ValueError, match="centre_um"):
             dev.scan("raster", size_um=(20, 20), pixels=(16, 16), line_rate_hz=100)
+        # The n x n response on the board, one axis at a time, through the
+        # identity output matrix: the diagonal within 1 dB of the
+        # simulator's orthogonal multisines (as cli_axes_e2e checks the CLI's).
+        dev.disarm()
+        dev.set("output_matrix", axis_count=2, gain=[1, 0, 0, 0, 1, 0, 0, 0, 1])
+        with pytest.raises(ValueError, match="axis: not with mimo"):
+            dev.measure_frf(20, 2000, 0.1, bias_v=5, mimo=True, axis="x")
+        board_frf = dev.measure_frf(20, 2000, 0.1, bias_v=5, mimo=True)
+    sim_frf = piezoloop.measure_frf(xy, 20, 2000, 0.1, bias_v=5, mimo=True)
+    assert board_frf.report["design"] == "one axis at a time" and board_frf.axes == ["x", "y"]
+    assert board_frf.response.shape == sim_frf.response.shape and board_frf.response.shape[1:] == (2, 2)
+    diag = [abs(20 * math.log10(abs(b[i, i]) / abs(q[i, i])))
+            for b, q in zip(board_frf.response, sim_frf.response) for i in range(2)]
+    assert max(diag) < 1.0, max(diag)
     scan_dir = tmp_path / "scan"
     cli("scan", "--scenario", xy, "--case", "pi_notch_decoupled", "--sample-type", "q31", "--board-start",
         "--pattern", "raster", "--size-um", "20x20", "--pixels", "16x16", "--line-rate-hz", "100",
