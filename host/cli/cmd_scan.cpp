@@ -44,6 +44,7 @@ struct ScanArgs {
     std::string centre;
     std::string out;
     bool restart_stage = false;  // board: the emulated stage and the loop from rest
+    bool rc_period_from_scan = false;  // board: x's and y's RC period set to the scan's
     bool board_start = false;    // simulator: start as a board's StartScan with --restart-stage does
     std::string sample_type;     // simulator: float | q31 (default: the case's)
 };
@@ -107,6 +108,8 @@ scan::ScanRequest request_of(const ScanArgs& a) {
 
 ScanDone scan_simulator(const ScanArgs& a, const std::function<void(uint64_t, uint64_t)>& progress) {
     if (a.restart_stage) bad("--restart-stage", "a board's option (give --device)");
+    if (a.rc_period_from_scan)
+        bad("--rc-period-from-scan", "a board's option (the simulator sets a case's \"auto\" period from the scan)");
     sim::Scenario s = sim::load_scenario(a.scenario);
     ScanDone d;
     d.plan = scan::plan_scan(s, request_of(a), option_name);
@@ -133,8 +136,14 @@ ScanDone scan_board(const ScanArgs& a, const std::function<void(uint64_t, uint64
     hostlink::Client c = open_device();
     std::optional<sim::Scenario> stage;
     if (!a.scenario.empty()) stage = sim::load_scenario(a.scenario);
-    hostlink::BoardScan b = hostlink::scan_on_board(c, request_of(a), stage ? &*stage : nullptr, a.restart_stage,
-                                                   option_name, [] { return StopSignals::requested(); }, progress);
+    hostlink::BoardScanOptions o;
+    o.restart_stage = a.restart_stage;
+    o.rc_period_from_scan = a.rc_period_from_scan;
+    o.stop_requested = [] { return StopSignals::requested(); };
+    o.progress = progress;
+    hostlink::BoardScan b = hostlink::scan_on_board(c, request_of(a), stage ? &*stage : nullptr, option_name, o);
+    if (b.outcome.figures.contains("rc"))
+        for (const auto& note : b.outcome.figures["rc"]) std::fprintf(stderr, "scan: %s\n", note.get<std::string>().c_str());
     ScanDone d;
     d.plan = std::move(b.plan);
     d.outcome = std::move(b.outcome);
@@ -206,6 +215,8 @@ void add_scan(CLI::App& app) {
     cmd->add_option("--case", a->case_name, "simulator: controller case of the scenario (default: its first)");
     cmd->add_option("--sample-type", a->sample_type, "simulator: the core's sample type, float | q31 (default: the case's)");
     cmd->add_flag("--restart-stage", a->restart_stage, "board: the emulated stage and the loop start from rest");
+    cmd->add_flag("--rc-period-from-scan", a->rc_period_from_scan,
+                  "board: set x's and y's repetitive controllers (when enabled) to the scan's period first");
     cmd->add_flag("--board-start", a->board_start,
                   "simulator: start as a board does with --restart-stage (to compare the two tick by tick)");
     cmd->add_option("--pattern", a->pattern, "raster | spiral | lissajous | cycloid (docs/scan.md)");

@@ -111,12 +111,31 @@ DeviceScanResult run_scan_device(Client& c, const DeviceScanOptions& o) {
     if (const Status s = plan.configure(cfg); !s.ok()) throw std::invalid_argument(describe(s));
     const uint64_t scan_ticks = uint64_t{plan.frame_period_ticks()} * (cfg.frames == 0 ? 1u : cfg.frames);
 
+    // x's and y's repetitive controllers learn over the scan's fast motion.
+    DeviceScanResult out;
+    const uint32_t period = scan::scan_rc_period_ticks(cfg);
+    for (uint8_t a = 0; a < 2; ++a) {
+        link::RepetitiveParams rc = c.get<link::RepetitiveParams>(a);
+        if (!rc.enabled || rc.rc.period_samples == static_cast<int>(period)) continue;
+        const std::string axis(1, "xy"[a]);
+        if (o.rc_period_from_scan) {
+            const int was = rc.rc.period_samples;
+            rc.rc.period_samples = static_cast<int>(period);
+            c.set(rc, a);
+            out.notes.push_back(axis + "'s repetitive controller: period " + std::to_string(was) + " -> " +
+                                std::to_string(period) + " ticks, the scan's");
+        } else {
+            out.notes.push_back(axis + "'s repetitive controller runs a period of " +
+                                std::to_string(rc.rc.period_samples) + " ticks, the scan's fast motion " +
+                                std::to_string(period) + ": it learns over the wrong period (set rc.period_samples, "
+                                "or --rc-period-from-scan)");
+        }
+    }
     c.set(scan_recorder(h));
     const uint8_t flags = wave_flag::kArmRecorder | (before.armed ? 0 : wave_flag::kArm) |
                           (o.restart_stage ? wave_flag::kRestartStage : 0);
     c.start_scan(cfg, flags);
 
-    DeviceScanResult out;
     bool ended = false, interrupted = false, stalled = false;
     link::StatusReply st{};
     std::string link_error;
@@ -200,9 +219,8 @@ scan::ScanPlan plan_board_scan(Client& c, const scan::ScanRequest& r, const sim:
     return scan::plan_scan(b, r, name);
 }
 
-BoardScan scan_on_board(Client& c, const scan::ScanRequest& r, const sim::Scenario* stage, bool restart_stage,
-                        const scan::FieldName& name, std::function<bool()> stop_requested,
-                        std::function<void(uint64_t tick, uint64_t total)> progress) {
+BoardScan scan_on_board(Client& c, const scan::ScanRequest& r, const sim::Scenario* stage, const scan::FieldName& name,
+                        const BoardScanOptions& bo) {
     BoardScan d;
     std::string label;
     d.plan = plan_board_scan(c, r, stage, name, &label);
@@ -210,9 +228,10 @@ BoardScan scan_on_board(Client& c, const scan::ScanRequest& r, const sim::Scenar
     DeviceScanOptions o;
     o.scan = d.plan.config;
     o.sample = d.plan.sample;
-    o.restart_stage = restart_stage;
-    o.stop_requested = std::move(stop_requested);
-    o.progress = std::move(progress);
+    o.restart_stage = bo.restart_stage;
+    o.rc_period_from_scan = bo.rc_period_from_scan;
+    o.stop_requested = bo.stop_requested;
+    o.progress = bo.progress;
     const auto t0 = Clock::now();
     DeviceScanResult res = run_scan_device(c, o);
     d.outcome.run = std::move(res.run);
@@ -221,6 +240,7 @@ BoardScan scan_on_board(Client& c, const scan::ScanRequest& r, const sim::Scenar
     d.outcome.figures["device"] = c.address();
     d.outcome.figures["sync_mismatches"] = res.sync_mismatches;
     d.outcome.figures["probe"] = "at the measured positions (a board streams no true position)";
+    if (!res.notes.empty()) d.outcome.figures["rc"] = res.notes;
     d.problems = res.problems;
     if (!d.problems.empty()) d.outcome.figures["incomplete"] = d.problems;
     return d;

@@ -17,6 +17,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "link/client.hpp"
 #include "piezoloop/scan/scan_config.hpp"
@@ -31,6 +32,10 @@ struct DeviceScanOptions {
     ScanConfig scan{};             // sample_rate_Hz: the board's loop rate
     scan::SampleSurface sample{};  // read at the measured positions
     bool restart_stage = false;    // emulated stage and loop from rest (StartScan's bit2)
+    // x's and y's repetitive controllers, when enabled, set to the scan's
+    // period (scan_rc_period_ticks) first; otherwise a different period is
+    // only noted.
+    bool rc_period_from_scan = false;
     double stall_s = 5.0;          // give up when no frames arrive for this long
     std::function<bool()> stop_requested;
     std::function<void(uint64_t tick, uint64_t total)> progress;
@@ -38,6 +43,7 @@ struct DeviceScanOptions {
 
 struct DeviceScanResult {
     scan::ScanRunResult run;
+    std::vector<std::string> notes;  // the repetitive controllers' periods: set, or unlike the scan's
     std::string problems;        // why it is incomplete ("" when complete)
     uint32_t sync_mismatches = 0;  // recorded sync words that differ from the generator's
 };
@@ -60,12 +66,17 @@ scan::ScanPlan plan_board_scan(Client& c, const scan::ScanRequest& r, const sim:
                                const scan::FieldName& name, std::string* label = nullptr);
 struct BoardScan {
     scan::ScanPlan plan;
-    scan::ScanOutcome outcome;  // figures add device, sync_mismatches, probe, incomplete
+    scan::ScanOutcome outcome;  // figures add device, sync_mismatches, probe, rc (the notes), incomplete
     double rate_Hz = 0.0;
     std::string problems;       // why it is incomplete ("" when complete)
 };
-BoardScan scan_on_board(Client& c, const scan::ScanRequest& r, const sim::Scenario* stage, bool restart_stage,
-                        const scan::FieldName& name, std::function<bool()> stop_requested,
-                        std::function<void(uint64_t tick, uint64_t total)> progress);
+struct BoardScanOptions {
+    bool restart_stage = false;
+    bool rc_period_from_scan = false;
+    std::function<bool()> stop_requested;
+    std::function<void(uint64_t tick, uint64_t total)> progress;
+};
+BoardScan scan_on_board(Client& c, const scan::ScanRequest& r, const sim::Scenario* stage, const scan::FieldName& name,
+                        const BoardScanOptions& o);
 
 }  // namespace piezoloop::hostlink

@@ -145,6 +145,13 @@ ScanRunResult run_with(const sim::MultiAxisModel& m, const ScanRunOptions& o) {
 
 }  // namespace
 
+uint32_t scan_rc_period_ticks(const ScanConfig& c) {
+    ScanGenerator<float> g;
+    if (const Status st = g.configure(c); !st.ok()) reject("scan", st);
+    const bool cav_spiral = c.pattern == ScanPattern::kSpiral && g.line_period_ticks() > 0;
+    return cav_spiral ? g.line_period_ticks() : g.repetitive_period_ticks();
+}
+
 std::pair<double, double> axis_travel_um(const sim::Scenario& s, int axis) {
     const double um_per_V = s.nominal_um_per_V * s.axes[static_cast<std::size_t>(axis)].plant.amplifier.gain;
     return {s.setup.hard.u_min_V * um_per_V, s.setup.hard.u_max_V * um_per_V};
@@ -159,12 +166,8 @@ ScanRunResult run_scan(const sim::Scenario& s, const ScanRunOptions& o) {
     cfg.sample_rate_Hz = static_cast<float>(s.rate_Hz);
     ScanGenerator<float> g;
     if (const Status st = g.configure(cfg); !st.ok()) reject("scan", st);
-    // A repetitive controller's period "auto" is the scan's fast motion: a
-    // line (two when bidirectional), a turn of a constant-angular-velocity
-    // spiral (each axis a sinusoid of slowly changing amplitude: the RC
-    // learns from the turn before), else the frame (Lissajous, CLV spiral).
-    const bool cav_spiral = cfg.pattern == ScanPattern::kSpiral && g.line_period_ticks() > 0;
-    const uint32_t rc_period_ticks = cav_spiral ? g.line_period_ticks() : g.repetitive_period_ticks();
+    // A repetitive controller's period "auto" is the scan's fast motion.
+    const uint32_t rc_period_ticks = scan_rc_period_ticks(cfg);
     sim::BuildOptions build;
     build.check_realisation = false;
     build.reference_frequency_Hz = s.rate_Hz / static_cast<double>(rc_period_ticks);

@@ -251,11 +251,13 @@ hostlink::BoardScan BoardSession::scan(const scan::ScanRequest& r, const sim::Sc
         if (progress) progress(static_cast<uint64_t>(f * 1e6), 1000000u);
     };
     measure(std::move(o), [&](hostlink::Client& c, const hostlink::MeasureOptions& mo) {
-        out = hostlink::scan_on_board(
-            c, r, stage, restart_stage, [](const std::string& field) { return field; }, mo.stop_requested,
-            [&mo](uint64_t k, uint64_t total) {
-                mo.progress(total ? std::min(1.0, static_cast<double>(k) / static_cast<double>(total)) : 1.0);
-            });
+        hostlink::BoardScanOptions so;
+        so.restart_stage = restart_stage;
+        so.stop_requested = mo.stop_requested;
+        so.progress = [&mo](uint64_t k, uint64_t total) {
+            mo.progress(total ? std::min(1.0, static_cast<double>(k) / static_cast<double>(total)) : 1.0);
+        };
+        out = hostlink::scan_on_board(c, r, stage, [](const std::string& field) { return field; }, so);
     });
     return out;
 }

@@ -185,20 +185,22 @@ class Device:
              pixels: Sequence[int] = (256, 256), line_rate_hz: float = 50.0, retrace_speed: float = 1.0,
              frames: int = 1, sample: str = "grating:pitch=2,height_nm=50",
              centre_um: Optional[Sequence[float]] = None, scenario: Optional[str | os.PathLike] = None,
-             restart_stage: bool = False) -> ScanResult:
+             restart_stage: bool = False, rc_period_from_scan: bool = False) -> ScanResult:
         """Scan on a board of two or three axes, as `piezoloop --device ADDR
         scan` (docs/scan.md): the arguments as piezoloop.scan's; the board
         runs the controllers it holds. scenario: the stage the board drives
         (its travel, the default centre); without it centre_um is needed and
         the scan stays within the board's position range. restart_stage: an
-        emulated stage and the loop start from rest. Returns a ScanResult
+        emulated stage and the loop start from rest. rc_period_from_scan:
+        x's and y's repetitive controllers, when enabled, set to the scan's
+        period first (otherwise figures["rc"] notes a different one). Returns a ScanResult
         whose true_x_um / true_y_um are NaN (a board streams no true
         position; the sample is read at the measured positions). A scan the
         board cannot make raises ValueError naming the argument; a record cut
         short raises the link's error."""
         args = scan_args(pattern, size_um, pixels, line_rate_hz, retrace_speed, frames, sample, centre_um)
         where = "" if scenario is None else path("scenario", scenario)
-        return scan_result(self._dev.scan(where, *args, bool(restart_stage)))
+        return scan_result(self._dev.scan(where, *args, bool(restart_stage), bool(rc_period_from_scan)))
 
     def stream(self, setpoints_um, prefill: Optional[int] = None) -> dict:
         """Stream setpoints (um, one per loop tick) through the board's FIFO, as

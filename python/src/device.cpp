@@ -310,14 +310,18 @@ public:
 
     // A scan on a board of two or three axes (`piezoloop --device ADDR
     // scan`); the scenario (may be empty) is the stage the board drives.
-    pyb::dict scan(const scan::ScanRequest& r, const std::string& scenario, bool restart_stage) {
+    pyb::dict scan(const scan::ScanRequest& r, const std::string& scenario, bool restart_stage,
+                   bool rc_period_from_scan) {
         hostlink::BoardScan b;
         {
             pyb::gil_scoped_release release;
             std::optional<sim::Scenario> stage;
             if (!scenario.empty()) stage = sim::load_scenario(scenario);
-            b = hostlink::scan_on_board(client(), r, stage ? &*stage : nullptr, restart_stage,
-                                        [](const std::string& field) { return field; }, {}, {});
+            hostlink::BoardScanOptions o;
+            o.restart_stage = restart_stage;
+            o.rc_period_from_scan = rc_period_from_scan;
+            b = hostlink::scan_on_board(client(), r, stage ? &*stage : nullptr,
+                                        [](const std::string& field) { return field; }, o);
         }
         if (!b.problems.empty()) throw hostlink::LinkError("scan incomplete:" + b.problems);
         return scan_result(b.outcome);
@@ -473,10 +477,11 @@ void add_device(pyb::module_& m) {
         .def("scan",
              [](Device& d, const std::string& scenario, const std::string& pattern, double size_x_um, double size_y_um,
                 int pixels_x, int pixels_y, double line_rate_Hz, double retrace_speed, int frames,
-                const std::string& sample, std::optional<std::pair<double, double>> centre_um, bool restart_stage) {
+                const std::string& sample, std::optional<std::pair<double, double>> centre_um, bool restart_stage,
+                bool rc_period_from_scan) {
                  return d.scan(scan_request("", pattern, size_x_um, size_y_um, pixels_x, pixels_y, line_rate_Hz,
                                             retrace_speed, frames, sample, centre_um),
-                               scenario, restart_stage);
+                               scenario, restart_stage, rc_period_from_scan);
              });
 }
 

@@ -255,6 +255,33 @@ try:
     fig = json.loads(bs.stdout) if bs.returncode == 0 else {}
     check(fig.get("complete") is True and fig.get("sync_mismatches") == 0 and fig.get("pixels", 0) > 0,
           "the board's scan: complete, its sync word the generator's on every tick", bs.stdout[-400:])
+    if board == "qemu-m3":
+        # Repetitive control over the scan's lines (108 ticks: the boards'
+        # RC holds at most 128): the case's RC sent with a period of 80
+        # ticks is noted as the wrong one; set from the scan
+        # (--rc-period-from-scan) the board equals the simulator's "auto"
+        # period, tick by tick.
+        rc_args = ["--pattern", "raster", "--pixels", "8x16", "--size-um", "20x20", "--line-rate-hz", "200"]
+        run(*d, "disarm")
+        rc_set = run(*d, "set", "--scenario", scenario, "--case", "scan_rc", "--frequency-hz", "250")
+        noted = run(*d, "scan", "--scenario", scenario, "--restart-stage", *rc_args, "--out",
+                    os.path.join(tmp, "scan_noted"))
+        run(*d, "disarm")
+        rc_b = run(*d, "scan", "--scenario", scenario, "--restart-stage", "--rc-period-from-scan", *rc_args,
+                   "--out", os.path.join(tmp, "scan_rc_board"))
+        rc_s = run("scan", "--scenario", scenario, "--case", "scan_rc", "--sample-type", sample, "--board-start",
+                   *rc_args, "--out", os.path.join(tmp, "scan_rc_sim"))
+        got = run(*d, "get", "rc", "--axis", "x")
+        fig_n = json.loads(noted.stdout) if noted.returncode == 0 else {}
+        fig_b = json.loads(rc_b.stdout) if rc_b.returncode == 0 else {}
+        ok = rc_set.returncode == 0 and rc_b.returncode == 0 and rc_s.returncode == 0 and got.returncode == 0
+        rc_x = json.loads(got.stdout) if ok else {}
+        same = ok and scan_rows("scan_rc_board") == scan_rows("scan_rc_sim")
+        check(any("wrong period" in n for n in fig_n.get("rc", [])) and same and rc_x.get("enabled") is True and
+              rc_x.get("period_samples") == 108 and any("80 -> 108 ticks" in n for n in fig_b.get("rc", [])),
+              f"repetitive control on the scan: a period of 80 noted as wrong, set to the line's "
+              f"{rc_x.get('period_samples')} ticks, the board equal to the simulator tick by tick",
+              rc_set.stderr + noted.stderr + rc_b.stderr + rc_s.stderr + got.stderr)
     bad = run(*d, "scan", "--scenario", scenario, "--pattern", "raster", "--size-um", "500x20", "--out",
               os.path.join(tmp, "scan_bad"))
     check(bad.returncode == 2 and "--size-um" in bad.stderr, "a scan beyond the travel is refused naming --size-um",
