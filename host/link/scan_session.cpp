@@ -128,7 +128,7 @@ DeviceScanResult run_scan_device(Client& c, const DeviceScanOptions& o) {
             out.notes.push_back(axis + "'s repetitive controller runs a period of " +
                                 std::to_string(rc.rc.period_samples) + " ticks, the scan's fast motion " +
                                 std::to_string(period) + ": it learns over the wrong period (set rc.period_samples, "
-                                "or --rc-period-from-scan)");
+                                "or let the scan set it: --rc-period-from-scan, rc_period_from_scan=True)");
         }
     }
     c.set(scan_recorder(h));
@@ -193,8 +193,6 @@ scan::ScanPlan plan_board_scan(Client& c, const scan::ScanRequest& r, const sim:
                                const scan::FieldName& name, std::string* label_out) {
     const link::HelloReply& h = c.info();
     scan::ScanBounds b;
-    b.rate_Hz = h.loop_rate_Hz;
-    b.position = SignalScale{h.position_full_scale_um};
     std::string label = h.board.data();
     if (stage != nullptr) {
         if (stage->axes.size() < 2)
@@ -202,9 +200,7 @@ scan::ScanPlan plan_board_scan(Client& c, const scan::ScanRequest& r, const sim:
         if (stage->setup.rate_Hz != h.loop_rate_Hz)
             throw std::invalid_argument(name("scenario") + ": its loop rate (" + std::to_string(stage->setup.rate_Hz) +
                                         " Hz) is not the board's (" + std::to_string(h.loop_rate_Hz) + " Hz)");
-        b.travel_x_um = scan::axis_travel_um(*stage, 0);
-        b.travel_y_um = scan::axis_travel_um(*stage, 1);
-        b.whose = "axis's travel";
+        b = scan::scenario_bounds(*stage);
         label = stage->name + " on " + label;
     } else {
         if (!r.centre_um)
@@ -215,6 +211,8 @@ scan::ScanPlan plan_board_scan(Client& c, const scan::ScanRequest& r, const sim:
         b.travel_y_um = {-fy, fy};
         b.whose = "board's position range";
     }
+    b.rate_Hz = h.loop_rate_Hz;
+    b.position = SignalScale{h.position_full_scale_um};
     if (label_out != nullptr) *label_out = label;
     return scan::plan_scan(b, r, name);
 }

@@ -2,8 +2,11 @@
 
 #include <cmath>
 #include <optional>
+#include <string>
+#include <tuple>
 #include <utility>
 
+#include "scan/scan_case.hpp"
 #include "ui/field_refusal.hpp"
 
 namespace piezoloop::ui {
@@ -40,7 +43,6 @@ FieldRefusal refusal(const std::string& message) {
         if (field == known) return FieldRefusal(field, message);
     return FieldRefusal("", message);
 }
-
 
 }  // namespace
 

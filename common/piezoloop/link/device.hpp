@@ -323,7 +323,8 @@ public:
         r.loop_rate_Hz = s.rate_Hz;
         r.capabilities = (kFloat ? cap::kFloat : cap::kQ31) | cap::kDahl | cap::kRepetitive | cap::kSetpointStream |
                          cap::kRecorder | cap::kWaveTable | cap::kExcitation |
-                         (hooks_.storage != nullptr ? cap::kStorage : 0u) | (MultiAxis ? cap::kAxisMatrices : 0u) | (kScans ? cap::kScan : 0u);
+                         (hooks_.storage != nullptr ? cap::kStorage : 0u) | (MultiAxis ? cap::kAxisMatrices : 0u) |
+                         (kScans ? cap::kScan : 0u);
         r.sample_format = kFloat ? SampleFormat::kFloat32 : SampleFormat::kQ31;
         r.hard_u_min_V = s.hard.u_min_V;
         r.hard_u_max_V = s.hard.u_max_V;
