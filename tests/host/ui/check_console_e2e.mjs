@@ -731,13 +731,17 @@ async function main() {
     await page.bringToFront();
     await page.waitForTimeout(1000);
     const t0 = Date.now();
+    const drawnBefore = await page.evaluate(() => window.piezoloop.framesDrawn);
     await page.waitForTimeout(4000);
     const rates = await page.evaluate(() => ({ fps: window.piezoloop.fps, latency: window.piezoloop.latencyMedianMs, speed: window.piezoloop.deviceSpeed }));
     const wall = (Date.now() - t0) / 1000;
     console.log(`figure: scope ${rates.fps.toFixed(1)} frames/s drawn, median host-to-screen latency ${rates.latency} ms ` +
       `(newest sample's arrival at the host to its frame on screen), over ${wall.toFixed(1)} s; the board's record ` +
       `grew ${rates.speed.toFixed(2)} s per wall second`);
-    check(rates.fps > 0, 'frames keep coming while the wave runs');
+    // Frames go on being drawn (on a loaded machine the stream may pause
+    // for a few seconds: the rate above is the figure, this the check).
+    check(await waitFor(page, (n) => window.piezoloop.framesDrawn > n + 10, drawnBefore, 'frames drawn while the wave runs', 20000),
+      'frames keep coming while the wave runs');
 
     await page.click('#pause');
     await page.waitForTimeout(200);
