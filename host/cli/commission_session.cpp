@@ -6,6 +6,7 @@
 #include <memory>
 #include <numbers>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "commission/commission_figures.hpp"
@@ -208,6 +209,9 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     const auto t0 = std::chrono::steady_clock::now();
     const std::function<void(const std::string&)> say = [&](const std::string& line) {
         if (progress) progress(line);
+        // A simulated stage has no recording to interrupt: a stop ends the
+        // run at its next step (a board's stops its recording).
+        if (!board && stop_requested && stop_requested()) throw std::runtime_error("stopped before the end");
     };
     std::unique_ptr<commission::StageAccess> stage;
     json source;

@@ -85,7 +85,7 @@ void MeasurementJob::run(Work work) {
     } catch (const hostlink::DeviceError& e) {
         fail("failed", "", std::string("the board refused: ") + e.what());
     } catch (const std::exception& e) {
-        if (stop_) fail("stopped", "", "stopped before the end: the board's groups were put back, the loop left disarmed");
+        if (stop_) fail("stopped", "", "stopped before the end (on a board: its groups put back, the loop left disarmed)");
         else fail("failed", "", e.what());
     }
     running_ = false;

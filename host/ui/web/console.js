@@ -395,8 +395,11 @@ function updateButtons() {
   const c = state.controls;
   for (const b of document.querySelectorAll('.ctl')) b.disabled = !c || (state.measuring && b.id !== 'stop');
   $('frf-stop').disabled = !c || !state.measuring;
-  // Each measurement's own stop, while it runs on the board.
-  for (const b of document.querySelectorAll('.stop-job')) b.disabled = !c || !holdsBoard(state.jobs[b.id.replace(/-stop$/, '')]);
+  // Each measurement's own stop, while it runs (on the board, or simulated).
+  for (const b of document.querySelectorAll('.stop-job')) {
+    const j = state.jobs[b.id.replace(/-stop$/, '')];
+    b.disabled = !c || !(j && j.progress && j.progress.state === 'running');
+  }
   for (const b of document.querySelectorAll('#params button')) b.disabled = !c || state.measuring;
 }
 

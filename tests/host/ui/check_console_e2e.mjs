@@ -455,9 +455,21 @@ async function commissionFromPage(page, context, url) {
   check(JSON.stringify(after.values) === JSON.stringify(before.values) && !after.status.excitation_running && !after.status.wave_running &&
     after.status.armed === before.status.armed, 'the refused commissioning changed nothing on the board (groups, armed, no excitation)');
 
-  // The simulated stage, commissioned from the page.
+  // The simulated stage, commissioned from the page: stopped once, then run to the end.
   await page.selectOption('#commission [name="on"]', 'simulator');
   await page.fill('#commission [name="range_um"]', String(commissionRequest.range_um));
+  // The simulated run takes under a second: Stop is sent right after the start, as the page's Stop sends it.
+  const stopSent = await page.evaluate(async (tk) => {
+    const h = { 'X-Piezoloop-Token': tk, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' };
+    const start = await fetch('/api/commission/start', { method: 'POST', headers: h, body: JSON.stringify({ range_um: 12, on: 'simulator' }) });
+    const stop = await fetch('/api/commission/stop', { method: 'POST', headers: h });
+    return [start.status, stop.status];
+  }, t);
+  await waitFor(page, () => { const p = window.piezoloop.jobs.commission.progress; return p.request && p.request.on === 'simulator' && ['done', 'failed', 'stopped'].includes(p.state); },
+    null, 'the simulated commissioning ends', 60000);
+  const halted = await page.evaluate(() => window.piezoloop.jobs.commission.progress);
+  check(JSON.stringify(stopSent) === '[200,200]' && halted.state === 'stopped' && halted.error.message.includes('stopped before the end'),
+    'Stop interrupts the simulated commissioning', JSON.stringify({ stopSent, state: halted.state, error: halted.error }));
   const t0 = Date.now();
   await page.click('#commission-start');
   const finished = await waitFor(page, () => { const j = window.piezoloop.jobs.commission; return j && j.progress && ['done', 'failed', 'stopped'].includes(j.progress.state) && j.progress.request.on === 'simulator' && j.result; },
