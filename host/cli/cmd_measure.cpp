@@ -155,17 +155,9 @@ int run_frf_mimo_board(const FrfArgs& a) {
                                     "output_matrix`)");
     if (a.restart_stage) throw std::invalid_argument("--restart-stage: not with --mimo on a board");
     hostlink::Client c = open_device(5000);
-    const int n = c.axis_count();
-    if (n < 2) throw std::invalid_argument("--mimo: this board has one axis (measure it without --mimo)");
-    measure::MimoFrfRequest r;
-    r.inputs = n;
-    r.rate_Hz = c.info().loop_rate_Hz;
-    r.from_Hz = a.from_Hz;
-    r.to_Hz = a.to_Hz;
-    r.amplitude_V = a.amplitude_V;
-    r.bias_V.assign(static_cast<std::size_t>(n), a.bias_V);
-    r.periods = a.periods;
-    r.transient_periods = a.transient_periods;
+    const measure::MimoFrfRequest r = hostlink::board_mimo_request(c, a.from_Hz, a.to_Hz, a.amplitude_V, a.bias_V,
+                                                                   a.periods, a.transient_periods);
+    const int n = r.inputs;
     ProgressBar bar("measure frf --mimo");
     const StopSignals stop_signals;
     hostlink::MeasureOptions o;
@@ -175,20 +167,9 @@ int run_frf_mimo_board(const FrfArgs& a) {
         interruptible("measure frf --mimo", [&] { return hostlink::run_mimo_frf_device(c, r, o); });
     bar.done();
     measure::write_mimo_frf(a.out, run.estimate);
-    std::vector<std::string> names;
-    for (int i = 0; i < n; ++i) names.emplace_back(axis_name(i));
-    json blocks = json::array();
-    for (const hostlink::RecordResult& rec : run.records) blocks.push_back(hostlink::recording_summary(rec));
-    json out = measure::mimo_frf_summary(run.estimate);
+    json out = hostlink::board_mimo_report(c, run);
     out["out"] = a.out;
-    out["axes"] = names;
-    out["source"] = {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}};
-    out["design"] = "one axis at a time";
-    out["output_matrix"] = "the board's";
-    out["coupling"] = coupling_pairs(run.estimate, names);
-    out["clipped_samples"] = run.clipped_samples;
-    out["recordings"] = blocks;
-    out["wall_s"] = run.wall_s;
+    out["coupling"] = coupling_pairs(run.estimate, out["axes"].get<std::vector<std::string>>());
     std::cout << out.dump(1) << "\n";
     std::cerr << "measure frf --mimo: " << run.estimate.frequency_Hz.size() << " lines x " << n << " x " << n
               << " on the board, one axis at a time, in " << format::significant(run.wall_s, 3) << " s wall\n";

@@ -67,13 +67,6 @@ std::pair<double, double> pair_of(const std::string& option, const std::string& 
     return {num(text.substr(0, at)), num(text.substr(at + 1))};
 }
 
-// The request's field as the command line spells it: size_um -> --size-um.
-std::string option_name(const std::string& field) {
-    std::string o = "--" + field;
-    std::replace(o.begin(), o.end(), '_', '-');
-    return o;
-}
-
 nlohmann::json image_spec(const scan::ScanImageSpec& im, const std::filesystem::path& dir) {
     nlohmann::json j = scan::image_json(im);
     j["out"] = (dir / (im.file_stem + ".png")).string();
@@ -112,7 +105,7 @@ ScanDone scan_simulator(const ScanArgs& a, const std::function<void(uint64_t, ui
         bad("--rc-period-from-scan", "a board's option (the simulator sets a case's \"auto\" period from the scan)");
     sim::Scenario s = sim::load_scenario(a.scenario);
     ScanDone d;
-    d.plan = scan::plan_scan(s, request_of(a), option_name);
+    d.plan = scan::plan_scan(s, request_of(a), scan::option_name);
     if (!a.sample_type.empty()) {
         if (a.sample_type != "float" && a.sample_type != "q31") bad("--sample-type", "must be float or q31");
         // The case's core in the sample type asked for (as `sim --sample`).
@@ -141,7 +134,7 @@ ScanDone scan_board(const ScanArgs& a, const std::function<void(uint64_t, uint64
     o.rc_period_from_scan = a.rc_period_from_scan;
     o.stop_requested = [] { return StopSignals::requested(); };
     o.progress = progress;
-    hostlink::BoardScan b = hostlink::scan_on_board(c, request_of(a), stage ? &*stage : nullptr, option_name, o);
+    hostlink::BoardScan b = hostlink::scan_on_board(c, request_of(a), stage ? &*stage : nullptr, scan::option_name, o);
     if (b.outcome.figures.contains("rc"))
         for (const auto& note : b.outcome.figures["rc"]) std::fprintf(stderr, "scan: %s\n", note.get<std::string>().c_str());
     ScanDone d;

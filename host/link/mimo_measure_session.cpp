@@ -7,6 +7,7 @@
 
 #include "link/recorded_signals.hpp"
 #include "measure/frf_plan.hpp"
+#include "measure/mimo_frf_file.hpp"
 
 namespace piezoloop::hostlink {
 
@@ -42,6 +43,22 @@ void open_loop_axes(Client& c, int n, F&& measure) {
 }
 
 }  // namespace
+
+measure::MimoFrfRequest board_mimo_request(Client& c, double from_Hz, double to_Hz, double amplitude_V, double bias_V,
+                                           int periods, int transient_periods) {
+    const int n = c.axis_count();
+    if (n < 2) throw std::invalid_argument("--mimo: this board has one axis (measure it without --mimo)");
+    measure::MimoFrfRequest r;
+    r.inputs = n;
+    r.rate_Hz = c.info().loop_rate_Hz;
+    r.from_Hz = from_Hz;
+    r.to_Hz = to_Hz;
+    r.amplitude_V = amplitude_V;
+    r.bias_V.assign(static_cast<std::size_t>(n), bias_V);
+    r.periods = periods;
+    r.transient_periods = transient_periods;
+    return r;
+}
 
 DeviceMimoFrfRun run_mimo_frf_device(Client& c, const measure::MimoFrfRequest& r, const MeasureOptions& o) {
     const link::HelloReply& h = c.info();
@@ -130,6 +147,21 @@ DeviceMimoFrfRun run_mimo_frf_device(Client& c, const measure::MimoFrfRequest& r
     });
     out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     out.estimate = measure::estimate_mimo_frf(out.plan, u, y);
+    return out;
+}
+
+nlohmann::json board_mimo_report(Client& c, const DeviceMimoFrfRun& run) {
+    nlohmann::json axes = nlohmann::json::array(), blocks = nlohmann::json::array();
+    for (int i = 0; i < run.estimate.inputs; ++i) axes.push_back(std::string(1, "xyz"[i]));
+    for (const RecordResult& rec : run.records) blocks.push_back(recording_summary(rec));
+    nlohmann::json out = measure::mimo_frf_summary(run.estimate);
+    out["axes"] = axes;
+    out["source"] = {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}};
+    out["design"] = "one axis at a time";
+    out["output_matrix"] = "the board's";
+    out["clipped_samples"] = run.clipped_samples;
+    out["recordings"] = blocks;
+    out["wall_s"] = run.wall_s;
     return out;
 }
 

@@ -19,6 +19,8 @@
 
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "link/client.hpp"
 #include "link/measure_session.hpp"
 #include "link/record_session.hpp"
@@ -35,11 +37,22 @@ struct DeviceMimoFrfRun {
     double wall_s = 0.0;
 };
 
+// The request of `measure frf --mimo` on this board: every axis, the
+// board's loop rate, bias_V on every axis. std::invalid_argument (naming
+// --mimo) on a board of one axis.
+measure::MimoFrfRequest board_mimo_request(Client& c, double from_Hz, double to_Hz, double amplitude_V, double bias_V,
+                                           int periods, int transient_periods);
+
 // r.inputs must be the board's axis count (2 or 3), r.rate_Hz its loop
 // rate, r.bias_V one per axis. Throws std::invalid_argument naming the
 // option before anything moves (a board of one axis, a band or bias
 // beyond an axis's limits, a running wave), LinkError if a recording is
 // incomplete (the board left disarmed, the groups put back).
 DeviceMimoFrfRun run_mimo_frf_device(Client& c, const measure::MimoFrfRequest& r, const MeasureOptions& o = {});
+
+// The run's report: measure::mimo_frf_summary with the axes (x, y, z), the
+// source (the board), the design, the output matrix (the board's), the
+// clipped samples, each block's recording summary and the wall time.
+nlohmann::json board_mimo_report(Client& c, const DeviceMimoFrfRun& run);
 
 }  // namespace piezoloop::hostlink

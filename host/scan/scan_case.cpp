@@ -32,6 +32,12 @@ nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : 
 
 }  // namespace
 
+std::string option_name(const std::string& field) {
+    std::string o = "--" + field;
+    std::replace(o.begin(), o.end(), '_', '-');
+    return o;
+}
+
 nlohmann::json image_json(const ScanImageSpec& im) {
     const ImageGrid& g = im.grid;
     nlohmann::json values = nlohmann::json::array();

@@ -61,6 +61,8 @@ struct ScanPlan {
 // names: scenario, case, pattern, size_um, pixels, line_rate_hz,
 // retrace_speed, frames, centre_um, sample.
 using FieldName = std::function<std::string(const std::string& field)>;
+// The command line's: size_um -> --size-um.
+std::string option_name(const std::string& field);
 
 // Where a scan runs: the loop rate, the axes' position scale (Q31) and the
 // travel of x and y the scan must stay within.

@@ -235,13 +235,12 @@ measure::LoopsRun BoardSession::measure_loops(const measure::LoopsRequest& r, ho
     return run;
 }
 
-void BoardSession::plan_scan(const scan::ScanRequest& r, const sim::Scenario* stage) {
-    locked([&](hostlink::Client& c) {
-        (void)hostlink::plan_board_scan(c, r, stage, [](const std::string& field) { return field; });
-    });
+void BoardSession::plan_scan(const scan::ScanRequest& r, const sim::Scenario* stage, const scan::FieldName& name) {
+    locked([&](hostlink::Client& c) { (void)hostlink::plan_board_scan(c, r, stage, name); });
 }
 
-hostlink::BoardScan BoardSession::scan(const scan::ScanRequest& r, const sim::Scenario* stage, bool restart_stage,
+hostlink::BoardScan BoardSession::scan(const scan::ScanRequest& r, const sim::Scenario* stage,
+                                       const scan::FieldName& name, bool restart_stage,
                                        std::function<bool()> stop_requested,
                                        const std::function<void(uint64_t tick, uint64_t total)>& progress) {
     hostlink::BoardScan out;
@@ -257,7 +256,7 @@ hostlink::BoardScan BoardSession::scan(const scan::ScanRequest& r, const sim::Sc
         so.progress = [&mo](uint64_t k, uint64_t total) {
             mo.progress(total ? std::min(1.0, static_cast<double>(k) / static_cast<double>(total)) : 1.0);
         };
-        out = hostlink::scan_on_board(c, r, stage, [](const std::string& field) { return field; }, so);
+        out = hostlink::scan_on_board(c, r, stage, name, so);
     });
     return out;
 }

@@ -101,11 +101,12 @@ public:
     double setpoint_um(uint8_t axis = 0);
     measure::StepRun measure_step(const measure::StepRequest& r, hostlink::MeasureOptions o);
     measure::LoopsRun measure_loops(const measure::LoopsRequest& r, hostlink::MeasureOptions o);
-    // A scan (hostlink::plan_board_scan, scan_on_board; the request's field
-    // names in its messages), as measure_step; its plan alone first.
-    void plan_scan(const scan::ScanRequest& r, const sim::Scenario* stage);
-    hostlink::BoardScan scan(const scan::ScanRequest& r, const sim::Scenario* stage, bool restart_stage,
-                             std::function<bool()> stop_requested,
+    // A scan (hostlink::plan_board_scan, scan_on_board; the request's
+    // fields named by `name` in its messages), as measure_step; its plan
+    // alone first.
+    void plan_scan(const scan::ScanRequest& r, const sim::Scenario* stage, const scan::FieldName& name);
+    hostlink::BoardScan scan(const scan::ScanRequest& r, const sim::Scenario* stage, const scan::FieldName& name,
+                             bool restart_stage, std::function<bool()> stop_requested,
                              const std::function<void(uint64_t tick, uint64_t total)>& progress);
     // `piezoloop commission` on the board (cli::run_commission_session), as
     // a measurement: its recordings into the history, s.recording_progress

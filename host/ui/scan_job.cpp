@@ -31,18 +31,14 @@ std::pair<double, double> two(const json& v, const std::string& field) {
     return {number(v[0], field), number(v[1], field)};
 }
 
-// A message of scan_on_board ("size_um: ...", "line_rate_hz: ...") at its
-// form field; the request's own names are the form's but for the line rate.
-FieldRefusal refusal(const std::string& message) {
-    const std::size_t colon = message.find(':');
-    std::string field = colon == std::string::npos ? "" : message.substr(0, colon);
-    if (field.find(" / ") != std::string::npos) field = field.substr(0, field.find(" / "));
-    if (field == "line_rate_hz") field = "line_rate_Hz";
-    for (const char* known : {"pattern", "size_um", "pixels", "line_rate_Hz", "frames", "sample", "centre_um",
-                              "retrace_speed", "scenario"})
-        if (field == known) return FieldRefusal(field, message);
-    return FieldRefusal("", message);
-}
+// The plan's messages name the command line's options (as `piezoloop
+// scan` prints them), renamed to the form's fields.
+constexpr std::pair<const char*, const char*> kScanFields[] = {
+    {"--pattern", "pattern"},     {"--size-um", "size_um"},       {"--pixels", "pixels"},
+    {"--line-rate-hz", "line_rate_Hz"}, {"--frames", "frames"}, {"--sample", "sample"},
+    {"--centre-um", "centre_um"}, {"--retrace-speed", "retrace_speed"}, {"--scenario", "scenario"}};
+
+FieldRefusal refusal(const std::string& message) { return renamed_refusal(message, kScanFields); }
 
 }  // namespace
 
@@ -84,14 +80,14 @@ MeasurementJob::Work scan_work(BoardSession& board, const std::string& scenario,
     // The plan against the board before anything moves (scan_on_board plans
     // again, identically, when it runs).
     try {
-        board.plan_scan(r, stage ? &*stage : nullptr);
+        board.plan_scan(r, stage ? &*stage : nullptr, scan::option_name);
     } catch (const std::invalid_argument& e) {
         throw refusal(e.what());
     }
     return [&board, r, stage, restart_stage, form](const MeasurementJob::Context& job) {
         hostlink::BoardScan b;
         try {
-            b = board.scan(r, stage ? &*stage : nullptr, restart_stage, job.stop_requested,
+            b = board.scan(r, stage ? &*stage : nullptr, scan::option_name, restart_stage, job.stop_requested,
                            [&job](uint64_t k, uint64_t total) {
                                job.report("scanning", total ? static_cast<double>(k) / static_cast<double>(total) : 1.0);
                            });

@@ -19,7 +19,6 @@
 #include "link/measure_session.hpp"
 #include "link/mimo_measure_session.hpp"
 #include "measure/frf_report.hpp"
-#include "measure/mimo_frf_file.hpp"
 #include "link/params_json.hpp"
 #include "link/record_session.hpp"
 #include "link/scan_session.hpp"
@@ -270,38 +269,11 @@ public:
         {
             pyb::gil_scoped_release release;
             Client& c = client();
-            const int n = c.axis_count();
-            if (n < 2) throw std::invalid_argument("mimo: this board has one axis (measure it without mimo)");
-            measure::MimoFrfRequest r;
-            r.inputs = n;
-            r.rate_Hz = c.info().loop_rate_Hz;
-            r.from_Hz = from_Hz;
-            r.to_Hz = to_Hz;
-            r.amplitude_V = amplitude_V;
-            r.bias_V.assign(static_cast<std::size_t>(n), bias_V);
-            r.periods = periods;
-            r.transient_periods = transient_periods;
-            try {
-                run = hostlink::run_mimo_frf_device(c, r);
-            } catch (const std::invalid_argument& e) {
-                // The plan's messages name the command line's options.
-                std::string m = e.what();
-                for (const auto& [option, arg] : {std::pair<std::string, std::string>{"--from-hz", "from_hz"},
-                                                  {"--to-hz", "to_hz"}, {"--amplitude-v", "amplitude_v"},
-                                                  {"--bias-v", "bias_v"}, {"--periods", "periods"},
-                                                  {"--transient-periods", "transient_periods"}})
-                    if (m.rfind(option, 0) == 0) m = arg + m.substr(option.size());
-                throw std::invalid_argument(m);
-            }
-            report = measure::mimo_frf_summary(run.estimate);
-            json axes = json::array();
-            for (int i = 0; i < n; ++i) axes.push_back(cli::axis_name(i));
-            report["axes"] = axes;
-            report["source"] = {{"kind", "board"}, {"device", c.address()}, {"board", c.info().board.data()}};
-            report["design"] = "one axis at a time";
-            report["output_matrix"] = "the board's";
-            report["clipped_samples"] = run.clipped_samples;
-            report["wall_s"] = run.wall_s;
+            // Errors name the command line's options, as measure_frf's do.
+            const measure::MimoFrfRequest r =
+                hostlink::board_mimo_request(c, from_Hz, to_Hz, amplitude_V, bias_V, periods, transient_periods);
+            run = hostlink::run_mimo_frf_device(c, r);
+            report = hostlink::board_mimo_report(c, run);
         }
         pyb::dict out = estimate_dict(run.estimate);
         out["report"] = to_python(report);

@@ -37,7 +37,7 @@ public:
         approach_ticks_ = feed_.approach_ticks();
         ticks_ = 0;
         frames_ = 0;
-        state_ = approach_ticks_ > 0 ? ScanState::kApproaching : ScanState::kScanning;
+        started_ = true;
         active_.store(true, std::memory_order_release);
         return ok_status();
     }
@@ -51,7 +51,6 @@ public:
         if (stop_request_.load(std::memory_order_acquire)) feed_.stop();
         if (!feed_.running()) {
             multi_.set_sync(0);
-            state_ = ScanState::kEnded;
             active_.store(false, std::memory_order_release);
             return;
         }
@@ -59,12 +58,16 @@ public:
         multi_.set_sync(p.sync);
         ticks_ = static_cast<uint32_t>(feed_.ticks());
         frames_ = feed_.generator().frames_completed();
-        state_ = feed_.approaching() ? ScanState::kApproaching : ScanState::kScanning;
     }
 
     // A scan is active (running, or its last tick's sync word not yet cleared).
     bool active() const { return active_.load(std::memory_order_acquire); }
-    ScanState state() const { return state_; }
+    // From the figures the tick keeps (the ticks stepped, the approach's).
+    ScanState state() const {
+        if (!started_) return ScanState::kNone;
+        if (!active()) return ScanState::kEnded;
+        return ticks_ < approach_ticks_ ? ScanState::kApproaching : ScanState::kScanning;
+    }
     uint32_t approach_ticks() const { return approach_ticks_; }
     uint32_t ticks() const { return ticks_; }
     uint32_t frames_completed() const { return frames_; }
@@ -74,7 +77,7 @@ private:
     ScanFeed<T> feed_;
     std::atomic<bool> active_{false};
     std::atomic<bool> stop_request_{false};
-    volatile ScanState state_ = ScanState::kNone;
+    bool started_ = false;  // main loop only
     volatile uint32_t approach_ticks_ = 0, ticks_ = 0, frames_ = 0;
 };
 

@@ -68,6 +68,8 @@ struct ScanConfig {
     // Cycloid: whole circle turns per line (the circle's centre advances
     // size_x_um / turns_per_line per turn), [1, 65536].
     uint32_t turns_per_line = 32;
+
+    bool operator==(const ScanConfig&) const = default;
 };
 
 }  // namespace piezoloop
