@@ -282,6 +282,11 @@ try:
               f"repetitive control on the scan: a period of 80 noted as wrong, set to the line's "
               f"{rc_x.get('period_samples')} ticks, the board equal to the simulator tick by tick",
               rc_set.stderr + noted.stderr + rc_b.stderr + rc_s.stderr + got.stderr)
+    for opts, option in ((["--case", case], "--case"), (["--board-start"], "--board-start"),
+                         (["--sample-type", "q31"], "--sample-type")):
+        r = run(*d, "scan", "--scenario", scenario, *opts, "--out", os.path.join(tmp, "scan_sim_only"))
+        check(r.returncode == 2 and option in r.stderr and not os.path.exists(os.path.join(tmp, "scan_sim_only")),
+              f"scan {option} on a board: exit 2 naming it (the simulator's option)", r.stderr)
     bad = run(*d, "scan", "--scenario", scenario, "--pattern", "raster", "--size-um", "500x20", "--out",
               os.path.join(tmp, "scan_bad"))
     check(bad.returncode == 2 and "--size-um" in bad.stderr, "a scan beyond the travel is refused naming --size-um",

@@ -158,6 +158,9 @@ with tempfile.TemporaryDirectory() as tmp:
         (["--retrace-speed", "0.5"], "--retrace-speed"),
         (["--pattern", "spiral", "--retrace-speed", "2"], "--retrace-speed"),
         (["--case", "nope"], "--case"),
+        (["--sample-type", "double"], "--sample-type"),
+        (["--restart-stage"], "--restart-stage"),  # a board's options, on the simulator
+        (["--rc-period-from-scan"], "--rc-period-from-scan"),
         (["--pattern", "zigzag"], "--pattern"),
         (["--sample", "ruler:pitch=2"], "--sample"),
         (["--sample", "grating:pitch=-1"], "--sample"),

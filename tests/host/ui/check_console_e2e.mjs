@@ -596,6 +596,17 @@ async function axesConsole() {
     // raster about (50, 50) um (the console has no scenario: the centre is
     // given), its figures and images drawn as the server holds them.
     check(await page.isVisible('#scan-panel'), 'the scan panel is shown on a board of axes');
+    const badScans = await page.evaluate(async (t) => {
+      const h = { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' };
+      const out = [];
+      for (const body of [{ bogus: 1 }, { pixels: ['a', 2] }, { centre_um: [1] }, { line_rate_Hz: 1e9, centre_um: [50, 50] }]) {
+        const r = await fetch('/api/scan/start', { method: 'POST', headers: h, body: JSON.stringify(body) });
+        out.push([r.status, (await r.json()).field]);
+      }
+      return out;
+    }, token);
+    check(JSON.stringify(badScans) === '[[400,""],[400,"pixels"],[400,"centre_um"],[400,"line_rate_Hz"]]',
+      'scan requests the console cannot take are refused at their fields (unknown, pixels, centre_um, line_rate_Hz)', JSON.stringify(badScans));
     await page.fill('#scan [name="size_x"]', '1e7');
     await page.fill('#scan [name="centre_x"]', '50');
     await page.fill('#scan [name="centre_y"]', '50');
