@@ -81,7 +81,7 @@ static_assert(kBoardCaseAddress + kBoardCaseSlots * kBoardCaseSlotBytes <= kEmul
 //   hard output limits of firmware/bsp/mps2/board_config.hpp;
 //   RC delay line of firmware/app/control_config.hpp (kRcCapacity).
 inline constexpr HardLimits kEmulatedBoardHardLimits{-10.0f, 10.0f, 2.0e5f};
-inline constexpr int kEmulatedBoardRcCapacity = 128;
+inline constexpr int kEmulatedBoardRcCapacity = 2048;
 
 namespace board_case_detail {
 

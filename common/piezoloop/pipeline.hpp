@@ -547,13 +547,15 @@ private:
         bool rc_enabled = false;
         int pf_count = 0;
         BiquadCascade<T, kMaxControllerSections> sos{};
-        RepetitiveController<T, RcCapacity> rc{};
         PiOperator<T> pi{};
         CascadeAntiWindup<T, kMaxControllerSections> sos_anti_windup{};
         Pid<T> pid{};
         DahlFeedforward dahl{};
         BiquadCascade<T, kMaxPrefilterSections> prefilter{};  // not reset at arming: it runs disarmed too
         SignalScale position{}, voltage{};
+        // Last: its delay line is long (RcCapacity samples), and the blocks
+        // above stay within a load's immediate offset of the bank's address.
+        RepetitiveController<T, RcCapacity> rc{};
 
         T feedforward(T r) {
             switch (ff_kind) {
@@ -732,13 +734,16 @@ private:
     Trajectory trajectory_;
     Approach<T> approach_;  // read by the tick only while a wave runs
     PipelineSetup setup_;
-    Bank banks_[2]{};
-    PipelineParams params_[2]{};
     typename OutputLimiter<T>::Setting limits_next_{};  // for the pending swap
     RecorderType recorder_{};
     Excitation excitation_{};
     uint32_t exc_clipped_ = 0, exc_ticks_ = 0;
     uint32_t rejected_setpoints_ = 0;
+    PipelineParams params_[2]{};
+    // Last: the tick reaches its bank through bank_, and each bank carries
+    // the RC's delay line (RcCapacity samples), which would otherwise push
+    // the recorder's indices beyond a load's immediate offset.
+    Bank banks_[2]{};
 };
 
 }  // namespace piezoloop

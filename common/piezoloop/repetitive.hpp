@@ -150,6 +150,7 @@ public:
         }
         generator_delay_ = c.period_samples - c.m1;
         output_delay_ = c.period_samples - c.m1 - c.m2;
+        line_.set_window(c.period_samples);
         if constexpr (std::is_same_v<T, float>) {
             k_rc_ = c.k_rc;
         } else {
@@ -222,7 +223,7 @@ private:
     int phase_ = 0;
     T x_ = sample_zero<T>();  // the generator's output of this tick, between prepare() and push()
     // Last: the tick reaches the members above at small offsets.
-    DelayLine<T, Capacity> line_{};
+    DelayLine<T, Capacity> line_{RepetitiveConfig{}.period_samples};
 };
 
 }  // namespace piezoloop

@@ -17,7 +17,9 @@ namespace piezoloop::fw {
 inline constexpr float kLoopRate_Hz = 100000.0f;
 inline constexpr uint32_t kLoopRateInt_Hz = 100000;
 
-// RC delay line: N up to 128 (the reference N = 100); recorder: four
+// RC delay line: N up to 2048 (the reference N = 100; a 50 Hz raster's
+// line at 100 kHz is 2000 ticks; a reconfiguration copies only N of them,
+// delay_line.hpp); recorder: four
 // channels, what the host's link client records (r, y, e, u; the log hash
 // covers r, y, u), PIEZOLOOP_RECORDER_CAPACITY frames of slack for the main
 // loop that drains it into log blocks (firmware/CMakeLists.txt: 4096 =
@@ -29,7 +31,7 @@ inline constexpr uint32_t kLoopRateInt_Hz = 100000;
 #ifndef PIEZOLOOP_EXCITATION_CAPACITY
 #define PIEZOLOOP_EXCITATION_CAPACITY 1024
 #endif
-inline constexpr int kRcCapacity = 128;
+inline constexpr int kRcCapacity = 2048;
 inline constexpr std::size_t kRecChannels = 4;
 // A board of axes streams its board recorder: eight (axis, signal) channels
 // (r and y of three axes and two more, at the loop rate on the QEMU boards).

@@ -230,3 +230,30 @@ TEST(Repetitive, FirstOrderQ31SectionMatchesFloat) {
     EXPECT_FALSE(FirstOrderSection<Q31>::accepts(SosSection{0.1, 0.2, 0.1, -0.5, 0.0}));
     EXPECT_TRUE(FirstOrderSection<float>::accepts(SosSection{1.0, 0.0, 0.0, -0.5, 0.0}));
 }
+
+// A reconfiguration copies and clears only the period's samples of the
+// delay line (delay_line.hpp). A controller continued by assignment, into
+// one whose line holds other data everywhere, must compute what the
+// original computes, sample for sample; and one configured again must
+// compute what a fresh one does, whatever its line held before.
+TEST(Repetitive, ContinuingAndResettingTouchOnlyThePeriod) {
+    using Rc = RepetitiveController<float, 256>;
+    RepetitiveConfig c;
+    c.period_samples = 100;
+    c.m2 = 3;
+    auto input = [](int k) { return static_cast<float>(std::sin(0.37 * k) + 0.25 * std::cos(0.011 * k * k)); };
+    Rc original, dirty, fresh;
+    RepetitiveConfig long_period = c;
+    long_period.period_samples = 256;
+    ASSERT_TRUE(dirty.configure(long_period).ok());
+    for (int k = 0; k < 700; ++k) dirty.apply(100.0f + input(k));  // every slot of its line written
+    ASSERT_TRUE(original.configure(c).ok());
+    for (int k = 0; k < 345; ++k) original.apply(input(k));
+    Rc continued = dirty;
+    continued = original;
+    for (int k = 345; k < 1000; ++k) ASSERT_EQ(continued.apply(input(k)), original.apply(input(k))) << k;
+
+    ASSERT_TRUE(dirty.configure(c).ok());
+    ASSERT_TRUE(fresh.configure(c).ok());
+    for (int k = 0; k < 1000; ++k) ASSERT_EQ(dirty.apply(input(k)), fresh.apply(input(k))) << k;
+}

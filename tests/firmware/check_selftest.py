@@ -62,7 +62,7 @@ import tempfile
 #   high-gain last section (common/piezoloop/biquad.hpp).
 # shan2012: pi_rc_inv, the inverse in series after the controller
 #   (FeedforwardKind::kPiSeries) with RC. 1 kHz: RC N = 100 fits the boards'
-#   delay line (128).
+#   delay line (2048).
 SCENARIO_CASES = [
     ("ahmad2020", "dahl_ff_K",
      ["--trajectory", "triangle", "--frequency-hz", "10", "--amplitude-um", "12"]),
