@@ -108,7 +108,11 @@ std::string axes_table_md(const std::vector<std::string>& names, const std::map<
         md << "| " << x << " | " << format::significant(range_um.at(x), 4) << " | "
            << (r["chosen"].is_string() ? r["chosen"].get<std::string>() : std::string("none")) << " | "
            << (r.value("verified", false) ? "yes" : "no") << " | "
-           << (r.contains("bandwidth_Hz") ? format::significant(r["bandwidth_Hz"].get<double>(), 4) : std::string("-"))
+           << (r.contains("bandwidth_Hz") && r["bandwidth_Hz"].is_number()
+                   ? format::significant(r["bandwidth_Hz"].get<double>(), 4)
+               : r.contains("bandwidth_above_Hz")
+                   ? "> " + format::significant(r["bandwidth_above_Hz"].get<double>(), 4)
+                   : std::string("-"))
            << " | " << x << "/report.md |\n";
     }
     return md.str();

@@ -185,7 +185,11 @@ std::string report_md(const CommissionSession& a, const std::string& stage, doub
     if (c.chosen < 0) return t + "\nNo candidate passed the checks on the measurement: nothing was loaded or kept.\n";
     t += "\n## Verification on the stage (feedback alone, triangles about " + fmt(c.centre_um) +
          " µm)\n\nClosed-loop bandwidth (|T| at -3 dB) measured on the stage: " +
-         fmt(c.measured_bandwidth_Hz, 3) + " Hz; from the open-loop lines and the controller, |L/(1+L)|: " +
+         (c.measured_bandwidth_Hz > 0.0 || !c.closed_frf
+              ? fmt(c.measured_bandwidth_Hz, 3) + " Hz"
+              : "above the band measured (|T| above -3 dB up to " +
+                    fmt(c.closed_frf->estimate.frequency_Hz.back(), 3) + " Hz)") +
+         "; from the open-loop lines and the controller, |L/(1+L)|: " +
          fmt(c.bandwidth_Hz, 3) + " Hz.\n\n| triangle | range (µm) | e_max measured | predicted | e_rms measured | predicted | hysteresis measured | trip |\n"
          "|---|---:|---:|---:|---:|---:|---:|---|\n";
     for (const auto& v : c.verification)
@@ -336,7 +340,11 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
     out["verified"] = c.verified();
     if (c.chosen >= 0) {
         const auto& k = c.candidates[static_cast<std::size_t>(c.chosen)];
-        out["bandwidth_Hz"] = c.measured_bandwidth_Hz;
+        // null where |T| stays above -3 dB over the whole band measured
+        // (bandwidth_above_Hz: the band's top).
+        out["bandwidth_Hz"] = c.measured_bandwidth_Hz > 0.0 || !c.closed_frf ? json(c.measured_bandwidth_Hz) : json();
+        if (c.measured_bandwidth_Hz == 0.0 && c.closed_frf)
+            out["bandwidth_above_Hz"] = c.closed_frf->estimate.frequency_Hz.back();
         out["bandwidth_from_open_loop_Hz"] = c.bandwidth_Hz;
         json v = json::array();
         for (const auto& r : c.verification)

@@ -803,8 +803,12 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     c.closed_frf = stage.frf(c.closed_frf_request);
     (void)identified.frf(c.closed_frf_request);
     c.measured_bandwidth_Hz = bandwidth_Hz(c.closed_frf->estimate.frequency_Hz, c.closed_frf->complementary_sensitivity);
-    say(c, "closed-loop response on the stage: bandwidth " + num(c.measured_bandwidth_Hz) + " Hz (" +
-               num(c.bandwidth_Hz) + " Hz from the open-loop lines)");
+    say(c, "closed-loop response on the stage: " +
+               (c.measured_bandwidth_Hz > 0.0
+                    ? "bandwidth " + num(c.measured_bandwidth_Hz) + " Hz"
+                    : "|T| stays above -3 dB up to " + num(c.closed_frf->estimate.frequency_Hz.back()) +
+                          " Hz, the top of the band measured") +
+               " (" + num(c.bandwidth_Hz) + " Hz from the open-loop lines)");
 
     verify({1.0, r.range_um, c.centre_um});
     verify({10.0, r.range_um, c.centre_um});

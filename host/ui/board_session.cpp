@@ -274,6 +274,18 @@ json BoardSession::commission(cli::CommissionSession s, const std::function<void
     return out;
 }
 
+json BoardSession::commission_axes(const cli::AxesCommission& a, bool save,
+                                   const std::function<void(const std::string&)>& note,
+                                   const std::function<bool()>& stop_requested) {
+    json out;
+    hostlink::MeasureOptions o;
+    o.stop_requested = stop_requested;
+    measure(std::move(o), [&](hostlink::Client& c, const hostlink::MeasureOptions&) {
+        out = cli::run_axes_commission_board(c, a, save, note, stop_requested);
+    });
+    return out;
+}
+
 void BoardSession::measure(hostlink::MeasureOptions o,
                            const std::function<void(hostlink::Client&, const hostlink::MeasureOptions&)>& body) {
     if (measuring_.exchange(true)) throw BoardBusy("a measurement is running already");

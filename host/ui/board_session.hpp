@@ -23,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "commission_axes.hpp"
 #include "commission_session.hpp"
 #include "link/client.hpp"
 #include "link/measure_session.hpp"
@@ -113,6 +114,11 @@ public:
     // called with the link held.
     nlohmann::json commission(cli::CommissionSession s, const std::function<void(const std::string&)>& note,
                               const std::function<bool()>& stop_requested);
+    // `piezoloop commission --axes` on the board (cli::run_axes_commission_board),
+    // as commission().
+    nlohmann::json commission_axes(const cli::AxesCommission& a, bool save,
+                                   const std::function<void(const std::string&)>& note,
+                                   const std::function<bool()>& stop_requested);
 
     // Groups the parameter forms offer (not the recorder: the scope's).
     static const std::vector<std::string>& form_groups();

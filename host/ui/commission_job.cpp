@@ -1,5 +1,6 @@
 #include "ui/commission_job.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -12,8 +13,11 @@ using nlohmann::json;
 
 namespace {
 
-constexpr std::pair<const char*, const char*> kCommissionFields[] = {
-    {"--range-um", "range_um"}, {"--target-bandwidth-hz", "target_bandwidth_Hz"}, {"--no-save", "save"}, {"--scenario", "on"}};
+constexpr std::pair<const char*, const char*> kCommissionFields[] = {{"--range-um", "range_um"},
+                                                                   {"--target-bandwidth-hz", "target_bandwidth_Hz"},
+                                                                   {"--no-save", "save"},
+                                                                   {"--scenario", "on"},
+                                                                   {"--axes", "axes"}};
 
 constexpr const char* kFigures[] = {"frf.png", "loops.png", "candidates.png", "verification.png"};
 
@@ -55,15 +59,27 @@ CommissionForm parse_commission_form(const json& j, const std::string& scenario)
         } else if (k == "axis") {
             if (!v.is_string()) throw FieldRefusal("axis", "axis: must be x, y or z");
             f.axis = v.get<std::string>();
+        } else if (k == "axes") {
+            // "all" or the axes' names, each commissioned (cli::axes_ranges
+            // checks them against the stage's).
+            if (v == "all") {
+                f.axes = {"all"};
+            } else {
+                if (!v.is_array() || v.empty() || !std::all_of(v.begin(), v.end(), [](const json& a) { return a.is_string(); }))
+                    throw FieldRefusal("axes", "axes: must be \"all\" or a list of axes such as [\"x\", \"y\"]");
+                for (const json& a : v) f.axes.push_back(a.get<std::string>());
+            }
         } else if (k == "on") {
             const std::string on = v.is_string() ? v.get<std::string>() : "";
             if (on != "board" && on != "simulator") throw FieldRefusal("on", "on: must be board or simulator");
             f.simulator = on == "simulator";
         } else {
-            throw FieldRefusal("", k + ": unknown field (range_um, target_bandwidth_Hz, save, on, axis)");
+            throw FieldRefusal("", k + ": unknown field (range_um, target_bandwidth_Hz, save, on, axis, axes)");
         }
     }
     if (!range) throw FieldRefusal("range_um", "range_um: required");
+    if (!f.axes.empty() && !f.axis.empty())
+        throw FieldRefusal("axis", "axis: not with axes (the stage's axes, each commissioned)");
     if (f.simulator && scenario.empty())
         throw FieldRefusal("on", "on: the simulator needs the console started with --scenario (its stage is simulated)");
     return f;
@@ -71,8 +87,58 @@ CommissionForm parse_commission_form(const json& j, const std::string& scenario)
 
 FieldRefusal commission_refusal(const std::string& message) { return renamed_refusal(message, kCommissionFields); }
 
+namespace {
+
+// report.md, the figures (in `out`, or in its AXIS/ directories for a stage
+// of axes) and the request, into the result.
+void attach_report(json& out, const std::string& dir, const json& form, bool simulator,
+                   const std::vector<std::string>& axis_dirs) {
+    out["request"] = form;
+    out["on"] = simulator ? "simulator" : "board";
+    out["out"] = dir;
+    out["report_md"] = read_text(std::filesystem::path(dir) / "report.md");
+    json figures = json::array();
+    for (const std::string& prefix : axis_dirs)
+        for (const char* name : kFigures)
+            if (std::filesystem::exists(std::filesystem::path(dir) / prefix / name)) figures.push_back(prefix + name);
+    out["figures"] = figures;
+}
+
+MeasurementJob::Work axes_commission_work(BoardSession& board, const std::string& scenario, const CommissionForm& f,
+                                          const json& form) {
+    cli::AxesCommission a;
+    a.axes = f.axes;
+    a.request = f.request;
+    a.range_every_um = f.request.range_um;
+    if (f.simulator) a.scenario = scenario;
+    if (!f.simulator) (void)board.measure_bounds(0);  // the board is free now
+    return [&board, a, f, form](const MeasurementJob::Context& job) mutable {
+        a.out = fresh_directory();
+        const auto note = [&](const std::string& line) {
+            job.note(line);
+            job.report("commissioning", 0.0);
+        };
+        json out;
+        try {
+            out = f.simulator ? cli::run_axes_commission(a, note, job.stop_requested)
+                              : board.commission_axes(a, f.save, note, job.stop_requested);
+        } catch (const FieldRefusal&) {
+            throw;
+        } catch (const std::invalid_argument& e) {
+            throw commission_refusal(e.what());
+        }
+        std::vector<std::string> dirs;
+        for (const auto& [name, axis] : out["axes"].items()) dirs.push_back(name + "/");
+        attach_report(out, a.out, form, f.simulator, dirs);
+        return out;
+    };
+}
+
+}  // namespace
+
 MeasurementJob::Work commission_work(BoardSession& board, const std::string& scenario, const json& form) {
     const CommissionForm f = parse_commission_form(form, scenario);
+    if (!f.axes.empty()) return axes_commission_work(board, scenario, f, form);
     // The board must be free now (not a refusal after the click's reply).
     if (!f.simulator) (void)board.measure_bounds(axis_field(board, f.axis));
     return [&board, f, scenario, form](const MeasurementJob::Context& job) {
@@ -99,14 +165,7 @@ MeasurementJob::Work commission_work(BoardSession& board, const std::string& sce
         } catch (const std::invalid_argument& e) {
             throw commission_refusal(e.what());
         }
-        out["request"] = form;
-        out["on"] = f.simulator ? "simulator" : "board";
-        out["out"] = s.out;
-        out["report_md"] = read_text(std::filesystem::path(s.out) / "report.md");
-        json figures = json::array();
-        for (const char* name : kFigures)
-            if (std::filesystem::exists(std::filesystem::path(s.out) / name)) figures.push_back(name);
-        out["figures"] = figures;
+        attach_report(out, s.out, form, f.simulator, {""});
         return out;
     };
 }

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -21,12 +22,16 @@
 namespace piezoloop::ui {
 
 // {range_um, target_bandwidth_Hz (null or 0: automatic), save (board),
-//  on: "board" | "simulator"}.
+//  on: "board" | "simulator", axis | axes}.
 struct CommissionForm {
     commission::CommissionRequest request;
     bool save = true;
     bool simulator = false;
     std::string axis;  // a board of axes: the axis commissioned (x, y, z)
+    // A stage of axes commissioned whole (`commission --axes`): every axis
+    // named ("all": each of them), then the output matrix that decouples
+    // them; empty: one axis.
+    std::vector<std::string> axes;
 };
 // `scenario`: the console's --scenario ("" without): the simulator needs it.
 CommissionForm parse_commission_form(const nlohmann::json& j, const std::string& scenario);
@@ -40,8 +45,8 @@ FieldRefusal commission_refusal(const std::string& message);
 MeasurementJob::Work commission_work(BoardSession& board, const std::string& scenario, const nlohmann::json& form);
 
 // The figures a result may name (frf.png, loops.png, candidates.png,
-// verification.png): the file's path in its directory, "" for any other
-// name or no result.
+// verification.png; AXIS/frf.png ... for a stage of axes): the file's path
+// in its directory, "" for any other name or no result.
 std::string commission_figure_path(const nlohmann::json& result, const std::string& name);
 
 }  // namespace piezoloop::ui

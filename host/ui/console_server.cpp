@@ -474,7 +474,7 @@ void ConsoleServer::Impl::routes() {
         send_json(res, {{"progress", commissioning.progress_json()}, {"result", commissioning.result_json()},
                         {"simulator", !options.scenario.empty()}});
     });
-    server.Get(R"(/api/commission/figure/([a-z]+\.png))", [this](const httplib::Request& req, httplib::Response& res) {
+    server.Get(R"(/api/commission/figure/((?:[xyz]/)?[a-z]+\.png))", [this](const httplib::Request& req, httplib::Response& res) {
         const std::string path = commission_figure_path(commissioning.result_json(), req.matches[1]);
         std::ifstream f(path, std::ios::binary);
         if (path.empty() || !f) return send_json(res, {{"error", "no such figure in the last commissioning"}}, 404);

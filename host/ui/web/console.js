@@ -755,7 +755,8 @@ function jobForm(name, read) {
       showJobError(name, e.field || '', e.message);
       return;
     }
-    const r = await api('POST', `/api/${name}/start`, name === 'scan' ? body : withAxis(body));
+    // A scan moves x and y; a stage's axes commissioned together name them.
+    const r = await api('POST', `/api/${name}/start`, name === 'scan' || body.axes ? body : withAxis(body));
     if (!r.ok) showJobError(name, r.data.field || '', r.data.error || String(r.data));
   };
   $(`${name}-stop`).onclick = () => api('POST', `/api/${name}/stop`);
@@ -1050,10 +1051,38 @@ function showCommissionProgress(p) {
     `recording ${Math.round(100 * (p.fraction || 0))} % — ${lines.length ? lines[lines.length - 1] : ''}` : (lines.length ? lines[lines.length - 1] : 'starting');
 }
 
+// `commission --axes`: each axis's outcome, the coupling before and after
+// the output matrix, and how far the held axes move on each axis's triangle.
+function showAxesCommissionResult(res) {
+  const names = Object.keys(res.axes);
+  const v = $('commission-verdict');
+  v.textContent = `axes ${names.join(', ')}: ${res.verified ? 'every axis verified' : 'not every axis verified'}; ` +
+    (res.decoupled ? 'decoupled' : 'not decoupled') + (res.output_matrix ? `, output matrix ${JSON.stringify(res.output_matrix.map((r) => r.map((x) => Number(x.toPrecision(4)))))}` : '') +
+    (res.on === 'simulator' ? ' (on the simulated stage; nothing was loaded on the board)' : res.saved ? '; saved on the board' : '; not saved');
+  v.className = res.verified && res.decoupled ? 'verified' : 'failed';
+  table($('commission-axes'), names.map((a) => ({ axis: a, ...res.axes[a] })), [['axis', 'axis'], ['range (µm)', 'range_um'], ['chosen', 'chosen'],
+    ['verified', 'verified'], ['bandwidth (Hz)', 'bandwidth_Hz'], ['|T| above -3 dB up to (Hz)', 'bandwidth_above_Hz'], ['centre (µm)', 'centre_um']]);
+  const c = res.coupling || {};
+  table($('commission-coupling'), Object.keys(c.before_db || {}).map((pair) => ({ pair, before: c.before_db[pair], after: (c.after_db || {})[pair], reduction: (c.reduction_db || {})[pair] })),
+    [['coupling', 'pair'], ['before (dB)', 'before'], ['after (dB)', 'after'], ['reduction (dB)', 'reduction']]);
+  const checks = (res.check || {}).axes || {};
+  const held = (m) => Object.entries(m || {}).map(([axis, pct]) => `${axis} ${fig(pct)} %`).join(', ');
+  table($('commission-cross'), Object.keys(checks).map((a) => ({ driven: a, e_max_pct: checks[a].e_max_pct, held: held(checks[a].cross_motion_pct),
+    without: held(checks[a].cross_motion_pct_without_decoupling) })),
+  [[`${(res.check || {}).frequency_Hz} Hz triangle on`, 'driven'], ['e_max (%)', 'e_max_pct'], ['held axes move (% of range)', 'held'], ['without the matrix', 'without']]);
+  for (const id of ['commission-safety', 'commission-fits', 'commission-candidates', 'commission-verification']) $(id).replaceChildren();
+}
+
 function showCommissionResult(res) {
   state.jobs.commission = state.jobs.commission || { seen: [] };
   state.jobs.commission.result = res;
   if (!res) return;
+  for (const id of ['commission-axes', 'commission-coupling', 'commission-cross']) $(id).replaceChildren();
+  if (res.axes) {
+    showAxesCommissionResult(res);
+    showCommissionFigures(res);
+    return;
+  }
   const v = $('commission-verdict');
   v.textContent = res.chosen === null ? 'no candidate passed the checks: nothing was loaded' :
     `chosen: ${res.chosen}; ${res.verified ? 'verified' : `not verified: ${res.verification_failure}`}` +
@@ -1067,20 +1096,38 @@ function showCommissionResult(res) {
   table($('commission-verification'), res.verification || [], [['triangle (Hz)', 'frequency_Hz'], ['range (µm)', 'range_um'],
     ['e_max measured (%)', 'measured.e_max_pct'], ['predicted (%)', 'predicted.e_max_pct'], ['e_rms measured (%)', 'measured.e_rms_pct'],
     ['predicted (%)', 'predicted.e_rms_pct'], ['trip', 'measured.trip']]);
-  $('commission-figures').replaceChildren(...(res.figures || []).map((name) => {
+  showCommissionFigures(res);
+}
+
+// The figures; a stage of axes' under a heading per axis (AXIS/NAME.png).
+function showCommissionFigures(res) {
+  const shown = [];
+  let axis = '';
+  for (const name of res.figures || []) {
+    const a = name.includes('/') ? name.split('/')[0] : '';
+    if (a !== axis) {
+      const h = document.createElement('h4');
+      h.textContent = `axis ${a}`;
+      shown.push(h);
+      axis = a;
+    }
     const img = new Image();
     img.alt = name;
+    img.title = name;
     // A new result, a new URL (the browser caches none: no-store).
-    img.src = `/api/commission/figure/${name}?token=${encodeURIComponent(token)}&wall=${res.wall_s}`;
-    return img;
-  }));
+    img.src = `/api/commission/figure/${name}?token=${encodeURIComponent(token)}&wall=${res.wall_s || res.out}`;
+    shown.push(img);
+  }
+  $('commission-figures').replaceChildren(...shown);
   $('commission-report').textContent = res.report_md || '';
 }
 
 function commissionForm() {
   jobForm('commission', (f) => {
     const bw = f.target_bandwidth_Hz.value.trim();
-    return { range_um: Number(f.range_um.value), target_bandwidth_Hz: bw === '' ? null : Number(bw), on: f.on.value, save: f.save.checked };
+    const body = { range_um: Number(f.range_um.value), target_bandwidth_Hz: bw === '' ? null : Number(bw), on: f.on.value, save: f.save.checked };
+    if (multiAxis() && f.axes.checked) body.axes = 'all';
+    return body;
   });
 }
 
@@ -1106,6 +1153,7 @@ function connect() {
     state.axes = h.axes && h.axes.length ? h.axes : ['x'];
     // Scans need a board of two or three axes (x and y move together).
     $('scan-panel').hidden = !multiAxis();
+    $('commission-axes-box').hidden = !multiAxis();
     if (multiAxis()) {
       const sel = $('axis');
       if (!state.axis) state.axis = state.axes[0];

@@ -529,13 +529,10 @@ async function commissionFromPage(page, context, url) {
 // the page (the status's per-axis lines), the scope's other axes' signals,
 // and a scan from the page (a refusal at its field, its figures and images).
 async function axesConsole() {
+  // The console starts the emulated XYZ board itself (--scenario), so that
+  // commissioning can also run on the scenario's simulated stage.
   const xyz = path.join(configs, 'stages', 'xyz_flexure.json');
-  const emu = start(['emulate', '--board', 'qemu-m7', '--scenario', xyz]);
-  const device = JSON.parse((await firstLines(emu, /^\{.*\}\n/))[0]).device;
-  const set = run(['--device', device, 'set', '--scenario', xyz, '--case', 'pi_notch']);
-  const y9 = run(['--device', device, 'set', 'limits', '--axis', 'y', '--json', '{"u_max_V": 9}']);
-  if (!check(set.code === 0 && y9.code === 0, 'the XYZ case on the board, y\'s u_max_V set to 9 V', set.err + y9.err)) return;
-  const ui = start(['--device', device, 'ui', '--seat-answer-s', '120']);
+  const ui = start(['ui', '--scenario', xyz, '--case', 'pi_notch', '--seat-answer-s', '120']);
   const started = await firstLines(ui, /console of tcp:127\.0\.0\.1:(\d+) at\s+(http:\/\/127\.0\.0\.1:\d+\/\?token=[0-9a-f]{32})/);
   const url = started[2];
   const browser = await chromium.launch({ executablePath: chromiumPath, args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run'] });
@@ -543,11 +540,18 @@ async function axesConsole() {
     const page = await (await browser.newContext({ viewport: { width: 1400, height: 1000 } })).newPage();
     await page.goto(url);
     if (!await waitFor(page, () => window.piezoloop.ready && window.piezoloop.controls && window.piezoloop.framesDrawn > 3, null, 'the page controls and draws')) return;
+    const token = url.split('token=')[1];
+    const limitsOf = (axis) => page.evaluate(async ([t, a]) => (await (await fetch(`/api/params?axis=${a}`, { headers: { 'X-Piezoloop-Token': t } })).json()).values.limits.u_max_V, [token, axis]);
+    const y9 = await page.evaluate(async (t) => (await fetch('/api/params/limits?axis=y', { method: 'POST',
+      headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' },
+      body: JSON.stringify({ u_max_V: 9 }) })).status, token);
+    if (!check(y9 === 200 && await limitsOf('y') === 9 && await limitsOf('x') === 10, 'the XYZ case on the board, y\'s u_max_V set to 9 V', `status ${y9}`)) return;
+    await page.reload();
+    if (!await waitFor(page, () => window.piezoloop.ready && window.piezoloop.controls && window.piezoloop.framesDrawn > 3, null, 'the page again, after the limits')) return;
     const options = await page.$$eval('#axis option', (os) => os.map((o) => o.value));
     check(await page.isVisible('#axis-box') && JSON.stringify(options) === '["x","y","z"]', 'the axis selector offers x, y and z', JSON.stringify(options));
     const names = await page.evaluate(() => window.piezoloop.signals.map((s) => s.name));
     check(['r', 'y', 'y.y', 'z.y'].every((n) => names.includes(n)), 'the scope records x\'s r and y and the other axes\' y (y.y, z.y)', JSON.stringify(names));
-    const token = url.split('token=')[1];
     const refusedAxis = await page.evaluate(async (t) => {
       const h = { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' };
       const p = await fetch('/api/params?axis=w', { headers: h });
@@ -637,12 +641,55 @@ async function axesConsole() {
         await page.locator('#scan-panel').screenshot({ path: screenshot });
       }
     }
+    await commissionAxesFromPage(page, token);
+    check(await limitsOf('y') === 9 && await limitsOf('x') === 10, 'the board still holds y 9 V and x 10 V after the refused 50',
+      `${await limitsOf('y')}, ${await limitsOf('x')}`);
   } finally {
     await browser.close();
   }
   check(await stop(ui) === 0, 'the console ends cleanly on SIGTERM');
-  const got = (a) => { const r = run(['--device', device, 'get', 'limits', '--axis', a]); return r.code === 0 ? JSON.parse(r.out).u_max_V : NaN; };
-  check(got('y') === 9 && got('x') === 10, 'the board still holds y 9 V and x 10 V after the refused 50', `${got('y')}, ${got('x')}`);
+}
+
+// `commission --axes all` from the page, on the XYZ scenario's simulated
+// stage (seconds; on the board it takes minutes): axis together with axes
+// is refused at axis; then every axis verified, the coupling reduced, the
+// tables the result's and each axis's figures served.
+async function commissionAxesFromPage(page, token) {
+  check(await page.isVisible('#commission-axes-box'), 'the commissioning form offers every axis at once on a board of axes');
+  const both = await page.evaluate(async (t) => {
+    const r = await fetch('/api/commission/start', { method: 'POST', headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer,
+      'Content-Type': 'application/json' }, body: JSON.stringify({ range_um: 10, on: 'simulator', axes: 'all', axis: 'x' }) });
+    return [r.status, (await r.json()).field];
+  }, token);
+  check(JSON.stringify(both) === '[400,"axis"]', 'axis with axes is refused naming axis', JSON.stringify(both));
+  await page.selectOption('#commission [name="on"]', 'simulator');
+  await page.fill('#commission [name="range_um"]', '10');
+  await page.check('#commission [name="axes"]');
+  await page.click('#commission-start');
+  if (!await waitFor(page, () => { const j = window.piezoloop.jobs.commission; return j && j.result && j.progress && ['done', 'failed'].includes(j.progress.state); },
+    null, 'the axes\' commissioning ends', 120000)) return;
+  const res = await page.evaluate(() => window.piezoloop.jobs.commission.result);
+  const names = Object.keys(res.axes || {});
+  check(JSON.stringify(names) === '["x","y","z"]' && res.verified === true && res.decoupled === true && res.on === 'simulator',
+    'commission --axes all from the page: x, y and z verified and decoupled on the simulated stage', JSON.stringify({ names, verified: res.verified, decoupled: res.decoupled }));
+  const chosen = await page.$$eval('#commission-axes td[data-key="chosen"]', (tds) => tds.map((td) => JSON.parse(td.dataset.value)));
+  const reductions = await page.$$eval('#commission-coupling td[data-key="reduction"]', (tds) => tds.map((td) => JSON.parse(td.dataset.value)));
+  check(JSON.stringify(chosen) === JSON.stringify(names.map((a) => res.axes[a].chosen)) &&
+    JSON.stringify(reductions) === JSON.stringify(Object.keys(res.coupling.before_db).map((pair) => res.coupling.reduction_db[pair] ?? null)),
+  'the page\'s tables are the result\'s: each axis\'s controller and the coupling\'s reduction per pair', JSON.stringify({ chosen, reductions }));
+  const figures = await page.evaluate(async ([t, fs]) => Promise.all(fs.map(async (f) => {
+    const r = await fetch(`/api/commission/figure/${f}?token=${t}`);
+    return [f, r.status, r.headers.get('content-type')];
+  })), [token, res.figures]);
+  check(res.figures.includes('z/frf.png') && figures.every(([, s, ct]) => s === 200 && ct === 'image/png'),
+    'each axis\'s figures served (AXIS/frf.png ...)', JSON.stringify(figures));
+  const outside = await page.evaluate(async (t) => (await fetch(`/api/commission/figure/w/frf.png?token=${t}`)).status, token);
+  check(outside === 404, 'a figure of no axis is not served (404)', String(outside));
+  if (commissionShot) {  // axes mode: docs/img/console_commission_axes.png, the panel down to its figures
+    const panel = await page.locator('#commission-panel').boundingBox();
+    const figs = await page.locator('#commission-figures').boundingBox();
+    await page.screenshot({ path: commissionShot, fullPage: true, clip: { x: panel.x, y: panel.y, width: panel.width, height: figs.y - panel.y } });
+  }
 }
 
 async function main() {
