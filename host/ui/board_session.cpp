@@ -91,6 +91,49 @@ BoardSession::BoardSession(hostlink::Client client, double history_s) : client_(
 
 BoardSession::~BoardSession() { stop(); }
 
+std::vector<std::string> BoardSession::channel_choices() const {
+    std::vector<std::string> names;
+    const std::size_t axes = std::max<std::size_t>(hello_.axis_count, 1);
+    for (std::size_t id = 0; id < axes * kSignalCount; ++id) names.push_back(channel_name(static_cast<uint8_t>(id)));
+    return names;
+}
+
+void BoardSession::set_scope_channels(const std::vector<std::string>& names) {
+    const std::vector<std::string> choices = channel_choices();
+    if (names.empty() || names.size() > hello_.recorder_channels)
+        throw std::invalid_argument("channels: 1 to " + std::to_string(hello_.recorder_channels) +
+                                    " of the board's recorder channels, got " + std::to_string(names.size()));
+    std::vector<uint8_t> ids;
+    std::vector<Signal> signals;
+    for (const std::string& n : names) {
+        const auto at = std::find(choices.begin(), choices.end(), n);
+        if (at == choices.end()) {
+            std::string all;
+            for (const std::string& c : choices) all += (all.empty() ? "" : ", ") + c;
+            throw std::invalid_argument("channels: '" + n + "' is no channel of this board (" + all + ")");
+        }
+        const auto id = static_cast<uint8_t>(at - choices.begin());
+        if (std::find(ids.begin(), ids.end(), id) != ids.end())
+            throw std::invalid_argument("channels: '" + n + "' given twice");
+        ids.push_back(id);
+        signals.push_back({n, hostlink::signal_unit(id)});
+    }
+    locked([&](hostlink::Client&) {
+        const std::vector<uint8_t> before = channels_;
+        channels_ = ids;
+        try {
+            arm_console_recorder();  // a new recording: the host's log starts again
+        } catch (...) {
+            channels_ = before;  // the board refused: the channels as they were
+            arm_console_recorder();
+            throw;
+        }
+        history_->reset(std::move(signals));
+        have_last_ = false;
+        return 0;
+    });
+}
+
 void BoardSession::start() {
     locked([&](hostlink::Client& c) {
         arm_console_recorder();

@@ -64,6 +64,16 @@ public:
     const SampleHistory& history() const { return *history_; }
     std::string address() const { return address_; }
 
+    // The scope's channels, by name: axis x's signals by their own (r, y,
+    // e, u, u_ff, u_fb, u_rc, d), another axis's after its name (y.u,
+    // z.r). Every channel the board can record, and how many at once.
+    std::vector<std::string> channel_choices() const;
+    std::size_t channel_capacity() const { return hello_.recorder_channels; }
+    // Records these from now on (1 .. channel_capacity, each once): the
+    // history starts again with them. std::invalid_argument naming
+    // `channels`; BoardBusy while a measurement holds the recorder.
+    void set_scope_channels(const std::vector<std::string>& names);
+
     // The last status poll with the meaning of faults, trip and stored set,
     // the link's counters and the limits group.
     nlohmann::json status_json() const;

@@ -102,6 +102,11 @@ struct ConsoleServer::Impl {
     void routes();
     // Runs a request that changes the board: only for the seat's holder.
     void control(const std::string& pattern, std::function<json(const httplib::Request&)> body);
+    json signals_json() const {
+        json signals = json::array();
+        for (const Signal& s : board.history().signals()) signals.push_back({{"name", s.name}, {"unit", s.unit}});
+        return signals;
+    }
 };
 
 void ConsoleServer::Impl::control(const std::string& pattern, std::function<json(const httplib::Request&)> body) {
@@ -171,7 +176,7 @@ void ConsoleServer::Impl::routes() {
         }
         struct StreamState {
             bool hello_sent = false;
-            uint64_t status_serial = 0, frf_serial = 0, frf_result_serial = 0, seat_serial = 0;
+            uint64_t status_serial = 0, frf_serial = 0, frf_result_serial = 0, seat_serial = 0, signals_generation = 0;
             std::map<std::string, std::pair<uint64_t, uint64_t>> job_serials;  // progress, result
             std::chrono::steady_clock::time_point last_frame{}, last_write{};
         };
@@ -183,11 +188,11 @@ void ConsoleServer::Impl::routes() {
                 using clock = std::chrono::steady_clock;
                 std::string out;
                 if (!state->hello_sent) {
-                    json signals = json::array();
-                    for (const Signal& s : board.history().signals())
-                        signals.push_back({{"name", s.name}, {"unit", s.unit}});
+                    state->signals_generation = board.history().generation();
                     json hello = control_json(id);
-                    hello["signals"] = signals;
+                    hello["signals"] = signals_json();
+                    hello["channel_choices"] = board.channel_choices();
+                    hello["channel_capacity"] = board.channel_capacity();
                     hello["rate_Hz"] = board.history().rate_Hz();
                     hello["simulator"] = !options.scenario.empty();  // commissioning may run simulated
                     hello["axes"] = json::array();  // the board's axes by name
@@ -200,6 +205,20 @@ void ConsoleServer::Impl::routes() {
                     state->hello_sent = true;
                 } else {
                     std::this_thread::sleep_for(std::chrono::milliseconds(4));
+                }
+                // Other channels: the page's scope starts again with them (a
+                // trigger on a signal no longer recorded moves to the first).
+                if (const uint64_t g = board.history().generation(); g != state->signals_generation) {
+                    state->signals_generation = g;
+                    const json signals = signals_json();
+                    json scope;
+                    {
+                        const std::lock_guard lock(v->m);
+                        if (!board.history().find(v->settings.trigger_signal) && !signals.empty())
+                            v->settings.trigger_signal = signals[0]["name"];
+                        scope = to_json(v->settings);
+                    }
+                    out += sse_event("signals", {{"signals", signals}, {"scope", scope}});
                 }
                 const auto now = clock::now();
                 if (now - state->last_frame >= std::chrono::microseconds(static_cast<int>(1e6 / kFramesPerSecond))) {
@@ -320,15 +339,16 @@ void ConsoleServer::Impl::routes() {
     server.Get("/api/scope/psd", [this](const httplib::Request& req, httplib::Response& res) {
         try {
             const std::string name = req.get_param_value("signal");
-            const auto k = board.history().find(name);
-            if (!k) throw std::invalid_argument("signal: '" + name + "' is not a recorded signal");
             const double t0 = std::stod(req.get_param_value("t0_s"));
             const double span = std::stod(req.get_param_value("span_s"));
             if (!(span > 0.0 && span <= 60.0)) throw std::invalid_argument("span_s: must be in (0, 60]");
             const auto segment = static_cast<std::size_t>(std::stoul(req.get_param_value("segment")));
             const SampleWindow w = board.history().window(t0, span);
-            const Psd p = welch_psd(w.values[*k], board.history().rate_Hz(), segment);
-            const std::string unit = board.history().signals()[*k].unit;
+            const auto sig = std::find_if(w.signals.begin(), w.signals.end(), [&](const Signal& s) { return s.name == name; });
+            if (sig == w.signals.end()) throw std::invalid_argument("signal: '" + name + "' is not a recorded signal");
+            const auto k = static_cast<std::size_t>(sig - w.signals.begin());
+            const Psd p = welch_psd(w.values[k], board.history().rate_Hz(), segment);
+            const std::string unit = sig->unit;
             send_json(res, {{"signal", name}, {"unit", unit + "^2/Hz"}, {"segment", p.segment},
                             {"segments", p.segments}, {"frequency_Hz", p.frequency_Hz}, {"density", p.density}});
         } catch (const std::exception& e) {
@@ -404,6 +424,20 @@ void ConsoleServer::Impl::routes() {
         }
         board.stop_motion();
         return board.status_json();
+    });
+    // The scope's channels: {"channels": ["r", "y", "y.u", ...]}.
+    control("/api/scope/channels", [this](const httplib::Request& req) {
+        const json j = json::parse(req.body, nullptr, false);
+        if (!j.is_object() || !j.contains("channels") || !j["channels"].is_array() ||
+            !std::all_of(j["channels"].begin(), j["channels"].end(), [](const json& c) { return c.is_string(); }))
+            throw FieldRefusal("channels", "channels: a list of channel names, such as [\"r\", \"y\", \"y.u\"]");
+        if (j.size() != 1) throw FieldRefusal("", "only channels may be given");
+        try {
+            board.set_scope_channels(j["channels"].get<std::vector<std::string>>());
+        } catch (const std::invalid_argument& e) {
+            throw FieldRefusal("channels", e.what());
+        }
+        return json{{"signals", signals_json()}};
     });
     control(R"(/api/params/([a-z_]+))", [this](const httplib::Request& req) {
         return board.set_group(req.matches[1], json::parse(req.body), board.axis_index(req.get_param_value("axis")))

@@ -9,10 +9,30 @@ SampleHistory::SampleHistory(std::vector<Signal> signals, double rate_Hz, std::s
     : signals_(std::move(signals)), rate_Hz_(rate_Hz), capacity_(std::max<std::size_t>(capacity, 2)),
       values_(signals_.size()) {}
 
+std::vector<Signal> SampleHistory::signals() const {
+    const std::lock_guard lock(m_);
+    return signals_;
+}
+
+uint64_t SampleHistory::generation() const {
+    const std::lock_guard lock(m_);
+    return generation_;
+}
+
 std::optional<std::size_t> SampleHistory::find(const std::string& name) const {
+    const std::lock_guard lock(m_);
     for (std::size_t i = 0; i < signals_.size(); ++i)
         if (signals_[i].name == name) return i;
     return std::nullopt;
+}
+
+void SampleHistory::reset(std::vector<Signal> signals) {
+    const std::lock_guard lock(m_);
+    signals_ = std::move(signals);
+    values_.assign(signals_.size(), {});
+    ticks_.clear();
+    arrival_ms_.clear();
+    ++generation_;
 }
 
 void SampleHistory::append(uint64_t tick, std::span<const float> values, int64_t arrival_ms) {
@@ -58,6 +78,7 @@ std::size_t SampleHistory::lower_index(double t_s) const {
 SampleWindow SampleHistory::window(double t0_s, double span_s) const {
     const std::lock_guard lock(m_);
     SampleWindow w;
+    w.signals = signals_;
     w.values.resize(values_.size());
     const std::size_t a = lower_index(t0_s), b = lower_index(t0_s + span_s);
     if (b <= a) return w;

@@ -1,7 +1,9 @@
 // The recorder's signals as they arrived from the board, the last
 // `capacity` frames, in physical units (µm, V), keyed by signal name (a
 // signal of another axis later is another name). Written by the link's
-// thread, read by the pages' streams; every call takes the lock.
+// thread, read by the pages' streams; every call takes the lock. The
+// signals change when the scope's channels do (reset): the history starts
+// again, and its generation counts the changes.
 #pragma once
 
 #include <cstdint>
@@ -19,8 +21,10 @@ struct Signal {
     std::string unit;  // "um", "V"
 };
 
-// Samples copied out of the history: t_s ascending, one value column per signal.
+// Samples copied out of the history: t_s ascending, one value column per
+// signal, of the signals the history held then.
 struct SampleWindow {
+    std::vector<Signal> signals;
     std::vector<double> t_s;
     std::vector<std::vector<float>> values;  // [signal][sample]
     int64_t newest_arrival_ms = 0;           // host clock (ms since the epoch) when the last sample arrived
@@ -37,9 +41,12 @@ class SampleHistory {
 public:
     SampleHistory(std::vector<Signal> signals, double rate_Hz, std::size_t capacity);
 
-    const std::vector<Signal>& signals() const { return signals_; }
+    std::vector<Signal> signals() const;
+    uint64_t generation() const;
     double rate_Hz() const { return rate_Hz_; }
     std::optional<std::size_t> find(const std::string& name) const;
+    // Other signals from now on: the samples so far are dropped.
+    void reset(std::vector<Signal> signals);
 
     // One frame: its tick (loop ticks from the first frame) and one value per
     // signal; `arrival_ms` is when its block reached the host.
@@ -61,6 +68,7 @@ private:
     std::size_t lower_index(double t_s) const;  // first sample with t >= t_s
 
     std::vector<Signal> signals_;
+    uint64_t generation_ = 0;
     double rate_Hz_;
     std::size_t capacity_;
     mutable std::mutex m_;

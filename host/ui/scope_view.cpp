@@ -104,7 +104,11 @@ std::optional<json> ScopeView::next_frame(const SampleHistory& h, const ScopeSet
     bool waiting = false;
     if (s.triggered) {
         Trigger trig;
-        trig.signal = *h.find(s.trigger_signal);
+        // The channels changed under the settings: no trigger until the
+        // page picks one of the new signals.
+        const std::optional<std::size_t> k = h.find(s.trigger_signal);
+        if (!k) return std::nullopt;
+        trig.signal = *k;
         trig.level = s.trigger_level;
         trig.rising = s.rising;
         // The crossing must leave room for the rest of the window after it.
@@ -121,17 +125,17 @@ std::optional<json> ScopeView::next_frame(const SampleHistory& h, const ScopeSet
     }
     const SampleWindow w = h.window(t0, s.span_s);
     json series = json::object();
-    for (std::size_t k = 0; k < h.signals().size(); ++k) {
+    for (std::size_t k = 0; k < w.signals.size(); ++k) {
         const ColumnPoints p = min_max_columns(w.t_s, w.values[k], t0, s.span_s, s.columns);
         std::vector<float> interleaved(2 * s.columns);
         for (std::size_t c = 0; c < s.columns; ++c) {
             interleaved[2 * c] = p.first[c];
             interleaved[2 * c + 1] = p.second[c];
         }
-        series[h.signals()[k].name] = base64_float32(interleaved);
+        series[w.signals[k].name] = base64_float32(interleaved);
     }
     json units = json::object();
-    for (const Signal& sig : h.signals()) units[sig.name] = sig.unit;
+    for (const Signal& sig : w.signals) units[sig.name] = sig.unit;
     ++seq_;
     return json{{"seq", seq_},
                 {"t0_s", t0},
@@ -150,7 +154,7 @@ std::optional<json> ScopeView::next_frame(const SampleHistory& h, const ScopeSet
 std::string window_csv(const SampleHistory& h, double t0_s, double span_s) {
     const SampleWindow w = h.window(t0_s, span_s);
     std::string out = "t_s";
-    for (const Signal& s : h.signals()) out += "," + s.name + "_" + s.unit;
+    for (const Signal& s : w.signals) out += "," + s.name + "_" + s.unit;
     out += "\n";
     char buf[40];
     for (std::size_t i = 0; i < w.t_s.size(); ++i) {
@@ -173,9 +177,9 @@ nlohmann::json cursor_sample(const SampleHistory& h, double t_s) {
         if (!best || std::abs(w.t_s[i] - t_s) < std::abs(w.t_s[*best] - t_s)) best = i;
     if (!best || std::abs(w.t_s[*best] - t_s) > tick) return {{"t_s", nullptr}};
     nlohmann::json values = nlohmann::json::object();
-    for (std::size_t k = 0; k < h.signals().size(); ++k) {
+    for (std::size_t k = 0; k < w.signals.size(); ++k) {
         const float v = w.values[k][*best];
-        values[h.signals()[k].name] = std::isfinite(v) ? nlohmann::json(static_cast<double>(v)) : nlohmann::json(nullptr);
+        values[w.signals[k].name] = std::isfinite(v) ? nlohmann::json(static_cast<double>(v)) : nlohmann::json(nullptr);
     }
     return {{"t_s", w.t_s[*best]}, {"values", values}};
 }

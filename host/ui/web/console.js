@@ -60,11 +60,15 @@ function decodeFloat32(b64) {
 function makePlot() {
   const colours = { r: '#888', y: '#06c', e: '#c60', u: '#2a2', u_ff: '#a2a', u_fb: '#2aa', u_rc: '#aa2', d: '#a22' };
   const series = [{ label: 't (s)' }];
+  // Another axis's signal (y.u): the signal's colour, dashed.
+  const dashes = { y: [6, 3], z: [2, 2] };
   for (const s of state.signals) {
+    const [axis, signal] = s.name.includes('.') ? s.name.split('.') : ['x', s.name];
     series.push({
       label: `${s.name} (${s.unit})`,
       scale: s.unit === 'V' ? 'V' : 'um',
-      stroke: colours[s.name] || '#000',
+      stroke: colours[signal] || '#000',
+      dash: dashes[axis],
       width: 1,
       spanGaps: true,  // columns without samples (zoomed in past the loop rate): join their neighbours
       points: { show: false },
@@ -94,7 +98,46 @@ function makePlot() {
   sendScope({ columns: Math.round(plot.bbox.width / devicePixelRatio) || width });
 }
 
+// The recorded signals (at the start, and when the channels change): the
+// trigger's and the spectrum's choices, the channel picks, a new plot.
+function applySignals(signals, scope) {
+  state.signals = signals;
+  const options = () => signals.map((s) => new Option(`${s.name} (${s.unit})`, s.name));
+  $('trigger-signal').replaceChildren(...options());
+  $('trigger-signal').value = scope.trigger_signal;
+  const psd = $('psd-signal').value;
+  $('psd-signal').replaceChildren(...options());
+  $('psd-signal').value = signals.some((s) => s.name === psd) ? psd : signals.some((s) => s.name === 'y') ? 'y' : signals[0].name;
+  const recorded = new Set(signals.map((s) => s.name));
+  $('channel-picks').replaceChildren(...state.channelChoices.map((name) => {
+    const label = document.createElement('label');
+    const box = document.createElement('input');
+    box.type = 'checkbox';
+    box.value = name;
+    box.checked = recorded.has(name);
+    label.append(box, ` ${name} `);
+    return label;
+  }));
+  if (plot) {
+    plot.destroy();
+    plot = null;
+  }
+  makePlot();
+}
+
+async function recordChannels() {
+  const names = [...document.querySelectorAll('#channel-picks input:checked')].map((c) => c.value);
+  $('channels-error').textContent = '';
+  const r = await api('POST', '/api/scope/channels', { channels: names });
+  if (!r.ok) $('channels-error').textContent = `refused: ${r.data.error}`;
+}
+
 function drawFrame(f) {
+  // A frame of the channels before a change (the signals event came first).
+  if (state.signals.some((s) => f.series[s.name] === undefined)) {
+    api('POST', '/api/scope/drawn', { seq: f.seq });  // taken, not drawn: keep the stream going
+    return;
+  }
   const started = performance.now();
   const cols = f.columns;
   const x = new Float64Array(2 * cols);
@@ -163,6 +206,7 @@ function scopeControls() {
     $('cursor-readout').hidden = true;
     plot.redraw(false);
   };
+  $('channels-apply').onclick = recordChannels;
   $('pause').onclick = () => {
     state.paused = !state.paused;
     $('pause').textContent = state.paused ? 'Run' : 'Pause';
@@ -1139,14 +1183,10 @@ function connect() {
   es.addEventListener('hello', (ev) => {
     const h = JSON.parse(ev.data);
     state.viewer = h.viewer;
-    state.signals = h.signals;
     state.rate_Hz = h.rate_Hz;
-    const sel = $('trigger-signal');
-    sel.replaceChildren(...h.signals.map((s) => new Option(`${s.name} (${s.unit})`, s.name)));
-    sel.value = h.scope.trigger_signal;
-    $('psd-signal').replaceChildren(...h.signals.map((s) => new Option(`${s.name} (${s.unit})`, s.name)));
-    $('psd-signal').value = h.signals.some((s) => s.name === 'y') ? 'y' : h.signals[0].name;
-    if (!plot) makePlot();
+    state.channelChoices = h.channel_choices || [];
+    $('channels-note').textContent = `at most ${h.channel_capacity} at once`;
+    applySignals(h.signals, h.scope);
     // Commissioning the simulated stage needs the console's --scenario.
     const sim = document.querySelector('#commission [name="on"] option[value="simulator"]');
     if (sim && !h.simulator) sim.remove();
@@ -1167,6 +1207,10 @@ function connect() {
     // The first page takes control when nobody has it; later ones watch.
     if (!h.seat_taken) claim().then(() => { state.ready = true; });
     else state.ready = true;
+  });
+  es.addEventListener('signals', (ev) => {
+    const m = JSON.parse(ev.data);
+    applySignals(m.signals, m.scope);
   });
   es.addEventListener('frame', (ev) => {
     const f = JSON.parse(ev.data);

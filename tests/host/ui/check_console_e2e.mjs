@@ -592,6 +592,7 @@ async function axesConsole() {
       return f.length > 10 && Math.max(...f) - Math.min(...f) > 1;
     }, null, 'y.y moving on the scope');
     check(true, 'the scope draws y.y following the wave (more than 1 um peak to peak)');
+    await scopeChannels(page, token);
     await page.click('#stop');
     await waitFor(page, () => !(window.piezoloop.status.axes || []).find((x) => x.axis === 'y').wave_running, null, 'Stop');
     check(!(await yWave()).wave_running, 'Stop stops y\'s wave');
@@ -648,6 +649,59 @@ async function axesConsole() {
     await browser.close();
   }
   check(await stop(ui) === 0, 'the console ends cleanly on SIGTERM');
+}
+
+// The scope's channels, any signal of any axis: refused at `channels` when
+// the board cannot record them; then y's error and command and z's position
+// picked on the page are what the scope draws (y.u moving with y's wave),
+// and the CSV's columns; the console's channels back afterwards.
+async function scopeChannels(page, token) {
+  const before = await page.evaluate(() => window.piezoloop.signals.map((s) => s.name));
+  const choices = await page.$$eval('#channel-picks input', (is) => is.map((i) => i.value));
+  check(choices.length === 24 && ['r', 'u_rc', 'y.u', 'z.d'].every((c) => choices.includes(c)),
+    'the channel picks offer every signal of every axis (3 x 8)', JSON.stringify(choices));
+  const refused = await page.evaluate(async ([t, all]) => {
+    const h = { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' };
+    const out = [];
+    for (const channels of [all.slice(0, 9), ['w.r'], ['y.u', 'y.u'], []]) {
+      const r = await fetch('/api/scope/channels', { method: 'POST', headers: h, body: JSON.stringify({ channels }) });
+      out.push([r.status, (await r.json()).field]);
+    }
+    return out;
+  }, [token, choices]);
+  check(JSON.stringify(refused) === '[[400,"channels"],[400,"channels"],[400,"channels"],[400,"channels"]]' &&
+    JSON.stringify(await page.evaluate(() => window.piezoloop.signals.map((s) => s.name))) === JSON.stringify(before),
+  'nine channels, an unknown one, one twice or none: refused naming channels, the scope unchanged', JSON.stringify(refused));
+  const picked = ['y.e', 'y.u', 'z.y'];  // in the picks' order
+  await page.click('#channels-box summary');
+  for (const name of choices) {
+    const box = page.locator(`#channel-picks input[value="${name}"]`);
+    if (picked.includes(name)) await box.check(); else await box.uncheck();
+  }
+  await page.click('#channels-apply');
+  const drawn = await waitFor(page, (p) => {
+    const f = window.piezoloop.frame;
+    if (!f || JSON.stringify(Object.keys(f.series)) !== JSON.stringify(p)) return false;
+    const u = [...f.series['y.u']].filter(Number.isFinite);
+    return u.length > 10 && Math.max(...u) - Math.min(...u) > 0.01;
+  }, picked, 'the scope drawing the picked channels');
+  const signals = await page.evaluate(() => window.piezoloop.signals.map((s) => `${s.name} ${s.unit}`));
+  check(drawn && JSON.stringify(signals) === JSON.stringify(['y.e um', 'y.u V', 'z.y um']),
+    'the picked channels y.e, y.u and z.y are what the scope draws, y.u moving with y\'s wave', JSON.stringify(signals));
+  const csvHead = await page.evaluate(async (t) => {
+    const f = window.piezoloop.frame;
+    const r = await fetch(`/api/scope/csv?t0_s=${f.t0_s}&span_s=${f.span_s}`, { headers: { 'X-Piezoloop-Token': t } });
+    return (await r.text()).split('\n')[0];
+  }, token);
+  check(csvHead === 't_s,y.e_um,y.u_V,z.y_um', 'the CSV of the screen has the picked channels\' columns', csvHead);
+  for (const name of choices) {
+    const box = page.locator(`#channel-picks input[value="${name}"]`);
+    if (before.includes(name)) await box.check(); else await box.uncheck();
+  }
+  await page.click('#channels-apply');
+  const back = await waitFor(page, (p) => JSON.stringify(window.piezoloop.signals.map((s) => s.name).sort()) === JSON.stringify([...p].sort()),
+    before, 'the console\'s channels back');
+  check(back, 'the console\'s channels recorded again', JSON.stringify(before));
 }
 
 // `commission --axes all` from the page, on the XYZ scenario's simulated

@@ -99,6 +99,44 @@ TEST(UiScopeView, TriggeredPutsTheLatestCrossingAtItsFraction) {
     }
 }
 
+// Other channels (the page picks them): the history starts again with the
+// new signals, its generation counts the change, the frames and the CSV
+// carry the new ones only, and a trigger on a signal no longer recorded
+// gives no frame (rather than reading a column that is gone).
+TEST(UiScopeView, OtherChannelsStartTheHistoryAgain) {
+    std::vector<double> t;
+    std::vector<float> v;
+    SampleHistory h = two_signals();
+    fill_sine(h, 1000, t, v);
+    EXPECT_EQ(h.generation(), 0u);
+    h.reset({{"y.u", "V"}, {"z.y", "um"}, {"e", "um"}});
+    EXPECT_EQ(h.generation(), 1u);
+    EXPECT_EQ(h.size(), 0u);
+    ASSERT_EQ(h.signals().size(), 3u);
+    EXPECT_FALSE(h.find("r"));
+    EXPECT_EQ(h.find("z.y"), 1u);
+    for (uint64_t i = 0; i < 100; ++i) {
+        const float three[3] = {static_cast<float>(i), -1.0f, 0.5f};
+        h.append(i, three, 1000);
+    }
+    ScopeSettings roll;
+    roll.span_s = 0.005;
+    roll.columns = 10;
+    ScopeView view;
+    const auto f = view.next_frame(h, roll, 0);
+    ASSERT_TRUE(f);
+    EXPECT_EQ((*f)["series"].size(), 3u);
+    EXPECT_TRUE((*f)["series"].contains("y.u"));
+    EXPECT_EQ((*f)["units"]["y.u"], "V");
+    EXPECT_EQ(decode((*f)["series"]["z.y"].get<std::string>()).front(), -1.0f);
+    EXPECT_EQ(window_csv(h, 0.0, 1.0).substr(0, 23), "t_s,y.u_V,z.y_um,e_um\n0");
+    ScopeSettings gone = roll;
+    gone.triggered = true;
+    gone.trigger_signal = "r";
+    ScopeView triggered;
+    EXPECT_FALSE(triggered.next_frame(h, gone, 0));
+}
+
 TEST(UiScopeView, SettingsOutOfRangeAreRefusedNamingTheKey) {
     std::vector<double> t;
     std::vector<float> v;
