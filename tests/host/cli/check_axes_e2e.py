@@ -256,11 +256,12 @@ try:
     check(fig.get("complete") is True and fig.get("sync_mismatches") == 0 and fig.get("pixels", 0) > 0,
           "the board's scan: complete, its sync word the generator's on every tick", bs.stdout[-400:])
     if board == "qemu-m3":
-        # Repetitive control over the scan's lines (108 ticks): the case's
-        # RC sent with a period of 80 ticks is noted as the wrong one; set
-        # from the scan (--rc-period-from-scan) the board equals the
-        # simulator's "auto" period, tick by tick.
-        rc_args = ["--pattern", "raster", "--pixels", "8x16", "--size-um", "20x20", "--line-rate-hz", "200"]
+        # Repetitive control over the scan's lines (330 ticks: beyond the
+        # 128 the boards' delay lines held before): the case's RC sent with
+        # a period of 80 ticks is noted as the wrong one; set from the scan
+        # (--rc-period-from-scan) the board equals the simulator's "auto"
+        # period, tick by tick.
+        rc_args = ["--pattern", "raster", "--pixels", "8x16", "--size-um", "20x20", "--line-rate-hz", "60"]
         run(*d, "disarm")
         rc_set = run(*d, "set", "--scenario", scenario, "--case", "scan_rc", "--frequency-hz", "250")
         noted = run(*d, "scan", "--scenario", scenario, "--restart-stage", *rc_args, "--out",
@@ -277,7 +278,7 @@ try:
         rc_x = json.loads(got.stdout) if ok else {}
         same = ok and scan_rows("scan_rc_board") == scan_rows("scan_rc_sim")
         check(any("wrong period" in n for n in fig_n.get("rc", [])) and same and rc_x.get("enabled") is True and
-              rc_x.get("period_samples") == 108 and any("80 -> 108 ticks" in n for n in fig_b.get("rc", [])),
+              rc_x.get("period_samples") == 330 and any("80 -> 330 ticks" in n for n in fig_b.get("rc", [])),
               f"repetitive control on the scan: a period of 80 noted as wrong, set to the line's "
               f"{rc_x.get('period_samples')} ticks, the board equal to the simulator tick by tick",
               rc_set.stderr + noted.stderr + rc_b.stderr + rc_s.stderr + got.stderr)
