@@ -256,9 +256,9 @@ try:
     check(fig.get("complete") is True and fig.get("sync_mismatches") == 0 and fig.get("pixels", 0) > 0,
           "the board's scan: complete, its sync word the generator's on every tick", bs.stdout[-400:])
     if board == "qemu-m3":
-        # Repetitive control over the scan's lines (330 ticks: beyond the
-        # 128 the boards' delay lines held before): the case's RC sent with
-        # a period of 80 ticks is noted as the wrong one; set from the scan
+        # Repetitive control over the scan's lines (330 ticks, well into the
+        # boards' 2048-sample delay line): the case's RC sent with a period
+        # of 80 ticks is noted as the wrong one; set from the scan
         # (--rc-period-from-scan) the board equals the simulator's "auto"
         # period, tick by tick.
         rc_args = ["--pattern", "raster", "--pixels", "8x16", "--size-um", "20x20", "--line-rate-hz", "60"]
