@@ -546,8 +546,6 @@ async function axesConsole() {
       headers: { 'X-Piezoloop-Token': t, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' },
       body: JSON.stringify({ u_max_V: 9 }) })).status, token);
     if (!check(y9 === 200 && await limitsOf('y') === 9 && await limitsOf('x') === 10, 'the XYZ case on the board, y\'s u_max_V set to 9 V', `status ${y9}`)) return;
-    await page.reload();
-    if (!await waitFor(page, () => window.piezoloop.ready && window.piezoloop.controls && window.piezoloop.framesDrawn > 3, null, 'the page again, after the limits')) return;
     const options = await page.$$eval('#axis option', (os) => os.map((o) => o.value));
     check(await page.isVisible('#axis-box') && JSON.stringify(options) === '["x","y","z"]', 'the axis selector offers x, y and z', JSON.stringify(options));
     const names = await page.evaluate(() => window.piezoloop.signals.map((s) => s.name));
