@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,9 @@ struct FrfRequest {
     double amplitude_V = 0.0;  // peak of d at the command
     double bias_V = 0.0;
     bool closed = false;
+    // Closed loop: the displacement the loop holds while d excites it; NaN
+    // holds the bias's displacement at the scenario's mean slope.
+    double setpoint_um = std::numeric_limits<double>::quiet_NaN();
     int periods = 10;          // measured periods (P)
     int transient_periods = 1; // run first and discarded
 };

@@ -92,8 +92,7 @@ FrfRun run_frf_sim(const sim::Scenario& s, const sim::CaseSpec* case_spec, const
         m.params.limits = s.limits;
         m.sample = case_spec ? case_spec->sample : sim::SampleType::kFloat;
     }
-    // Closed loop holds the displacement the bias gives at the mean slope.
-    const double setpoint_um = r.bias_V * s.command_um_per_V();
+    const double setpoint_um = std::isnan(r.setpoint_um) ? r.bias_V * s.command_um_per_V() : r.setpoint_um;
     return m.sample == sim::SampleType::kQ31 ? run_with<Q31>(m, r, plan, setpoint_um, progress, carried)
                                              : run_with<float>(m, r, plan, setpoint_um, progress, carried);
 }

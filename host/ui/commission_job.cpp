@@ -128,7 +128,7 @@ MeasurementJob::Work axes_commission_work(BoardSession& board, const std::string
             throw commission_refusal(e.what());
         }
         std::vector<std::string> dirs;
-        for (const auto& [name, axis] : out["axes"].items()) dirs.push_back(name + "/");
+        for (const auto& item : out["axes"].items()) dirs.push_back(item.key() + "/");
         attach_report(out, a.out, form, f.simulator, dirs);
         return out;
     };

@@ -740,7 +740,9 @@ async function commissionAxesFromPage(page, token) {
   if (commissionShot) {  // axes mode: docs/img/console_commission_axes.png, the panel down to its figures
     const panel = await page.locator('#commission-panel').boundingBox();
     const figs = await page.locator('#commission-figures').boundingBox();
-    await page.screenshot({ path: commissionShot, fullPage: true, clip: { x: panel.x, y: panel.y, width: panel.width, height: figs.y - panel.y } });
+    // boundingBox is in the viewport; a full-page clip is in the page.
+    const [sx, sy] = await page.evaluate(() => [window.scrollX, window.scrollY]);
+    await page.screenshot({ path: commissionShot, fullPage: true, clip: { x: panel.x + sx, y: panel.y + sy, width: panel.width, height: figs.y - panel.y } });
   }
 }
 
