@@ -11,6 +11,7 @@
 #include "piezoloop/params/field_check.hpp"
 #include "status_text.hpp"
 #include "ui/field_refusal.hpp"
+#include "ui/wall_clock.hpp"
 
 namespace piezoloop::ui {
 
@@ -18,11 +19,6 @@ using nlohmann::json;
 using namespace std::chrono_literals;
 
 namespace {
-
-int64_t now_ms() {
-    return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
-        .count();
-}
 
 // "group.key: ..." of params_json's merge errors: the key.
 std::string field_of_message(const std::string& group, const std::string& message) {
@@ -228,7 +224,7 @@ void BoardSession::append_log_frames(std::size_t from) {
         recording_offset_ = have_last_ ? last_tick_ + gap : 0;
         new_recording_ = false;
     }
-    const int64_t arrival = now_ms();
+    const int64_t arrival = wall_clock_ms();
     const std::size_t channels = log.channel_count();
     std::vector<float> values(history_->signals().size());
     for (std::size_t i = from; i < n; ++i) {

@@ -22,6 +22,7 @@
 #include "ui/scope_view.hpp"
 #include "ui/scan_job.hpp"
 #include "ui/step_loops_job.hpp"
+#include "ui/wall_clock.hpp"
 #include "ui/web_assets.hpp"
 
 namespace piezoloop::ui {
@@ -29,11 +30,6 @@ namespace piezoloop::ui {
 using nlohmann::json;
 
 namespace {
-
-int64_t now_ms() {
-    return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
-        .count();
-}
 
 void send_json(httplib::Response& res, const json& j, int status = 200) {
     res.status = status;
@@ -44,8 +40,10 @@ std::string sse_event(const std::string& name, const json& data) {
     return "event: " + name + "\ndata: " + data.dump() + "\n\n";
 }
 
+}  // namespace
+
 // One open page: its scope settings and frames.
-struct Viewer {
+struct ConsoleViewer {
     std::mutex m;
     ScopeSettings settings;
     ScopeView view;
@@ -56,8 +54,6 @@ struct Viewer {
     std::atomic<uint64_t> drawn{0};
 };
 constexpr uint64_t kMaxFramesAhead = 1;
-
-}  // namespace
 
 struct ConsoleServer::Impl {
     BoardSession& board;
@@ -72,14 +68,14 @@ struct ConsoleServer::Impl {
     std::vector<std::pair<std::string, MeasurementJob*>> jobs = {
         {"step", &step}, {"loops", &loops}, {"commission", &commissioning}, {"scan", &scanning}};
     std::mutex viewers_m;
-    std::map<std::string, std::shared_ptr<Viewer>> viewers;
+    std::map<std::string, std::shared_ptr<ConsoleViewer>> viewers;
     std::atomic<bool> stopping{false};
     int port = 0;
 
     Impl(BoardSession& b, ConsoleOptions o)
         : board(b), options(std::move(o)), seat(std::chrono::seconds(options.seat_answer_s)), frf(b) {}
 
-    std::shared_ptr<Viewer> viewer(const std::string& id) {
+    std::shared_ptr<ConsoleViewer> viewer(const std::string& id) {
         const std::lock_guard lock(viewers_m);
         const auto it = viewers.find(id);
         return it == viewers.end() ? nullptr : it->second;
@@ -169,7 +165,7 @@ void ConsoleServer::Impl::routes() {
 
     server.Get("/api/stream", [this](const httplib::Request&, httplib::Response& res) {
         const std::string id = seat.join();
-        auto v = std::make_shared<Viewer>();
+        auto v = std::make_shared<ConsoleViewer>();
         {
             const std::lock_guard lock(viewers_m);
             viewers[id] = v;
@@ -229,7 +225,7 @@ void ConsoleServer::Impl::routes() {
                         // tab) gets a frame anyway.
                         if (v->view.last_seq() < v->drawn + kMaxFramesAhead ||
                             now - state->last_frame > std::chrono::seconds(1))
-                            frame = v->view.next_frame(board.history(), v->settings, now_ms());
+                            frame = v->view.next_frame(board.history(), v->settings, wall_clock_ms());
                     }
                     if (frame) {
                         out += sse_event("frame", *frame);
