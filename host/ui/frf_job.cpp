@@ -6,6 +6,7 @@
 #include "format/number.hpp"
 #include "lti/freqresp.hpp"
 #include "measure/tf_fit.hpp"
+#include "ui/form_number.hpp"
 
 namespace piezoloop::ui {
 
@@ -26,13 +27,8 @@ constexpr std::pair<const char*, const char*> kOptionFields[] = {
     {"--mode", "mode"},
     {"--restart-stage", "restart_stage"}};
 
-double number(const json& v, const char* field) {
-    if (!v.is_number()) throw FieldRefusal(field, std::string(field) + ": must be a number");
-    return v.get<double>();
-}
-
 int whole(const json& v, const char* field) {
-    const double x = number(v, field);
+    const double x = form_number(v, field);
     if (x != std::floor(x) || std::abs(x) > 1e9) throw FieldRefusal(field, std::string(field) + ": must be a whole number");
     return static_cast<int>(x);
 }
@@ -157,10 +153,10 @@ FrfForm parse_frf_form(const json& j) {
     for (auto it = j.begin(); it != j.end(); ++it) {
         const std::string& k = it.key();
         const json& v = it.value();
-        if (k == "from_Hz") r.from_Hz = number(v, "from_Hz");
-        else if (k == "to_Hz") r.to_Hz = number(v, "to_Hz");
-        else if (k == "amplitude_V") r.amplitude_V = number(v, "amplitude_V");
-        else if (k == "bias_V") r.bias_V = number(v, "bias_V");
+        if (k == "from_Hz") r.from_Hz = form_number(v, "from_Hz");
+        else if (k == "to_Hz") r.to_Hz = form_number(v, "to_Hz");
+        else if (k == "amplitude_V") r.amplitude_V = form_number(v, "amplitude_V");
+        else if (k == "bias_V") r.bias_V = form_number(v, "bias_V");
         else if (k == "periods") r.periods = whole(v, "periods");
         else if (k == "transient_periods") r.transient_periods = whole(v, "transient_periods");
         else if (k == "signal") {

@@ -8,6 +8,7 @@
 
 #include "scan/scan_case.hpp"
 #include "ui/field_refusal.hpp"
+#include "ui/form_number.hpp"
 
 namespace piezoloop::ui {
 
@@ -15,20 +16,15 @@ using nlohmann::json;
 
 namespace {
 
-double number(const json& v, const std::string& field) {
-    if (!v.is_number()) throw FieldRefusal(field, field + ": must be a number");
-    return v.get<double>();
-}
-
 int whole(const json& v, const std::string& field) {
-    const double x = number(v, field);
+    const double x = form_number(v, field);
     if (x != std::floor(x) || std::abs(x) > 1e6) throw FieldRefusal(field, field + ": must be a whole number");
     return static_cast<int>(x);
 }
 
 std::pair<double, double> two(const json& v, const std::string& field) {
     if (!v.is_array() || v.size() != 2) throw FieldRefusal(field, field + ": must be two numbers");
-    return {number(v[0], field), number(v[1], field)};
+    return {form_number(v[0], field), form_number(v[1], field)};
 }
 
 // The plan's messages name the command line's options (as `piezoloop
@@ -59,7 +55,7 @@ MeasurementJob::Work scan_work(BoardSession& board, const std::string& scenario,
             r.pixels_x = whole(v[0], k);
             r.pixels_y = whole(v[1], k);
         } else if (k == "line_rate_Hz") {
-            r.line_rate_Hz = number(v, k);
+            r.line_rate_Hz = form_number(v, k);
         } else if (k == "frames") {
             r.frames = whole(v, k);
         } else if (k == "sample") {

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "ui/form_number.hpp"
+
 namespace piezoloop::ui {
 
 using nlohmann::json;
@@ -19,14 +21,9 @@ constexpr std::pair<const char*, const char*> kLoopsFields[] = {{"--amplitudes-v
                                                                 {"--cycles", "cycles"},
                                                                 {"--shape", "shape"}};
 
-double number(const json& v, const char* field) {
-    if (!v.is_number()) throw FieldRefusal(field, std::string(field) + ": must be a number");
-    return v.get<double>();
-}
-
 std::optional<double> optional_number(const json& v, const char* field) {
     if (v.is_null()) return std::nullopt;
-    return number(v, field);
+    return form_number(v, field);
 }
 
 bool flag(const json& v, const char* field) {
@@ -96,7 +93,7 @@ StepForm parse_step_form(const json& j) {
         else if (k == "bias_V") in.bias_V = optional_number(v, "bias_V");
         else if (k == "step_um") in.step_um = optional_number(v, "step_um");
         else if (k == "from_um") in.from_um = optional_number(v, "from_um");
-        else if (k == "duration_s") in.duration_s = number(v, "duration_s");
+        else if (k == "duration_s") in.duration_s = form_number(v, "duration_s");
         else if (k == "restart_stage") f.restart_stage = flag(v, "restart_stage");
         else if (k == "axis") f.axis = axis_text(v);
         else if (k == "mode") {
@@ -119,12 +116,12 @@ LoopsForm parse_loops_form(const json& j) {
         const json& v = it.value();
         if (k == "amplitudes_V") {
             if (!v.is_array()) throw FieldRefusal("amplitudes_V", "amplitudes_V: must be a list of numbers (V)");
-            for (const json& a : v) f.amplitudes_V.push_back(number(a, "amplitudes_V"));
+            for (const json& a : v) f.amplitudes_V.push_back(form_number(a, "amplitudes_V"));
             amplitudes = true;
         } else if (k == "bias_V") f.bias_V = optional_number(v, "bias_V");
-        else if (k == "frequency_Hz") f.frequency_Hz = number(v, "frequency_Hz");
+        else if (k == "frequency_Hz") f.frequency_Hz = form_number(v, "frequency_Hz");
         else if (k == "cycles") {
-            const double c = number(v, "cycles");
+            const double c = form_number(v, "cycles");
             if (c != std::floor(c) || std::abs(c) > 1e9) throw FieldRefusal("cycles", "cycles: must be a whole number");
             f.cycles = static_cast<int>(c);
         } else if (k == "shape") {
