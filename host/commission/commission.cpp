@@ -164,11 +164,6 @@ std::vector<design::cplx> complementary_sensitivity(const design::MeasuredLoop& 
     return t;
 }
 
-// Where a stage holds after track(): a board's triangle stops by itself at
-// its minimum (link/board_stage.cpp), and a closed-loop response measured
-// next holds that point; the simulated stages are asked to hold the same.
-double held_after(const TrackRequest& t) { return t.centre_um - 0.5 * t.range_um; }
-
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     const std::size_t n = v.size();
@@ -219,11 +214,8 @@ void measure_through_inverse(StageAccess& stage, SimStage& identified, Commissio
     t.request = c.frf_request;
     t.request.closed = true;
     t.request.amplitude_V = d_V;
-    t.request.setpoint_um = held_after(check);
     t.frf = stage.frf(t.request);
-    measure::FrfRequest predicted_request = t.request;
-    predicted_request.setpoint_um = held_after(predicted_check);
-    (void)identified.frf(predicted_request);
+    (void)identified.frf(t.request);
     const measure::FrfRun& m = *t.frf;
     const design::Zpk kd = sim::discretise(p.controller, rate_Hz, "tustin", 0.0, false, "controller");
     const std::vector<design::cplx> kr = design::freqresp(kd, design::hz_to_rad_s(m.estimate.frequency_Hz));
@@ -801,19 +793,15 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
         c.verification.push_back(v);
     };
     identified.set_state(before_verification);
-    const TrackRequest stage_check{10.0, 0.5 * r.range_um, c.centre_um};
-    verify(stage_check);
+    verify({10.0, 0.5 * r.range_um, c.centre_um});
 
     // The closed loop's response on the stage: d at the command, 2 % of the
     // span, its T = 1 - S where the excitation enters.
     c.closed_frf_request = c.frf_request;
     c.closed_frf_request.closed = true;
     c.closed_frf_request.amplitude_V = 0.02 * span;
-    c.closed_frf_request.setpoint_um = held_after(stage_check);
     c.closed_frf = stage.frf(c.closed_frf_request);
-    measure::FrfRequest predicted_request = c.closed_frf_request;
-    predicted_request.setpoint_um = held_after(check);
-    (void)identified.frf(predicted_request);
+    (void)identified.frf(c.closed_frf_request);
     c.measured_bandwidth_Hz = bandwidth_Hz(c.closed_frf->estimate.frequency_Hz, c.closed_frf->complementary_sensitivity);
     say(c, "closed-loop response on the stage: " +
                (c.measured_bandwidth_Hz > 0.0

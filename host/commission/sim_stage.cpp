@@ -1,5 +1,6 @@
 #include "commission/sim_stage.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 #include "measure/frf_sim.hpp"
@@ -29,7 +30,9 @@ measure::StepRun SimStage::step(const measure::StepRequest& r) {
 measure::FrfRun SimStage::frf(const measure::FrfRequest& r) {
     if (r.closed && !loaded_) throw std::invalid_argument("closed loop: no controller loaded (track one first)");
     rest();
-    return measure::run_frf_sim(s_, r.closed ? &*loaded_ : nullptr, r, {}, &carried_);
+    measure::FrfRequest q = r;
+    if (q.closed && std::isnan(q.setpoint_um)) q.setpoint_um = held_um_;
+    return measure::run_frf_sim(s_, r.closed ? &*loaded_ : nullptr, q, {}, &carried_);
 }
 
 measure::LoopsRun SimStage::loops(const measure::LoopsRequest& r) {
@@ -62,6 +65,7 @@ TrackingRun SimStage::track(const Controller& k, const TrackRequest& t) {
     bo.check_realisation = false;
     const sim::BuiltCase b = sim::build_case(s_, cs, bo);
     loaded_ = cs;
+    held_um_ = t.centre_um - 0.5 * t.range_um;
     sim::TrajectoryRequest w;
     w.waveform = Waveform::kTriangle;
     w.frequency_Hz = t.frequency_Hz;

@@ -1,6 +1,9 @@
 // A scenario's stage as commissioning sees it (commission/stage_access.hpp):
 // measured by the simulator, its cases and models never read. A closed-loop
-// frequency response runs the controller `track` loaded last.
+// frequency response runs the controller `track` loaded last and, unless the
+// request names a setpoint, holds where that triangle stopped: its minimum,
+// where a board's triangle stops by itself (link/board_stage.cpp) and its
+// loop then holds.
 // Also the identified stage a prediction runs on (commission/identified_stage).
 // As on a board, the stage carries on from one run to the next (its
 // hysteresis's memory, its position), with the disarmed loop's ramp to the
@@ -42,6 +45,7 @@ private:
     sim::Scenario s_;
     sim::SampleType sample_;
     std::optional<sim::CaseSpec> loaded_;  // what track() ran
+    double held_um_ = 0.0;                 // where that triangle stopped
     sim::CarriedStage carried_;
 };
 

@@ -175,6 +175,35 @@ TEST(Commission, AModeAtTheBandsEdgeIsNotCrossedBlind) {
     EXPECT_NEAR(c.measured_bandwidth_Hz, c.bandwidth_Hz, 0.2 * c.bandwidth_Hz);
 }
 
+// A simulated stage mirrors a board: a closed-loop response measured after
+// a triangle holds where that triangle stopped, its minimum (a board's
+// triangle stops by itself there and its loop holds it), unless the request
+// names a setpoint. Bit for bit: the same run with the minimum named.
+TEST(CommissionSimStage, AClosedLoopResponseHoldsWhereTheTriangleStopped) {
+    const sim::Scenario s = sim::load_scenario(kConfigs + "ahmad2020.json");
+    Controller k;  // a lag at 1 Hz crossing over at about 50 Hz on the mean slope
+    k.feedback.poles = {-2.0 * std::numbers::pi};
+    k.feedback.gain = 2.0 * std::numbers::pi * 50.0 / s.command_um_per_V();
+    SimStage unnamed(s), named(s);
+    const measure::MeasureBounds b = unnamed.bounds();
+    const TrackRequest t{10.0, 6.0, 0.5 * (b.closed_range.min_um + b.closed_range.max_um)};
+    unnamed.track(k, t);
+    named.track(k, t);
+    measure::FrfRequest q;
+    q.from_Hz = 100.0;
+    q.to_Hz = 1000.0;
+    q.amplitude_V = 0.05;
+    q.closed = true;
+    q.periods = 2;
+    const measure::FrfRun held = unnamed.frf(q);
+    q.setpoint_um = t.centre_um - 0.5 * t.range_um;
+    EXPECT_EQ(held.log_hash, named.frf(q).log_hash);
+    q.setpoint_um = t.centre_um;
+    SimStage elsewhere(s);
+    elsewhere.track(k, t);
+    EXPECT_NE(held.log_hash, elsewhere.frf(q).log_hash);
+}
+
 TEST(Commission, TheSeriesInverseIsMeasuredThroughTheLoop) {
     // Ahmad2020's stage: the loading curve's slope doubles over the loop, so
     // the candidates are also offered with the inverse in series, and the
