@@ -27,12 +27,6 @@ constexpr std::pair<const char*, const char*> kOptionFields[] = {
     {"--mode", "mode"},
     {"--restart-stage", "restart_stage"}};
 
-int whole(const json& v, const char* field) {
-    const double x = form_number(v, field);
-    if (x != std::floor(x) || std::abs(x) > 1e9) throw FieldRefusal(field, std::string(field) + ": must be a whole number");
-    return static_cast<int>(x);
-}
-
 // "N/M" (N poles, M zeros) or "N" (M = N - 1, as `identify tf --order`),
 // or "" for no fit.
 void parse_order(const std::string& text, int& poles, int& zeros) {
@@ -157,8 +151,8 @@ FrfForm parse_frf_form(const json& j) {
         else if (k == "to_Hz") r.to_Hz = form_number(v, "to_Hz");
         else if (k == "amplitude_V") r.amplitude_V = form_number(v, "amplitude_V");
         else if (k == "bias_V") r.bias_V = form_number(v, "bias_V");
-        else if (k == "periods") r.periods = whole(v, "periods");
-        else if (k == "transient_periods") r.transient_periods = whole(v, "transient_periods");
+        else if (k == "periods") r.periods = form_whole(v, "periods", 1e9);
+        else if (k == "transient_periods") r.transient_periods = form_whole(v, "transient_periods", 1e9);
         else if (k == "signal") {
             r.signal = v.is_string() ? v.get<std::string>() : "";
             if (r.signal != "multisine" && r.signal != "sweep" && r.signal != "prbs")

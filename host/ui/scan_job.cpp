@@ -16,12 +16,6 @@ using nlohmann::json;
 
 namespace {
 
-int whole(const json& v, const std::string& field) {
-    const double x = form_number(v, field);
-    if (x != std::floor(x) || std::abs(x) > 1e6) throw FieldRefusal(field, field + ": must be a whole number");
-    return static_cast<int>(x);
-}
-
 std::pair<double, double> two(const json& v, const std::string& field) {
     if (!v.is_array() || v.size() != 2) throw FieldRefusal(field, field + ": must be two numbers");
     return {form_number(v[0], field), form_number(v[1], field)};
@@ -52,12 +46,12 @@ MeasurementJob::Work scan_work(BoardSession& board, const std::string& scenario,
             std::tie(r.size_x_um, r.size_y_um) = two(v, k);
         } else if (k == "pixels") {
             if (!v.is_array() || v.size() != 2) throw FieldRefusal(k, "pixels: must be two whole numbers");
-            r.pixels_x = whole(v[0], k);
-            r.pixels_y = whole(v[1], k);
+            r.pixels_x = form_whole(v[0], k, 1e6);
+            r.pixels_y = form_whole(v[1], k, 1e6);
         } else if (k == "line_rate_Hz") {
             r.line_rate_Hz = form_number(v, k);
         } else if (k == "frames") {
-            r.frames = whole(v, k);
+            r.frames = form_whole(v, k, 1e6);
         } else if (k == "sample") {
             if (!v.is_string()) throw FieldRefusal(k, "sample: must be a text such as grating:pitch=2,height_nm=50");
             r.sample = v.get<std::string>();

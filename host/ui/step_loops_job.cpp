@@ -121,9 +121,7 @@ LoopsForm parse_loops_form(const json& j) {
         } else if (k == "bias_V") f.bias_V = optional_number(v, "bias_V");
         else if (k == "frequency_Hz") f.frequency_Hz = form_number(v, "frequency_Hz");
         else if (k == "cycles") {
-            const double c = form_number(v, "cycles");
-            if (c != std::floor(c) || std::abs(c) > 1e9) throw FieldRefusal("cycles", "cycles: must be a whole number");
-            f.cycles = static_cast<int>(c);
+            f.cycles = form_whole(v, "cycles", 1e9);
         } else if (k == "shape") {
             f.shape = v.is_string() ? v.get<std::string>() : "";
             if (f.shape != "triangle" && f.shape != "sine") throw FieldRefusal("shape", "shape: must be triangle or sine");

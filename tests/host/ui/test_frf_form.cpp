@@ -60,6 +60,19 @@ TEST(UiFrfForm, BadFieldsAreRefusedAtTheirField) {
     EXPECT_EQ(refused_field({{"from_Hz", 50}, {"to_Hz", 2000}}), "amplitude_V");
 }
 
+// Whole-number fields beyond an int's reach are refused at their field,
+// with the text every form gives.
+TEST(UiFrfForm, AWholeNumberTooLargeIsRefusedAtItsField) {
+    const json j = {{"from_Hz", 50}, {"to_Hz", 2000}, {"amplitude_V", 0.09}, {"transient_periods", 3e9}};
+    try {
+        parse_frf_form(j);
+        FAIL() << "3e9 transient periods accepted";
+    } catch (const FieldRefusal& e) {
+        EXPECT_EQ(e.field, "transient_periods");
+        EXPECT_STREQ(e.what(), "transient_periods: must be a whole number");
+    }
+}
+
 TEST(UiFrfForm, ThePlansRefusalNamesTheFormsField) {
     const FieldRefusal a = form_refusal("--to-hz: must be below the Nyquist frequency, rate / 2 = 5000 Hz");
     EXPECT_EQ(a.field, "to_Hz");
