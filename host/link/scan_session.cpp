@@ -113,8 +113,8 @@ DeviceScanResult run_scan_device(Client& c, const DeviceScanOptions& o) {
 
     // x's and y's repetitive controllers learn over the scan's fast motion.
     DeviceScanResult out;
-    const uint32_t period = scan::scan_rc_period_ticks(cfg);
     for (uint8_t a = 0; a < 2; ++a) {
+        const uint32_t period = scan::scan_rc_period_ticks(cfg, a);
         link::RepetitiveParams rc = c.get<link::RepetitiveParams>(a);
         if (!rc.enabled || rc.rc.period_samples == static_cast<int>(period)) continue;
         const std::string axis(1, "xy"[a]);

@@ -139,6 +139,15 @@ ScanPlan plan_scan(const ScanBounds& b, const ScanRequest& r, const FieldName& n
         c.size_y_um = static_cast<float>(h);
         c.frequency_x_Hz = rate / 2.0f;  // a line is half a period of x
         c.frequency_y_Hz = static_cast<float>(r.line_rate_Hz / 2.0 * (p.pixels_y - 1) / p.pixels_y);
+        // When x repeats after whole ticks, y's period is rounded to whole
+        // ticks too, so each axis's repetitive controller can learn over its
+        // own sinusoid (ScanGenerator::lissajous_axis_period_ticks).
+        const double ticks_x = b.rate_Hz / static_cast<double>(c.frequency_x_Hz);
+        if (p.pixels_y > 1 && ticks_x == std::round(ticks_x)) {
+            double ticks_y = std::round(ticks_x * p.pixels_y / (p.pixels_y - 1));
+            if (ticks_y == ticks_x) ticks_y += 1.0;
+            c.frequency_y_Hz = static_cast<float>(b.rate_Hz / ticks_y);
+        }
     } else if (r.pattern == "cycloid") {
         c.pattern = ScanPattern::kCycloid;
         c.size_x_um = static_cast<float>(w);
@@ -207,7 +216,10 @@ void analyse_scan(const ScanPlan& p, double rate, const std::string& stage, Scan
     const ScanMetrics m = compute_metrics(r.ticks, px, rate, raster);
     ScanGenerator<float> g;
     (void)g.configure(p.config);  // accepted by plan_scan already
-    const double line_Hz = g.line_period_ticks() ? rate / g.line_period_ticks() : 0.0;
+    // Lines of one length (raster, cycloid, CAV spiral); a Lissajous line is
+    // half a period of x, which need not be whole ticks; else 0 (CLV spiral).
+    double line_Hz = g.line_period_ticks() ? rate / g.line_period_ticks() : 0.0;
+    if (p.config.pattern == ScanPattern::kLissajous) line_Hz = rate * g.lines_per_frame() / g.frame_period_ticks();
 
     auto pct = [](double v, double size) { return number(100.0 * v / size); };
     nlohmann::json& j = out.figures;

@@ -145,9 +145,10 @@ ScanRunResult run_with(const sim::MultiAxisModel& m, const ScanRunOptions& o) {
 
 }  // namespace
 
-uint32_t scan_rc_period_ticks(const ScanConfig& c) {
+uint32_t scan_rc_period_ticks(const ScanConfig& c, int axis) {
     ScanGenerator<float> g;
     if (const Status st = g.configure(c); !st.ok()) reject("scan", st);
+    if (c.pattern == ScanPattern::kLissajous) return g.lissajous_axis_period_ticks(axis);
     const bool cav_spiral = c.pattern == ScanPattern::kSpiral && g.line_period_ticks() > 0;
     return cav_spiral ? g.line_period_ticks() : g.repetitive_period_ticks();
 }
@@ -166,11 +167,13 @@ ScanRunResult run_scan(const sim::Scenario& s, const ScanRunOptions& o) {
     cfg.sample_rate_Hz = static_cast<float>(s.rate_Hz);
     ScanGenerator<float> g;
     if (const Status st = g.configure(cfg); !st.ok()) reject("scan", st);
-    // A repetitive controller's period "auto" is the scan's fast motion.
-    const uint32_t rc_period_ticks = scan_rc_period_ticks(cfg);
+    // A repetitive controller's period "auto" is the scan's fast motion on
+    // its axis (z holds: x's).
     sim::BuildOptions build;
     build.check_realisation = false;
-    build.reference_frequency_Hz = s.rate_Hz / static_cast<double>(rc_period_ticks);
+    for (size_t i = 0; i < s.axes.size(); ++i)
+        build.axis_reference_frequency_Hz.push_back(
+            s.rate_Hz / static_cast<double>(scan_rc_period_ticks(cfg, i == 1 ? 1 : 0)));
     const sim::MultiAxisModel m = sim::build_multi_axis_case(s, s.find_case(o.case_name), build);
     // The scan within each axis's travel, before anything moves.
     const double reach = g.reach_um();

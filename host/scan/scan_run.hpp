@@ -45,12 +45,13 @@ struct ScanRunResult {
     bool q31 = false;              // the case's sample type
 };
 
-// The period a repetitive controller learns over on a scan (ticks): a
-// raster's line (two when bidirectional), a turn of a constant-angular-
-// velocity spiral (each axis a sinusoid of slowly changing amplitude: the
-// RC learns from the turn before), else the frame (Lissajous, CLV spiral).
+// The period axis's (0: x, 1: y) repetitive controller learns over on a
+// scan (ticks): a raster's line (two when bidirectional), a turn of a
+// constant-angular-velocity spiral (each axis a sinusoid of slowly changing
+// amplitude: the RC learns from the turn before), a Lissajous axis's own
+// sinusoid when it repeats after whole ticks, else the frame (CLV spiral).
 // c as ScanGenerator::configure accepts it.
-uint32_t scan_rc_period_ticks(const ScanConfig& c);
+uint32_t scan_rc_period_ticks(const ScanConfig& c, int axis);
 
 // An axis's travel: its hard command range [u_min_V, u_max_V] times the
 // stage's mean slope (nominal_um_per_V x the axis's amplifier gain).

@@ -21,6 +21,9 @@ struct BuildOptions {
     double reference_frequency_Hz = 0.0;  // for the RC period "auto"
     int substeps = 10;                    // double fidelity: sub-steps per tick
     bool check_realisation = true;        // run lti/realisation on the controller (slow for slow poles)
+    // Several axes (build_multi_axis_case): each axis's reference frequency,
+    // in place of reference_frequency_Hz when given (one entry an axis).
+    std::vector<double> axis_reference_frequency_Hz;
 };
 
 // A Dahl compensator identified from the stage (docs/models.md, 'Dahl model and

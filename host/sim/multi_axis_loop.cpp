@@ -190,7 +190,9 @@ MultiAxisModel build_multi_axis_case(const Scenario& s, const CaseSpec& c, const
             CaseSpec ac = c.axis_cases.empty() ? c : c.axis_cases[i];
             ac.sample = c.sample;
             m.names.push_back(s.axes[i].name);
-            m.axes.push_back(build_case(alone, ac, o));
+            BuildOptions ao = o;
+            if (i < o.axis_reference_frequency_Hz.size()) ao.reference_frequency_Hz = o.axis_reference_frequency_Hz[i];
+            m.axes.push_back(build_case(alone, ac, ao));
         }
     }
     // The axes' stages as their cases built them (a single-axis case's

@@ -93,6 +93,20 @@ constexpr uint64_t gcd(uint64_t a, uint64_t b) {
     return a;
 }
 
+// The phase step of a sinusoid at ratio = f / f_s. A frequency within a
+// float's rounding of f_s / n (n whole) is taken as f_s / n, so that it
+// repeats after n ticks: a float cannot hold most such frequencies exactly,
+// and their nearest rational would make a frame of up to 2^31 ticks.
+constexpr bool sinusoid_phase_step(double ratio, trajectory_detail::PhaseStep& out) {
+    if (ratio > 0x1p-31) {
+        const double n = round_half_up(1.0 / ratio);
+        const double miss = ratio * n - 1.0;
+        if (n >= 2.0 && miss <= 0x1p-23 && miss >= -0x1p-23)
+            return trajectory_detail::rational_phase_step(1.0 / n, out);
+    }
+    return trajectory_detail::rational_phase_step(ratio, out);
+}
+
 // Phase of an angle in degrees, 2^32 = a turn.
 constexpr uint32_t phase_of_deg(float deg) {
     double cycles = static_cast<double>(deg) / 360.0;
@@ -215,6 +229,14 @@ public:
             case ScanPattern::kLissajous: return frame_period_ticks();
             default: return (cfg_.bidirectional || cfg_.pattern == ScanPattern::kCycloid ? 2u : 1u) * sweep_.line_ticks();
         }
+    }
+    // A Lissajous axis's own period (0: x, 1: y) when its sinusoid repeats
+    // after a whole number of ticks (f / f_s = 1 / n), else the frame: each
+    // axis's repetitive controller can learn over its own sinusoid.
+    constexpr uint32_t lissajous_axis_period_ticks(int axis) const {
+        const trajectory_detail::PhaseStep& s = axis == 0 ? lissajous_params_.step_x : lissajous_params_.step_y;
+        const uint64_t num = (uint64_t{s.inc} * s.den + s.rem) >> 32;
+        return num == 1 ? s.den : lissajous_params_.frame_ticks;
     }
     constexpr uint32_t lines_per_frame() const {
         switch (cfg_.pattern) {
@@ -449,11 +471,11 @@ private:
         trajectory_detail::PhaseStep sx, sy;
         if (!in_range(c.frequency_x_Hz, 0.0, fs / 4.0) || !(c.frequency_x_Hz > 0.0f) ||
             !(static_cast<double>(c.frequency_x_Hz) < fs / 4.0) ||
-            !trajectory_detail::rational_phase_step(static_cast<double>(c.frequency_x_Hz) / fs, sx))
+            !sinusoid_phase_step(static_cast<double>(c.frequency_x_Hz) / fs, sx))
             return error("frequency_x_Hz", "must be in (0, sample_rate_Hz / 4)");
         if (!in_range(c.frequency_y_Hz, 0.0, fs / 4.0) || !(c.frequency_y_Hz > 0.0f) ||
             !(static_cast<double>(c.frequency_y_Hz) < fs / 4.0) ||
-            !trajectory_detail::rational_phase_step(static_cast<double>(c.frequency_y_Hz) / fs, sy))
+            !sinusoid_phase_step(static_cast<double>(c.frequency_y_Hz) / fs, sy))
             return error("frequency_y_Hz", "must be in (0, sample_rate_Hz / 4)");
         if (!in_range(c.phase_y_deg, -360.0, 360.0)) return error("phase_y_deg", "must be in [-360, 360]");
         if (4.0 * static_cast<double>(c.pixels_per_line) * static_cast<double>(c.frequency_x_Hz) > fs)

@@ -100,3 +100,32 @@ TEST(Lissajous, LinesAreHalfPeriodsOfXWithPPixels) {
         EXPECT_NEAR(std::fabs(r.x[lines[l]]), A, A * 1e-5) << l;
     }
 }
+
+// A float cannot hold f_s / 85 exactly; within its rounding the sinusoid is
+// taken to repeat after 85 ticks, so the frame is lcm(80, 85) = 1360 ticks
+// (the nearest rational of the float itself would need ~2^28). Each axis's
+// own period is then whole; a y at 250 * 63 / 64 Hz (exact in float, 81.27
+// ticks) is not, and its axis learns over the frame, 64 periods of x.
+TEST(Lissajous, AxisPeriodsInWholeTicks) {
+    ScanConfig c;
+    c.pattern = piezoloop::ScanPattern::kLissajous;
+    c.sample_rate_Hz = 20000.0f;
+    c.size_x_um = c.size_y_um = 20.0f;
+    c.pixels_per_line = 16;
+    c.frequency_x_Hz = 250.0f;
+    c.frequency_y_Hz = static_cast<float>(20000.0 / 85.0);
+    ASSERT_NE(static_cast<double>(c.frequency_y_Hz) * 85.0, 20000.0);
+    ScanGenerator<float> g;
+    ASSERT_TRUE(g.configure(c).ok());
+    EXPECT_EQ(g.frame_period_ticks(), 1360u);
+    EXPECT_EQ(g.lissajous_axis_period_ticks(0), 80u);
+    EXPECT_EQ(g.lissajous_axis_period_ticks(1), 85u);
+    const ScanRun r = run_scan(g);
+    for (std::size_t n = 0; n + 85 < r.y.size(); ++n) ASSERT_EQ(r.y[n], r.y[n + 85]) << n;
+
+    c.frequency_y_Hz = 250.0f * 63.0f / 64.0f;
+    ASSERT_TRUE(g.configure(c).ok());
+    EXPECT_EQ(g.frame_period_ticks(), 64u * 80u);
+    EXPECT_EQ(g.lissajous_axis_period_ticks(0), 80u);
+    EXPECT_EQ(g.lissajous_axis_period_ticks(1), 64u * 80u);
+}

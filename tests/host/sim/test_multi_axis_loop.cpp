@@ -75,7 +75,7 @@ TEST(MultiAxisLoop, OneAxisIsTheSingleAxisSimulator) {
         const SimCasePlan plan = plan_sim_case(s, req);
         const RunResult single = run_loop(plan.built.model, plan.options);
 
-        MultiAxisModel m = build_multi_axis_case(s, plan.case_spec, BuildOptions{50.0, 10, false});
+        MultiAxisModel m = build_multi_axis_case(s, plan.case_spec, BuildOptions{50.0, 10, false, {}});
         ASSERT_EQ(m.axes.size(), 1u);
         MultiAxisRunOptions o;
         o.wave = plan.options.wave;
@@ -96,7 +96,7 @@ TEST(MultiAxisLoop, UncoupledAxesAreIndependentSingleAxisRuns) {
     Scenario s = xyz();
     s.coupling.clear();
     const CaseSpec& c = s.find_case("pi_notch");
-    const MultiAxisModel m = build_multi_axis_case(s, c, BuildOptions{10.0, 10, false});
+    const MultiAxisModel m = build_multi_axis_case(s, c, BuildOptions{10.0, 10, false, {}});
     MultiAxisRunOptions o;
     o.driven = 0;
     o.wave.waveform = Waveform::kTriangle;
@@ -235,7 +235,7 @@ TEST(MultiAxisLoop, RefusesBadCases) {
             {"kind", "pid"}, {"kp", 0.1}, {"ki_per_s", -5}, {"u_min_V", -1}, {"u_max_V", 1}};
         return parse_scenario(j, test::configs_dir() + "stages");
     }();
-    const std::string pid = test::error_of([&] { (void)build_multi_axis_case(s, s.cases[1], BuildOptions{10.0, 10, false}); });
+    const std::string pid = test::error_of([&] { (void)build_multi_axis_case(s, s.cases[1], BuildOptions{10.0, 10, false, {}}); });
     EXPECT_EQ(pid.rfind("cases[1].controller.axes.y.feedback", 0), 0u) << pid;
 
     // The run's options.
