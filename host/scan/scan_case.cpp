@@ -174,6 +174,16 @@ ScanPlan plan_scan(const ScanBounds& b, const ScanRequest& r, const FieldName& n
     }
     ScanGenerator<float> g(b.position, b.position, b.position);
     if (const Status st = g.configure(c); !st.ok()) bad(request_field(st.field), describe(st));
+    // Every tick of a scan is kept (64 bytes each) and written to scan.csv.
+    constexpr uint64_t kMaxScanTicks = uint64_t{1} << 25;  // 2 GiB of ticks
+    const uint64_t ticks = uint64_t{g.frame_period_ticks()} * c.frames;
+    if (ticks > kMaxScanTicks) {
+        const std::string why = "the scan lasts " + std::to_string(ticks) + " ticks (" + std::to_string(c.frames) +
+                                " frames of " + std::to_string(g.frame_period_ticks()) + "), more than the " +
+                                std::to_string(kMaxScanTicks) + " a scan records";
+        if (c.frames > 1) bad("frames", "must be fewer: " + why);
+        bad("pixels", "a frame too long: " + why + " (fewer pixels or lines, or a faster line rate)");
+    }
     const double reach = g.reach_um();
     const std::pair<double, double> travel[2] = {tx, ty};
     const double centre[2] = {c.centre_x_um, c.centre_y_um};

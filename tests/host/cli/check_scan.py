@@ -155,6 +155,7 @@ with tempfile.TemporaryDirectory() as tmp:
         (["--line-rate-hz", "6000"], "--line-rate-hz"),
         (["--pixels", "8x8", "--line-rate-hz", "4000"], "--line-rate-hz"),  # turnarounds under 2 ticks: the core's refusal
         (["--frames", "0"], "--frames"),
+        (["--pixels", "256x256", "--line-rate-hz", "1", "--frames", "1000"], "--frames"),  # 5.1e9 ticks, memory
         (["--retrace-speed", "0.5"], "--retrace-speed"),
         (["--pattern", "spiral", "--retrace-speed", "2"], "--retrace-speed"),
         (["--case", "nope"], "--case"),
