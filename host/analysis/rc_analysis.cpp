@@ -18,7 +18,6 @@
 namespace piezoloop::design {
 namespace {
 
-constexpr int kMaxDelayStates = 4000;  // eigenvalues of the RC loop
 constexpr int kMaxHinfStates = 800;    // Hamiltonian for ||T_g0||
 
 void validate(const RcConfig& rc, double ts) {
@@ -192,7 +191,7 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
     }
 
     // Exact: roots of 1 − M.
-    if (n_period - rc.m1 <= kMaxDelayStates) {
+    if (n_period - rc.m1 <= rc.max_exact_delay_states) {
         const Ss m = rc_characteristic(t, rc);
         const Eigen::MatrixXd a = m.A + m.B * m.C / (1.0 - m.D);
         Eigen::EigenSolver<Eigen::MatrixXd> es(a, false);
@@ -246,7 +245,7 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
         gl.C *= pi->g0;
         gl.D *= pi->g0;
         const FeedbackLoop f = feedback_loop(gl, rc_plus_one(rc, ts));
-        r.g0_loop_stable = f.T.A.rows() <= kMaxDelayStates + 64 ? is_stable(f.T) : r.g0_ok;
+        r.g0_loop_stable = f.T.A.rows() <= rc.max_exact_delay_states + 64 ? is_stable(f.T) : r.g0_ok;
         if (!r.g0_ok)
             r.failures.push_back(cat("(15) g0 = ", format::significant(pi->g0), " exceeds the RC loop's gain margin M_GL = ",
                                      format::significant(*r.gain_margin_rc), " (at ", format::significant(*r.gain_margin_rc_at_Hz), " Hz)"));

@@ -19,7 +19,7 @@
 //      Q cutoff.
 //  exact: the eigenvalues of a state-space realisation of M closed in
 //      positive unity feedback (N − m1 delay states) give the largest |z| of
-//      the roots of 1 − M (computed when N − m1 <= 4000).
+//      the roots of 1 − M (computed when N − m1 <= max_exact_delay_states).
 //
 // With hysteresis modelled as PI (eq. 11–12, 15, 21), read as follows. The
 // linear loop (T, or the loop gain L = Gc Gp given directly) is the loop
@@ -60,6 +60,9 @@ struct RcConfig {
     int m2 = 0;
     double k_rc = 0.8;
     Zpk q;  // discrete, same ts as the loop
+    // The exact check (eigenvalues, O(N^3)) only up to this many delay
+    // states N − m1; above it rc_max_abs_root and rc_stable stay empty.
+    int max_exact_delay_states = 4000;
 };
 
 struct PiHysteresis {

@@ -10,10 +10,39 @@
 #include "scan/sample_spec.hpp"
 #include "scan/scan_metrics.hpp"
 #include "scan/scan_pixels.hpp"
+#include "sim/rc_check.hpp"
 #include "status_text.hpp"
 
 namespace piezoloop::scan {
 namespace {
+
+// x's and y's repetitive controllers: the stability conditions of their
+// linearised loops at the scan's periods (sim/rc_check.hpp), where the
+// case is of a form the analysis covers. The exact check (eigenvalues,
+// O(N^3): 45 s at N = 1948) only for periods up to 512 ticks; the
+// small-gain condition, sufficient, for every period.
+constexpr int kMaxExactRcDelayStates = 512;
+
+nlohmann::json rc_stability(const sim::Scenario& s, const ScanPlan& p) {
+    nlohmann::json j = nlohmann::json::object();
+    const sim::CaseSpec& c = s.find_case(p.case_name);
+    for (std::size_t i = 0; i < 2 && i < s.axes.size(); ++i) {
+        const sim::CaseSpec& ac = c.axis_cases.empty() ? c : c.axis_cases[i];
+        const uint32_t period = scan_rc_period_ticks(p.config, static_cast<int>(i));
+        const std::optional<design::RcAnalysis> a =
+            sim::rc_conditions(sim::axis_alone(s, i), ac, s.rate_Hz / static_cast<double>(period), kMaxExactRcDelayStates);
+        if (!a) continue;
+        nlohmann::json& x = j[s.axes[i].name];
+        x = {{"period_ticks", period},
+             {"loop_stable", a->loop_stable},
+             {"small_gain_peak", a->small_gain_peak},
+             {"small_gain_at_Hz", a->small_gain_at_Hz},
+             {"small_gain_ok", a->small_gain_ok}};
+        if (a->rc_max_abs_root) x["max_abs_root"] = *a->rc_max_abs_root;
+        x["stable"] = a->rc_stable ? nlohmann::json(*a->rc_stable) : nlohmann::json(nullptr);
+    }
+    return j;
+}
 
 // The request's field that sets a generator's field.
 std::string request_field(const char* field) {
@@ -213,6 +242,7 @@ ScanOutcome run_scan_case(const sim::Scenario& s, const ScanPlan& p, std::functi
     out.run = run_scan(s, o);
     out.simulate_wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
     analyse_scan(p, s.setup.rate_Hz, s.name, out);
+    if (nlohmann::json rc = rc_stability(s, p); !rc.empty()) out.figures["rc_stability"] = std::move(rc);
     return out;
 }
 

@@ -9,6 +9,16 @@
 // amplifier and the model's input scaling cancel: the model input is the
 // command in volts), G_zoh the plant dynamics sampled with the DAC's hold
 // (one tick: y[k+1] from u[k], so L carries no further delay).
+//
+// And for LTI feedback with the stage's PI inverse in series (u = P^-1(r +
+// u_fb)), which linearises the hysteresis the loop sees: the inverse taken
+// as exact, the loop is
+//   L(z) = K(z) * error_per_um * G_zoh(z),
+// K the controller discretised as the case does, G the amplifier's and the
+// sensor's first-order lags and the dynamics (µm -> µm) sampled with the
+// DAC's hold. The amplifier's lag, which runs between the inverse and the
+// hysteresis, is taken as linear: the analysis holds for small signals about
+// a branch of the loop, not for the large signals of saturation.
 #pragma once
 
 #include <optional>
@@ -19,8 +29,11 @@
 
 namespace piezoloop::sim {
 
-// Empty when the case is not of that form (no RC, not PI feedback, not a
-// shan_pi stage with input_per_V * amplifier gain == 1, no dynamics).
-std::optional<design::RcAnalysis> rc_conditions(const Scenario& s, const CaseSpec& c, double reference_frequency_Hz);
+// Empty when the case is of neither form (no RC; not PI feedback on a
+// shan_pi stage, nor LTI feedback with the PI inverse in series; no
+// dynamics).
+// The exact root check up to max_exact_delay_states (design::RcConfig).
+std::optional<design::RcAnalysis> rc_conditions(const Scenario& s, const CaseSpec& c, double reference_frequency_Hz,
+                                                int max_exact_delay_states = 4000);
 
 }  // namespace piezoloop::sim

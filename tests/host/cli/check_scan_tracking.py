@@ -25,6 +25,46 @@ scenario = os.path.join(configs, "stages", "xy_flexure.json")
 passed = failed = 0
 
 
+def small_gain_peak(axis, case, period_ticks):
+    """sup over 0 < w <= pi of |Q| |1 - k_rc z^m2 T| for the case's axis with
+    the PI inverse in series (the loop sees the linearised stage), built with
+    scipy: the amplifier's and sensor's lags and the dynamics (unit DC gain)
+    sampled with a zero-order hold, the controller by Tustin pre-warped as
+    the scenario says, Q Shan2012's 0.3558 / (z - 0.6442). Independent of
+    the tool's assembly of the loop (sim/rc_check.cpp); the period does not
+    enter this condition."""
+    import numpy as np
+    from scipy import signal
+    with open(scenario) as f:
+        sc = json.load(f)
+    rate = sc["loop"]["rate_Hz"]
+    plant = sc["plant"]["axes"][axis]
+    cplx = lambda v: [complex(a, b) for a, b in v]
+    poles = cplx(plant["dynamics"]["model"]["poles"])
+    zeros = cplx(plant["dynamics"]["model"]["zeros"])
+    k = (np.prod([-p for p in poles]) / np.prod([-z for z in zeros])).real
+    for f_Hz in (plant["amplifier"]["bandwidth_Hz"], plant["sensor"]["bandwidth_Hz"]):
+        poles.append(-2 * np.pi * f_Hz)
+        k *= 2 * np.pi * f_Hz
+    num, den = signal.zpk2tf(zeros, poles, k)
+    bg, ag, _ = signal.cont2discrete((num, den), 1 / rate, method="zoh")
+    fb = [c for c in sc["cases"] if c["name"] == case][0]["controller"]["axes"]["xy"[axis]]
+    rc = fb["rc"]
+    fb = fb["feedback"]
+    w0 = 2 * np.pi * fb["prewarp_Hz"]
+    zk, pk, kk = signal.bilinear_zpk(cplx(fb["model"]["zeros"]), cplx(fb["model"]["poles"]), fb["model"]["gain"],
+                                     fs=w0 / (2 * np.tan(w0 / (2 * rate))))
+    bk, ak = signal.zpk2tf(zk, pk, kk)
+    w = np.linspace(1e-5, np.pi, 400001)
+    z = np.exp(1j * w)
+    L = np.polyval(np.ravel(bg), z) / np.polyval(ag, z) * np.polyval(bk, z) / np.polyval(ak, z)
+    T = L / (1 + L)
+    Q = 0.3558 / (z - 0.6442)
+    g = np.abs(Q) * np.abs(1 - rc["k_rc"] * z ** rc["m2"] * T)
+    i = int(np.argmax(g))
+    return float(g[i]), float(w[i] * rate / (2 * np.pi))
+
+
 def check(name, ok, detail=""):
     global passed, failed
     if ok:
@@ -54,6 +94,24 @@ with tempfile.TemporaryDirectory() as tmp:
             print(f"{pattern:9} {case:9} line rate {m['line_rate_Hz']:.2f} Hz: x {t['rms_x_percent']:.2f} / "
                   f"{t['max_x_percent']:.2f} %, y {t['rms_y_percent']:.2f} / {t['max_y_percent']:.2f} % (RMS / max), "
                   f"pitch measured {m['pitch']['measured_um'] or float('nan'):.4f} um")
+            if case == "scan_rc":
+                # Each axis's RC: stable on its linearised loop (the small-gain
+                # condition and the exact roots), the peak as scipy computes it
+                # (3e-10 apart here; 1e-6 allows for its 400 001-point grid).
+                rcs = m.get("rc_stability", {})
+                for a, name in ((0, "x"), (1, "y")):
+                    r = rcs.get(name)
+                    check(f"{pattern} scan_rc: {name}'s RC analysed", r is not None, rcs)
+                    if r is None:
+                        continue
+                    check(f"{pattern} scan_rc: {name}'s RC stable on its linearised loop",
+                          r["loop_stable"] and r["small_gain_ok"] and r["stable"] is True, r)
+                    peak, at_Hz = small_gain_peak(a, "scan_rc", r["period_ticks"])
+                    check(f"{pattern} scan_rc: {name}'s small-gain peak as scipy's",
+                          abs(r["small_gain_peak"] - peak) <= 1e-6 * peak, (r["small_gain_peak"], peak, at_Hz))
+                    print(f"{'':9} scan_rc   {name}'s RC over {r['period_ticks']} ticks: small-gain peak "
+                          f"{r['small_gain_peak']:.4f} at {r['small_gain_at_Hz']:.0f} Hz (scipy {peak:.4f} at "
+                          f"{at_Hz:.0f} Hz), largest root {r['max_abs_root']:.6f}")
             if pattern == "lissajous":
                 with open(os.path.join(out, "scan.csv")) as f:
                     rows = [line.split(",") for line in f.read().splitlines()[1:]]
