@@ -262,6 +262,16 @@ void analyse_scan(const ScanPlan& p, double rate, const std::string& stage, Scan
     if (p.config.pattern == ScanPattern::kLissajous) line_Hz = rate * g.lines_per_frame() / g.frame_period_ticks();
 
     auto pct = [](double v, double size) { return number(100.0 * v / size); };
+    auto tracking_json = [&](const ScanTracking& t) {
+        return nlohmann::json{{"rms_x_um", t.rms_x_um},
+                              {"max_x_um", t.max_x_um},
+                              {"rms_y_um", t.rms_y_um},
+                              {"max_y_um", t.max_y_um},
+                              {"rms_x_percent", pct(t.rms_x_um, p.extent_x_um)},
+                              {"max_x_percent", pct(t.max_x_um, p.extent_x_um)},
+                              {"rms_y_percent", pct(t.rms_y_um, p.extent_y_um)},
+                              {"max_y_percent", pct(t.max_y_um, p.extent_y_um)}};
+    };
     nlohmann::json& j = out.figures;
     j = {
         {"scenario", stage},
@@ -285,15 +295,9 @@ void analyse_scan(const ScanPlan& p, double rate, const std::string& stage, Scan
         {"used_ticks", m.used_ticks},
         {"pixels", m.pixels},
         {"lines", m.lines},
-        {"tracking",
-         {{"rms_x_um", m.rms_error_x_um},
-          {"max_x_um", m.max_error_x_um},
-          {"rms_y_um", m.rms_error_y_um},
-          {"max_y_um", m.max_error_y_um},
-          {"rms_x_percent", pct(m.rms_error_x_um, p.extent_x_um)},
-          {"max_x_percent", pct(m.max_error_x_um, p.extent_x_um)},
-          {"rms_y_percent", pct(m.rms_error_y_um, p.extent_y_um)},
-          {"max_y_percent", pct(m.max_error_y_um, p.extent_y_um)}}},
+        {"tracking", tracking_json(m.tracking)},
+        {"tracking_last_frame", tracking_json(m.last_frame)},
+        {"last_frame", m.last_frame_index},
         {"used_fraction", number(m.used_fraction)},
         {"linearity_um", number(m.linearity_um)},
         {"linearity_percent", pct(m.linearity_um, p.extent_x_um)},

@@ -30,6 +30,26 @@ double straight_line_deviation(const std::vector<double>& x) {
     return worst;
 }
 
+ScanTracking tracking_over(const std::vector<ScanTick>& ticks, const std::vector<char>& used, std::size_t from) {
+    ScanTracking t;
+    double sx = 0.0, sy = 0.0;
+    for (std::size_t k = from; k < ticks.size(); ++k) {
+        if (!used[k]) continue;
+        const double ex = ticks[k].commanded_x_um - ticks[k].measured_x_um;
+        const double ey = ticks[k].commanded_y_um - ticks[k].measured_y_um;
+        sx += ex * ex;
+        sy += ey * ey;
+        t.max_x_um = std::max(t.max_x_um, std::fabs(ex));
+        t.max_y_um = std::max(t.max_y_um, std::fabs(ey));
+        ++t.used_ticks;
+    }
+    if (t.used_ticks > 0) {
+        t.rms_x_um = std::sqrt(sx / static_cast<double>(t.used_ticks));
+        t.rms_y_um = std::sqrt(sy / static_cast<double>(t.used_ticks));
+    }
+    return t;
+}
+
 }  // namespace
 
 ScanMetrics compute_metrics(const std::vector<ScanTick>& ticks, const std::vector<ScanPixel>& pixels, double rate_Hz,
@@ -41,21 +61,8 @@ ScanMetrics compute_metrics(const std::vector<ScanTick>& ticks, const std::vecto
     for (const ScanPixel& p : pixels)
         for (std::size_t k = p.first_tick; k < p.first_tick + p.ticks; ++k) used[k] = 1;
 
-    double sx = 0.0, sy = 0.0;
-    for (std::size_t k = 0; k < ticks.size(); ++k) {
-        if (!used[k]) continue;
-        const double ex = ticks[k].commanded_x_um - ticks[k].measured_x_um;
-        const double ey = ticks[k].commanded_y_um - ticks[k].measured_y_um;
-        sx += ex * ex;
-        sy += ey * ey;
-        m.max_error_x_um = std::max(m.max_error_x_um, std::fabs(ex));
-        m.max_error_y_um = std::max(m.max_error_y_um, std::fabs(ey));
-        ++m.used_ticks;
-    }
-    if (m.used_ticks > 0) {
-        m.rms_error_x_um = std::sqrt(sx / static_cast<double>(m.used_ticks));
-        m.rms_error_y_um = std::sqrt(sy / static_cast<double>(m.used_ticks));
-    }
+    m.tracking = tracking_over(ticks, used, 0);
+    m.used_ticks = m.tracking.used_ticks;
 
     std::vector<std::size_t> line_starts, frame_starts;
     for (std::size_t k = 0; k < ticks.size(); ++k) {
@@ -87,6 +94,10 @@ ScanMetrics compute_metrics(const std::vector<ScanTick>& ticks, const std::vecto
     if (!frame_starts.empty()) {
         const std::size_t end = frame_starts.size() >= 2 ? frame_starts[1] : ticks.size();
         m.frame_time_s = static_cast<double>(end - frame_starts[0]) / rate_Hz;
+        m.last_frame = tracking_over(ticks, used, frame_starts.back());
+        m.last_frame_index = frame_starts.size() - 1;
+    } else {
+        m.last_frame = m.tracking;
     }
     return m;
 }

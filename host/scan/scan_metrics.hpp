@@ -10,7 +10,10 @@
 //       pixel index (least squares); the largest deviation over all lines,
 //       µm and % of the size in x;
 //   frame time: ticks from the first frame clock to the next (or to the
-//       last tick recorded) / rate, s of stage time.
+//       last tick recorded) / rate, s of stage time;
+//   the last frame's tracking error: as the whole run's, over the ticks from
+//       the last frame clock on (a repetitive controller's scan after it has
+//       learnt; the frame the images show).
 #pragma once
 
 #include <cstddef>
@@ -21,10 +24,18 @@
 
 namespace piezoloop::scan {
 
+// Tracking error commanded - measured over the used ticks of a span.
+struct ScanTracking {
+    std::size_t used_ticks = 0;
+    double rms_x_um = 0.0, max_x_um = 0.0;
+    double rms_y_um = 0.0, max_y_um = 0.0;
+};
+
 struct ScanMetrics {
     std::size_t ticks = 0, used_ticks = 0, pixels = 0, lines = 0;
-    double rms_error_x_um = 0.0, max_error_x_um = 0.0;
-    double rms_error_y_um = 0.0, max_error_y_um = 0.0;
+    ScanTracking tracking;         // the whole run
+    ScanTracking last_frame;       // from the last frame clock (the whole run without one)
+    std::size_t last_frame_index = 0;  // frames counted from 0
     double used_fraction = 0.0;  // NaN with fewer than two line clocks
     double linearity_um = 0.0;   // NaN when not a raster
     double frame_time_s = 0.0;

@@ -1013,15 +1013,18 @@ function showScanResult(res) {
   state.jobs.scan.result = res;
   if (!res) return;
   const t = res.tracking || {};
+  const last = res.tracking_last_frame || {};
   figures($('scan-figures'), Object.assign({}, res, {
     rms_x_percent: t.rms_x_percent, max_x_percent: t.max_x_percent,
     rms_y_percent: t.rms_y_percent, max_y_percent: t.max_y_percent,
+    last_rms_x_percent: last.rms_x_percent, last_rms_y_percent: last.rms_y_percent,
     pitch_commanded_um: res.pitch ? res.pitch.commanded_um : null,
     pitch_measured_um: res.pitch ? res.pitch.measured_um : null,
   }), [
     ['complete', 'complete'], ['pixels', 'pixels'], ['line rate', 'line_rate_Hz', 1, 'Hz'],
     ['x error RMS', 'rms_x_percent', 1, '%'], ['x error max', 'max_x_percent', 1, '%'],
     ['y error RMS', 'rms_y_percent', 1, '%'], ['y error max', 'max_y_percent', 1, '%'],
+    ['x error RMS, last frame', 'last_rms_x_percent', 1, '%'], ['y error RMS, last frame', 'last_rms_y_percent', 1, '%'],
     ['used fraction', 'used_fraction'], ['frame time', 'frame_time_s', 1, 's'],
     ['pitch, commanded', 'pitch_commanded_um', 1, 'µm'], ['pitch, measured', 'pitch_measured_um', 1, 'µm'],
     ['sync words off the generator', 'sync_mismatches'],

@@ -59,6 +59,13 @@ def recompute(csv, rate, raster):
     out["used_fraction"] = float(np.mean([used[a:b].mean() for a, b in zip(starts[:-1], starts[1:])]))
     frames = np.flatnonzero(sync & 1)
     out["frame_time_s"] = ((frames[1] if len(frames) > 1 else n) - frames[0]) / rate
+    last = used.copy()
+    last[:frames[-1]] = False
+    lx = (d["commanded_x_um"] - d["measured_x_um"])[last]
+    ly = (d["commanded_y_um"] - d["measured_y_um"])[last]
+    out["last_frame"] = len(frames) - 1
+    out["last"] = {"rms_x_um": float(np.sqrt(np.mean(lx ** 2))), "max_x_um": float(np.max(np.abs(lx))),
+                   "rms_y_um": float(np.sqrt(np.mean(ly ** 2))), "max_y_um": float(np.max(np.abs(ly)))}
     if raster:
         # Pixel clocks grouped by (frame, line) as the clocks count them.
         frame = np.cumsum(sync & 1 > 0)
@@ -107,6 +114,9 @@ with tempfile.TemporaryDirectory() as tmp:
             check(f"{pattern}: tracking.{k} recomputed", close(r[k], m["tracking"][k]), f"{r[k]} vs {m['tracking'][k]}")
             pct = 100 * m["tracking"][k] / m["size_um"][0 if "_x_" in k else 1]
             check(f"{pattern}: tracking {k} in %", close(pct, m["tracking"][k.replace("_um", "_percent")]))
+            check(f"{pattern}: tracking_last_frame.{k} recomputed", close(r["last"][k], m["tracking_last_frame"][k]),
+                  f"{r['last'][k]} vs {m['tracking_last_frame'][k]}")
+        check(f"{pattern}: last_frame recomputed", r["last_frame"] == m["last_frame"])
         for k in ("used_fraction", "frame_time_s") + (("linearity_um",) if pattern == "raster" else ()):
             check(f"{pattern}: {k} recomputed", close(r[k], m[k]), f"{r[k]} vs {m[k]}")
         check(f"{pattern}: pixels expected", m["pixels"] == (64 * 64 if pattern == "raster" else 32 * 200),

@@ -7,9 +7,9 @@ at a third of it (f_x 250 Hz: 500 lines a second, 20 x 16, y's period
 rounded to 85 ticks; six frames of 1360 ticks), for the cases open_loop,
 pi_notch, scan (PI inverse feedforward) and scan_rc (the inverse in series,
 plus repetitive control at each axis's period). The Lissajous run's
-repetitive controllers learn over its first frames; its last three frames
-are judged too, recomputed from scan.csv (every tick of a Lissajous frame is
-inside a pixel). The simulator is deterministic (seeded sensor noise),
+repetitive controllers learn over its first frames; its last frame
+(metrics.json tracking_last_frame, checked against scan.csv: every tick of a
+Lissajous frame is inside a pixel) is judged too. The simulator is deterministic (seeded sensor noise),
 so the bounds are the measured figures plus a few percent of themselves
 (compiler and libm differences), and they fail if the feedforward or the RC
 is removed (the orderings). Prints every figure (docs/scan.md's table).
@@ -77,7 +77,7 @@ def check(name, ok, detail=""):
 runs = {"raster": ["--pixels", "96x256", "--line-rate-hz", "75"], "spiral": ["--pixels", "64x64", "--line-rate-hz", "250"],
         "lissajous": ["--pixels", "20x16", "--line-rate-hz", "500", "--frames", "6"]}
 fig = {}
-last_frames = {}  # (pattern, case) -> (x, y): RMS % over the last three frames
+last_frames = {}  # (pattern, case) -> (x, y): RMS % over the last frame
 with tempfile.TemporaryDirectory() as tmp:
     for pattern, args in runs.items():
         for case in ("open_loop", "pi_notch", "scan", "scan_rc"):
@@ -115,12 +115,15 @@ with tempfile.TemporaryDirectory() as tmp:
             if pattern == "lissajous":
                 with open(os.path.join(out, "scan.csv")) as f:
                     rows = [line.split(",") for line in f.read().splitlines()[1:]]
-                n = 3 * round(m["frame_time_s"] * m["rate_Hz"])
-                check("lissajous: six frames recorded", len(rows) == 2 * n, len(rows))
+                n = round(m["frame_time_s"] * m["rate_Hz"])
+                check("lissajous: six frames recorded", len(rows) == 6 * n and m["last_frame"] == 5, len(rows))
                 rms = [(sum((float(r[1 + a]) - float(r[3 + a])) ** 2 for r in rows[-n:]) / n) ** 0.5 / 20.0 * 100.0
                        for a in (0, 1)]
-                last_frames[pattern, case] = tuple(rms)
-                print(f"{'':9} {case:9} last three frames: x {rms[0]:.2f} %, y {rms[1]:.2f} % (RMS)")
+                t = m["tracking_last_frame"]
+                check(f"lissajous {case}: tracking_last_frame as scan.csv's last frame",
+                      all(abs(t[f"rms_{x}_percent"] - v) <= 1e-4 * v for x, v in zip("xy", rms)), (t, rms))
+                last_frames[pattern, case] = (t["rms_x_percent"], t["rms_y_percent"])
+                print(f"{'':9} {case:9} last frame: x {t['rms_x_percent']:.2f} %, y {t['rms_y_percent']:.2f} % (RMS)")
 
 if len(fig) == 12:
     rx = lambda p, c: fig[p, c]["rms_x_percent"]
@@ -134,8 +137,8 @@ if len(fig) == 12:
     check("spiral scan_rc: rms x within 1 %", rx("spiral", "scan_rc") <= 1.0, rx("spiral", "scan_rc"))
     check("spiral scan_rc: rms y within 1 %", ry("spiral", "scan_rc") <= 1.0, ry("spiral", "scan_rc"))
     lx, ly = last_frames["lissajous", "scan_rc"]
-    check("lissajous scan_rc, last three frames: rms x within 1 %", lx <= 1.0, lx)
-    check("lissajous scan_rc, last three frames: rms y within 1 %", ly <= 1.0, ly)
+    check("lissajous scan_rc, last frame: rms x within 1 %", lx <= 1.0, lx)
+    check("lissajous scan_rc, last frame: rms y within 1 %", ly <= 1.0, ly)
     # The raster's x without RC is not met (docs/scan.md). Every figure is
     # held at today's (+ ~8 %) so that none regresses.
     bounds = {("raster", "scan_rc"): (0.56, 0.13), ("raster", "scan"): (1.17, 0.27),

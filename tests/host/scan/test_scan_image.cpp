@@ -83,10 +83,14 @@ TEST(ScanImage, IdealStage) {
     EXPECT_EQ(px.back().index, kPixels - 1u);
 
     const ScanMetrics m = compute_metrics(ticks, px, kRate_Hz, true);
-    EXPECT_EQ(m.rms_error_x_um, 0.0);
-    EXPECT_EQ(m.max_error_x_um, 0.0);
-    EXPECT_EQ(m.rms_error_y_um, 0.0);
+    EXPECT_EQ(m.tracking.rms_x_um, 0.0);
+    EXPECT_EQ(m.tracking.max_x_um, 0.0);
+    EXPECT_EQ(m.tracking.rms_y_um, 0.0);
     EXPECT_EQ(m.used_ticks, px.size() * L);
+    // The last of the two frames: half the pixels.
+    EXPECT_EQ(m.last_frame_index, 1u);
+    EXPECT_EQ(m.last_frame.used_ticks, px.size() / 2 * L);
+    EXPECT_EQ(m.last_frame.rms_x_um, 0.0);
     EXPECT_EQ(m.lines, std::size_t{2} * kLines);
     // Every line but the frames' last two (the frame turns there) lasts the
     // line period; within 1 / lines of the closed form.
@@ -122,9 +126,10 @@ TEST(ScanImage, ConstantLagShiftsTheCommandedImage) {
     const std::vector<ScanPixel> px = form_pixels(ticks);
     const ScanMetrics m = compute_metrics(ticks, px, kRate_Hz, true);
     // v L = (width / (P L)) L = one pixel width, float positions: 1e-5 µm.
-    EXPECT_NEAR(m.rms_error_x_um, kPixel_um, 1e-5);
-    EXPECT_NEAR(m.max_error_x_um, kPixel_um, 1e-5);
-    EXPECT_EQ(m.max_error_y_um, 0.0);
+    EXPECT_NEAR(m.tracking.rms_x_um, kPixel_um, 1e-5);
+    EXPECT_NEAR(m.tracking.max_x_um, kPixel_um, 1e-5);
+    EXPECT_EQ(m.tracking.max_y_um, 0.0);
+    EXPECT_NEAR(m.last_frame.rms_x_um, kPixel_um, 1e-5);  // the lag is the same in every frame
     EXPECT_LT(m.linearity_um, 1e-5);
 
     const GratingFit commanded = fit_grating(image(px, Placement::kCommanded));

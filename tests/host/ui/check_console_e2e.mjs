@@ -634,6 +634,9 @@ async function axesConsole() {
       check(drawn.length === 4 && JSON.stringify(drawn) === JSON.stringify(sizes), 'its four images drawn at their grids', JSON.stringify(drawn));
       const shown = await page.$eval('#scan-figures dd[data-key="rms_x_percent"]', (d) => JSON.parse(d.dataset.value));
       check(shown === res.tracking.rms_x_percent, 'the x error RMS shown is the result\'s', `${shown} vs ${res.tracking.rms_x_percent}`);
+      const shownLast = await page.$eval('#scan-figures dd[data-key="last_rms_y_percent"]', (d) => JSON.parse(d.dataset.value));
+      check(shownLast === res.tracking_last_frame.rms_y_percent, 'the last frame\'s y error RMS shown is the result\'s',
+            `${shownLast} vs ${res.tracking_last_frame.rms_y_percent}`);
       console.log(`figure: a 16 x 16 raster scanned from the page in ${((Date.now() - scanStarted) / 1000).toFixed(1)} s`);
       if (screenshot) {  // axes mode: the scan panel (docs/img/console_scan.png)
         await page.locator('#scan-panel').scrollIntoViewIfNeeded();
