@@ -99,6 +99,12 @@ with tempfile.TemporaryDirectory() as tmp:
                 # condition and the exact roots), the peak as scipy computes it
                 # (3e-10 apart here; 1e-6 allows for its 400 001-point grid).
                 rcs = m.get("rc_stability", {})
+                # The periods "auto" sets: a raster's line (266 ticks at
+                # 75.19 Hz), a spiral's turn (80), each Lissajous axis's own
+                # sinusoid (80 and 85).
+                periods = {"raster": (266, 266), "spiral": (80, 80), "lissajous": (80, 85)}[pattern]
+                check(f"{pattern} scan_rc: each axis's RC period", tuple(rcs.get(n, {}).get("period_ticks") for n in "xy")
+                      == periods, rcs)
                 for a, name in ((0, "x"), (1, "y")):
                     r = rcs.get(name)
                     check(f"{pattern} scan_rc: {name}'s RC analysed", r is not None, rcs)
