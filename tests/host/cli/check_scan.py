@@ -3,7 +3,8 @@
 spiral at 50 lines (turns) a second, far below the stage's first mode
 (750 Hz), in closed loop (the case pi_notch). Checks the files, every figure of metrics.json against a
 recomputation from scan.csv (pixels formed here anew: numpy), the grating's
-pitch at measured positions within 1 % of the sample's, the refusals (exit 2
+pitch at measured positions within 1 % of the sample's and, for the raster,
+at commanded positions the pitch its tracking error predicts, the refusals (exit 2
 naming the option, nothing written) and Ctrl-C (exit 4, what arrived
 written and marked incomplete).
 Usage: check_scan.py PIEZOLOOP_BINARY CONFIGS_DIR"""
@@ -51,7 +52,7 @@ def recompute(csv, rate, raster):
         used[k:k + m] = True
     ex = (d["commanded_x_um"] - d["measured_x_um"])[used]
     ey = (d["commanded_y_um"] - d["measured_y_um"])[used]
-    out = {"ticks": n, "used_ticks": int(used.sum()), "pixels": len(clocks),
+    out = {"ticks": n, "used_ticks": int(used.sum()), "pixels": len(clocks), "used": used,
            "rms_x_um": float(np.sqrt(np.mean(ex ** 2))), "max_x_um": float(np.max(np.abs(ex))),
            "rms_y_um": float(np.sqrt(np.mean(ey ** 2))), "max_y_um": float(np.max(np.abs(ey)))}
     starts = np.flatnonzero(sync & 2)
@@ -123,6 +124,17 @@ with tempfile.TemporaryDirectory() as tmp:
               m["pixels"])
         err = abs(m["pitch"]["measured_um"] / 2.0 - 1.0)
         check(f"{pattern}: pitch at measured positions within 1 %", err < 0.01, m["pitch"])
+        if pattern == "raster":
+            # At commanded positions the distortion the tracking error
+            # predicts: measured x ~ a * commanded x + b over the used ticks
+            # (least squares) puts a grating of pitch p at commanded
+            # positions p / a apart (0.03 % here; 1 % allowed).
+            d = np.genfromtxt(os.path.join(out, "scan.csv"), delimiter=",", names=True)
+            used = r["used"]
+            a = np.polyfit(d["commanded_x_um"][used], d["measured_x_um"][used], 1)[0]
+            predicted = m["pitch"]["measured_um"] / a
+            check("raster: pitch at commanded positions as the tracking error predicts",
+                  abs(m["pitch"]["commanded_um"] / predicted - 1.0) < 0.01, (m["pitch"]["commanded_um"], predicted, a))
         print(f"{pattern}: rms x {m['tracking']['rms_x_percent']:.2f} %, max x {m['tracking']['max_x_percent']:.2f} %,"
               f" pitch measured {m['pitch']['measured_um']:.4f} um, commanded {m['pitch']['commanded_um']:.4f} um")
 
