@@ -292,7 +292,7 @@ void analyse_scan(const ScanPlan& p, double rate, const std::string& stage, Scan
         {"complete", r.complete},
         {"approach_ticks", r.approach_ticks},
         {"ticks", m.ticks},
-        {"used_ticks", m.used_ticks},
+        {"used_ticks", m.tracking.used_ticks},
         {"pixels", m.pixels},
         {"lines", m.lines},
         {"tracking", tracking_json(m.tracking)},

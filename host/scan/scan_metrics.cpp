@@ -62,7 +62,6 @@ ScanMetrics compute_metrics(const std::vector<ScanTick>& ticks, const std::vecto
         for (std::size_t k = p.first_tick; k < p.first_tick + p.ticks; ++k) used[k] = 1;
 
     m.tracking = tracking_over(ticks, used, 0);
-    m.used_ticks = m.tracking.used_ticks;
 
     std::vector<std::size_t> line_starts, frame_starts;
     for (std::size_t k = 0; k < ticks.size(); ++k) {

@@ -32,8 +32,8 @@ struct ScanTracking {
 };
 
 struct ScanMetrics {
-    std::size_t ticks = 0, used_ticks = 0, pixels = 0, lines = 0;
-    ScanTracking tracking;         // the whole run
+    std::size_t ticks = 0, pixels = 0, lines = 0;
+    ScanTracking tracking;         // the whole run (its used_ticks: the scan's)
     ScanTracking last_frame;       // from the last frame clock (the whole run without one)
     std::size_t last_frame_index = 0;  // frames counted from 0
     double used_fraction = 0.0;  // NaN with fewer than two line clocks

@@ -10,9 +10,10 @@ namespace piezoloop::sim {
 
 namespace {
 
-design::RcConfig rc_config(const Scenario& s, const CaseSpec& c, double f_ref_Hz) {
+design::RcConfig rc_config(const Scenario& s, const CaseSpec& c, double f_ref_Hz, int max_exact_delay_states) {
     const double ts = 1.0 / s.rate_Hz;
     design::RcConfig rc;
+    rc.max_exact_delay_states = max_exact_delay_states;
     rc.period_samples = c.rc.period_samples != 0 ? c.rc.period_samples
                                                  : static_cast<int>(std::llround(s.rate_Hz / f_ref_Hz));
     rc.m1 = c.rc.rc.m1;
@@ -44,9 +45,7 @@ design::RcAnalysis lti_series_conditions(const Scenario& s, const CaseSpec& c, d
     g.gain *= c.feedback.error_per_um;
     const design::Zpk k = discretise(c.feedback.model->zpk, s.rate_Hz, c.feedback.method, c.feedback.prewarp_Hz, false,
                                      c.feedback.path + ".model");
-    design::RcConfig rc = rc_config(s, c, f_ref_Hz);
-    rc.max_exact_delay_states = max_exact;
-    return design::analyze_rc_loop_gain(design::zpk2ss(design::series(k, g)), rc);
+    return design::analyze_rc_loop_gain(design::zpk2ss(design::series(k, g)), rc_config(s, c, f_ref_Hz, max_exact));
 }
 
 }  // namespace
@@ -80,9 +79,7 @@ std::optional<design::RcAnalysis> rc_conditions(const Scenario& s, const CaseSpe
     // controller's error unit; g0' and the density enter through (15), (21).
     g.gain *= h.out_gain * c.feedback.error_per_um;
     const design::Ss l = design::zpk2ss(design::series(gc, g));
-    design::RcConfig rc = rc_config(s, c, f_ref_Hz);
-    rc.max_exact_delay_states = max_exact_delay_states;
-    return design::analyze_rc_loop_gain(l, rc, pi);
+    return design::analyze_rc_loop_gain(l, rc_config(s, c, f_ref_Hz, max_exact_delay_states), pi);
 }
 
 }  // namespace piezoloop::sim

@@ -86,7 +86,7 @@ TEST(ScanImage, IdealStage) {
     EXPECT_EQ(m.tracking.rms_x_um, 0.0);
     EXPECT_EQ(m.tracking.max_x_um, 0.0);
     EXPECT_EQ(m.tracking.rms_y_um, 0.0);
-    EXPECT_EQ(m.used_ticks, px.size() * L);
+    EXPECT_EQ(m.tracking.used_ticks, px.size() * L);
     // The last of the two frames: half the pixels.
     EXPECT_EQ(m.last_frame_index, 1u);
     EXPECT_EQ(m.last_frame.used_ticks, px.size() / 2 * L);
