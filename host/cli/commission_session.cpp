@@ -198,6 +198,7 @@ std::string report_md(const CommissionSession& a, const std::string& stage, doub
              fmt(v.measured.e_rms_pct, 3) + " % | " + fmt(v.predicted.e_rms_pct, 3) + " % | " +
              (v.measured.hysteresis_pct >= 0.0 ? fmt(v.measured.hysteresis_pct, 3) + " %" : "–") + " | " +
              v.measured.trip + " |\n";
+    if (!c.fastest_text.empty()) t += "\nFastest triangle: " + c.fastest_text + ".\n";
     t += "\nThe identified stage is a linear model: the stage's hysteresis is in the measured figures, not in the "
          "predicted ones.\n\nThe chosen controller is in controller.json (e in µm -> u in V; `error_per_um` 1); "
          "scenario.json is the identified stage with it as case `commissioned` (`piezoloop sim --scenario "
@@ -353,6 +354,11 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
                          {"measured", tracking_json(r.measured)},
                          {"predicted", tracking_json(r.predicted)}});
         out["verification"] = v;
+        if (c.fastest)
+            out["fastest_triangle"] = {{"within_pct", c.fastest->tolerance_pct},
+                                     {"up_to_Hz", c.fastest->up_to_Hz},
+                                     {"at_least", c.fastest->at_least},
+                                     {"text", c.fastest_text}};
         if (!c.verified()) out["verification_failure"] = c.verification_failure;
         json m = design::to_json(k.controller);
         m["description"] = "commissioned by piezoloop commission on " + stage->describe() + ": " + k.name + " (" +

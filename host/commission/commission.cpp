@@ -157,6 +157,29 @@ std::vector<Candidate> design_candidates(const design::Zpk& gn, double dc_gain_u
     return out;
 }
 
+// The fastest whole-range triangle within 1 %, from the verification's runs
+// after the check (each over the whole range), and, when a 10 Hz one is not
+// within it, what bounds the loop: its bandwidth, and the first design for a
+// higher one that the measurement refused.
+void describe_fastest_triangle(Commissioning& c, const Candidate& chosen) {
+    std::vector<TrackingPoint> whole;
+    for (std::size_t i = 1; i < c.verification.size(); ++i)
+        whole.push_back({c.verification[i].request.frequency_Hz, c.verification[i].measured.e_max_pct});
+    if (whole.empty()) return;
+    c.fastest = fastest_triangle(whole);
+    c.fastest_text = describe(*c.fastest, whole);
+    if (c.fastest->at_least || c.fastest->up_to_Hz >= 10.0) return;
+    const double bandwidth_Hz = c.measured_bandwidth_Hz > 0.0 ? c.measured_bandwidth_Hz : c.bandwidth_Hz;
+    c.fastest_text += ": the loop's bandwidth (" + num(bandwidth_Hz) +
+                      " Hz) sets it, a triangle's turns leaving an error of about its change of slope over the bandwidth";
+    for (const Candidate& k : c.candidates)
+        if (!k.passes && k.design_crossover_Hz > chosen.design_crossover_Hz) {
+            c.fastest_text += "; the design for " + num(k.design_crossover_Hz) + " Hz (" + k.name + ") was refused: " + k.refusal;
+            break;
+        }
+    c.fastest_text += ". Slower triangles, or repetitive control for a periodic scan (docs/scan.md), track closer";
+}
+
 // T = L / (1 + L) on the measured open-loop lines.
 std::vector<design::cplx> complementary_sensitivity(const design::MeasuredLoop& m) {
     std::vector<design::cplx> t;
@@ -814,6 +837,8 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     verify({10.0, r.range_um, c.centre_um});
     const double achieved_Hz = c.measured_bandwidth_Hz > 0.0 ? c.measured_bandwidth_Hz : c.bandwidth_Hz;
     if (achieved_Hz > 0.0) verify({0.1 * achieved_Hz, r.range_um, c.centre_um});
+    describe_fastest_triangle(c, k);
+    if (!c.fastest_text.empty()) say(c, c.fastest_text);
     say(c, c.verified() ? "verified: every run within 2x its prediction + 2 %"
                         : "verification failed: " + c.verification_failure);
     return c;

@@ -76,6 +76,7 @@
 #include "analysis/measured_loop.hpp"
 #include "commission/identified_stage.hpp"
 #include "commission/stage_access.hpp"
+#include "commission/fastest_triangle.hpp"
 #include "commission/uncertainty_weight.hpp"
 #include "lti/lti.hpp"
 #include "measure/frf_plan.hpp"
@@ -204,6 +205,10 @@ struct Commissioning {
     // Every run on the stage within 2x its prediction + 2 % of its range, no
     // trip; otherwise why not (the result is then not kept).
     std::string verification_failure;
+    // The fastest whole-range triangle within 1 % (fastest_triangle.hpp), and
+    // when the 10 Hz one is not, what bounds the loop's bandwidth.
+    std::optional<FastestTriangle> fastest;
+    std::string fastest_text;
     bool verified() const { return chosen >= 0 && verification_failure.empty(); }
     std::vector<std::string> log;  // what was done, in order
 };

@@ -15,6 +15,7 @@ options for a board only are refused on the simulator.
 Usage: check_commission.py PIEZOLOOP_BINARY CONFIGS_DIR
 """
 import json
+import math
 import os
 import subprocess
 import sys
@@ -97,6 +98,27 @@ for stage, range_um, limit in stages:
           (stage, e, limit, whole, r.stderr[-300:]))
     print("%s: %s, e_max %.3g %% (10 Hz, half the range), %.3g %% (1 Hz, whole range), %.1f s" %
           (stage, s.get("chosen"), e, whole, s.get("wall_s", 0)))
+    # The fastest whole-range triangle within 1 %, recomputed from the
+    # whole-range runs: the last run within 1 % and the next one joined by a
+    # power law, e = e_a (f / f_a)^k.
+    runs = sorted((x["frequency_Hz"], x["measured"]["e_max_pct"]) for x in v[1:])
+    if r.returncode == 0 and runs:
+        fastest = s.get("fastest_triangle", {})
+        within = [i for i, (_, e_i) in enumerate(runs) if e_i <= 1.0]
+        if not within or within[0] != 0:
+            want, at_least = 0.0, False
+        elif within[-1] == len(runs) - 1:
+            want, at_least = runs[-1][0], True
+        else:
+            (fa, ea), (fb, eb) = runs[within[-1]], runs[within[-1] + 1]
+            ea = max(ea, 1e-3)
+            want, at_least = fa * (1.0 / ea) ** (math.log(fb / fa) / math.log(eb / ea)), False
+        check(fastest.get("within_pct") == 1 and fastest.get("at_least") == at_least and
+              abs(fastest.get("up_to_Hz", -1) - want) <= 1e-9 * max(want, 1.0) and
+              "triangles over the whole range" in fastest.get("text", "") and
+              ("Fastest triangle: " + fastest.get("text", "")) in open(os.path.join(o, "report.md")).read(),
+              "%s: fastest triangle %r, recomputed %.6g Hz (at least: %s)" % (stage, fastest, want, at_least))
+        print("  %s" % fastest.get("text"))
 
 # The travel is the large-signal loop's, not the small-signal step's: the
 # strongly hysteretic stage's step gain (about 4 um/V over 10 V) would admit
