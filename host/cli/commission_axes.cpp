@@ -102,7 +102,8 @@ json coupling_change(const std::vector<std::string>& names, const measure::MimoF
 std::string axes_table_md(const std::vector<std::string>& names, const std::map<std::string, double>& range_um,
                           const json& per_axis) {
     std::ostringstream md;
-    md << "| axis | range (um) | chosen | verified | bandwidth (Hz) | report |\n|---|---|---|---|---|---|\n";
+    md << "| axis | range (um) | chosen | verified | bandwidth (Hz) | whole-range triangle within 1 % up to (Hz) | report |\n"
+          "|---|---|---|---|---|---|---|\n";
     for (const std::string& x : names) {
         const json& r = per_axis[x];
         md << "| " << x << " | " << format::significant(range_um.at(x), 4) << " | "
@@ -112,6 +113,11 @@ std::string axes_table_md(const std::vector<std::string>& names, const std::map<
                    ? format::significant(r["bandwidth_Hz"].get<double>(), 4)
                : r.contains("bandwidth_above_Hz")
                    ? "> " + format::significant(r["bandwidth_above_Hz"].get<double>(), 4)
+                   : std::string("-"))
+           << " | "
+           << (r.contains("fastest_triangle")
+                   ? (r["fastest_triangle"].value("at_least", false) ? ">= " : "") +
+                         format::significant(r["fastest_triangle"]["up_to_Hz"].get<double>(), 3)
                    : std::string("-"))
            << " | " << x << "/report.md |\n";
     }

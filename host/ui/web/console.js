@@ -1108,7 +1108,8 @@ function showAxesCommissionResult(res) {
     (res.on === 'simulator' ? ' (on the simulated stage; nothing was loaded on the board)' : res.saved ? '; saved on the board' : '; not saved');
   v.className = res.verified && res.decoupled ? 'verified' : 'failed';
   table($('commission-axes'), names.map((a) => ({ axis: a, ...res.axes[a] })), [['axis', 'axis'], ['range (µm)', 'range_um'], ['chosen', 'chosen'],
-    ['verified', 'verified'], ['bandwidth (Hz)', 'bandwidth_Hz'], ['|T| above -3 dB up to (Hz)', 'bandwidth_above_Hz'], ['centre (µm)', 'centre_um']]);
+    ['verified', 'verified'], ['bandwidth (Hz)', 'bandwidth_Hz'], ['|T| above -3 dB up to (Hz)', 'bandwidth_above_Hz'],
+    ['whole-range triangle within 1 % up to (Hz)', 'fastest_triangle.up_to_Hz'], ['centre (µm)', 'centre_um']]);
   const c = res.coupling || {};
   table($('commission-coupling'), Object.keys(c.before_db || {}).map((pair) => ({ pair, before: c.before_db[pair], after: (c.after_db || {})[pair], reduction: (c.reduction_db || {})[pair] })),
     [['coupling', 'pair'], ['before (dB)', 'before'], ['after (dB)', 'after'], ['reduction (dB)', 'reduction']]);
@@ -1118,6 +1119,7 @@ function showAxesCommissionResult(res) {
     without: held(checks[a].cross_motion_pct_without_decoupling) })),
   [[`${(res.check || {}).frequency_Hz} Hz triangle on`, 'driven'], ['e_max (%)', 'e_max_pct'], ['held axes move (% of range)', 'held'], ['without the matrix', 'without']]);
   for (const id of ['commission-safety', 'commission-fits', 'commission-candidates', 'commission-verification']) $(id).replaceChildren();
+  $('commission-fastest').textContent = '';
 }
 
 function showCommissionResult(res) {
@@ -1143,6 +1145,7 @@ function showCommissionResult(res) {
   table($('commission-verification'), res.verification || [], [['triangle (Hz)', 'frequency_Hz'], ['range (µm)', 'range_um'],
     ['e_max measured (%)', 'measured.e_max_pct'], ['predicted (%)', 'predicted.e_max_pct'], ['e_rms measured (%)', 'measured.e_rms_pct'],
     ['predicted (%)', 'predicted.e_rms_pct'], ['trip', 'measured.trip']]);
+  $('commission-fastest').textContent = res.fastest_triangle ? `Fastest triangle: ${res.fastest_triangle.text}.` : '';
   showCommissionFigures(res);
 }
 

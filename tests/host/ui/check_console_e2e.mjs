@@ -504,6 +504,9 @@ async function commissionFromPage(page, context, url) {
   }
   const verdict = await page.textContent('#commission-verdict');
   check(res.chosen && verdict.includes(`chosen: ${res.chosen}`) && verdict.includes(res.verified ? 'verified' : 'not verified'), 'the verdict names the chosen candidate and the verification', verdict);
+  const fastest = await page.textContent('#commission-fastest');
+  check(res.fastest_triangle && fastest === `Fastest triangle: ${res.fastest_triangle.text}.` && res.report_md.includes(fastest),
+    'the fastest whole-range triangle within 1 % is the server\'s, as in report.md', fastest);
   const report = await page.textContent('#commission-report');
   check(report === res.report_md && report.includes('# piezoloop commission'), 'the page holds the server\'s report.md');
   const images = await page.$$eval('#commission-figures img', (imgs) => imgs.map((i) => ({ alt: i.alt, ok: i.complete && i.naturalWidth > 0 })));
@@ -729,9 +732,12 @@ async function commissionAxesFromPage(page, token) {
     'commission --axes all from the page: x, y and z verified and decoupled on the simulated stage', JSON.stringify({ names, verified: res.verified, decoupled: res.decoupled }));
   const chosen = await page.$$eval('#commission-axes td[data-key="chosen"]', (tds) => tds.map((td) => JSON.parse(td.dataset.value)));
   const reductions = await page.$$eval('#commission-coupling td[data-key="reduction"]', (tds) => tds.map((td) => JSON.parse(td.dataset.value)));
+  const fastest = await page.$$eval('#commission-axes td[data-key="fastest_triangle.up_to_Hz"]', (tds) => tds.map((td) => JSON.parse(td.dataset.value)));
   check(JSON.stringify(chosen) === JSON.stringify(names.map((a) => res.axes[a].chosen)) &&
+    JSON.stringify(fastest) === JSON.stringify(names.map((a) => res.axes[a].fastest_triangle.up_to_Hz)) &&
     JSON.stringify(reductions) === JSON.stringify(Object.keys(res.coupling.before_db).map((pair) => res.coupling.reduction_db[pair] ?? null)),
-  'the page\'s tables are the result\'s: each axis\'s controller and the coupling\'s reduction per pair', JSON.stringify({ chosen, reductions }));
+  'the page\'s tables are the result\'s: each axis\'s controller, its fastest triangle within 1 % and the coupling\'s reduction per pair',
+  JSON.stringify({ chosen, fastest, reductions }));
   const figures = await page.evaluate(async ([t, fs]) => Promise.all(fs.map(async (f) => {
     const r = await fetch(`/api/commission/figure/${f}?token=${t}`);
     return [f, r.status, r.headers.get('content-type')];
