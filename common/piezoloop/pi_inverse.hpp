@@ -49,6 +49,8 @@ constexpr Status invert_pi(const PiModel& fwd, PiModel& inv) {
     if (const Status s = validate(fwd); !s.ok()) return s;
     if (fwd.input_gain != 1.0f || fwd.input_offset != 0.0f)
         return error("input_gain", "the analytic inverse needs the plain model (gain 1, offset 0)");
+    if (fwd.dead_zones != 0)
+        return error("dead_zones", "the analytic inverse needs the plain model (no input dead zones)");
     if (!(fwd.p0 > 0.0f))
         return error("p0", 0, "segment 0: slope p0 must be > 0 for the model to be invertible");
     PiModel out{};

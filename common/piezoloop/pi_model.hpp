@@ -1,9 +1,14 @@
 // Prandtl–Ishlinskii (PI) model (docs/models.md, 'Prandtl–Ishlinskii model'):
 // a weighted sum of play operators.
 //
-//     f = input_gain * x + input_offset           (Shan2012's affine input)
+//     g(x) = x + sum_i dead_zone_weights[i] * max(x - dead_zone_thresholds[i], 0)
+//     f = input_gain * g(x) + input_offset        (Shan2012's affine input)
 //     y = p0 * f + sum_j weights[j] * F_{thresholds[j]}[f]
 //
+// g, a superposition of one-sided dead zones (none by default: g(x) = x),
+// is the compensator of Kuhnen's modified PI model y = S(c + PI[u]): S's
+// inverse on the reference, then the PI inverse (K. Kuhnen, European Journal
+// of Control 9(4), 2003; docs/identification.md).
 // The plain model of Janaideh2016 has input_gain 1 and offset 0. The same
 // structure evaluates the analytic inverse (another PI model, pi_inverse.hpp)
 // and Shan2012's generalised forward model and fitted inverse
@@ -24,6 +29,7 @@
 namespace piezoloop {
 
 inline constexpr int kMaxPlayOperators = 16;
+inline constexpr int kMaxDeadZones = 8;
 
 struct PiModel {
     float input_gain = 1.0f;
@@ -32,6 +38,9 @@ struct PiModel {
     int count = 0;    // number of play operators, 0..kMaxPlayOperators
     std::array<float, kMaxPlayOperators> thresholds{};  // ascending, >= 0, units of f
     std::array<float, kMaxPlayOperators> weights{};     // may be negative
+    int dead_zones = 0;  // of the input map g, 0..kMaxDeadZones; 0: g(x) = x
+    std::array<float, kMaxDeadZones> dead_zone_thresholds{};  // strictly ascending, units of x
+    std::array<float, kMaxDeadZones> dead_zone_weights{};     // g's slope 1 + the weights so far stays > 0
     bool operator==(const PiModel&) const = default;
 };
 
@@ -50,7 +59,32 @@ constexpr Status validate(const PiModel& m) {
         if (!is_finite(m.weights[static_cast<unsigned>(j)]))
             return error("weights", j, "must be finite");
     }
+    if (m.dead_zones < 0 || m.dead_zones > kMaxDeadZones) return error("dead_zones", "must be in [0, 8]");
+    double slope = 1.0;
+    for (int i = 0; i < m.dead_zones; ++i) {
+        const unsigned k = static_cast<unsigned>(i);
+        const float d = m.dead_zone_thresholds[k];
+        if (!is_finite(d)) return error("dead_zone_thresholds", i, "must be finite");
+        if (i > 0 && !(d > m.dead_zone_thresholds[k - 1]))
+            return error("dead_zone_thresholds", i, "must be strictly ascending");
+        if (!is_finite(m.dead_zone_weights[k])) return error("dead_zone_weights", i, "must be finite");
+        slope += static_cast<double>(m.dead_zone_weights[k]);
+        if (!(slope > 0.0))
+            return error("dead_zone_weights", i, "must keep the input map increasing: 1 + the weights up to it > 0");
+    }
     return ok_status();
+}
+
+// g(x) of the input map in float, in threshold order: the arithmetic the
+// float operator runs.
+inline float dead_zone_map(const PiModel& m, float x) {
+    float g = x;
+    for (int i = 0; i < m.dead_zones; ++i) {
+        const unsigned k = static_cast<unsigned>(i);
+        const float e = x - m.dead_zone_thresholds[k];
+        if (e > 0.0f) g = g + m.dead_zone_weights[k] * e;
+    }
+    return g;
 }
 
 // Initial loading curve phi(r) = p0 r + sum_{r_i <= r} p_i (r - r_i), in f.
@@ -85,7 +119,7 @@ public:
     Status configure(const PiModel& m, SignalScale /*in*/ = {}, SignalScale /*out*/ = {}) {
         if (const Status s = validate(m); !s.ok()) return s;
         model_ = m;
-        identity_input_ = m.input_gain == 1.0f && m.input_offset == 0.0f;
+        identity_input_ = m.input_gain == 1.0f && m.input_offset == 0.0f && m.dead_zones == 0;
         groups_ = {};
         for (int j = 0; j < m.count; ++j) {
             const unsigned i = static_cast<unsigned>(j);
@@ -132,7 +166,7 @@ private:
         const PiModel& m = p.model_;
         // The plain model (Janaideh2016) plays x itself: no multiply and add
         // on the simulated loop's dependency chain for the stage's model.
-        const float f = p.identity_input_ ? x : m.input_gain * x + m.input_offset;
+        const float f = p.identity_input_ ? x : m.input_gain * p.mapped_input(x) + m.input_offset;
         float lane[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         int j0 = 0;
 #if PIEZOLOOP_FPV5
@@ -235,8 +269,15 @@ private:
         return {&apply_n<static_cast<int>(N)>...};
     }
 
+    // x through the input map g; x itself without dead zones (one
+    // well-predicted branch on the affine input's path only).
+    float mapped_input(float x) const {
+        if (model_.dead_zones > 0) [[unlikely]] return dead_zone_map(model_, x);
+        return x;
+    }
+
     PiModel model_{};
-    bool identity_input_ = true;  // input_gain 1, input_offset 0: f = x
+    bool identity_input_ = true;  // input_gain 1, input_offset 0, no dead zones: f = x
     std::array<Group, kMaxPlayOperators / 4> groups_{};
 };
 
@@ -269,7 +310,27 @@ public:
         input_exponent_ = block_exponent(&a, 1);
         input_gain_ = quantize_mantissa(a, input_exponent_);
         input_offset_ = Q31::from_double(static_cast<double>(m.input_offset) / in.full_scale);
-        identity_input_ = m.input_gain == 1.0f && m.input_offset == 0.0f;
+        identity_input_ = m.input_gain == 1.0f && m.input_offset == 0.0f && m.dead_zones == 0;
+        // The input map, scaled by the input gain: input_gain * x and
+        // input_gain * q_i with one block exponent; thresholds as Q31 samples,
+        // so inside the input's full scale.
+        zones_ = m.dead_zones;
+        if (zones_ > 0) {
+            std::array<double, kMaxDeadZones + 1> z{};
+            z[0] = a;
+            for (int i = 0; i < zones_; ++i) {
+                const unsigned k = static_cast<unsigned>(i);
+                const double d = static_cast<double>(m.dead_zone_thresholds[k]) / in.full_scale;
+                if (!(d > -1.0 && d < 1.0))
+                    return error("dead_zone_thresholds", i, "must be within the input's full scale in Q31");
+                zone_d_[k] = Q31::from_double(d).raw();
+                z[k + 1] = a * static_cast<double>(m.dead_zone_weights[k]);
+            }
+            zone_exponent_ = block_exponent(z.data(), zones_ + 1);
+            zone_gain_ = quantize_mantissa(z[0], zone_exponent_);
+            for (int i = 0; i < zones_; ++i)
+                zone_m_[static_cast<unsigned>(i)] = quantize_mantissa(z[static_cast<unsigned>(i) + 1], zone_exponent_);
+        }
         reset();
         return ok_status();
     }
@@ -284,8 +345,10 @@ private:
     template <int N>
     static Q31 apply_n(PiOperator& p, Q31 x) {
         Q31 f = x;
-        if (!p.identity_input_)
-            f = q31_from_accumulator(int64_t{p.input_gain_} * x.raw(), p.input_exponent_) + p.input_offset_;
+        if (!p.identity_input_) {
+            if (p.zones_ > 0) [[unlikely]] f = p.mapped_input(x) + p.input_offset_;
+            else f = q31_from_accumulator(int64_t{p.input_gain_} * x.raw(), p.input_exponent_) + p.input_offset_;
+        }
         int64_t acc = int64_t{p.p0_} * f.raw();
 #pragma GCC unroll 16
         for (int j = 0; j < N; ++j) {
@@ -308,10 +371,28 @@ private:
     std::array<int32_t, kMaxPlayOperators> p_{};
     std::array<Q31, kMaxPlayOperators> r_{};
     std::array<Q31, kMaxPlayOperators> w_{};
+    // input_gain * g(x), halved in the accumulator: |x - d_i| < 2^32 and
+    // the mantissas' sum of magnitudes about 2^31, so the halved terms'
+    // sum stays below 2^62 (one LSB of the input lost to the halving).
+    Q31 mapped_input(Q31 x) const {
+        int64_t acc = (int64_t{zone_gain_} * x.raw()) >> 1;
+        for (int i = 0; i < zones_; ++i) {
+            const unsigned k = static_cast<unsigned>(i);
+            const int64_t e = int64_t{x.raw()} - zone_d_[k];
+            if (e > 0) acc += int64_t{zone_m_[k]} * (e >> 1);
+        }
+        return q31_from_accumulator(acc, zone_exponent_ + 1);
+    }
+
     bool identity_input_ = true;
     int input_exponent_ = 0;
     int32_t input_gain_ = 0;
     Q31 input_offset_{};
+    int zones_ = 0;
+    int zone_exponent_ = 0;
+    int32_t zone_gain_ = 0;
+    std::array<int32_t, kMaxDeadZones> zone_m_{};
+    std::array<int32_t, kMaxDeadZones> zone_d_{};
 };
 
 // Defined after the classes: the dispatch tables need them complete.

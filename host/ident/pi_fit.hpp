@@ -137,6 +137,10 @@ struct PiFitResult {
     // u = PI^-1(g(y_desired) - offset), the inverse PI from invert_pi run from
     // rest. Throws std::invalid_argument when the model is not invertible.
     std::vector<double> invert(std::span<const double> y_desired) const;
+    // The same compensator as the core runs it (PiModel): the input map g
+    // as dead zones, the input offset -offset, the analytic PI inverse.
+    // Throws std::invalid_argument when the model is not invertible.
+    PiModel compensator() const;
 };
 
 // Play output F_r[u] with w = 0 before the first sample, in double.

@@ -132,22 +132,25 @@ public:
     }
     void begin(const char* name) { prefix_.push_back(std::string(name) + "."); }
     void end() { prefix_.pop_back(); }
+    // Counted fields travel after their count: named by the latest one.
     template <class C>
     void count(const Field& f, const C&) {
         row(f, params::wire_name(f.wire));
+        count_name_ = f.name;
     }
     template <class X, std::size_t N, class C>
     void values(const Field& f, const std::array<X, N>&, const C&, Travel t) {
-        row(f, std::string(params::wire_name(f.wire)) + (t == Travel::kAll ? "[" + std::to_string(N) + "]" : "[count]"));
+        row(f, std::string(params::wire_name(f.wire)) + (t == Travel::kAll ? "[" + std::to_string(N) + "]" : "[" + count_name_ + "]"));
     }
     template <class S, std::size_t N, class C>
     void objects(const char* name, const std::array<S, N>& a, const C&, Travel t) {
-        prefix_.push_back(std::string(name) + (t == Travel::kAll ? "[" + std::to_string(N) + "]." : "[count]."));
+        prefix_.push_back(std::string(name) + (t == Travel::kAll ? "[" + std::to_string(N) + "]." : "[" + count_name_ + "]."));
         params::describe(*this, a[0]);
         prefix_.pop_back();
     }
 
 private:
+    std::string count_name_ = "count";
     void row(const Field& f, const std::string& wire) {
         std::string path;
         for (const std::string& p : prefix_) path += p;
@@ -177,7 +180,10 @@ std::string group_table() {
     params::describe(w, g);
     const params::LayoutSize size = params::layout_size<G>();
     std::string size_text = std::to_string(size.fixed + 2);  // + the group id and axis bytes
-    if (size.per_count != 0) size_text += " + " + std::to_string(size.per_count) + "·count";
+    for (int i = 0; i < size.count_fields; ++i) {
+        const params::LayoutSize::Counted& c = size.counts[static_cast<std::size_t>(i)];
+        if (c.per_element != 0) size_text += " + " + std::to_string(c.per_element) + "·" + c.name;
+    }
     return "**" + std::to_string(static_cast<int>(G::kGroup)) + " " + params::group_name(G::kGroup) + "** (" + size_text +
            " bytes with the group id and the axis; " + (params::board_group(G::kGroup) ? "the board's" : "per axis") +
            ")\n\n| field | wire | unit | allowed | limit-critical | description |\n"

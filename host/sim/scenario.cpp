@@ -317,7 +317,7 @@ FeedforwardSpec parse_feedforward(const Field& f) {
     } else if (s.kind == "pi_compensator") {
         // A compensator given directly, r (µm) -> u (V); in series, after a
         // feedback whose output is in µm.
-        f.only({"kind", "thresholds_um", "weights_V_per_um", "p0_V_per_um", "input_offset_um", "placement"});
+        f.only({"kind", "thresholds_um", "weights_V_per_um", "p0_V_per_um", "input_offset_um", "dead_zones", "placement"});
         if (const auto p = f.get("placement")) s.placement = p->choice({"feedforward", "series"});
         const std::vector<double> r = f["thresholds_um"].numbers();
         const std::vector<double> p = f["weights_V_per_um"].numbers();
@@ -328,6 +328,22 @@ FeedforwardSpec parse_feedforward(const Field& f) {
         f.check(pi_model_from_lists(rf.data(), pf.data(), static_cast<int>(rf.size()), &p0, s.pi));
         // Added to r before the operators (a model's output offset taken off).
         if (const auto o = f.get("input_offset_um")) s.pi.input_offset = f32(o->number_in(-1e4, 1e4));
+        // Kuhnen's modified PI: the inverse of the output map on r first,
+        // g(r) = r + sum_i q_i max(r - d_i, 0) (identify pi's
+        // output_nonlinearity.inverse).
+        if (const auto z = f.get("dead_zones")) {
+            z->only({"thresholds_um", "weights"});
+            const std::vector<double> d = (*z)["thresholds_um"].numbers();
+            const std::vector<double> q = (*z)["weights"].numbers();
+            if (d.size() != q.size()) (*z)["weights"].fail("must have as many entries as thresholds_um");
+            if (d.empty() || d.size() > static_cast<size_t>(kMaxDeadZones)) (*z)["thresholds_um"].fail("must hold 1 to 8 dead zones");
+            s.pi.dead_zones = static_cast<int>(d.size());
+            for (size_t i = 0; i < d.size(); ++i) {
+                s.pi.dead_zone_thresholds[i] = f32(d[i]);
+                s.pi.dead_zone_weights[i] = f32(q[i]);
+            }
+            f.check(validate(s.pi));
+        }
     } else {
         f.only({"kind", "params", "identify"});
         const auto params = f.get("params");

@@ -4,8 +4,11 @@
 // tools/ref/pi_ref.py, and the identity inverse(forward(u)) = u.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -265,4 +268,100 @@ TEST(Shan2012, DensityUsesDeterministicExp) {
     ASSERT_TRUE(shan_forward_model(kShan2012Forward, fwd).ok());
     EXPECT_NEAR(fwd.weights[0], 0.0211 * std::exp(5.0194 * 0.1079), 1e-7);
     EXPECT_FLOAT_EQ(fwd.input_gain, 0.8331f);
+}
+
+// The input map of Kuhnen's modified PI compensator, g(x) = x + sum_i q_i
+// max(x - d_i, 0), ahead of the affine input and the plays: against the
+// direct formula in double (float's rounding: 1e-5 relative), Q31 against
+// float, the plain model's arithmetic untouched, bad maps refused by name.
+namespace {
+PiModel with_zones(PiModel m) {
+    m.input_gain = 0.8f;
+    m.input_offset = 0.3f;
+    m.dead_zones = 3;
+    m.dead_zone_thresholds = {-2.0f, 1.0f, 4.0f};
+    m.dead_zone_weights = {0.5f, -0.9f, 1.2f};  // slopes 1.5, 0.6, 1.8
+    return m;
+}
+double direct_map(const PiModel& m, double x) {
+    double g = x;
+    for (int i = 0; i < m.dead_zones; ++i)
+        g += m.dead_zone_weights[static_cast<unsigned>(i)] *
+             std::max(x - m.dead_zone_thresholds[static_cast<unsigned>(i)], 0.0);
+    return g;
+}
+}  // namespace
+
+TEST(PiModel, DeadZoneInputMapMatchesDirectFormula) {
+    const PiModel m = with_zones(set15());
+    ASSERT_TRUE(validate(m).ok());
+    // The map's breakpoints by hand: g(-2) = -2, g(1) = -2 + 1.5 * 3 = 2.5,
+    // g(4) = 2.5 + 0.6 * 3 = 4.3, then slope 1.8.
+    EXPECT_FLOAT_EQ(dead_zone_map(m, -3.0f), -3.0f);
+    EXPECT_FLOAT_EQ(dead_zone_map(m, 1.0f), 2.5f);
+    EXPECT_FLOAT_EQ(dead_zone_map(m, 4.0f), 4.3f);
+    EXPECT_FLOAT_EQ(dead_zone_map(m, 5.0f), 6.1f);
+    PiOperator<float> op;
+    ASSERT_TRUE(op.configure(m).ok());
+    PiModel plain_affine = m;  // the same model fed g(x) by hand
+    plain_affine.dead_zones = 0;
+    std::vector<double> w(16, 0.0);
+    double worst = 0.0;
+    for (int k = 0; k < 4000; ++k) {
+        const double x = 6.0 * std::sin(2.0 * std::numbers::pi * k / 997.0) + 1.5 * std::sin(2.0 * std::numbers::pi * k / 131.0);
+        const double y = op.apply(static_cast<float>(x));
+        const double want = direct_forward(plain_affine, w, direct_map(m, static_cast<float>(x)));
+        worst = std::max(worst, std::fabs(y - want) / (1.0 + std::fabs(want)));
+    }
+    EXPECT_LT(worst, 1e-5);
+}
+
+TEST(PiModel, DeadZoneMapQ31MatchesFloat) {
+    // Input 10 V and output 50 um full scale as above; the map's thresholds
+    // inside the input scale. The map adds its rounding (one LSB of the
+    // input, halved accumulator) times the plays' L1 norm: within the same
+    // float-limited 1000 LSB.
+    const PiModel m = with_zones(set15());
+    PiOperator<float> f_op;
+    PiOperator<Q31> q_op;
+    const SignalScale in{10.0f}, out{50.0f};
+    ASSERT_TRUE(f_op.configure(m).ok());
+    ASSERT_TRUE(q_op.configure(m, in, out).ok());
+    double worst_lsb = 0.0;
+    for (int k = 0; k < 4000; ++k) {
+        const double x = 6.0 * std::sin(2.0 * std::numbers::pi * k / 997.0) + 1.5 * std::sin(2.0 * std::numbers::pi * k / 131.0);
+        const Q31 xq = in.to_sample<Q31>(static_cast<float>(x));
+        const double yf = f_op.apply(in.to_physical(xq));
+        const double yq = out.to_physical(q_op.apply(xq));
+        worst_lsb = std::max(worst_lsb, std::fabs(yq - yf) / (50.0 / 2147483648.0));
+    }
+    EXPECT_LT(worst_lsb, 1000.0);
+    // A threshold beyond the input's full scale cannot be a Q31 sample.
+    PiModel far = m;
+    far.dead_zone_thresholds[2] = 12.0f;
+    const Status s = q_op.configure(far, in, out);
+    EXPECT_STREQ(s.field, "dead_zone_thresholds");
+    EXPECT_EQ(s.index, 2);
+}
+
+TEST(PiModel, DeadZonesValidateNamesField) {
+    PiModel m = with_zones(set15());
+    m.dead_zones = 9;
+    EXPECT_STREQ(validate(m).field, "dead_zones");
+    m = with_zones(set15());
+    m.dead_zone_thresholds[2] = 0.5f;
+    EXPECT_STREQ(validate(m).field, "dead_zone_thresholds");
+    EXPECT_EQ(validate(m).index, 2);
+    m = with_zones(set15());
+    m.dead_zone_weights[1] = -1.5f;  // slope 1.5 - 1.5 = 0 after threshold 1
+    EXPECT_STREQ(validate(m).field, "dead_zone_weights");
+    EXPECT_EQ(validate(m).index, 1);
+    m = with_zones(set15());
+    m.dead_zone_weights[0] = NAN;
+    EXPECT_STREQ(validate(m).field, "dead_zone_weights");
+    // The analytic inverse is of the plain model only.
+    PiModel inv;
+    PiModel plain = set15();
+    plain.dead_zones = 1;
+    EXPECT_STREQ(invert_pi(plain, inv).field, "dead_zones");
 }

@@ -44,7 +44,7 @@ import time
 import zlib
 
 PROFILE_ADDRESS = 0x003FFC00  # common/piezoloop/emulation_profile.hpp
-VERSION = 6
+VERSION = 7
 
 T_HELLO, T_STATUS, T_GET, T_SET, T_ARM, T_DISARM = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 T_START_WAVE, T_STOP_WAVE, T_REC_ARM, T_REC_STOP = 0x08, 0x09, 0x0D, 0x0E
@@ -477,7 +477,7 @@ def run_checks(link, check, machine, seconds, replay=None):
     t, b = link.request(0x40)                                   # unknown type
     e = parse_error(b) if t == R_ERROR else {}
     check(t == R_ERROR and e.get("code") == 1, f"unknown type -> error unknown_type: {e}")
-    t, b = link.request(T_STATUS, version=7)
+    t, b = link.request(T_STATUS, version=VERSION + 1)
     check(t == R_ERROR and parse_error(b)["code"] == 2, "wrong header version -> error bad_version")
     t, b = link.request(T_GET, bytes([G_LIMITS, 0]))
     limits_before = b

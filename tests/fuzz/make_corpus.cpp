@@ -180,6 +180,16 @@ int main(int argc, char** argv) {
     FeedforwardParams nan_ff = ff;
     nan_ff.pi.weights[2] = std::numeric_limits<float>::infinity();
     write("inf_pi_weight", frame(SetParams<FeedforwardParams>{nan_ff}));
+    // A modified PI compensator: the input map's dead zones (valid), and one
+    // whose map falls (slope 1 + q_1 < 0).
+    FeedforwardParams zones = ff;
+    zones.kind = FeedforwardKind::kPiCompensator;
+    zones.pi.dead_zones = 2;
+    zones.pi.dead_zone_thresholds = {-5.0f, 5.0f};
+    zones.pi.dead_zone_weights = {0.5f, -0.25f};
+    write("pi_dead_zones", frame(SetParams<FeedforwardParams>{zones}));
+    zones.pi.dead_zone_weights[0] = -1.5f;
+    write("pi_dead_zones_falling", frame(SetParams<FeedforwardParams>{zones}));
     std::vector<uint8_t> garbage;
     uint32_t x = 12345;
     for (int i = 0; i < 300; ++i) {

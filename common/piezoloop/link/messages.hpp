@@ -58,7 +58,9 @@ namespace piezoloop::link {
 // groups; StartWave's body is always axis and flags.
 // Version 6: scans. StartScan; the recorder's channel "sync" (the scan's
 // sync word); StatusReply ends with the scan's state.
-inline constexpr uint8_t kProtocolVersion = 6;
+// Version 7: the feedforward group's `pi` ends with the input map's dead
+// zones (dead_zones and up to eight thresholds and weights).
+inline constexpr uint8_t kProtocolVersion = 7;
 
 enum class MsgType : uint8_t {
     // Requests, host -> device.

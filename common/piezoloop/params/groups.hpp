@@ -227,6 +227,13 @@ constexpr void describe(V& v, G& g) {
     v.values(f32("thresholds", "1", "play thresholds, units of f: strictly ascending").range(0, kFloatMax), g.pi.thresholds,
              g.pi.count, Travel::kCount);
     v.values(f32("weights", "1", "play weights"), g.pi.weights, g.pi.count, Travel::kCount);
+    v.count(u8("dead_zones", "input map g(x) = x + sum_i q_i max(x - d_i, 0) before the affine input (Kuhnen's "
+                             "modified PI compensator), 0..8; 0: g(x) = x").range(0, kMaxDeadZones),
+            g.pi.dead_zones);
+    v.values(f32("dead_zone_thresholds", "1", "d_i, units of x: strictly ascending"), g.pi.dead_zone_thresholds,
+             g.pi.dead_zones, Travel::kCount);
+    v.values(f32("dead_zone_weights", "1", "q_i: 1 + q_1 + ... + q_i > 0 (g increasing)"), g.pi.dead_zone_weights,
+             g.pi.dead_zones, Travel::kCount);
     v.end();
     v.begin("dahl");
     // Checked by the Dahl block when the kind is dahl (the other kinds leave them 0).

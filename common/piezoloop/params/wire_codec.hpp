@@ -155,10 +155,17 @@ constexpr void read_group(link::Reader& r, G& g) {
     describe(v, g);
 }
 
-// Bytes of a group's layout: `fixed` plus `per_count` for each counted element.
+// Bytes of a group's layout: `fixed` plus `per_count` for each counted element
+// (the sum over the group's counts; `counts` says it per count field).
 struct LayoutSize {
+    struct Counted {
+        const char* name = nullptr;  // the count field's
+        std::size_t per_element = 0;
+    };
     std::size_t fixed = 0;
     std::size_t per_count = 0;
+    std::array<Counted, 4> counts{};
+    int count_fields = 0;
 };
 
 class LayoutSizer {
@@ -172,13 +179,15 @@ public:
     template <class C>
     constexpr void count(const Field& f, const C&) {
         size_.fixed += wire_size(f.wire);
+        if (size_.count_fields < static_cast<int>(size_.counts.size()))
+            size_.counts[static_cast<std::size_t>(size_.count_fields++)].name = f.name;
     }
     template <class X, std::size_t N, class C>
     constexpr void values(const Field& f, const std::array<X, N>&, const C&, Travel t) {
         if (t == Travel::kAll)
             size_.fixed += N * wire_size(f.wire);
         else
-            size_.per_count += wire_size(f.wire);
+            add_counted(wire_size(f.wire));
     }
     template <class S, std::size_t N, class C>
     constexpr void objects(const char*, const std::array<S, N>& a, const C&, Travel t) {
@@ -189,7 +198,7 @@ public:
         if (t == Travel::kAll)
             size_.fixed += N * one;
         else
-            size_.per_count += one;
+            add_counted(one);
     }
     template <std::size_t N>
     constexpr void text(const Field&, const std::array<char, N>&) {
@@ -198,6 +207,11 @@ public:
     constexpr LayoutSize size() const { return size_; }
 
 private:
+    // Counted elements travel after their count field: to the latest one.
+    constexpr void add_counted(std::size_t bytes) {
+        size_.per_count += bytes;
+        if (size_.count_fields > 0) size_.counts[static_cast<std::size_t>(size_.count_fields - 1)].per_element += bytes;
+    }
     LayoutSize size_{};
 };
 

@@ -230,6 +230,32 @@ TYPED_TEST(LinkDevice, AFreshRecorderGroupIsAValidSetToChange) {
     EXPECT_EQ(r_.request(RecorderArm{}).type(), MsgType::kAck);
 }
 
+TYPED_TEST(LinkDevice, ModifiedPiCompensatorTravelsAndABadMapIsRefused) {
+    // The compensator's input map (dead zones) travels in the feedforward
+    // group's pi and runs; a map that falls, or dead zones on a model the
+    // device is asked to invert, are refused by name and change nothing.
+    auto& r_ = this->rig;
+    this->configure_reference();
+    const PipelineParams p = reference::params(true, true, false);
+    FeedforwardParams zones{FeedforwardKind::kPiCompensator, p.pi, p.dahl};
+    zones.pi.dead_zones = 2;
+    zones.pi.dead_zone_thresholds = {-5.0f, 5.0f};
+    zones.pi.dead_zone_weights = {0.5f, -0.25f};
+    ASSERT_EQ(r_.set(zones).type(), MsgType::kAck);
+    r_.tick();
+    EXPECT_EQ(r_.template get<FeedforwardParams>(ParamGroup::kFeedforward), zones);
+    EXPECT_EQ(r_.pipeline->params().pi.dead_zones, 2);
+    const auto before = this->snapshot();
+    FeedforwardParams falling = zones;
+    falling.pi.dead_zone_weights[0] = -1.5f;  // slope 1 - 1.5 < 0 after -5 um
+    this->expect_error(r_.set(falling), ErrorCode::kInvalidParam, "feedforward", "pi.dead_zone_weights", 0);
+    FeedforwardParams inverse = zones;
+    inverse.kind = FeedforwardKind::kPiInverse;
+    this->expect_error(r_.set(inverse), ErrorCode::kInvalidParam, "feedforward", "pi.dead_zones");
+    r_.tick();
+    EXPECT_EQ(this->snapshot(), before);
+}
+
 TYPED_TEST(LinkDevice, SeriesPlacementTravelsAndNeedsAFeedback) {
     // pi_series (the compensator after the feedback) is one more kind value:
     // same layout, validated by the pipeline on the device.

@@ -49,6 +49,9 @@ TEST(ParamsWireCodec, FeedforwardByHand) {
     g.pi.count = 2;
     g.pi.thresholds = {0.0f, 1.5f};
     g.pi.weights = {0.75f, -0.125f};
+    g.pi.dead_zones = 1;
+    g.pi.dead_zone_thresholds = {-3.0f};
+    g.pi.dead_zone_weights = {0.5f};
     g.dahl = {1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f};
     Bytes e;
     e.u8(1);
@@ -56,12 +59,16 @@ TEST(ParamsWireCodec, FeedforwardByHand) {
     e.u8(2);
     e.f32(0.0f); e.f32(1.5f);      // thresholds[count]
     e.f32(0.75f); e.f32(-0.125f);  // weights[count]
+    e.u8(1);
+    e.f32(-3.0f);                  // dead_zone_thresholds[dead_zones]
+    e.f32(0.5f);                   // dead_zone_weights[dead_zones]
     for (float d : {1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f}) e.f32(d);
     e.u8(0);  // prefilter_count; both sections always travel (the default, b0 = 1)
     for (int i = 0; i < 2; ++i)
         for (double d : {1.0, 0.0, 0.0, 0.0, 0.0}) e.f64(d);
     EXPECT_EQ(encode(g), e.b);
-    EXPECT_EQ(e.b.size() + 1, 120u + 8u * 2u);
+    // With the group id and the axis: 122 fixed, 8 per play, 8 per dead zone.
+    EXPECT_EQ(e.b.size() + 2, 122u + 8u * 2u + 8u * 1u);
 }
 
 TEST(ParamsWireCodec, FeedbackAlwaysCarriesFourSections) {
@@ -135,8 +142,8 @@ TEST(ParamsWireCodec, RcLimitsTrajectoryRecorderByHand) {
 }
 
 TEST(ParamsWireCodec, SizesFromTheDeclarations) {
-    EXPECT_EQ(layout_size<FeedforwardParams>().fixed + 2, 121u);
-    EXPECT_EQ(layout_size<FeedforwardParams>().per_count, 8u);
+    EXPECT_EQ(layout_size<FeedforwardParams>().fixed + 2, 122u);
+    EXPECT_EQ(layout_size<FeedforwardParams>().per_count, 16u);  // 8 per play and 8 per dead zone
     EXPECT_EQ(layout_size<FeedbackParams>().fixed + 2, 188u);
     EXPECT_EQ(layout_size<FeedbackParams>().per_count, 0u);
     EXPECT_EQ(layout_size<TrajectoryParams>().fixed + 2, 33u);

@@ -434,6 +434,20 @@ TEST(IdentPi, ModifiedPiRecoversTheOutputNonlinearityAndInverts) {
     for (std::size_t k = 0; k < u.size(); k += 7) EXPECT_NEAR(ym[k], y[k], 1e-8) << k;
     const std::vector<double> back = res.invert(ym);
     for (std::size_t k = 0; k < u.size(); ++k) ASSERT_NEAR(back[k], u[k], 1e-4) << k;
+    // The same compensator as the core's PiModel (the map g as dead zones,
+    // in float), run by the float operator: the input back to the same
+    // 1e-4 of the span, and within 1e-5 V of invert(), whose g is in double
+    // (float rounding of g near -100 um: ~1e-5 um, times the inverse's
+    // slope below 1 V/um).
+    const PiModel comp = res.compensator();
+    ASSERT_EQ(comp.dead_zones, 3);
+    PiOperator<float> core;
+    ASSERT_TRUE(core.configure(comp).ok());
+    for (std::size_t k = 0; k < u.size(); ++k) {
+        const double v = core.apply(static_cast<float>(ym[k]));
+        ASSERT_NEAR(v, u[k], 1e-4) << k;
+        ASSERT_NEAR(v, back[k], 1e-5) << k;
+    }
     // Default grid (equal split of the range, not the model's thresholds):
     // not exact, still well below the plain PI's error.
     o.output_thresholds.clear();
