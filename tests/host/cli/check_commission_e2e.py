@@ -84,6 +84,13 @@ try:
           f"wall {j.get('wall_s')} s")
     for name in ("report.md", "controller.json", "frf.json", "scenario.json"):
         check(os.path.exists(os.path.join(out, name)), f"{name} written")
+    # The fastest whole-range triangle within 1 %: at least the 1 Hz run, as
+    # the board's own runs give it, and in the report.
+    fastest = j.get("fastest_triangle") or {}
+    report = open(os.path.join(out, "report.md")).read() if os.path.exists(os.path.join(out, "report.md")) else ""
+    check(fastest.get("up_to_Hz", 0) >= 1 and ("Fastest triangle: " + fastest.get("text", "?")) in report,
+          "the fastest whole-range triangle within 1 % on the board, in the report", json.dumps(fastest))
+    print(f"board: {fastest.get('text')}")
     s = status(d)
     check(s.get("armed") is False, "the board is left disarmed")
     check(run(*d, "get", "trajectory").stdout == trajectory, "the trajectory group is put back")
