@@ -292,6 +292,12 @@ public:
         if (const Status s = validate(m); !s.ok()) return s;
         if (!(in.full_scale > 0.0f) || !(out.full_scale > 0.0f))
             return error("full_scale", "must be > 0");
+        // The input map's thresholds are Q31 samples of the input.
+        for (int i = 0; i < m.dead_zones; ++i) {
+            const double d = static_cast<double>(m.dead_zone_thresholds[static_cast<unsigned>(i)]) / in.full_scale;
+            if (!(d > -1.0 && d < 1.0))
+                return error("dead_zone_thresholds", i, "must be within the input's full scale in Q31");
+        }
         count_ = m.count;
         const double gain = SignalScale::sample_gain<Q31>(1.0, in, out);
         std::array<double, kMaxPlayOperators + 1> c{};
@@ -320,10 +326,7 @@ public:
             z[0] = a;
             for (int i = 0; i < zones_; ++i) {
                 const unsigned k = static_cast<unsigned>(i);
-                const double d = static_cast<double>(m.dead_zone_thresholds[k]) / in.full_scale;
-                if (!(d > -1.0 && d < 1.0))
-                    return error("dead_zone_thresholds", i, "must be within the input's full scale in Q31");
-                zone_d_[k] = Q31::from_double(d).raw();
+                zone_d_[k] = Q31::from_double(static_cast<double>(m.dead_zone_thresholds[k]) / in.full_scale).raw();
                 z[k + 1] = a * static_cast<double>(m.dead_zone_weights[k]);
             }
             zone_exponent_ = block_exponent(z.data(), zones_ + 1);

@@ -336,13 +336,19 @@ FeedforwardSpec parse_feedforward(const Field& f) {
             const std::vector<double> d = (*z)["thresholds_um"].numbers();
             const std::vector<double> q = (*z)["weights"].numbers();
             if (d.size() != q.size()) (*z)["weights"].fail("must have as many entries as thresholds_um");
-            if (d.empty() || d.size() > static_cast<size_t>(kMaxDeadZones)) (*z)["thresholds_um"].fail("must hold 1 to 8 dead zones");
+            if (d.empty() || d.size() > static_cast<size_t>(kMaxDeadZones))
+                (*z)["thresholds_um"].fail("must hold 1 to 8 dead zones");
             s.pi.dead_zones = static_cast<int>(d.size());
             for (size_t i = 0; i < d.size(); ++i) {
                 s.pi.dead_zone_thresholds[i] = f32(d[i]);
                 s.pi.dead_zone_weights[i] = f32(q[i]);
             }
-            f.check(validate(s.pi));
+            // Named as the file has them: dead_zones.thresholds_um[i] or .weights[i].
+            if (const Status st = validate(s.pi); !st.ok()) {
+                const Field list = (*z)[std::string(st.field) == "dead_zone_weights" ? "weights" : "thresholds_um"];
+                if (st.index >= 0) list.at(static_cast<size_t>(st.index)).fail(st.message);
+                list.fail(st.message);
+            }
         }
     } else {
         f.only({"kind", "params", "identify"});

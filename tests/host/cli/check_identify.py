@@ -190,6 +190,12 @@ if out:
     res = run("sim", "--scenario", sc_file, "--case", "compensated", "--sample", "float", "--amplitude-um", "5",
               "--frequency-hz", "10")
     check("pi compensator in a scenario (float)", res.returncode == 0, res.stderr)
+    falling = json.loads(json.dumps(sc))
+    falling["cases"][0]["controller"]["feedforward"]["dead_zones"]["weights"][0] = -5.0
+    json.dump(falling, open(os.path.join(tmp, "falling.json"), "w"))
+    expect_error("pi compensator with a falling map, named as the file has it",
+                 run("sim", "--scenario", os.path.join(tmp, "falling.json"), "--case", "compensated", "--amplitude-um",
+                     "5", "--frequency-hz", "10"), "feedforward.dead_zones.weights[0]", "increasing")
     expect_error("pi compensator in Q31 beyond the scale",
                  run("sim", "--scenario", sc_file, "--case", "compensated", "--sample", "q31", "--amplitude-um", "5",
                      "--frequency-hz", "10"), "dead_zone_thresholds")
