@@ -245,7 +245,10 @@ async function frequencyResponse(page, context, url, token) {
 
   // A longer one stopped half-way: meanwhile the board's other commands are
   // refused; after the stop the groups are back and the last result stays.
-  await fillFrf(page, { ...frfRequest, periods: 100 });
+  // 800 periods (16 s of board time): long enough that the stop lands
+  // before the end on a loaded machine (with 100, 2 s, a page slow to click
+  // once saw the run finish first).
+  await fillFrf(page, { ...frfRequest, periods: 800 });
   await page.click('#frf-start');
   await waitFor(page, () => window.piezoloop.frf.state === 'running' && window.piezoloop.frf.phase === 'recording', null, 'the long measurement records');
   const busy = await page.evaluate(async (t) => {
