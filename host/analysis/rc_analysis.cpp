@@ -101,6 +101,7 @@ RcAnalysis analyze(const Ss& t, const Ss& l, const RcConfig& rc, const std::opti
     validate(rc, ts);
     RcAnalysis r;
     r.ts = ts;
+    r.period_samples = rc.period_samples;
     const double nyq = std::numbers::pi / ts;
     const int n_period = rc.period_samples;
     const Ss q = zpk2ss(rc.q);

@@ -76,6 +76,7 @@ struct PiHysteresis {
 
 struct RcAnalysis {
     double ts = 0.0;
+    int period_samples = 0;    // N, the delay line's period analysed
     bool loop_stable = false;  // T (the loop without RC) stable
     double q_cutoff_Hz = 0.0;  // −3 dB of |Q| relative to |Q(1)| (Nyquist if never)
     // (3)

@@ -20,7 +20,6 @@
 
 #include "analysis/loop_report.hpp"
 #include "commands.hpp"
-#include "format/number.hpp"
 #include "ident/balred.hpp"
 #include "ident/csv_data.hpp"
 #include "ident/dahl_fit.hpp"
@@ -29,6 +28,7 @@
 #include "ident/pi_fit.hpp"
 #include "ident/reduce_report.hpp"
 #include "ident/rls.hpp"
+#include "sim/pi_compensator_json.hpp"
 
 namespace piezoloop::cli {
 namespace {
@@ -252,29 +252,8 @@ int run_pi(const IdentifyPiArgs& a) {
     out["invertible"] = r.invertible;
     out["invertibility"] = r.invertibility;
     // The compensator, in the form a scenario's feedforward takes
-    // (docs/scenarios.md, pi_compensator): u = PI^-1(g(r) - offset).
-    out["compensator"] = nullptr;
-    if (r.invertible) {
-        const PiModel c = r.compensator();
-        // 9 significant digits: each float back exactly as the core holds it.
-        const auto f9 = [](float x) { return format::rounded(static_cast<double>(x), 9); };
-        json k = {{"kind", "pi_compensator"}, {"p0_V_per_um", f9(c.p0)}, {"input_offset_um", f9(c.input_offset)}};
-        k["thresholds_um"] = json::array();
-        k["weights_V_per_um"] = json::array();
-        for (int j = 0; j < c.count; ++j) {
-            k["thresholds_um"].push_back(f9(c.thresholds[static_cast<std::size_t>(j)]));
-            k["weights_V_per_um"].push_back(f9(c.weights[static_cast<std::size_t>(j)]));
-        }
-        if (c.dead_zones > 0) {
-            json d = {{"thresholds_um", json::array()}, {"weights", json::array()}};
-            for (int i = 0; i < c.dead_zones; ++i) {
-                d["thresholds_um"].push_back(f9(c.dead_zone_thresholds[static_cast<std::size_t>(i)]));
-                d["weights"].push_back(f9(c.dead_zone_weights[static_cast<std::size_t>(i)]));
-            }
-            k["dead_zones"] = d;
-        }
-        out["compensator"] = k;
-    }
+    // (configs/scenarios.md, pi_compensator): u = PI^-1(g(r) - offset).
+    out["compensator"] = r.invertible ? sim::pi_compensator_json(r.compensator()) : json(nullptr);
     json fit = errors_json({r.rms_error, r.max_error, r.nrmse_percent, r.validated_from - r.first_fitted});
     fit["regressor_condition"] = r.regressor_condition;
     out["fit"] = fit;

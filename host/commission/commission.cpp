@@ -167,7 +167,7 @@ void describe_fastest_triangle(Commissioning& c, const Candidate& chosen) {
         whole.push_back({c.verification[i].request.frequency_Hz, c.verification[i].measured.e_max_pct});
     if (whole.empty()) return;
     c.fastest = fastest_triangle(whole);
-    c.fastest_text = describe(*c.fastest, whole);
+    c.fastest_text = describe(*c.fastest);
     if (c.fastest->at_least || c.fastest->up_to_Hz >= 10.0) return;
     const double bandwidth_Hz = c.measured_bandwidth_Hz > 0.0 ? c.measured_bandwidth_Hz : c.bandwidth_Hz;
     c.fastest_text += ": the loop's bandwidth (" + num(bandwidth_Hz) +

@@ -25,6 +25,7 @@ FastestTriangle fastest_triangle(std::vector<TrackingPoint> points, double toler
             throw std::invalid_argument("frequency_Hz: two runs at " + format::significant(points[i].frequency_Hz) + " Hz");
 
     FastestTriangle fastest;
+    fastest.runs = points;
     fastest.tolerance_pct = tolerance_pct;
     if (points.front().e_max_pct > tolerance_pct) return fastest;
     std::size_t i = 0;
@@ -44,17 +45,14 @@ FastestTriangle fastest_triangle(std::vector<TrackingPoint> points, double toler
     return fastest;
 }
 
-std::string describe(const FastestTriangle& fastest, const std::vector<TrackingPoint>& points) {
-    std::vector<TrackingPoint> sorted = points;
-    std::sort(sorted.begin(), sorted.end(),
-              [](const TrackingPoint& a, const TrackingPoint& b) { return a.frequency_Hz < b.frequency_Hz; });
+std::string describe(const FastestTriangle& fastest) {
     std::string runs;
-    for (const TrackingPoint& p : sorted)
+    for (const TrackingPoint& p : fastest.runs)
         runs += (runs.empty() ? "" : ", ") + format::significant(p.e_max_pct, 2) + " % at " + format::significant(p.frequency_Hz, 3) + " Hz";
     const std::string tol = format::significant(fastest.tolerance_pct) + " %";
     if (fastest.up_to_Hz == 0.0)
         return "triangles over the whole range: not within " + tol + " even at " +
-               format::significant(sorted.front().frequency_Hz, 3) + " Hz (" + runs + ")";
+               format::significant(fastest.runs.front().frequency_Hz, 3) + " Hz (" + runs + ")";
     return "triangles over the whole range within " + tol + (fastest.at_least ? " up to at least " : " up to about ") +
            format::significant(fastest.up_to_Hz, 3) + " Hz (" + runs + ")";
 }

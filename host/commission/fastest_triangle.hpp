@@ -22,6 +22,7 @@ struct TrackingPoint {
 };
 
 struct FastestTriangle {
+    std::vector<TrackingPoint> runs;  // the runs it is read from, by frequency
     double tolerance_pct = 1.0;
     // The fastest triangle within the tolerance: interpolated between the
     // last run within it and the first beyond it; the fastest run when all
@@ -37,6 +38,6 @@ FastestTriangle fastest_triangle(std::vector<TrackingPoint> points, double toler
 
 // One sentence for the log and the report, e.g. "triangles over the whole
 // range within 1 % up to about 2.9 Hz (0.37 % at 1 Hz, 3.2 % at 10 Hz)".
-std::string describe(const FastestTriangle& fastest, const std::vector<TrackingPoint>& points);
+std::string describe(const FastestTriangle& fastest);
 
 }  // namespace piezoloop::commission

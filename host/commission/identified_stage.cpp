@@ -4,6 +4,7 @@
 
 #include "lti/freqresp.hpp"
 #include "lti/model_json.hpp"
+#include "sim/pi_compensator_json.hpp"
 
 namespace piezoloop::commission {
 
@@ -63,11 +64,7 @@ nlohmann::json identified_scenario_json(const IdentifiedStage& st, const std::op
                     {"method", "tustin"}}}};
         if (controller->prefilter) k["prefilter"] = design::to_json(*controller->prefilter);
         if (controller->feedforward) {
-            const auto [r, w] = lists(*controller->feedforward);
-            k["feedforward"] = {{"kind", "pi_compensator"}, {"thresholds_um", r}, {"weights_V_per_um", w},
-                                {"p0_V_per_um", controller->feedforward->p0}};
-            if (controller->feedforward->input_offset != 0.0f)
-                k["feedforward"]["input_offset_um"] = controller->feedforward->input_offset;
+            k["feedforward"] = sim::pi_compensator_json(*controller->feedforward);
             if (controller->series) k["feedforward"]["placement"] = "series";
         }
         j["cases"].push_back({{"name", "commissioned"},

@@ -76,7 +76,7 @@ std::string layout_markdown(const char* name) {
     const M m{};
     describe(t, m);
     const params::LayoutSize size = params::layout_size<M>();
-    return "**" + std::string(name) + " (" + hex_id(M::kType) + ")**, " + size_text(size.fixed, size.per_count) +
+    return "**" + std::string(name) + " (" + hex_id(M::kType) + ")**, " + size_text(size.fixed, size.per_count()) +
            " bytes\n\n| off | field | size | type | unit | meaning |\n|---|---|---|---|---|---|\n" + t.rows;
 }
 

@@ -33,7 +33,7 @@ nlohmann::json rc_stability(const sim::Scenario& s, const ScanPlan& p) {
             sim::rc_conditions(sim::axis_alone(s, i), ac, s.rate_Hz / static_cast<double>(period), kMaxExactRcDelayStates);
         if (!a) continue;
         nlohmann::json& x = j[s.axes[i].name];
-        x = {{"period_ticks", ac.rc.period_samples != 0 ? static_cast<uint32_t>(ac.rc.period_samples) : period},
+        x = {{"period_ticks", a->period_samples},
              {"loop_stable", a->loop_stable},
              {"small_gain_peak", a->small_gain_peak},
              {"small_gain_at_Hz", a->small_gain_at_Hz},

@@ -155,17 +155,22 @@ constexpr void read_group(link::Reader& r, G& g) {
     describe(v, g);
 }
 
-// Bytes of a group's layout: `fixed` plus `per_count` for each counted element
-// (the sum over the group's counts; `counts` says it per count field).
+// Bytes of a group's layout: `fixed`, plus per count field (at most four; a
+// group has two at most) `per_element` bytes for each element it counts.
 struct LayoutSize {
     struct Counted {
         const char* name = nullptr;  // the count field's
         std::size_t per_element = 0;
     };
     std::size_t fixed = 0;
-    std::size_t per_count = 0;
     std::array<Counted, 4> counts{};
     int count_fields = 0;
+    // Bytes per element when every count field counts the same.
+    constexpr std::size_t per_count() const {
+        std::size_t n = 0;
+        for (int i = 0; i < count_fields; ++i) n += counts[static_cast<std::size_t>(i)].per_element;
+        return n;
+    }
 };
 
 class LayoutSizer {
@@ -207,10 +212,11 @@ public:
     constexpr LayoutSize size() const { return size_; }
 
 private:
-    // Counted elements travel after their count field: to the latest one.
+    // Counted elements travel after their count field: to the latest one
+    // (a message's array counted by a product of fields has none: "count").
     constexpr void add_counted(std::size_t bytes) {
-        size_.per_count += bytes;
-        if (size_.count_fields > 0) size_.counts[static_cast<std::size_t>(size_.count_fields - 1)].per_element += bytes;
+        if (size_.count_fields == 0) size_.counts[static_cast<std::size_t>(size_.count_fields++)].name = "count";
+        size_.counts[static_cast<std::size_t>(size_.count_fields - 1)].per_element += bytes;
     }
     LayoutSize size_{};
 };

@@ -143,11 +143,11 @@ TEST(ParamsWireCodec, RcLimitsTrajectoryRecorderByHand) {
 
 TEST(ParamsWireCodec, SizesFromTheDeclarations) {
     EXPECT_EQ(layout_size<FeedforwardParams>().fixed + 2, 122u);
-    EXPECT_EQ(layout_size<FeedforwardParams>().per_count, 16u);  // 8 per play and 8 per dead zone
+    EXPECT_EQ(layout_size<FeedforwardParams>().per_count(), 16u);  // 8 per play and 8 per dead zone
     EXPECT_EQ(layout_size<FeedbackParams>().fixed + 2, 188u);
-    EXPECT_EQ(layout_size<FeedbackParams>().per_count, 0u);
+    EXPECT_EQ(layout_size<FeedbackParams>().per_count(), 0u);
     EXPECT_EQ(layout_size<TrajectoryParams>().fixed + 2, 33u);
-    EXPECT_EQ(layout_size<TrajectoryParams>().per_count, 4u);
+    EXPECT_EQ(layout_size<TrajectoryParams>().per_count(), 4u);
     EXPECT_EQ(layout_size<RecorderParams>().fixed + 2, 39u);
     // The matrices: the axis count, 3 x 3 gains (and 3 offsets), all travelling.
     EXPECT_EQ(layout_size<InputMatrixParams>().fixed + 2, 2u + 1u + 36u + 12u);
