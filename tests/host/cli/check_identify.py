@@ -196,6 +196,18 @@ if out:
     expect_error("pi compensator with a falling map, named as the file has it",
                  run("sim", "--scenario", os.path.join(tmp, "falling.json"), "--case", "compensated", "--amplitude-um",
                      "5", "--frequency-hz", "10"), "feedforward.dead_zones.weights[0]", "increasing")
+    for name, zones, needle in (("unequal lists", {"thresholds_um": [-100.0, -90.0], "weights": [0.1]},
+                                 "dead_zones.weights"),
+                                ("nine dead zones", {"thresholds_um": [-100.0 + i for i in range(9)], "weights": [0.0] * 9},
+                                 "dead_zones.thresholds_um"),
+                                ("an unknown key", {"thresholds_um": [-100.0], "weights": [0.1], "slopes": [1.1]},
+                                 "slopes")):
+        bad_sc = json.loads(json.dumps(sc))
+        bad_sc["cases"][0]["controller"]["feedforward"]["dead_zones"] = zones
+        json.dump(bad_sc, open(os.path.join(tmp, "bad_zones.json"), "w"))
+        expect_error(f"pi compensator dead zones: {name}",
+                     run("sim", "--scenario", os.path.join(tmp, "bad_zones.json"), "--case", "compensated",
+                         "--amplitude-um", "5", "--frequency-hz", "10"), needle)
     expect_error("pi compensator in Q31 beyond the scale",
                  run("sim", "--scenario", sc_file, "--case", "compensated", "--sample", "q31", "--amplitude-um", "5",
                      "--frequency-hz", "10"), "dead_zone_thresholds")
