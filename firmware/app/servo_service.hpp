@@ -49,6 +49,8 @@ void update_leds(uint32_t& last_toggle, bool& on);
 
 // One 0x00 delimiter (a client's decoder starts in sync), then the link
 // for good.
+inline constexpr uint32_t kMaxIdles = 16;
+
 template <class Device>
 [[noreturn]] void serve(Device& dev) {
     const char sync = 0;
@@ -56,6 +58,7 @@ template <class Device>
     uint32_t last_toggle = 0;
     bool heartbeat = false;
     std::array<uint8_t, 64> rx{};
+    uint32_t quiet_passes = 0;  // passes in a row that found no work
     for (;;) {
         update_leds(last_toggle, heartbeat);
         std::size_t n = 0;
@@ -66,7 +69,15 @@ template <class Device>
             dev.receive(std::span<const uint8_t>(rx.data(), n), send_frame);
         }
         // Every pass, so log blocks stream as the recorder fills.
-        dev.poll_log(send_frame);
+        const bool sent = dev.poll_log(send_frame);
+        // A quiet link is looked at less and less often, down to every
+        // kMaxIdles idles; any byte or block brings the next look at once.
+        if (n != 0 || sent) {
+            quiet_passes = 0;
+        } else {
+            if (quiet_passes < kMaxIdles) ++quiet_passes;
+            for (uint32_t i = 0; i < quiet_passes; ++i) bsp::idle();
+        }
     }
 }
 

@@ -73,6 +73,13 @@ void set_led(Led led, bool on);
 // still ends the wait.
 void wait_for_interrupt();
 
+// The main loop found no work: let a little time pass before it looks again.
+// On the QEMU boards a straight run of 500 NOPs, which QEMU executes far
+// faster than a pass that polls the UART's registers, while the tick
+// interrupt still lands on its exact instruction; the console is then read
+// every 0.5 µs of board time. A no-op where time is real (STM32).
+void idle();
+
 // Free-running timestamp counter: counts up at config::kTimestamp_Hz and
 // wraps modulo config::kTimestampMask + 1. Differences are taken masked.
 uint32_t timestamp();

@@ -108,11 +108,19 @@ bool tick_timer_running() { return kTimer0.running(); }
 
 void wait_for_interrupt() {}  // busy-poll: see bsp.hpp
 
+void idle() { asm volatile(".rept 500\n\tnop\n\t.endr" ::: "memory"); }
+
 // FPGAIO (0x40028000) LED register: bit 0 LED0, bit 1 LED1.
+// The register is written only when a LED changes: the main loop sets both
+// every pass, and each register access costs QEMU far more than an
+// instruction.
 void set_led(Led led, bool on) {
-    volatile uint32_t& leds = *reinterpret_cast<volatile uint32_t*>(uintptr_t{0x40028000});
+    static uint32_t shown = 0;
     const uint32_t bit = led == Led::kHeartbeat ? 1u : 2u;
-    leds = on ? (leds | bit) : (leds & ~bit);
+    const uint32_t next = on ? (shown | bit) : (shown & ~bit);
+    if (next == shown) return;
+    shown = next;
+    *reinterpret_cast<volatile uint32_t*>(uintptr_t{0x40028000}) = next;
 }
 
 uint32_t timestamp() { return systick::up_count(); }

@@ -256,6 +256,8 @@ bool tick_timer_running() { return g_timer_running; }
 
 void wait_for_interrupt() { asm volatile("dsb\n\twfi" ::: "memory"); }
 
+void idle() {}
+
 uint32_t timestamp() { return reg(core::kDwtCyccnt); }
 uint32_t stopwatch_start() { return reg(core::kDwtCyccnt); }
 uint32_t stopwatch_elapsed(uint32_t start) { return reg(core::kDwtCyccnt) - start - g_stopwatch_offset; }

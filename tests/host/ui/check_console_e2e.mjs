@@ -132,7 +132,9 @@ async function refusedLimit(page) {
 }
 
 // The measurement the page runs, and `measure frf` repeats after the console.
-const frfRequest = { from_Hz: 50, to_Hz: 2000, amplitude_V: 0.09, bias_V: 3, periods: 4, transient_periods: 1, fit_order: '6/5' };
+// Its 20 transient periods (0.4 s of board time) keep the recording running
+// long enough for the pages to see its progress.
+const frfRequest = { from_Hz: 50, to_Hz: 2000, amplitude_V: 0.09, bias_V: 3, periods: 4, transient_periods: 20, fit_order: '6/5' };
 
 async function fillFrf(page, r) {
   for (const [k, v] of Object.entries(r)) await page.fill(`#frf [name="${k}"]`, String(v));
@@ -167,6 +169,7 @@ async function frequencyResponse(page, context, url, token) {
   // The measurement, from rest, with a 6/5 fit.
   await fillFrf(page, frfRequest);
   await page.check('#frf [name="restart_stage"]');
+  const scopeEndAtStart = await page.evaluate(() => window.piezoloop.frame.t0_s + window.piezoloop.frame.span_s);
   const t0 = Date.now();
   await page.click('#frf-start');
   const finished = await waitFor(page, () => window.piezoloop.frf && ['done', 'failed', 'stopped'].includes(window.piezoloop.frf.state) &&
@@ -217,8 +220,10 @@ async function frequencyResponse(page, context, url, token) {
   // tick, e not recorded: nan), between the console's recordings.
   const drawnBefore = await page.evaluate(() => window.piezoloop.framesDrawn);
   await waitFor(page, (n) => window.piezoloop.framesDrawn > n + 5, drawnBefore, 'the scope draws again after the measurement');
+  // From a second before the click to now: every sample since.
   const end = await page.evaluate(() => window.piezoloop.frame.t0_s + window.piezoloop.frame.span_s);
-  const scope = (await page.evaluate(async ([t, e]) => (await fetch(`/api/scope/csv?t0_s=${e - 20}&span_s=20`, { headers: { 'X-Piezoloop-Token': t } })).text(), [token, end]))
+  const from = scopeEndAtStart - 1;
+  const scope = (await page.evaluate(async ([t, f, e]) => (await fetch(`/api/scope/csv?t0_s=${f}&span_s=${e - f}`, { headers: { 'X-Piezoloop-Token': t } })).text(), [token, from, end]))
     .trim().split('\n');
   const head = scope[0].split(',');
   const srows = scope.slice(1).map((l) => l.split(',').map(Number));
