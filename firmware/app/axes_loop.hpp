@@ -9,8 +9,9 @@
 //   end_tick()    the board's recorder and every axis's
 // then the coupled stage's sample (the plant, apart). Timed as
 // ControlLoop::tick times the single-axis tick: three stopwatch spans, one
-// per phase, so no span counts another's stopwatch; a tick that swaps a
-// parameter set in or arms is counted apart as a reconfigure tick.
+// per phase, so no span counts another's stopwatch (or, for the servo, the
+// ADC -> DAC span alone: TickTiming); a tick that swaps a parameter set in
+// or arms is counted apart as a reconfigure tick.
 //
 // One loop runs at a time; its state is one static object (the interrupt
 // has no argument). Instantiate the tick in a translation unit built with
@@ -59,40 +60,49 @@ uint32_t axes_swaps(const AxesPipe<N>& p) {
     return s;
 }
 
-template <int N>
+template <int N, TickTiming kTiming>
 void axes_tick() {
+    constexpr bool kEveryPhase = kTiming == TickTiming::kEveryPhase;
     AxesLoopState& st = axes_loop();
     AxesPipe<N>& pipe = *static_cast<AxesPipe<N>*>(st.pipe);
     AxesStage<N>& stage = *static_cast<AxesStage<N>*>(st.stage);
     st.monitor.on_entry(bsp::timestamp());
     const bool armed = pipe.any_armed();
 
-    const uint32_t t_before = bsp::stopwatch_start();
+    uint32_t t_before = 0;
+    if constexpr (kEveryPhase) t_before = bsp::stopwatch_start();
     if (st.device != nullptr) static_cast<AxesDevice<N>*>(st.device)->on_tick();
     pipe.begin_tick();
-    const uint32_t before = bsp::stopwatch_elapsed(t_before);
+    uint32_t before = 0;
+    if constexpr (kEveryPhase) before = bsp::stopwatch_elapsed(t_before);
     const uint32_t t_control = bsp::stopwatch_start();
     stage.output(pipe);
     const uint32_t work = bsp::stopwatch_elapsed(t_control);
     st.monitor.on_output(bsp::timestamp());
-    const uint32_t t_after = bsp::stopwatch_start();
+    uint32_t t_after = 0;
+    if constexpr (kEveryPhase) t_after = bsp::stopwatch_start();
     pipe.end_tick();
-    const uint32_t whole = before + work + bsp::stopwatch_elapsed(t_after);
+    uint32_t whole = 0;
+    if constexpr (kEveryPhase) whole = before + work + bsp::stopwatch_elapsed(t_after);
 
     const uint32_t s = axes_swaps<N>(pipe);
     const bool reconfigured = s != st.last_swaps || (armed && !st.last_armed);
     st.last_swaps = s;
     st.last_armed = armed;
     if (reconfigured) {
-        st.reconfigure.add(whole);
+        if constexpr (kEveryPhase) st.reconfigure.add(whole);
     } else {
         st.control.add(work);
-        st.whole.add(whole);
+        if constexpr (kEveryPhase) st.whole.add(whole);
     }
 
-    const uint32_t t_plant = bsp::stopwatch_start();
-    stage.step();
-    st.plant.add(bsp::stopwatch_elapsed(t_plant));
+    if constexpr (kEveryPhase) {
+        const uint32_t t_plant = bsp::stopwatch_start();
+        stage.step();
+        st.plant.add(bsp::stopwatch_elapsed(t_plant));
+    } else {
+        stage.step();
+    }
 
     ++st.ticks;
     if (st.max_ticks != 0u && st.ticks == st.max_ticks) {
@@ -106,7 +116,7 @@ void axes_tick() {
 // the board cannot make that rate.
 template <int N>
 bool start_axes_loop(AxesPipe<N>& pipe, AxesStage<N>& stage, AxesDevice<N>* device, uint32_t rate_Hz,
-                     uint32_t max_ticks) {
+                     uint32_t max_ticks, TickTiming timing = TickTiming::kEveryPhase) {
     AxesLoopState& st = axes_loop();
     st.pipe = &pipe;
     st.stage = &stage;
@@ -118,7 +128,9 @@ bool start_axes_loop(AxesPipe<N>& pipe, AxesStage<N>& stage, AxesDevice<N>* devi
     st.last_armed = false;
     st.monitor.reset(bsp::config::kTimestamp_Hz / rate_Hz, bsp::config::kTimestampMask);
     st.running = true;
-    if (bsp::tick_timer_start(rate_Hz, &axes_tick<N>)) return true;
+    const bsp::TickHandler handler = timing == TickTiming::kEveryPhase ? &axes_tick<N, TickTiming::kEveryPhase>
+                                                                        : &axes_tick<N, TickTiming::kControlOnly>;
+    if (bsp::tick_timer_start(rate_Hz, handler)) return true;
     st.running = false;
     return false;
 }

@@ -57,7 +57,7 @@ BoardDevice& ControlLoop::attach_device(const link::DeviceInfo& info, const link
     return *device_;
 }
 
-bool ControlLoop::start(uint32_t rate_Hz, uint32_t max_ticks) {
+bool ControlLoop::start(uint32_t rate_Hz, uint32_t max_ticks, TickTiming timing) {
     if (pipe_ == nullptr || rate_Hz == 0 || bsp::config::kTimestamp_Hz % rate_Hz != 0u) return false;
     stop();
     max_ticks_ = max_ticks;
@@ -70,7 +70,9 @@ bool ControlLoop::start(uint32_t rate_Hz, uint32_t max_ticks) {
     last_armed_ = false;
     monitor_.reset(bsp::config::kTimestamp_Hz / rate_Hz, bsp::config::kTimestampMask);
     running_ = true;
-    if (bsp::tick_timer_start(rate_Hz, &ControlLoop::tick)) return true;
+    const bsp::TickHandler handler = timing == TickTiming::kEveryPhase ? &ControlLoop::tick<TickTiming::kEveryPhase>
+                                                                        : &ControlLoop::tick<TickTiming::kControlOnly>;
+    if (bsp::tick_timer_start(rate_Hz, handler)) return true;
     running_ = false;
     return false;
 }
@@ -99,7 +101,9 @@ LoopStatus ControlLoop::status() const {
 // the reading-independent half first (on the STM32 it overlaps the ADC
 // conversion the timer started at this period's edge), then ADC read ->
 // output -> DAC write, the span the budget counts, then the recorder.
+template <TickTiming kTiming>
 void ControlLoop::tick() {
+    constexpr bool kEveryPhase = kTiming == TickTiming::kEveryPhase;
     ControlLoop& loop = g_loop;
     BoardPipeline& pipe = *loop.pipe_;
     loop.monitor_.on_entry(bsp::timestamp());
@@ -108,32 +112,40 @@ void ControlLoop::tick() {
     // Three stopwatch spans, one per phase (a span nested in another would
     // count the inner stopwatch's own cost, on QEMU up to 80 instructions
     // of waiting for SysTick edges).
-    const uint32_t t_before = bsp::stopwatch_start();
+    uint32_t t_before = 0;
+    if constexpr (kEveryPhase) t_before = bsp::stopwatch_start();
     if (BoardDevice* d = loop.device_) d->on_tick();
     pipe.begin_tick();
-    const uint32_t before = bsp::stopwatch_elapsed(t_before);
+    uint32_t before = 0;
+    if constexpr (kEveryPhase) before = bsp::stopwatch_elapsed(t_before);
     const uint32_t t_control = bsp::stopwatch_start();
     bsp::control_io<CoreSample>(pipe);
     const uint32_t work = bsp::stopwatch_elapsed(t_control);
     loop.monitor_.on_output(bsp::timestamp());
-    const uint32_t t_after = bsp::stopwatch_start();
+    uint32_t t_after = 0;
+    if constexpr (kEveryPhase) t_after = bsp::stopwatch_start();
     pipe.end_tick();
-    const uint32_t whole = before + work + bsp::stopwatch_elapsed(t_after);
+    uint32_t whole = 0;
+    if constexpr (kEveryPhase) whole = before + work + bsp::stopwatch_elapsed(t_after);
 
     const uint32_t swaps = pipe.swaps();
     const bool reconfigured = swaps != loop.last_swaps_ || (armed && !loop.last_armed_);
     loop.last_swaps_ = swaps;
     loop.last_armed_ = armed;
     if (reconfigured) {
-        loop.reconfigure_.add(whole);
+        if constexpr (kEveryPhase) loop.reconfigure_.add(whole);
     } else {
         loop.control_.add(work);
-        loop.whole_.add(whole);
+        if constexpr (kEveryPhase) loop.whole_.add(whole);
     }
 
-    const uint32_t t_plant = bsp::stopwatch_start();
-    bsp::emulated_stage_step();
-    loop.plant_.add(bsp::stopwatch_elapsed(t_plant));
+    if constexpr (kEveryPhase) {
+        const uint32_t t_plant = bsp::stopwatch_start();
+        bsp::emulated_stage_step();
+        loop.plant_.add(bsp::stopwatch_elapsed(t_plant));
+    } else {
+        bsp::emulated_stage_step();
+    }
 
     ++loop.ticks_;
     if (loop.max_ticks_ != 0u && loop.ticks_ == loop.max_ticks_) {

@@ -160,6 +160,6 @@ int app_main() {
     if (st != link::StorageState::kApplied && g_boot.reference_controller &&
         !loop.pipeline().stage(reference::params(true, true, false)).ok())
         return 1;
-    if (!loop.start(svc.rate_Hz, 0)) return 1;
+    if (!loop.start(svc.rate_Hz, 0, TickTiming::kControlOnly)) return 1;
     serve(dev);
 }

@@ -76,7 +76,7 @@ int run(const EmulationProfile& first, link::DeviceHooks hooks) {
     svc.tripped = &loop_tripped<N>;
     AxesDevice<N>& dev = *new (g_device_storage) AxesDevice<N>(pipe, device_info(), hooks);
     (void)load_stored_set(dev);
-    if (!start_axes_loop<N>(pipe, stage, &dev, first.loop_rate_Hz, 0)) return 1;
+    if (!start_axes_loop<N>(pipe, stage, &dev, first.loop_rate_Hz, 0, TickTiming::kControlOnly)) return 1;
     serve(dev);
 }
 
