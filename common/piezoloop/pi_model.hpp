@@ -166,7 +166,7 @@ private:
         const PiModel& m = p.model_;
         // The plain model (Janaideh2016) plays x itself: no multiply and add
         // on the simulated loop's dependency chain for the stage's model.
-        const float f = p.identity_input_ ? x : m.input_gain * p.mapped_input(x) + m.input_offset;
+        const float f = p.identity_input_ ? x : m.input_gain * dead_zone_map(m, x) + m.input_offset;
         float lane[4] = {0.0f, 0.0f, 0.0f, 0.0f};
         int j0 = 0;
 #if PIEZOLOOP_FPV5
@@ -267,13 +267,6 @@ private:
     template <std::size_t... N>
     static constexpr std::array<ApplyFn, sizeof...(N)> apply_table(std::index_sequence<N...>) {
         return {&apply_n<static_cast<int>(N)>...};
-    }
-
-    // x through the input map g; x itself without dead zones (one
-    // well-predicted branch on the affine input's path only).
-    float mapped_input(float x) const {
-        if (model_.dead_zones > 0) [[unlikely]] return dead_zone_map(model_, x);
-        return x;
     }
 
     PiModel model_{};
