@@ -132,9 +132,10 @@ async function refusedLimit(page) {
 }
 
 // The measurement the page runs, and `measure frf` repeats after the console.
-// Its 20 transient periods (0.4 s of board time) keep the recording running
-// long enough for the pages to see its progress.
-const frfRequest = { from_Hz: 50, to_Hz: 2000, amplitude_V: 0.09, bias_V: 3, periods: 4, transient_periods: 20, fit_order: '6/5' };
+// Its 100 transient periods (2 s of board time, about as long in wall time
+// on a busy machine) keep the recording running long enough for the pages
+// to see its progress: with 20 (0.4 s) one loaded run saw none.
+const frfRequest = { from_Hz: 50, to_Hz: 2000, amplitude_V: 0.09, bias_V: 3, periods: 4, transient_periods: 100, fit_order: '6/5' };
 
 async function fillFrf(page, r) {
   for (const [k, v] of Object.entries(r)) await page.fill(`#frf [name="${k}"]`, String(v));
@@ -277,8 +278,10 @@ async function frequencyResponse(page, context, url, token) {
 }
 
 // The step and the loops the page measures, and `measure step | loops` repeats after the console.
-const stepRequest = { mode: 'open', step_V: 1, bias_V: 3, duration_s: 0.05 };
-const loopsRequest = { amplitudes_V: '2, 4', frequency_Hz: 20, cycles: 2 };
+// Each records for about 1 s of board time or more, so the pages see its
+// progress on a busy machine (0.1 and 0.2 s did not always show it).
+const stepRequest = { mode: 'open', step_V: 1, bias_V: 3, duration_s: 0.5 };
+const loopsRequest = { amplitudes_V: '2, 4', frequency_Hz: 20, cycles: 10 };
 
 // The page's number format (console.js fig): 4 significant digits, scaled first.
 const fig = (x, scale = 1) => (x === null || x === undefined ? '–' : String(Number((x * scale).toPrecision(4))));
