@@ -212,11 +212,15 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
                                       const std::function<void(const std::string&)>& progress,
                                       const std::function<bool()>& stop_requested) {
     const auto t0 = std::chrono::steady_clock::now();
+    // A simulated stage has no recording to interrupt: a stop ends the run
+    // at its next step or around its figures, which take longer than the
+    // steps (a board's stops its recording).
+    const auto stop_point = [&] {
+        if (!board && stop_requested && stop_requested()) throw std::runtime_error("stopped before the end");
+    };
     const std::function<void(const std::string&)> say = [&](const std::string& line) {
         if (progress) progress(line);
-        // A simulated stage has no recording to interrupt: a stop ends the
-        // run at its next step (a board's stops its recording).
-        if (!board && stop_requested && stop_requested()) throw std::runtime_error("stopped before the end");
+        stop_point();
     };
     std::unique_ptr<commission::StageAccess> stage;
     json source;
@@ -297,12 +301,14 @@ nlohmann::json run_commission_session(hostlink::Client* board, const CommissionS
                           std::string(c.verification.empty() ? "" : ", verification.png (tracking, measured and predicted; "
                                                                     "the closed loop's response)") +
                           ".";
+    stop_point();
     try {
         sim::plot_spec("plot_sim.py", commission::commission_figures(c, std::filesystem::absolute(dir)));
     } catch (const std::exception& e) {
         figures = std::string("The figures could not be drawn: ") + e.what();
         say("warning: " + figures);
     }
+    stop_point();
     write("report.md", report_md(a, stage->describe(), rate_Hz, c, kept) + "\n" + figures + "\n");
     write("frf.json", measure::frf_report(c.frf_request, c.frf, source).dump(1) + "\n");
     json out;

@@ -469,7 +469,7 @@ async function commissionFromPage(page, context, url) {
   // The simulated stage, commissioned from the page: stopped once, then run to the end.
   await page.selectOption('#commission [name="on"]', 'simulator');
   await page.fill('#commission [name="range_um"]', String(commissionRequest.range_um));
-  // The simulated run takes under a second: Stop is sent right after the start, as the page's Stop sends it.
+  // The simulated run takes a second or two with its figures: Stop is sent right after the start, as the page's Stop sends it.
   const stopSent = await page.evaluate(async (tk) => {
     const h = { 'X-Piezoloop-Token': tk, 'X-Piezoloop-Viewer': window.piezoloop.viewer, 'Content-Type': 'application/json' };
     const start = await fetch('/api/commission/start', { method: 'POST', headers: h, body: JSON.stringify({ range_um: 12, on: 'simulator' }) });
