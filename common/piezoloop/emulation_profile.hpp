@@ -7,9 +7,9 @@
 // the board's compiled-in ones. No profile (no magic) means the reference
 // stage at 100 kHz.
 //
-// Layout, little-endian, no padding (version 2):
+// Layout, little-endian, no padding (version 3):
 //   header, 16 bytes: the stored-blob header (blob_header.hpp), magic
-//     0x4D455A50 ("PZEM" in memory order), version 2, body length
+//     0x4D455A50 ("PZEM" in memory order), version 3, body length
 //     kEmulationProfileBodyBytes, CRC-32 of the body
 //   body, kEmulationProfileBodyBytes bytes
 //     u32 loop_rate_Hz, f32 position_full_scale_um, f32 voltage_full_scale_V
@@ -30,9 +30,12 @@
 //                  8 x f32 mains.amplitudes_um (all 8 travel)
 //       plant, real-stage effects: f32 creep.percent_per_decade,
 //                  creep.from_s, creep.to_s, f32 drift_um_per_s
+//       plant, output map: u8 output_map.count, 8 x f32 thresholds_um,
+//                  8 x f32 weights (all 8 travel)
 // (Version 1 ended after the adc, 491 bytes: the stage without offset,
-// gain error, mains, creep and drift. A version 1 profile is refused by
-// its version, not read with those effects off.)
+// gain error, mains, creep and drift; version 2 after the drift, 552 bytes.
+// An older profile is refused by its version, not read with those effects
+// off.)
 // Floats travel as IEEE-754 bit patterns (link/wire.hpp), so a NaN arrives
 // as written and is rejected by the validation, which names the field.
 #pragma once
@@ -63,11 +66,11 @@ struct EmulationProfile {
 inline constexpr uint32_t kEmulationProfileAddress = 0x003FFC00u;
 inline constexpr std::size_t kEmulationProfileMaxBytes = 1024;
 inline constexpr uint32_t kEmulationProfileMagic = 0x4D455A50u;  // "PZEM"
-inline constexpr uint16_t kEmulationProfileVersion = 2;
+inline constexpr uint16_t kEmulationProfileVersion = 3;
 inline constexpr BlobKind kEmulationProfileBlob{kEmulationProfileMagic, kEmulationProfileVersion,
-                                                "must be 0x4D455A50 (\"PZEM\")", "must be 2"};
+                                                "must be 0x4D455A50 (\"PZEM\")", "must be 3"};
 inline constexpr std::size_t kEmulationProfileHeaderBytes = kBlobHeaderBytes;
-inline constexpr std::size_t kEmulationProfileBodyBytes = 552;
+inline constexpr std::size_t kEmulationProfileBodyBytes = 617;
 // The MPS2 tick timer clock (CMSDK TIMER0 on the 25 MHz APB): the loop rate
 // must divide it into a whole number of counts.
 inline constexpr uint32_t kEmulationTimerClock_Hz = 25'000'000;
@@ -108,6 +111,10 @@ inline void write_stage(link::Writer& w, const StageConfig& s) {
     for (const float m : s.sensor.mains.amplitudes_um) w.f32(m);
     w.f32(pl.creep.percent_per_decade); w.f32(pl.creep.from_s); w.f32(pl.creep.to_s);
     w.f32(pl.drift_um_per_s);
+    const OutputMap& om = pl.output_map;
+    w.u8(static_cast<uint8_t>(om.count < 0 || om.count > 255 ? 255 : om.count));
+    for (const float t : om.thresholds_um) w.f32(t);
+    for (const float x : om.weights) w.f32(x);
 }
 
 inline void write_body(link::Writer& w, const EmulationProfile& p) {
@@ -141,6 +148,10 @@ inline void read_stage(link::Reader& r, StageConfig& s) {
     for (float& m : s.sensor.mains.amplitudes_um) m = r.f32();
     pl.creep.percent_per_decade = r.f32(); pl.creep.from_s = r.f32(); pl.creep.to_s = r.f32();
     pl.drift_um_per_s = r.f32();
+    OutputMap& om = pl.output_map;
+    om.count = r.u8();
+    for (float& t : om.thresholds_um) t = r.f32();
+    for (float& x : om.weights) x = r.f32();
 }
 
 inline void read_body(link::Reader& r, EmulationProfile& p) {
@@ -194,13 +205,13 @@ inline bool profile_present(std::span<const uint8_t> in) { return blob_present(i
 inline Status decode_profile(std::span<const uint8_t> in, EmulationProfile& out) {
     BlobHeader h;
     if (const Status s = read_blob_header(in, kEmulationProfileBlob, h); !s.ok()) return s;
-    if (h.length != kEmulationProfileBodyBytes) return error("length", "body must be 552 bytes (version 2)");
+    if (h.length != kEmulationProfileBodyBytes) return error("length", "body must be 617 bytes (version 3)");
     std::span<const uint8_t> body;
     if (const Status s = blob_body(in, h, body); !s.ok()) return s;
     EmulationProfile p;
     link::Reader r(body);
     profile_detail::read_body(r, p);
-    if (!r.complete()) return error("length", "body does not match the version 2 layout");
+    if (!r.complete()) return error("length", "body does not match the version 3 layout");
     if (const Status s = validate(p); !s.ok()) return s;
     out = p;
     return ok_status();

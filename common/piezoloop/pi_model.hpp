@@ -31,6 +31,48 @@ namespace piezoloop {
 inline constexpr int kMaxPlayOperators = 16;
 inline constexpr int kMaxDeadZones = 8;
 
+// A superposition of one-sided dead zones, x + sum_i w_i max(x - d_i, 0)
+// (Kuhnen 2003): the modified PI's input map g (PiModel) and a stage's
+// output map S (plant.hpp). Its fields' names, for the errors.
+struct DeadZoneFields {
+    const char* count;
+    const char* thresholds;
+    const char* weights;
+    const char* not_increasing;  // the message for a weight that makes a slope <= 0
+};
+
+// count in [0, 8]; thresholds finite and strictly ascending; weights finite,
+// each keeping the slope 1 + w_1 + ... + w_i > 0 (an increasing map, which
+// has an inverse of the same form).
+constexpr Status validate_dead_zones(int count, const std::array<float, kMaxDeadZones>& thresholds,
+                                     const std::array<float, kMaxDeadZones>& weights, const DeadZoneFields& f) {
+    if (count < 0 || count > kMaxDeadZones) return error(f.count, "must be in [0, 8]");
+    double slope = 1.0;
+    for (int i = 0; i < count; ++i) {
+        const unsigned k = static_cast<unsigned>(i);
+        const float d = thresholds[k];
+        if (!is_finite(d)) return error(f.thresholds, i, "must be finite");
+        if (i > 0 && !(d > thresholds[k - 1])) return error(f.thresholds, i, "must be strictly ascending");
+        if (!is_finite(weights[k])) return error(f.weights, i, "must be finite");
+        slope += static_cast<double>(weights[k]);
+        if (!(slope > 0.0)) return error(f.weights, i, f.not_increasing);
+    }
+    return ok_status();
+}
+
+// The map in float, in threshold order: the arithmetic the float operator
+// and the stage run.
+inline float dead_zone_sum(int count, const std::array<float, kMaxDeadZones>& thresholds,
+                           const std::array<float, kMaxDeadZones>& weights, float x) {
+    float g = x;
+    for (int i = 0; i < count; ++i) {
+        const unsigned k = static_cast<unsigned>(i);
+        const float e = x - thresholds[k];
+        if (e > 0.0f) g = g + weights[k] * e;
+    }
+    return g;
+}
+
 struct PiModel {
     float input_gain = 1.0f;
     float input_offset = 0.0f;
@@ -59,32 +101,18 @@ constexpr Status validate(const PiModel& m) {
         if (!is_finite(m.weights[static_cast<unsigned>(j)]))
             return error("weights", j, "must be finite");
     }
-    if (m.dead_zones < 0 || m.dead_zones > kMaxDeadZones) return error("dead_zones", "must be in [0, 8]");
-    double slope = 1.0;
-    for (int i = 0; i < m.dead_zones; ++i) {
-        const unsigned k = static_cast<unsigned>(i);
-        const float d = m.dead_zone_thresholds[k];
-        if (!is_finite(d)) return error("dead_zone_thresholds", i, "must be finite");
-        if (i > 0 && !(d > m.dead_zone_thresholds[k - 1]))
-            return error("dead_zone_thresholds", i, "must be strictly ascending");
-        if (!is_finite(m.dead_zone_weights[k])) return error("dead_zone_weights", i, "must be finite");
-        slope += static_cast<double>(m.dead_zone_weights[k]);
-        if (!(slope > 0.0))
-            return error("dead_zone_weights", i, "must keep the input map increasing: 1 + the weights up to it > 0");
-    }
+    if (const Status s = validate_dead_zones(m.dead_zones, m.dead_zone_thresholds, m.dead_zone_weights,
+                                             {"dead_zones", "dead_zone_thresholds", "dead_zone_weights",
+                                              "must keep the input map increasing: 1 + the weights up to it > 0"});
+        !s.ok())
+        return s;
     return ok_status();
 }
 
 // g(x) of the input map in float, in threshold order: the arithmetic the
 // float operator runs.
 inline float dead_zone_map(const PiModel& m, float x) {
-    float g = x;
-    for (int i = 0; i < m.dead_zones; ++i) {
-        const unsigned k = static_cast<unsigned>(i);
-        const float e = x - m.dead_zone_thresholds[k];
-        if (e > 0.0f) g = g + m.dead_zone_weights[k] * e;
-    }
-    return g;
+    return dead_zone_sum(m.dead_zones, m.dead_zone_thresholds, m.dead_zone_weights, x);
 }
 
 // Initial loading curve phi(r) = p0 r + sum_{r_i <= r} p_i (r - r_i), in f.

@@ -1,5 +1,6 @@
 // Simulated piezo stage: a Hammerstein model, docs/models.md, 'Stages and scenarios' — a static hysteresis
-// (PI model, or Dahl solved per sample), optionally followed by logarithmic
+// (PI model, or Dahl solved per sample) and its optional output map (the
+// modified PI's S: an asymmetric loop), optionally followed by logarithmic
 // creep (creep.hpp), feeding linear dynamics realised as a biquad cascade
 // with unit DC gain; optionally a thermal drift ramp on the displacement.
 // The host simulator, the `piezoloop demo` and the emulated boards all run
@@ -22,11 +23,31 @@ inline constexpr int kMaxPlantSections = 6;
 
 enum class HysteresisKind : uint8_t { kNone = 0, kPi, kDahl };
 
+// The output map S on the hysteresis's output, µm -> µm, of Kuhnen's
+// modified PI y = S(PI[v]) (Eur. J. Control 9(4), 2003):
+//     S(x) = x + sum_i weights[i] * max(x - thresholds_um[i], 0),
+// increasing. A loading curve S bends is not a PI model's: its ascending
+// and descending branches are no longer point-symmetric. count 0: S(x) = x.
+struct OutputMap {
+    int count = 0;
+    std::array<float, kMaxDeadZones> thresholds_um{};
+    std::array<float, kMaxDeadZones> weights{};
+};
+
+// Errors name "output_map.count", "output_map.thresholds_um" or
+// "output_map.weights" (with the index).
+constexpr Status validate(const OutputMap& m) {
+    return validate_dead_zones(m.count, m.thresholds_um, m.weights,
+                               {"output_map.count", "output_map.thresholds_um", "output_map.weights",
+                                "must keep the output map increasing: 1 + the weights up to it > 0"});
+}
+
 struct PlantConfig {
     HysteresisKind hysteresis = HysteresisKind::kNone;
     PiModel pi{};                // kPi: V -> µm, static
     DahlParams dahl{};           // kDahl: V -> µm
     float linear_gain_um_per_V = 1.0f;  // kNone: static gain
+    OutputMap output_map{};      // on the hysteresis's output (any kind); off by default
     int sections = 0;            // 0: no dynamics
     std::array<SosSection, kMaxPlantSections> dynamics{};  // at the loop rate
     CreepConfig creep{};         // on the hysteresis output; off by default
@@ -52,6 +73,7 @@ public:
             default:
                 return error("hysteresis", "must be none, pi or dahl");
         }
+        if (const Status s = validate(c.output_map); !s.ok()) return s;
         if (c.sections < 0 || c.sections > kMaxPlantSections)
             return error("sections", "must be in [0, 6]");
         BiquadCascade<float, kMaxPlantSections> dyn;
@@ -98,6 +120,9 @@ public:
             case HysteresisKind::kDahl: static_um_ = dahl_.step(v_V); break;
             case HysteresisKind::kNone: static_um_ = config_.linear_gain_um_per_V * v_V; break;
         }
+        if (config_.output_map.count > 0)
+            static_um_ = dead_zone_sum(config_.output_map.count, config_.output_map.thresholds_um,
+                                       config_.output_map.weights, static_um_);
         const float crept = creep_.enabled() ? creep_.apply(static_um_) : static_um_;
         const float x = config_.sections > 0 ? dynamics_.apply(crept) : crept;
         if (config_.drift_um_per_s == 0.0f) return x;
@@ -108,7 +133,8 @@ public:
         return x + drift;
     }
 
-    // Output of the hysteresis alone (before creep and dynamics), last sample.
+    // Output of the hysteresis and its output map (before creep and
+    // dynamics), last sample.
     float static_displacement_um() const { return static_um_; }
     // The creep added to it, last sample (0 without creep).
     float creep_um() const { return creep_.creep_um(); }

@@ -51,14 +51,13 @@ json loops_figure(const Commissioning& c, const std::filesystem::path& dir) {
     // At most about 4000 points; the model runs through every sample.
     const std::size_t every = std::max<std::size_t>(1, c.loops.u_V.size() / 4000);
     std::vector<double> u, y, model;
-    PiOperator<float> op;
-    if (c.hysteresis) op.configure(c.hysteresis->model);
+    // The fitted model with its offset, from rest as fitted.
+    const std::vector<double> fitted = c.hysteresis ? c.hysteresis->simulate(c.loops.u_V) : std::vector<double>{};
     for (std::size_t i = 0; i < c.loops.u_V.size(); ++i) {
-        const double m = c.hysteresis ? op.apply(static_cast<float>(c.loops.u_V[i])) : 0.0;
         if (i % every != 0) continue;
         u.push_back(c.loops.u_V[i]);
         y.push_back(c.loops.y_um[i]);
-        model.push_back(m);
+        if (c.hysteresis) model.push_back(fitted[i]);
     }
     json s = json::array({series("measured", u, y)});
     if (c.hysteresis) s.push_back(series("PI model", u, model, "--"));

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "format/number.hpp"
+#include "ident/dead_zone_map.hpp"
 #include "lti/realisation.hpp"
 #include "lti/sos.hpp"
 #include "piezoloop/pi_inverse.hpp"
@@ -30,6 +31,7 @@ PlantConfig hysteresis_config(const HysteresisSpec& h) {
     p.pi = h.pi;
     p.dahl = h.dahl;
     p.linear_gain_um_per_V = f32(h.gain_um_per_V);
+    p.output_map = h.output_map;
     return p;
 }
 
@@ -92,6 +94,20 @@ PiModel inverse_compensator(const HysteresisSpec& h, double amplifier_gain, std:
     c.input_offset = 0.0f;
     c.p0 = f32(inv.p0 / (a * g));
     for (int j = 0; j < c.count; ++j) c.weights[static_cast<size_t>(j)] = f32(inv.weights[static_cast<size_t>(j)] / (a * g));
+    // S's inverse on the reference first (the modified PI's compensator).
+    if (h.output_map.count > 0) {
+        design::DeadZoneMap map;
+        for (int i = 0; i < h.output_map.count; ++i) {
+            map.thresholds.push_back(h.output_map.thresholds_um[static_cast<size_t>(i)]);
+            map.weights.push_back(h.output_map.weights[static_cast<size_t>(i)]);
+        }
+        const design::DeadZoneMap s_inverse = design::inverse(map);
+        c.dead_zones = h.output_map.count;
+        for (size_t i = 0; i < s_inverse.thresholds.size(); ++i) {
+            c.dead_zone_thresholds[i] = f32(s_inverse.thresholds[i]);
+            c.dead_zone_weights[i] = f32(s_inverse.weights[i]);
+        }
+    }
     if (h.in_offset != 0.0)
         note = "the inverse omits the model's constant input offset (" + format::significant(-h.in_offset / (a * g), 4) +
                " V of command); the feedback's integral action takes it up";
@@ -139,6 +155,7 @@ void build_stage(const Scenario& s, const CaseSpec* c, int substeps, LoopModel& 
     d.pi = h.pi;
     d.dahl = h.dahl;
     d.linear_gain_um_per_V = h.gain_um_per_V;
+    d.output_map = h.output_map;
     d.sensor = p.sensor;
     d.adc = p.adc;
     d.creep = p.creep;

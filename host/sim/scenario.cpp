@@ -116,7 +116,7 @@ HysteresisSpec parse_hysteresis(const Field& f) {
         // Thresholds in piezo volts, weights in µm/V; without p0 the rule of
         // docs/models.md, 'Prandtl–Ishlinskii model' applies (a first threshold
         // above 0 is the linear term).
-        f.only({"kind", "thresholds_V", "weights_um_per_V", "p0_um_per_V", "note"});
+        f.only({"kind", "thresholds_V", "weights_um_per_V", "p0_um_per_V", "output_map", "note"});
         const std::vector<double> r = f["thresholds_V"].numbers();
         const std::vector<double> p = f["weights_um_per_V"].numbers();
         if (r.size() != p.size()) f["weights_um_per_V"].fail("must have as many entries as thresholds_V");
@@ -131,6 +131,28 @@ HysteresisSpec parse_hysteresis(const Field& f) {
         h.core = HysteresisKind::kPi;
         h.pi = m;
         h.plain = m;
+        // Kuhnen's modified PI: S on the PI's output, y = S(PI[v]),
+        // S(x) = x + sum_i q_i max(x - d_i, 0) in µm (plant.hpp).
+        if (const auto z = f.get("output_map")) {
+            z->only({"thresholds_um", "weights"});
+            const std::vector<double> d = (*z)["thresholds_um"].numbers();
+            const std::vector<double> q = (*z)["weights"].numbers();
+            if (d.size() != q.size()) (*z)["weights"].fail("must have as many entries as thresholds_um");
+            if (d.empty() || d.size() > static_cast<size_t>(kMaxDeadZones))
+                (*z)["thresholds_um"].fail("must hold 1 to 8 dead zones");
+            OutputMap& o = h.output_map;
+            o.count = static_cast<int>(d.size());
+            for (size_t i = 0; i < d.size(); ++i) {
+                o.thresholds_um[i] = f32(d[i]);
+                o.weights[i] = f32(q[i]);
+            }
+            if (const Status st = validate(o); !st.ok()) {
+                // Named as the file has them: output_map.thresholds_um[i] or .weights[i].
+                const Field list = (*z)[std::string(st.field) == "output_map.weights" ? "weights" : "thresholds_um"];
+                if (st.index >= 0) list.at(static_cast<size_t>(st.index)).fail(st.message);
+                list.fail(st.message);
+            }
+        }
     } else if (h.kind == "shan_pi") {
         // Shan2012 eq. 4-5 in its own units: model input = input_per_V * piezo
         // voltage, displacement = output_um * model output.

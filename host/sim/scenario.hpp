@@ -44,6 +44,7 @@ struct HysteresisSpec {
     DahlParams dahl{};          // dahl
     double gain_um_per_V = 1.0; // none
     PiModel plain{};            // pi, shan_pi (factored form)
+    OutputMap output_map{};     // pi: S on the model's output (count 0: none)
     double in_gain = 1.0, in_offset = 0.0, out_gain = 1.0;
     std::string path;
 };

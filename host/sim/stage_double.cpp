@@ -61,6 +61,7 @@ void DoubleStage::configure(const DoubleStageConfig& c) {
         case HysteresisKind::kNone:
             break;
     }
+    if (const Status s = validate(c.output_map); !s.ok()) fail("plant", s);
     if (const Status s = creep_lags(c.creep, creep_); !s.ok()) fail("plant.creep", s);
     {
         MainsPickup probe;
@@ -153,12 +154,19 @@ void DoubleStage::reset() {
 }
 
 double DoubleStage::hysteresis(double v) {
+    double x = c_.linear_gain_um_per_V * v;
     switch (c_.hysteresis) {
-        case HysteresisKind::kPi: return pi_.apply(v);
-        case HysteresisKind::kDahl: return dahl_.step(static_cast<float>(v));
+        case HysteresisKind::kPi: x = pi_.apply(v); break;
+        case HysteresisKind::kDahl: x = dahl_.step(static_cast<float>(v)); break;
         case HysteresisKind::kNone: break;
     }
-    return c_.linear_gain_um_per_V * v;
+    const OutputMap& m = c_.output_map;
+    double y = x;
+    for (int i = 0; i < m.count; ++i) {
+        const size_t k = static_cast<size_t>(i);
+        y += static_cast<double>(m.weights[k]) * std::max(x - static_cast<double>(m.thresholds_um[k]), 0.0);
+    }
+    return y;
 }
 
 float DoubleStage::step(float u_V) {

@@ -66,6 +66,7 @@ struct DoubleStageConfig {
     PiModel pi{};
     DahlParams dahl{};
     double linear_gain_um_per_V = 1.0;
+    OutputMap output_map{};       // S on the hysteresis's output (plant.hpp), in double
     std::optional<design::Ss> dynamics;  // continuous, µm -> µm; none: static
     SensorConfig sensor{};        // bandwidth_Hz: continuous first-order lag
     ConverterConfig adc{};

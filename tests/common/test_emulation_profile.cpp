@@ -53,6 +53,9 @@ EmulationProfile sample_profile() {
     s.sensor.mains.amplitudes_um = {0.005f, 0.003f, 0.002f};
     s.plant.creep = {2.0f, 0.01f, 100.0f};
     s.plant.drift_um_per_s = 0.05f;
+    s.plant.output_map.count = 2;
+    s.plant.output_map.thresholds_um = {5.0f, 12.0f};
+    s.plant.output_map.weights = {-0.1f, -0.25f};
     return p;
 }
 
@@ -98,6 +101,9 @@ TEST(EmulationProfile, RoundTripIsExact) {
     EXPECT_EQ(q.stage.plant.sections, p.stage.plant.sections);
     EXPECT_EQ(q.stage.plant.hysteresis, p.stage.plant.hysteresis);
     EXPECT_EQ(q.stage.plant.linear_gain_um_per_V, p.stage.plant.linear_gain_um_per_V);
+    EXPECT_EQ(q.stage.plant.output_map.count, 2);
+    EXPECT_EQ(q.stage.plant.output_map.thresholds_um, p.stage.plant.output_map.thresholds_um);
+    EXPECT_EQ(q.stage.plant.output_map.weights, p.stage.plant.output_map.weights);
     EXPECT_EQ(q.stage.sensor.seed, p.stage.sensor.seed);
     EXPECT_EQ(q.stage.sensor.noise_rms, p.stage.sensor.noise_rms);
     EXPECT_EQ(q.stage.amplifier.output_max_V, p.stage.amplifier.output_max_V);
@@ -117,9 +123,9 @@ TEST(EmulationProfile, LayoutAtDocumentedOffsets) {
     // pi 3 f32 + count + 2 x 16 f32 (141), dahl 6 f32 (24), linear gain (4),
     // sections (1), 6 x 5 f64 (240), sensor (16), adc (12); sensor offset,
     // gain error, mains frequency, count, 8 amplitudes (45); creep 3 f32
-    // and drift (16).
+    // and drift (16); the output map's count, 8 thresholds, 8 weights (65).
     constexpr std::size_t kSum =
-        12 + 4 + 12 + 24 + 1 + (12 + 1 + 128) + 24 + 4 + 1 + 240 + 16 + 12 + (12 + 1 + 32) + 16;
+        12 + 4 + 12 + 24 + 1 + (12 + 1 + 128) + 24 + 4 + 1 + 240 + 16 + 12 + (12 + 1 + 32) + 16 + 65;
     static_assert(kSum == kEmulationProfileBodyBytes);
     const EmulationProfile p = sample_profile();
     const auto b = encode(p);
@@ -127,7 +133,7 @@ TEST(EmulationProfile, LayoutAtDocumentedOffsets) {
     EXPECT_EQ(b[1], 'Z');
     EXPECT_EQ(b[2], 'E');
     EXPECT_EQ(b[3], 'M');
-    EXPECT_EQ(b[4] | b[5] << 8, 2);
+    EXPECT_EQ(b[4] | b[5] << 8, 3);
     EXPECT_EQ(b[6] | b[7] << 8, 0);
     EXPECT_EQ(le32(b, 8), kSum);
     EXPECT_EQ(le32(b, 16), 50000u);
@@ -135,19 +141,29 @@ TEST(EmulationProfile, LayoutAtDocumentedOffsets) {
     EXPECT_EQ(le32(b, 28), std::bit_cast<uint32_t>(50000.0f));  // stage.rate_Hz
     EXPECT_EQ(le32(b, 32), 16u);                                // dac.bits
     EXPECT_EQ(b[16 + 52], static_cast<uint8_t>(HysteresisKind::kPi));
-    // The last fields: drift, creep to_s, from_s, percent_per_decade.
-    EXPECT_EQ(le32(b, b.size() - 4), std::bit_cast<uint32_t>(0.05f));
-    EXPECT_EQ(le32(b, b.size() - 8), std::bit_cast<uint32_t>(100.0f));
-    EXPECT_EQ(le32(b, b.size() - 16), std::bit_cast<uint32_t>(2.0f));
+    // The last fields: the output map's 8 weights (the 3rd to 8th are 0),
+    // 8 thresholds, its count.
+    const std::size_t map = b.size() - 65;
+    EXPECT_EQ(b[map], 2);
+    EXPECT_EQ(le32(b, map + 1), std::bit_cast<uint32_t>(5.0f));
+    EXPECT_EQ(le32(b, map + 5), std::bit_cast<uint32_t>(12.0f));
+    EXPECT_EQ(le32(b, map + 33), std::bit_cast<uint32_t>(-0.1f));
+    EXPECT_EQ(le32(b, map + 37), std::bit_cast<uint32_t>(-0.25f));
+    EXPECT_EQ(le32(b, map + 41), 0u);
+    // Before it (version 2's end): drift, creep to_s, from_s, percent_per_decade.
+    const std::size_t v2_end = map;
+    EXPECT_EQ(le32(b, v2_end - 4), std::bit_cast<uint32_t>(0.05f));
+    EXPECT_EQ(le32(b, v2_end - 8), std::bit_cast<uint32_t>(100.0f));
+    EXPECT_EQ(le32(b, v2_end - 16), std::bit_cast<uint32_t>(2.0f));
     // Before them the mains: 8 amplitudes (the 4th to 8th are 0), the count.
-    EXPECT_EQ(le32(b, b.size() - 48), std::bit_cast<uint32_t>(0.005f));
-    EXPECT_EQ(le32(b, b.size() - 36), 0u);
-    EXPECT_EQ(b[b.size() - 49], 3);
-    EXPECT_EQ(le32(b, b.size() - 53), std::bit_cast<uint32_t>(60.0f));
-    EXPECT_EQ(le32(b, b.size() - 57), std::bit_cast<uint32_t>(-0.015f));
-    EXPECT_EQ(le32(b, b.size() - 61), std::bit_cast<uint32_t>(0.3f));
+    EXPECT_EQ(le32(b, v2_end - 48), std::bit_cast<uint32_t>(0.005f));
+    EXPECT_EQ(le32(b, v2_end - 36), 0u);
+    EXPECT_EQ(b[v2_end - 49], 3);
+    EXPECT_EQ(le32(b, v2_end - 53), std::bit_cast<uint32_t>(60.0f));
+    EXPECT_EQ(le32(b, v2_end - 57), std::bit_cast<uint32_t>(-0.015f));
+    EXPECT_EQ(le32(b, v2_end - 61), std::bit_cast<uint32_t>(0.3f));
     // Then adc.max, adc.bits and the sensor seed as in version 1.
-    const std::size_t v1_end = b.size() - 61;
+    const std::size_t v1_end = v2_end - 61;
     EXPECT_EQ(le32(b, v1_end - 4), std::bit_cast<uint32_t>(10.0f));
     EXPECT_EQ(le32(b, v1_end - 12), 18u);  // adc.bits
     EXPECT_EQ(le32(b, v1_end - 16), 12345u);
@@ -209,6 +225,9 @@ TEST(EmulationProfile, EveryValueRejectionNamesItsFieldAndLeavesOutUntouched) {
         {"creep to_s", [](EmulationProfile& p) { p.stage.plant.creep.to_s = 30.0f; }, "plant", "creep.to_s"},
         {"creep NaN", [](EmulationProfile& p) { p.stage.plant.creep.percent_per_decade = s_nan; }, "plant", "creep.percent_per_decade"},
         {"drift inf", [](EmulationProfile& p) { p.stage.plant.drift_um_per_s = std::numeric_limits<float>::infinity(); }, "plant", "drift_um_per_s"},
+        {"output map count 9", [](EmulationProfile& p) { p.stage.plant.output_map.count = 9; }, "plant", "output_map.count"},
+        {"output map thresholds not ascending", [](EmulationProfile& p) { p.stage.plant.output_map.thresholds_um[1] = 5.0f; }, "plant", "output_map.thresholds_um"},
+        {"output map decreasing", [](EmulationProfile& p) { p.stage.plant.output_map.weights[1] = -0.95f; }, "plant", "output_map.weights"},
     };
     for (const Case& c : cases) {
         SCOPED_TRACE(c.name);
@@ -257,6 +276,8 @@ TEST(EmulationProfile, EveryFramingRejectionNamesTheHeaderField) {
         b[4] = 1;  // version 1: the layout before the real-stage effects
         expect(b, "version");
         EXPECT_TRUE(profile_present(b));
+        b[4] = 2;  // version 2: the layout before the output map
+        expect(b, "version");
     }
     {
         auto b = good;
@@ -265,7 +286,7 @@ TEST(EmulationProfile, EveryFramingRejectionNamesTheHeaderField) {
     }
     {
         auto b = good;
-        put32(b, 8, kEmulationProfileBodyBytes + 4);  // length not the v2 layout
+        put32(b, 8, kEmulationProfileBodyBytes + 4);  // length not the v3 layout
         expect(b, "length");
     }
     // Body cut short of the declared length.

@@ -88,3 +88,50 @@ TEST(Plant, RejectsBadConfigAndKeepsOld) {
     EXPECT_EQ(plant.config().sections, 1);
     EXPECT_EQ(plant.config().pi.count, 4);
 }
+
+TEST(Plant, OutputMapBendsTheHysteresisOutput) {
+    // Kuhnen's modified PI, y = S(PI[v]): the reference is the PI model by
+    // its direct formula in double, then S(x) = x + sum_i q_i max(x - d_i, 0)
+    // evaluated on it, no dynamics. Float against double: the PI output
+    // (~10 µm) carries rounding of a few 2^-24 relative, S's slope is at
+    // most 1: 1e-5 µm covers it.
+    PlantConfig c = pi_stage();
+    c.sections = 0;
+    c.output_map.count = 2;
+    c.output_map.thresholds_um = {1.0f, 3.0f};
+    c.output_map.weights = {-0.3f, -0.4f};  // slopes 1, 0.7, 0.3: the loop saturates at the top
+    HammersteinPlant plant;
+    ASSERT_TRUE(plant.configure(c).ok());
+    double w[4] = {0, 0, 0, 0}, worst = 0, top = -1e9, bottom = 1e9;
+    for (int k = 0; k < 4000; ++k) {
+        const float v = static_cast<float>(5.0 * std::sin(2.0 * M_PI * k / 2000.0));
+        double x = c.pi.p0 * static_cast<double>(v);
+        for (int j = 0; j < c.pi.count; ++j) {
+            const double r = c.pi.thresholds[static_cast<unsigned>(j)];
+            w[j] = std::max(v - r, std::min(v + r, w[j]));
+            x += c.pi.weights[static_cast<unsigned>(j)] * w[j];
+        }
+        const double y = x - 0.3 * std::max(x - 1.0, 0.0) - 0.4 * std::max(x - 3.0, 0.0);
+        const float got = plant.step(v);
+        worst = std::max(worst, std::fabs(got - y));
+        EXPECT_EQ(plant.static_displacement_um(), got);
+        top = std::max(top, y);
+        bottom = std::min(bottom, y);
+    }
+    EXPECT_LT(worst, 1e-5);
+    // The map makes the loop asymmetric: compressed above 1 µm only.
+    EXPECT_LT(top, -bottom * 0.7);  // S(4.24) = 2.77 against -4.24
+
+    PlantConfig bad = c;
+    bad.output_map.weights[1] = -0.8f;  // slope 1 - 0.3 - 0.8 < 0
+    const Status s = plant.configure(bad);
+    EXPECT_STREQ(s.field, "output_map.weights");
+    EXPECT_EQ(s.index, 1);
+    bad = c;
+    bad.output_map.thresholds_um[1] = 0.5f;
+    EXPECT_STREQ(plant.configure(bad).field, "output_map.thresholds_um");
+    bad = c;
+    bad.output_map.count = 9;
+    EXPECT_STREQ(plant.configure(bad).field, "output_map.count");
+    EXPECT_EQ(plant.config().output_map.weights[1], -0.4f);  // the accepted map kept
+}

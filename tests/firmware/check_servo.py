@@ -265,9 +265,10 @@ def profile_blob(rate, pos_fs, volt_fs, stage_rate=None, corrupt=False):
     body += struct.pack("<iff", 18, -100.0, 100.0)                            # adc
     body += struct.pack("<fffB", 0.0, 0.0, 50.0, 0) + struct.pack("<8f", *([0.0] * 8))  # offset, gain error, mains
     body += struct.pack("<4f", 0.0, 0.0, 0.0, 0.0)                            # creep, drift
-    assert len(body) == 552
+    body += struct.pack("<B", 0) + struct.pack("<16f", *([0.0] * 16))         # output map
+    assert len(body) == 617
     crc = zlib.crc32(body) ^ (1 if corrupt else 0)
-    return struct.pack("<IHHII", 0x4D455A50, 2, 0, len(body), crc) + body
+    return struct.pack("<IHHII", 0x4D455A50, 3, 0, len(body), crc) + body
 
 
 def session(elf, machine, profile, body):

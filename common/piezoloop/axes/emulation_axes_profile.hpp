@@ -6,9 +6,10 @@
 // axis, as before; with it, the servo image runs `axes` axes against the
 // coupled stage (firmware/app/servo_axes.cpp).
 //
-// Layout, little-endian, no padding (version 1):
+// Layout, little-endian, no padding (version 2; version 1 carried the
+// stage block of the emulation profile's version 2, without the output map):
 //   header, 16 bytes: the stored-blob header (blob_header.hpp), magic
-//     0x58415A50 ("PZAX" in memory order), version 1, body length
+//     0x58415A50 ("PZAX" in memory order), version 2, body length
 //     kEmulationAxesBodyBytes, CRC-32 of the body
 //   body, kEmulationAxesBodyBytes bytes
 //     u8 axes (2 or 3)
@@ -51,14 +52,14 @@ struct EmulationAxesProfile {
 inline constexpr uint32_t kEmulationAxesProfileAddress = 0x003FC000u;
 inline constexpr std::size_t kEmulationAxesProfileMaxBytes = 2048;
 inline constexpr uint32_t kEmulationAxesMagic = 0x58415A50u;  // "PZAX"
-inline constexpr uint16_t kEmulationAxesVersion = 1;
+inline constexpr uint16_t kEmulationAxesVersion = 2;
 inline constexpr BlobKind kEmulationAxesBlob{kEmulationAxesMagic, kEmulationAxesVersion,
-                                             "must be 0x58415A50 (\"PZAX\")", "must be 1"};
+                                             "must be 0x58415A50 (\"PZAX\")", "must be 2"};
 inline constexpr std::size_t kEmulationStageBytes = kEmulationProfileBodyBytes - 12;
 inline constexpr std::size_t kEmulationAxesBodyBytes =
     1 + (kMaxStageAxes - 1) * (8 + kEmulationStageBytes) + 1 + kMaxCouplingPaths * (3 + kMaxCouplingSections * 40);
 
-static_assert(kEmulationAxesBodyBytes == 1596, "the length decode_axes_profile's message states");
+static_assert(kEmulationAxesBodyBytes == 1726, "the length decode_axes_profile's message states");
 static_assert(kBlobHeaderBytes + kEmulationAxesBodyBytes <= kEmulationAxesProfileMaxBytes);
 static_assert(kEmulationAxesProfileAddress + kEmulationAxesProfileMaxBytes <= 0x003FE000u,
               "below the board cases' slots (board_case.hpp)");
@@ -143,13 +144,13 @@ inline Status decode_axes_profile(std::span<const uint8_t> in, const EmulationPr
                                   EmulationAxesProfile& out, CoupledStage& scratch) {
     BlobHeader h;
     if (const Status s = read_blob_header(in, kEmulationAxesBlob, h); !s.ok()) return s;
-    if (h.length != kEmulationAxesBodyBytes) return error("length", "body must be 1596 bytes (version 1)");
+    if (h.length != kEmulationAxesBodyBytes) return error("length", "body must be 1726 bytes (version 2)");
     std::span<const uint8_t> body;
     if (const Status s = blob_body(in, h, body); !s.ok()) return s;
     EmulationAxesProfile p;
     link::Reader r(body);
     axes_profile_detail::read_body(r, p);
-    if (!r.complete()) return error("length", "body does not match the version 1 layout");
+    if (!r.complete()) return error("length", "body does not match the version 2 layout");
     if (const Status s = validate(p, first, scratch); !s.ok()) return s;
     p.stage.axes = p.axes;
     p.stage.axis[0] = first.stage;

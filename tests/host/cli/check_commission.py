@@ -70,9 +70,10 @@ for args, option in ((["--range-um", "1000"], "--range-um"), (["--range-um", "-1
     check(r.returncode == 2 and option in r.stderr and not os.path.exists(bad),
           "%s: %d %s" % (option, r.returncode, r.stderr))
 
-# Stages the tool has not seen (configs/stages/, three of them with a real
+# Stages the tool has not seen (configs/stages/, four of them with a real
 # stage's imperfections: a unipolar ADC, sensor offset and gain error, creep,
-# drift, mains pickup, Shan2012-sized hysteresis) and the sources' stages
+# drift, mains pickup, Shan2012-sized hysteresis, a loop that is not a PI
+# model's) and the sources' stages
 # meet the acceptance checks on the simulator: a 10 Hz triangle over half the
 # range with e_max <= 1 % of its range (<= 2 % where the first mode is below
 # 500 Hz: the soft bender's is at 400 Hz), and the 1 Hz triangle over the whole
@@ -82,8 +83,8 @@ for args, option in ((["--range-um", "1000"], "--range-um"), (["--range-um", "-1
 # check_commission_e2e.py.)
 stages = (("stages/stiff_stack", 12, 1.0), ("stages/soft_bender", 24, 2.0), ("stages/rhp_zero", 20, 1.0),
           ("stages/stiff_stack_unipolar", 12, 1.0), ("stages/drifting_stage", 20, 1.0),
-          ("stages/strong_hysteresis", 28, 1.0), ("ahmad2020", 12, 1.0), ("shan2012", 8, 1.0),
-          ("janaideh2016", 20, 3.5))
+          ("stages/strong_hysteresis", 28, 1.0), ("stages/asymmetric_hysteresis", 16, 1.0), ("ahmad2020", 12, 1.0),
+          ("shan2012", 8, 1.0), ("janaideh2016", 20, 3.5))
 for stage, range_um, limit in stages:
     o = os.path.join(tmp, os.path.basename(stage))
     r = subprocess.run([exe, "commission", "--scenario", os.path.join(configs, stage + ".json"), "--range-um",

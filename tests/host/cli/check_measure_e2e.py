@@ -15,7 +15,8 @@ qemu-m3 (Q31 core).
 - measure loops, two amplitudes: the first (from rest on both) the
   simulator's exactly; the second, which the board starts after a pause at
   0 V, within 0.5 % of range of the simulator's (its noise samples differ).
-- measure step on configs/stages/drifting_stage.json (sensor offset, gain
+- measure step on configs/stages/asymmetric_hysteresis.json (the output
+  map) and on configs/stages/drifting_stage.json (sensor offset, gain
   error, mains pickup, creep and drift, all in the emulation profile): the
   simulator's log hash.
 - Hostile requests (amplitude beyond the limits, --to-hz above Nyquist,
@@ -181,6 +182,21 @@ try:
     check(ok and load(board_json)["log_hash"] == load(sim_json)["log_hash"],
           "step with offset, gain error, mains, creep and drift: the board's log hash is the simulator's",
           r.stderr + s.stderr)
+
+    # A loop that is not a PI model's (the hysteresis's output map:
+    # configs/stages/asymmetric_hysteresis.json), through the profile too:
+    # a step up into the map's flattened part, board = simulator.
+    emulators.stop(emulators.running[0])
+    asym = os.path.join(configs, "stages", "asymmetric_hysteresis.json")
+    _, d, _ = emulators.start("--board", board, "--scenario", asym, "--image", image)
+    r = run(*d, "set", "--scenario", asym, "--case", "open_loop", "--frequency-hz", "10")
+    check(r.returncode == 0, "set --scenario: the asymmetric stage's limits on the board", r.stderr)
+    asym_step = ["--step-v", "5", "--bias-v", "4", "--duration-s", "0.05"]
+    r = run(*d, "measure", "step", *asym_step, "--restart-stage", "--out", board_json)
+    s = run("measure", "step", "--scenario", asym, "--sample", sample, *asym_step, "--out", sim_json)
+    ok = r.returncode == 0 and s.returncode == 0
+    check(ok and load(board_json)["log_hash"] == load(sim_json)["log_hash"],
+          "step into the output map's flattened part: the board's log hash is the simulator's", r.stderr + s.stderr)
 finally:
     emulators.stop_all()
     shutil.rmtree(tmp, ignore_errors=True)

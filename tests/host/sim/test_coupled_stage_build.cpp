@@ -118,7 +118,7 @@ TEST(CoupledStageBuild, StepResponsesEqualScipy) {
 
 // A single-axis scenario as a CoupledStage is the simulator's StageModel.
 TEST(CoupledStageBuild, SingleAxisScenarioIsTheSimulatorsStageBitForBit) {
-    for (const char* name : {"stiff_stack", "drifting_stage"}) {
+    for (const char* name : {"stiff_stack", "drifting_stage", "asymmetric_hysteresis"}) {
         SCOPED_TRACE(name);
         const Scenario s = load_scenario(test::configs_dir() + "stages/" + name + ".json");
         LoopModel m;

@@ -416,7 +416,7 @@ TEST(SimScenario, RealStageEffectsAreTheSameInBothFidelities) {
 // effects carry what their README says.
 TEST(SimScenario, MadeUpStagesLoadAndFitTheEmulatedBoards) {
     for (const char* name : {"stiff_stack", "soft_bender", "rhp_zero", "stiff_stack_unipolar", "drifting_stage",
-                             "strong_hysteresis"}) {
+                             "strong_hysteresis", "asymmetric_hysteresis"}) {
         SCOPED_TRACE(name);
         const Scenario s = load_scenario(kConfigs + "stages/" + name + ".json");
         ASSERT_EQ(s.cases.size(), 1u);
@@ -454,4 +454,47 @@ TEST(SimScenario, MadeUpStagesLoadAndFitTheEmulatedBoards) {
     for (int j = 0; j < pi.count; ++j)
         if (pi.thresholds[static_cast<size_t>(j)] < 75.0f) slope += pi.weights[static_cast<size_t>(j)];
     EXPECT_NEAR(slope / pi.p0, 4.0, 0.01);
+    // The asymmetric loop: S's slope 1, 0.75 above 8 um, 0.5 above 16 um,
+    // carried to the float stage.
+    const Scenario a = load_scenario(kConfigs + "stages/asymmetric_hysteresis.json");
+    const OutputMap& om = a.plant.hysteresis.output_map;
+    ASSERT_EQ(om.count, 2);
+    EXPECT_EQ(om.thresholds_um[1], 16.0f);
+    EXPECT_EQ(1.0f + om.weights[0] + om.weights[1], 0.5f);
+    LoopModel am;
+    build_stage(a, nullptr, 10, am);
+    EXPECT_EQ(am.stage.plant.output_map.weights, om.weights);
+    EXPECT_EQ(am.stage_double.output_map.thresholds_um, om.thresholds_um);
+}
+
+// A pi hysteresis's output map: refused naming its entry, as the file has it.
+TEST(SimScenario, OutputMapRefusalsNameTheEntry) {
+    const auto refused = [](const std::string& map) {
+        const std::string text = R"({"scenario": "t", "title": "t", "source": "t",
+          "loop": {"rate_Hz": 10000, "position_full_scale_um": 50, "voltage_full_scale_V": 12,
+                   "hard_limits": {"u_min_V": -10, "u_max_V": 10, "slew_V_per_s": 1e6}},
+          "plant": {"dac": {"bits": 0, "min": -10, "max": 10},
+                    "amplifier": {"gain": 1, "input_min_V": -10, "input_max_V": 10, "output_min_V": -10, "output_max_V": 10},
+                    "hysteresis": {"kind": "pi", "thresholds_V": [1, 2], "weights_um_per_V": [0.2, 0.1], "p0_um_per_V": 1,
+                                   "output_map": )" + map + R"(},
+                    "sensor": {"gain_per_um": 1, "noise_rms": 0, "seed": 1}, "adc": {"bits": 0, "min": -50, "max": 50}},
+          "reference": {"nominal_um_per_V": 1, "offset": "bipolar"},
+          "cases": [{"name": "open_loop", "label": "open loop", "controller": {"feedforward": {"kind": "gain", "V_per_um": 1}}}]})";
+        try {
+            (void)parse_scenario(nlohmann::json::parse(text), ".");
+        } catch (const ScenarioError& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    EXPECT_EQ(refused(R"({"thresholds_um": [1, 2], "weights": [-0.2, -0.3]})"), "accepted");
+    EXPECT_NE(refused(R"({"thresholds_um": [1, 2], "weights": [-0.2, -0.9]})").find("plant.hysteresis.output_map.weights[1]"),
+              std::string::npos);
+    EXPECT_NE(refused(R"({"thresholds_um": [2, 1], "weights": [-0.2, -0.3]})").find("plant.hysteresis.output_map.thresholds_um[1]"),
+              std::string::npos);
+    EXPECT_NE(refused(R"({"thresholds_um": [1, 2], "weights": [-0.2]})").find("plant.hysteresis.output_map.weights"),
+              std::string::npos);
+    EXPECT_NE(refused(R"({"thresholds_um": [], "weights": []})").find("plant.hysteresis.output_map.thresholds_um"),
+              std::string::npos);
+    EXPECT_NE(refused(R"({"thresholds_um": [1], "weights": [0.1], "x": 1})").find("x"), std::string::npos);
 }
