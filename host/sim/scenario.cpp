@@ -100,6 +100,32 @@ PiModel scaled(PiModel m, double out_gain) {
     return m;
 }
 
+// A superposition of dead zones as a file gives it,
+// {"thresholds_um": [d_1, ...], "weights": [q_1, ...]}: 1 to 8, validated
+// (pi_model.hpp); an error names the entry as the file has it.
+void parse_dead_zones(const Field& z, const char* not_increasing, int& count,
+                      std::array<float, kMaxDeadZones>& thresholds, std::array<float, kMaxDeadZones>& weights) {
+    z.only({"thresholds_um", "weights"});
+    const std::vector<double> d = z["thresholds_um"].numbers();
+    const std::vector<double> q = z["weights"].numbers();
+    if (d.size() != q.size()) z["weights"].fail("must have as many entries as thresholds_um");
+    if (d.empty() || d.size() > static_cast<size_t>(kMaxDeadZones)) z["thresholds_um"].fail("must hold 1 to 8 dead zones");
+    std::array<float, kMaxDeadZones> dt{}, qt{};
+    for (size_t i = 0; i < d.size(); ++i) {
+        dt[i] = f32(d[i]);
+        qt[i] = f32(q[i]);
+    }
+    const int n = static_cast<int>(d.size());
+    if (const Status st = validate_dead_zones(n, dt, qt, {"count", "thresholds_um", "weights", not_increasing}); !st.ok()) {
+        const Field list = z[st.field];
+        if (st.index >= 0) list.at(static_cast<size_t>(st.index)).fail(st.message);
+        list.fail(st.message);
+    }
+    count = n;
+    thresholds = dt;
+    weights = qt;
+}
+
 }  // namespace
 
 HysteresisSpec parse_hysteresis(const Field& f) {
@@ -134,24 +160,9 @@ HysteresisSpec parse_hysteresis(const Field& f) {
         // Kuhnen's modified PI: S on the PI's output, y = S(PI[v]),
         // S(x) = x + sum_i q_i max(x - d_i, 0) in µm (plant.hpp).
         if (const auto z = f.get("output_map")) {
-            z->only({"thresholds_um", "weights"});
-            const std::vector<double> d = (*z)["thresholds_um"].numbers();
-            const std::vector<double> q = (*z)["weights"].numbers();
-            if (d.size() != q.size()) (*z)["weights"].fail("must have as many entries as thresholds_um");
-            if (d.empty() || d.size() > static_cast<size_t>(kMaxDeadZones))
-                (*z)["thresholds_um"].fail("must hold 1 to 8 dead zones");
             OutputMap& o = h.output_map;
-            o.count = static_cast<int>(d.size());
-            for (size_t i = 0; i < d.size(); ++i) {
-                o.thresholds_um[i] = f32(d[i]);
-                o.weights[i] = f32(q[i]);
-            }
-            if (const Status st = validate(o); !st.ok()) {
-                // Named as the file has them: output_map.thresholds_um[i] or .weights[i].
-                const Field list = (*z)[std::string(st.field) == "output_map.weights" ? "weights" : "thresholds_um"];
-                if (st.index >= 0) list.at(static_cast<size_t>(st.index)).fail(st.message);
-                list.fail(st.message);
-            }
+            parse_dead_zones(*z, "must keep the output map increasing: 1 + the weights up to it > 0", o.count,
+                             o.thresholds_um, o.weights);
         }
     } else if (h.kind == "shan_pi") {
         // Shan2012 eq. 4-5 in its own units: model input = input_per_V * piezo
@@ -353,25 +364,9 @@ FeedforwardSpec parse_feedforward(const Field& f) {
         // Kuhnen's modified PI: the inverse of the output map on r first,
         // g(r) = r + sum_i q_i max(r - d_i, 0) (identify pi's
         // output_nonlinearity.inverse).
-        if (const auto z = f.get("dead_zones")) {
-            z->only({"thresholds_um", "weights"});
-            const std::vector<double> d = (*z)["thresholds_um"].numbers();
-            const std::vector<double> q = (*z)["weights"].numbers();
-            if (d.size() != q.size()) (*z)["weights"].fail("must have as many entries as thresholds_um");
-            if (d.empty() || d.size() > static_cast<size_t>(kMaxDeadZones))
-                (*z)["thresholds_um"].fail("must hold 1 to 8 dead zones");
-            s.pi.dead_zones = static_cast<int>(d.size());
-            for (size_t i = 0; i < d.size(); ++i) {
-                s.pi.dead_zone_thresholds[i] = f32(d[i]);
-                s.pi.dead_zone_weights[i] = f32(q[i]);
-            }
-            // Named as the file has them: dead_zones.thresholds_um[i] or .weights[i].
-            if (const Status st = validate(s.pi); !st.ok()) {
-                const Field list = (*z)[std::string(st.field) == "dead_zone_weights" ? "weights" : "thresholds_um"];
-                if (st.index >= 0) list.at(static_cast<size_t>(st.index)).fail(st.message);
-                list.fail(st.message);
-            }
-        }
+        if (const auto z = f.get("dead_zones"))
+            parse_dead_zones(*z, "must keep the input map increasing: 1 + the weights up to it > 0", s.pi.dead_zones,
+                             s.pi.dead_zone_thresholds, s.pi.dead_zone_weights);
     } else {
         f.only({"kind", "params", "identify"});
         const auto params = f.get("params");
