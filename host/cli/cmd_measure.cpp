@@ -297,6 +297,7 @@ int run_frf(const FrfArgs& a) {
                       {"warnings", run.warnings}}
                      .dump(1)
               << "\n";
+    for (const std::string& w : run.warnings) std::cerr << "measure frf: warning: " << w << "\n";
     std::cerr << "measure frf: " << run.estimate.frequency_Hz.size() << " lines, " << format::significant(measured_s, 4)
               << (on_board ? " s on the board in " : " s simulated in ") << format::significant(total_s, 3)
               << " s wall\n";

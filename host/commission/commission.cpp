@@ -651,6 +651,13 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     c.frf = stage.frf(c.frf_request);
     say(c, "frequency response: " + std::to_string(c.frf.estimate.frequency_Hz.size()) + " lines, " +
                num(c.frf_request.from_Hz) + " Hz to " + num(c.frf_request.to_Hz) + " Hz");
+    if (const auto& flagged = c.frf.estimate.transient_lines; !flagged.empty())
+        say(c, "frequency response: " + std::to_string(flagged.size()) +
+                   " lines differ between the first and the second half of the periods beyond their noise (" +
+                   num(c.frf.estimate.frequency_Hz[flagged.front()]) + " to " +
+                   num(c.frf.estimate.frequency_Hz[flagged.back()]) +
+                   " Hz): the stage had not settled (a lightly damped mode ringing, its hysteresis or creep "
+                   "still moving), and the fit carries that there");
 
     // 4. The model: the lowest order that fits.
     fit_models(c, loop.rate_Hz, note);

@@ -12,6 +12,42 @@
 
 namespace piezoloop::measure {
 
+namespace {
+
+// The first half of the periods against the second (frf_estimate.hpp).
+void transient_check(const std::vector<std::vector<cplx>>& U, const std::vector<std::vector<cplx>>& Y, FrfEstimate& e) {
+    const std::size_t P = U.size(), n = P / 2, K = e.response.size(), b0 = P - n;
+    std::vector<cplx> change(K);
+    std::vector<double> spread(K);
+    for (std::size_t j = 0; j < K; ++j) {
+        cplx ua = 0.0, ya = 0.0, ub = 0.0, yb = 0.0;
+        for (std::size_t p = 0; p < n; ++p) {
+            ua += U[p][j];
+            ya += Y[p][j];
+            ub += U[b0 + p][j];
+            yb += Y[b0 + p][j];
+        }
+        const cplx gb = yb / ub;
+        change[j] = ya / ua - gb;
+        double s = 0.0;
+        for (std::size_t p = b0; p < P; ++p) s += std::norm(Y[p][j] / U[p][j] - gb);
+        spread[j] = s / static_cast<double>(n - 1);
+        e.half_change_rel.push_back(std::abs(change[j]) / std::abs(gb));
+    }
+    for (std::size_t j = 0; j < K; ++j) {
+        const std::size_t lo = j >= static_cast<std::size_t>(kTransientPool) ? j - kTransientPool : 0;
+        const std::size_t hi = std::min(K - 1, j + kTransientPool);
+        double pooled = 0.0;
+        for (std::size_t i = lo; i <= hi; ++i) pooled += spread[i];
+        pooled /= static_cast<double>(hi - lo + 1);
+        const double var_change = 2.0 * pooled / static_cast<double>(n);
+        if (e.half_change_rel[j] >= kTransientRel && std::norm(change[j]) > kTransientZ2 * var_change)
+            e.transient_lines.push_back(j);
+    }
+}
+
+}  // namespace
+
 FrfEstimate estimate_multisine(const std::vector<double>& u, const std::vector<double>& y, const MultisineLayout& l) {
     const std::size_t N = l.period_samples;
     if (N < 4 || l.first_bin < 1 || l.last_bin < l.first_bin || 2 * std::size_t{l.last_bin} >= N)
@@ -81,6 +117,7 @@ FrfEstimate estimate_multisine(const std::vector<double>& u, const std::vector<d
         e.u_line.push_back(ub);
         e.y_line.push_back(yb);
     }
+    if (P >= 4) transient_check(U, Y, e);
     return e;
 }
 

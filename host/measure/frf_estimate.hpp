@@ -19,6 +19,22 @@
 // for, so the same estimate serves open and closed loops (ch. 2.6: with a
 // periodic excitation Ybar / Ubar is consistent in feedback as well, the
 // noise averaging out over the periods).
+//
+// Transient check (P >= 4): in steady state every period is the same but
+// for noise, so a response that differs between the first and the second
+// half of the periods beyond the noise is a transient still decaying (a
+// lightly damped mode ringing from how the run started, a hysteretic or
+// creeping stage still moving; Pintelon & Schoukens 2012, ch. 2, compare
+// periods to see it). Per line, with n = P / 2 periods in each half, G_a
+// and G_b the halves' estimates and s_b^2 the second half's
+// period-to-period variance of Y_p / U_p, averaged over
+// the kTransientPool lines each side (the noise varies slowly with
+// frequency; one line's n - 1 degrees of freedom are too few):
+//     z^2 = |G_a - G_b|^2 / (2 s_b^2 / n).
+// For complex Gaussian noise z^2 is about F(2, 2 (n - 1) (2 kTransientPool
+// + 1)) distributed: above kTransientZ2 with a probability below 1e-6 per
+// line for n >= 2. A line is flagged when z^2 > kTransientZ2 and the change
+// is at least kTransientRel of |G_b| (a bias that matters, not rounding).
 #pragma once
 
 #include <complex>
@@ -35,6 +51,10 @@ struct MultisineLayout {
     uint32_t first_bin = 1, last_bin = 1;  // excited DFT bins k1..k2 of N
 };
 
+inline constexpr int kTransientPool = 8;
+inline constexpr double kTransientZ2 = 25.0;
+inline constexpr double kTransientRel = 0.01;
+
 struct FrfEstimate {
     std::vector<double> frequency_Hz;
     std::vector<cplx> response;   // G at each excited line
@@ -43,6 +63,10 @@ struct FrfEstimate {
     std::vector<double> snr_db;   // 20 log10(|G| / sigma_G)
     std::vector<cplx> u_line, y_line;  // mean DFT amplitudes (peak units: 2 |X| / N)
     int periods = 0;
+    // The transient check (above; multisine with P >= 4, else empty): per
+    // line |G_a - G_b| / |G_b|, and the indices of the lines flagged.
+    std::vector<double> half_change_rel;
+    std::vector<std::size_t> transient_lines;
 };
 
 // u, y: P * N samples (P >= 2 for the variances; P = 1 gives var = NaN).

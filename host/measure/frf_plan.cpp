@@ -165,6 +165,20 @@ void analyse_frf(const FrfRequest& r, const std::vector<double>& u, const std::v
     if (run.trip != "none") run.warnings.push_back("the limiter tripped (" + run.trip + "): the output went to safe");
     if (r.periods < 2 && r.signal == "multisine")
         run.warnings.push_back("one measured period: no noise variance (std_db is null); use --periods >= 2");
+    if (!run.estimate.transient_lines.empty()) {
+        const FrfEstimate& e = run.estimate;
+        std::size_t worst = e.transient_lines.front();
+        for (const std::size_t i : e.transient_lines)
+            if (e.half_change_rel[i] > e.half_change_rel[worst]) worst = i;
+        run.warnings.push_back(
+            std::to_string(e.transient_lines.size()) + " of " + std::to_string(e.frequency_Hz.size()) +
+            " lines differ between the first and the second half of the measured periods beyond their noise (" +
+            format::significant(e.frequency_Hz[e.transient_lines.front()]) + " to " +
+            format::significant(e.frequency_Hz[e.transient_lines.back()]) + " Hz; the largest, " +
+            format::significant(100.0 * e.half_change_rel[worst], 2) + " % at " + format::significant(e.frequency_Hz[worst]) +
+            " Hz): the stage had not settled (a lightly damped mode ringing from the start, its hysteresis or creep "
+            "still moving); raise --transient-periods");
+    }
     int incoherent = 0;
     for (const double c : run.coherence) incoherent += c < 0.95 ? 1 : 0;
     if (incoherent > 0)

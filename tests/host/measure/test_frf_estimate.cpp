@@ -115,3 +115,59 @@ TEST(FrfEstimate, H1OfAPrbsThroughAFilter) {
     for (const double x : en.coherence) coh += x;
     EXPECT_LT(coh / en.coherence.size(), 0.95);  // |H| ~ 0.5, noise 0.3 rms: SNR ~ 4 per sample
 }
+
+namespace {
+
+// The record of `periods` periods through the filter with white noise of
+// sigma on y, plus a decaying ring at f0_Hz from the record's start (a
+// lightly damped mode excited by how the run began) of amplitude a0 and
+// time constant tau_s.
+std::vector<double> noisy(const std::vector<double>& u, double sigma, unsigned seed, double a0 = 0.0,
+                          double f0_Hz = 0.0, double tau_s = 1.0) {
+    std::vector<double> y = filter(u);
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> noise(0.0, sigma);
+    for (size_t n = 0; n < y.size(); ++n) {
+        const double t = static_cast<double>(n) / 1000.0;
+        y[n] += noise(rng) + a0 * std::exp(-t / tau_s) * std::sin(2.0 * std::numbers::pi * f0_Hz * t);
+    }
+    return y;
+}
+
+}  // namespace
+
+TEST(FrfEstimate, TransientCheckFlagsARingingStartAndNothingElse) {
+    // Without a transient no line is flagged, over 199 lines, with 4 and 10
+    // periods and ten noise seeds each (z^2 > 25 has a probability below
+    // 1e-6 per line: 4000 line checks flag none unless the test is wrong).
+    for (const int P : {4, 10}) {
+        const std::vector<double> u = record(P);
+        for (unsigned seed = 1; seed <= 10; ++seed) {
+            const measure::FrfEstimate e = measure::estimate_multisine(u, noisy(u, 0.01, seed), {1000.0, N, k1, k2});
+            ASSERT_EQ(e.half_change_rel.size(), e.response.size());
+            EXPECT_TRUE(e.transient_lines.empty()) << P << " periods, seed " << seed << ": " << e.transient_lines.size();
+        }
+    }
+    // Nor without noise: the halves are the same to rounding.
+    {
+        const std::vector<double> u = record(4);
+        EXPECT_TRUE(measure::estimate_multisine(u, filter(u), {1000.0, N, k1, k2}).transient_lines.empty());
+    }
+    // A ring at 100 Hz (line 50) decaying with tau 0.2 s (ζ 0.008) from the
+    // start, 0.1 at first: in the first half of 4 periods (2 s) it is still
+    // 0.1 e^-5 ... 0.1, in the second e^-10 of it. Flagged at 100 Hz, and
+    // only near it (the ring's spectrum falls off as 1 / |f - f0|).
+    const std::vector<double> u = record(4);
+    const measure::FrfEstimate e = measure::estimate_multisine(u, noisy(u, 0.01, 3, 0.1, 100.0, 0.2), {1000.0, N, k1, k2});
+    ASSERT_FALSE(e.transient_lines.empty());
+    bool at_f0 = false;
+    for (const size_t j : e.transient_lines) {
+        at_f0 = at_f0 || e.frequency_Hz[j] == 100.0;
+        EXPECT_NEAR(e.frequency_Hz[j], 100.0, 20.0);
+    }
+    EXPECT_TRUE(at_f0);
+    // Fewer than 4 periods: no check.
+    const std::vector<double> u3 = record(3);
+    EXPECT_TRUE(measure::estimate_multisine(u3, noisy(u3, 0.01, 1, 0.1, 100.0, 0.2), {1000.0, N, k1, k2})
+                    .half_change_rel.empty());
+}
