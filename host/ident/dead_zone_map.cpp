@@ -29,6 +29,25 @@ std::string DeadZoneMap::monotonicity() const {
     return "ok";
 }
 
+DeadZoneMap dead_zone_map(const OutputMap& m) {
+    DeadZoneMap f;
+    for (int i = 0; i < m.count; ++i) {
+        f.thresholds.push_back(m.thresholds_um[static_cast<std::size_t>(i)]);
+        f.weights.push_back(m.weights[static_cast<std::size_t>(i)]);
+    }
+    return f;
+}
+
+void set_input_map(const DeadZoneMap& g, PiModel& m) {
+    const std::size_t n = g.thresholds.size();
+    if (n > static_cast<std::size_t>(kMaxDeadZones)) throw std::invalid_argument("output_dead_zones: at most 8 in a compensator");
+    m.dead_zones = static_cast<int>(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        m.dead_zone_thresholds[i] = static_cast<float>(g.thresholds[i]);
+        m.dead_zone_weights[i] = static_cast<float>(g.weights[i]);
+    }
+}
+
 DeadZoneMap inverse(const DeadZoneMap& f) {
     if (const std::string m = f.monotonicity(); m != "ok") throw std::invalid_argument("output nonlinearity: " + m);
     const std::vector<double> s = f.slopes();

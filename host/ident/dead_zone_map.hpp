@@ -12,6 +12,9 @@
 #include <string>
 #include <vector>
 
+#include "piezoloop/pi_model.hpp"
+#include "piezoloop/plant.hpp"
+
 namespace piezoloop::design {
 
 struct DeadZoneMap {
@@ -27,5 +30,12 @@ struct DeadZoneMap {
 
 // The inverse map; throws std::invalid_argument if a slope is not > 0.
 DeadZoneMap inverse(const DeadZoneMap& f);
+
+// A stage's output map (plant.hpp) in double.
+DeadZoneMap dead_zone_map(const OutputMap& m);
+
+// g as a PiModel's input map (its dead zones, rounded to float); throws
+// std::invalid_argument above kMaxDeadZones.
+void set_input_map(const DeadZoneMap& g, PiModel& m);
 
 }  // namespace piezoloop::design

@@ -508,14 +508,7 @@ PiModel PiFitResult::compensator() const {
     if (const Status st = invert_pi(model, c); !st.ok())
         throw std::invalid_argument("model not invertible: " + describe(st));
     c.input_offset = static_cast<float>(-offset);
-    const std::size_t n = output_inverse.thresholds.size();
-    if (n > static_cast<std::size_t>(kMaxDeadZones))
-        throw std::invalid_argument("output_dead_zones: at most 8 in a compensator");
-    c.dead_zones = static_cast<int>(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        c.dead_zone_thresholds[i] = static_cast<float>(output_inverse.thresholds[i]);
-        c.dead_zone_weights[i] = static_cast<float>(output_inverse.weights[i]);
-    }
+    set_input_map(output_inverse, c);
     if (const Status st = validate(c); !st.ok()) throw std::invalid_argument("compensator: " + describe(st));
     return c;
 }

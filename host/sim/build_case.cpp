@@ -95,19 +95,7 @@ PiModel inverse_compensator(const HysteresisSpec& h, double amplifier_gain, std:
     c.p0 = f32(inv.p0 / (a * g));
     for (int j = 0; j < c.count; ++j) c.weights[static_cast<size_t>(j)] = f32(inv.weights[static_cast<size_t>(j)] / (a * g));
     // S's inverse on the reference first (the modified PI's compensator).
-    if (h.output_map.count > 0) {
-        design::DeadZoneMap map;
-        for (int i = 0; i < h.output_map.count; ++i) {
-            map.thresholds.push_back(h.output_map.thresholds_um[static_cast<size_t>(i)]);
-            map.weights.push_back(h.output_map.weights[static_cast<size_t>(i)]);
-        }
-        const design::DeadZoneMap s_inverse = design::inverse(map);
-        c.dead_zones = h.output_map.count;
-        for (size_t i = 0; i < s_inverse.thresholds.size(); ++i) {
-            c.dead_zone_thresholds[i] = f32(s_inverse.thresholds[i]);
-            c.dead_zone_weights[i] = f32(s_inverse.weights[i]);
-        }
-    }
+    if (h.output_map.count > 0) design::set_input_map(design::inverse(design::dead_zone_map(h.output_map)), c);
     if (h.in_offset != 0.0)
         note = "the inverse omits the model's constant input offset (" + format::significant(-h.in_offset / (a * g), 4) +
                " V of command); the feedback's integral action takes it up";

@@ -70,6 +70,7 @@ void DoubleStage::configure(const DoubleStageConfig& c) {
     }
     if (!std::isfinite(c.drift_um_per_s)) throw std::invalid_argument("double stage: plant.drift_um_per_s: must be finite");
     c_ = c;
+    output_map_ = design::dead_zone_map(c.output_map);
     const double h = 1.0 / (c.rate_Hz * c.substeps);
     creep_decay_.assign(static_cast<size_t>(creep_.count), 0.0);
     for (int k = 0; k < creep_.count; ++k)
@@ -160,13 +161,7 @@ double DoubleStage::hysteresis(double v) {
         case HysteresisKind::kDahl: x = dahl_.step(static_cast<float>(v)); break;
         case HysteresisKind::kNone: break;
     }
-    const OutputMap& m = c_.output_map;
-    double y = x;
-    for (int i = 0; i < m.count; ++i) {
-        const size_t k = static_cast<size_t>(i);
-        y += static_cast<double>(m.weights[k]) * std::max(x - static_cast<double>(m.thresholds_um[k]), 0.0);
-    }
-    return y;
+    return output_map_.apply(x);
 }
 
 float DoubleStage::step(float u_V) {

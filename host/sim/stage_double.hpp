@@ -40,6 +40,7 @@
 
 #include <Eigen/Dense>
 
+#include "ident/dead_zone_map.hpp"
 #include "lti/lti.hpp"
 #include "piezoloop/stage_model.hpp"
 
@@ -102,6 +103,7 @@ private:
     double sensor_gain_ = 1.0;                        // gain (1 + gain_error)
     uint64_t ticks_ = 0;                              // since reset
     // Sub-step ZOH model of dynamics + sensor lag.
+    design::DeadZoneMap output_map_;  // c_.output_map in double
     Eigen::MatrixXd ad_;
     Eigen::VectorXd bd_;
     Eigen::RowVectorXd c_out_;

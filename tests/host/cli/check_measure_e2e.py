@@ -166,37 +166,28 @@ try:
           "a killed measurement's excitation ends at the next client's hello (client_lost)", json.dumps(st))
     run(*d, "disarm")
 
-    # A stage with every real-stage effect (sensor offset, gain error, mains
-    # pickup, creep, drift: configs/stages/drifting_stage.json) carried to
-    # the board by its emulation profile: a step, board = simulator, long
-    # enough (0.25 s) for the mains, the first creep decades and the drift.
-    emulators.stop(emulators.running[0])
-    real = os.path.join(configs, "stages", "drifting_stage.json")
-    _, d, _ = emulators.start("--board", board, "--scenario", real, "--image", image)
-    r = run(*d, "set", "--scenario", real, "--case", "open_loop", "--frequency-hz", "10")
-    check(r.returncode == 0, "set --scenario: the drifting stage's limits on the board", r.stderr)
-    real_step = ["--step-v", "4", "--bias-v", "3", "--duration-s", "0.25"]
-    r = run(*d, "measure", "step", *real_step, "--restart-stage", "--out", board_json)
-    s = run("measure", "step", "--scenario", real, "--sample", sample, *real_step, "--out", sim_json)
-    ok = r.returncode == 0 and s.returncode == 0
-    check(ok and load(board_json)["log_hash"] == load(sim_json)["log_hash"],
-          "step with offset, gain error, mains, creep and drift: the board's log hash is the simulator's",
-          r.stderr + s.stderr)
+    def step_on_stage(name, step, what):
+        """A board on configs/stages/NAME's emulation profile: a step, board = simulator."""
+        emulators.stop(emulators.running[0])
+        stage = os.path.join(configs, "stages", name + ".json")
+        _, d, _ = emulators.start("--board", board, "--scenario", stage, "--image", image)
+        r = run(*d, "set", "--scenario", stage, "--case", "open_loop", "--frequency-hz", "10")
+        check(r.returncode == 0, "set --scenario: %s's limits on the board" % name, r.stderr)
+        r = run(*d, "measure", "step", *step, "--restart-stage", "--out", board_json)
+        s = run("measure", "step", "--scenario", stage, "--sample", sample, *step, "--out", sim_json)
+        ok = r.returncode == 0 and s.returncode == 0
+        check(ok and load(board_json)["log_hash"] == load(sim_json)["log_hash"],
+              "step %s: the board's log hash is the simulator's" % what, r.stderr + s.stderr)
 
-    # A loop that is not a PI model's (the hysteresis's output map:
-    # configs/stages/asymmetric_hysteresis.json), through the profile too:
-    # a step up into the map's flattened part, board = simulator.
-    emulators.stop(emulators.running[0])
-    asym = os.path.join(configs, "stages", "asymmetric_hysteresis.json")
-    _, d, _ = emulators.start("--board", board, "--scenario", asym, "--image", image)
-    r = run(*d, "set", "--scenario", asym, "--case", "open_loop", "--frequency-hz", "10")
-    check(r.returncode == 0, "set --scenario: the asymmetric stage's limits on the board", r.stderr)
-    asym_step = ["--step-v", "5", "--bias-v", "4", "--duration-s", "0.05"]
-    r = run(*d, "measure", "step", *asym_step, "--restart-stage", "--out", board_json)
-    s = run("measure", "step", "--scenario", asym, "--sample", sample, *asym_step, "--out", sim_json)
-    ok = r.returncode == 0 and s.returncode == 0
-    check(ok and load(board_json)["log_hash"] == load(sim_json)["log_hash"],
-          "step into the output map's flattened part: the board's log hash is the simulator's", r.stderr + s.stderr)
+    # A stage with every real-stage effect (sensor offset, gain error, mains
+    # pickup, creep, drift), long enough (0.25 s) for the mains, the first
+    # creep decades and the drift.
+    step_on_stage("drifting_stage", ["--step-v", "4", "--bias-v", "3", "--duration-s", "0.25"],
+                  "with offset, gain error, mains, creep and drift")
+    # A loop that is not a PI model's (the hysteresis's output map): a step
+    # up into the map's flattened part.
+    step_on_stage("asymmetric_hysteresis", ["--step-v", "5", "--bias-v", "4", "--duration-s", "0.05"],
+                  "into the output map's flattened part")
 finally:
     emulators.stop_all()
     shutil.rmtree(tmp, ignore_errors=True)

@@ -34,28 +34,46 @@ nlohmann::json pi_json(const PiModel& m) {
     return {{"kind", "pi"}, {"thresholds_V", r}, {"weights_um_per_V", w}, {"p0_um_per_V", m.p0}};
 }
 
+// An ideal stage (no dynamics, converters or noise) with `hysteresis` and
+// one case, "inverse": its pi_inverse feedforward alone.
+nlohmann::json ideal_scenario_json(const nlohmann::json& hysteresis) {
+    return {{"scenario", "composition"},
+            {"loop", {{"rate_Hz", 100000}, {"position_full_scale_um", 64}, {"voltage_full_scale_V", 16},
+                      {"hard_limits", {{"u_min_V", -10}, {"u_max_V", 10}, {"slew_V_per_s", 1e6}}}}},
+            {"plant", {{"dac", {{"bits", 0}, {"min", -10}, {"max", 10}}},
+                       {"amplifier", {{"gain", 1}, {"input_min_V", -10}, {"input_max_V", 10}, {"output_min_V", -10},
+                                      {"output_max_V", 10}}},
+                       {"hysteresis", hysteresis},
+                       {"sensor", {{"gain_per_um", 1}}},
+                       {"adc", {{"bits", 0}, {"min", -100}, {"max", 100}}}}},
+            {"reference", {{"nominal_um_per_V", 4.4}, {"offset", "bipolar"}}},
+            {"cases", {{{"name", "inverse"}, {"controller", {{"feedforward", {{"kind", "pi_inverse"}}}}}}}}};
+}
+
 // The published 15-operator model (inverse computed from it) and a stage
 // with 5 % more linear weight and 10 % less play weight; an ideal stage
-// (no dynamics, converters or noise) unless `with_dynamics`.
+// unless `with_dynamics`.
 Scenario composition_scenario(bool with_dynamics) {
-    const PiModel published = reference::stage_model();
-    const PiModel stage = reference::true_stage_model();
-    nlohmann::json j = {
-        {"scenario", "composition"},
-        {"loop", {{"rate_Hz", 100000}, {"position_full_scale_um", 64}, {"voltage_full_scale_V", 16},
-                  {"hard_limits", {{"u_min_V", -10}, {"u_max_V", 10}, {"slew_V_per_s", 1e6}}}}},
-        {"plant", {{"dac", {{"bits", 0}, {"min", -10}, {"max", 10}}},
-                   {"amplifier", {{"gain", 1}, {"input_min_V", -10}, {"input_max_V", 10}, {"output_min_V", -10},
-                                  {"output_max_V", 10}}},
-                   {"hysteresis", pi_json(published)},
-                   {"sensor", {{"gain_per_um", 1}}},
-                   {"adc", {{"bits", 0}, {"min", -100}, {"max", 100}}}}},
-        {"reference", {{"nominal_um_per_V", 4.4}, {"offset", "bipolar"}}},
-        {"cases", {{{"name", "inverse"}, {"plant", {{"hysteresis", pi_json(stage)}}},
-                    {"controller", {{"feedforward", {{"kind", "pi_inverse"}}}}}}}}};
+    nlohmann::json j = ideal_scenario_json(pi_json(reference::stage_model()));
+    j["cases"][0]["plant"] = {{"hysteresis", pi_json(reference::true_stage_model())}};
     if (with_dynamics)
         j["plant"]["dynamics"] = {{"model", "models/janaideh2016_D.json"}, {"normalise_dc", true}};
     return parse_scenario(j, std::string(PIEZOLOOP_GOLDEN_DIR) + "/../../configs");
+}
+
+// Two periods of a sine of range_um peak to peak at f_Hz, from rest, every
+// tick logged.
+RunResult run_sine(const LoopModel& m, double rate_Hz, double f_Hz, double range_um) {
+    TrajectoryRequest t;
+    t.waveform = Waveform::kSine;
+    t.frequency_Hz = f_Hz;
+    t.range_um = range_um;
+    t.unipolar = false;
+    t.periods = 2;
+    RunOptions o = plan_run(rate_Hz, t, 0, false);
+    o.log_start = 0;
+    o.log_every = 1;
+    return run_loop(m, o);
 }
 
 struct Check {
@@ -74,16 +92,7 @@ Check run(bool with_dynamics, double f_Hz, double skip_s) {
     BuildOptions bo;
     bo.check_realisation = false;
     const BuiltCase b = build_case(s, s.cases.front(), bo);
-    TrajectoryRequest t;
-    t.waveform = Waveform::kSine;
-    t.frequency_Hz = f_Hz;
-    t.range_um = 40.0;
-    t.unipolar = false;
-    t.periods = 2;
-    RunOptions o = plan_run(s.rate_Hz, t, 0, false);
-    o.log_start = 0;
-    o.log_every = 1;
-    const RunResult r = run_loop(b.model, o);
+    const RunResult r = run_sine(b.model, s.rate_Hz, f_Hz, 40.0);
     Check c{comp.rho, comp.xi_bound, 0.0};
     // log: r_k and the reading y_k of tick k (the response to u_{k-1});
     // compare y_{k+1} with r_k.
@@ -127,19 +136,7 @@ TEST(SimComposition, PiInverseOfAStageWithAnOutputMapPutsTheMapsInverseFirst) {
     auto scenario = [&](bool with_map) {
         nlohmann::json h = pi_json(model);
         if (with_map) h["output_map"] = {{"thresholds_um", {5.0, 12.0}}, {"weights", {-0.2, -0.3}}};
-        const nlohmann::json j = {
-            {"scenario", "output_map"},
-            {"loop", {{"rate_Hz", 100000}, {"position_full_scale_um", 64}, {"voltage_full_scale_V", 16},
-                      {"hard_limits", {{"u_min_V", -10}, {"u_max_V", 10}, {"slew_V_per_s", 1e6}}}}},
-            {"plant", {{"dac", {{"bits", 0}, {"min", -10}, {"max", 10}}},
-                       {"amplifier", {{"gain", 1}, {"input_min_V", -10}, {"input_max_V", 10}, {"output_min_V", -10},
-                                      {"output_max_V", 10}}},
-                       {"hysteresis", h},
-                       {"sensor", {{"gain_per_um", 1}}},
-                       {"adc", {{"bits", 0}, {"min", -100}, {"max", 100}}}}},
-            {"reference", {{"nominal_um_per_V", 4.4}, {"offset", "bipolar"}}},
-            {"cases", {{{"name", "inverse"}, {"controller", {{"feedforward", {{"kind", "pi_inverse"}}}}}}}}};
-        return parse_scenario(j, ".");
+        return parse_scenario(ideal_scenario_json(h), ".");
     };
     auto worst = [](const Scenario& plant, const Scenario& inverse_of) {
         BuildOptions bo;
@@ -147,16 +144,7 @@ TEST(SimComposition, PiInverseOfAStageWithAnOutputMapPutsTheMapsInverseFirst) {
         BuiltCase b = build_case(plant, plant.cases.front(), bo);
         const BuiltCase inv = build_case(inverse_of, inverse_of.cases.front(), bo);
         b.model.params = inv.model.params;  // the inverse computed for `inverse_of`'s stage
-        TrajectoryRequest t;
-        t.waveform = Waveform::kSine;
-        t.frequency_Hz = 1.0;
-        t.range_um = 30.0;
-        t.unipolar = false;
-        t.periods = 2;
-        RunOptions o = plan_run(plant.rate_Hz, t, 0, false);
-        o.log_start = 0;
-        o.log_every = 1;
-        const RunResult r = run_loop(b.model, o);
+        const RunResult r = run_sine(b.model, plant.rate_Hz, 1.0, 30.0);
         double w = 0.0;
         for (size_t k = 0; k + 1 < r.log.r_um.size(); ++k)
             w = std::max(w, std::fabs(static_cast<double>(r.log.y_um[k + 1]) - r.log.r_um[k]));
