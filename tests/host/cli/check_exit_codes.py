@@ -5,6 +5,7 @@ tests in check_device_e2e.py). Then the class "a non-finite number in a
 numeric option": every floating-point option of every subcommand, found in
 `--help`, refuses nan, inf, -inf and 1e309 with exit 2 and the option's name.
 Usage: check_exit_codes.py PIEZOLOOP_BINARY CONFIGS_DIR"""
+import json
 import os
 import re
 import socket
@@ -68,6 +69,15 @@ expect("missing input file (sim)", ["sim", "--scenario", "/nonexistent.json", "-
 expect("missing input file (design)", ["design", "c2d", "--model", "/nonexistent.json", "--rate-hz", "1000"], 2,
        "cannot open")
 expect("bad value (sim)", ["sim", "--scenario", scenario, "--case", "no_such_case"], 2, "no such case")
+# A hysteresis output map that is not increasing: refused naming its entry.
+with open(os.path.join(configs, "stages", "asymmetric_hysteresis.json")) as f:
+    bad_map = json.load(f)
+bad_map["plant"]["hysteresis"]["output_map"]["weights"] = [-0.25, -0.9]
+bad_map_file = os.path.join(tmp, "bad_map.json")
+with open(bad_map_file, "w") as f:
+    json.dump(bad_map, f)
+expect("bad output map (sim)", ["sim", "--scenario", bad_map_file, "--case", "open_loop", "--frequency-hz", "1",
+                                "--amplitude-um", "5"], 2, "plant.hysteresis.output_map.weights[1]")
 # A stage of coupled axes (configs/stages/xyz_flexure.json) in a command that
 # runs one axis: refused, naming the command, before anything runs or is
 # written.
