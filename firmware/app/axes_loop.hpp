@@ -7,7 +7,10 @@
 //                 N axis outputs, output matrix, channel limits), every
 //                 command out: the budget span
 //   end_tick()    the board's recorder and every axis's
-// then the coupled stage's sample (the plant, apart). Timed as
+// then the coupled stage's sample (the plant, apart). On a board with
+// converters for its axes (the STM32H743's three-axis image) the converters
+// stand where the emulated stage does: `Io` is then bsp::ConverterAxes,
+// whose step() ends the tick's converter writes. Timed as
 // ControlLoop::tick times the single-axis tick: three stopwatch spans, one
 // per phase, so no span counts another's stopwatch (or, for the servo, the
 // ADC -> DAC span alone: TickTiming); a tick that swaps a parameter set in
@@ -60,12 +63,14 @@ uint32_t axes_swaps(const AxesPipe<N>& p) {
     return s;
 }
 
-template <int N, TickTiming kTiming>
+// Io: output(pipe) reads every axis, runs the pipeline's output and writes
+// every command; step() runs after the tick (the emulated stage's sample).
+template <int N, TickTiming kTiming, class Io>
 void axes_tick() {
     constexpr bool kEveryPhase = kTiming == TickTiming::kEveryPhase;
     AxesLoopState& st = axes_loop();
     AxesPipe<N>& pipe = *static_cast<AxesPipe<N>*>(st.pipe);
-    AxesStage<N>& stage = *static_cast<AxesStage<N>*>(st.stage);
+    Io& stage = *static_cast<Io*>(st.stage);
     st.monitor.on_entry(bsp::timestamp());
     const bool armed = pipe.any_armed();
 
@@ -111,11 +116,12 @@ void axes_tick() {
     }
 }
 
-// Starts the tick of `pipe` against `stage` at rate_Hz (statistics reset);
-// after max_ticks ticks (0: never) the tick stops the timer itself. False if
-// the board cannot make that rate.
-template <int N>
-bool start_axes_loop(AxesPipe<N>& pipe, AxesStage<N>& stage, AxesDevice<N>* device, uint32_t rate_Hz,
+// Starts the tick of `pipe` against `stage` (the emulated stage, or the
+// board's converters) at rate_Hz (statistics reset); after max_ticks ticks
+// (0: never) the tick stops the timer itself. False if the board cannot
+// make that rate.
+template <int N, class Io>
+bool start_axes_loop(AxesPipe<N>& pipe, Io& stage, AxesDevice<N>* device, uint32_t rate_Hz,
                      uint32_t max_ticks, TickTiming timing = TickTiming::kEveryPhase) {
     AxesLoopState& st = axes_loop();
     st.pipe = &pipe;
@@ -128,8 +134,9 @@ bool start_axes_loop(AxesPipe<N>& pipe, AxesStage<N>& stage, AxesDevice<N>* devi
     st.last_armed = false;
     st.monitor.reset(bsp::config::kTimestamp_Hz / rate_Hz, bsp::config::kTimestampMask);
     st.running = true;
-    const bsp::TickHandler handler = timing == TickTiming::kEveryPhase ? &axes_tick<N, TickTiming::kEveryPhase>
-                                                                        : &axes_tick<N, TickTiming::kControlOnly>;
+    const bsp::TickHandler handler = timing == TickTiming::kEveryPhase
+                                         ? &axes_tick<N, TickTiming::kEveryPhase, Io>
+                                         : &axes_tick<N, TickTiming::kControlOnly, Io>;
     if (bsp::tick_timer_start(rate_Hz, handler)) return true;
     st.running = false;
     return false;

@@ -1,10 +1,13 @@
 // The servo application: the control tick runs in the timer interrupt, the
 // main loop serves the binary link protocol (docs/protocol.md) on the
 // console UART (on the STM32 also on the USB bulk endpoints, which mirror
-// the console). Two images are built from this file:
+// the console). Two images are built from this file, three on a board with
+// converters for three axes:
 //   servo.elf     starts the loop disarmed and serves the link;
 //   selftest.elf  (PIEZOLOOP_SELFTEST_AUTORUN) runs the self-test once and
-//                 exits with the number of failures (CI, QEMU).
+//                 exits with the number of failures (CI, QEMU);
+//   servo_xyz.elf (PIEZOLOOP_SERVO_XYZ, STM32H743) serves three axes on the
+//                 board's converters (app/servo_axes.cpp).
 //
 // Boot (emulated boards): the emulation profile at kEmulationProfileAddress
 // (common/piezoloop/emulation_profile.hpp), put there by QEMU's generic
@@ -52,6 +55,9 @@
 
 #ifndef PIEZOLOOP_SELFTEST_AUTORUN
 #define PIEZOLOOP_SELFTEST_AUTORUN 0
+#endif
+#ifndef PIEZOLOOP_SERVO_XYZ
+#define PIEZOLOOP_SERVO_XYZ 0
 #endif
 
 namespace {
@@ -134,16 +140,25 @@ bool restart_stage() {
     return true;
 }
 
+// What the link device needs from the board besides its pipeline.
+link::DeviceHooks link_hooks() {
+    link::DeviceHooks hooks;
+    hooks.mask_tick = &mask_tick;
+    hooks.storage = bsp::param_storage();
+    return hooks;
+}
+
 }  // namespace
 
 int app_main() {
     if constexpr (PIEZOLOOP_SELFTEST_AUTORUN) return run_selftest();
-    ControlLoop& loop = control_loop();
     service_loop() = ServiceLoop{};
+#if PIEZOLOOP_SERVO_XYZ
+    return run_servo_converter_axes(link_hooks());  // app/servo_converter_axes.cpp, in this image only
+#endif
+    ControlLoop& loop = control_loop();
     if (!start_servo(loop)) return 1;
-    link::DeviceHooks hooks;
-    hooks.mask_tick = &mask_tick;
-    hooks.storage = bsp::param_storage();
+    link::DeviceHooks hooks = link_hooks();
     if (g_boot.axes) return run_servo_axes(g_boot.profile, hooks);
 
     if constexpr (!bsp::config::kHasConverters) hooks.restart_stage = &restart_stage;

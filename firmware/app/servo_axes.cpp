@@ -5,6 +5,7 @@
 #include <utility>
 
 #include "app/axes_loop.hpp"
+#include "app/axes_service.hpp"
 #include "app/servo_service.hpp"
 #include "board_config.hpp"
 #include "piezoloop/axes/emulation_axes_profile.hpp"
@@ -35,17 +36,6 @@ bool restart_stage() {
     return true;
 }
 
-uint32_t loop_ticks() { return __atomic_load_n(&axes_loop().ticks, __ATOMIC_RELAXED); }
-bool loop_running() { return axes_loop().running; }
-
-template <int N>
-bool loop_tripped() {
-    const AxesPipe<N>& pipe = *static_cast<const AxesPipe<N>*>(axes_loop().pipe);
-    for (int i = 0; i < N; ++i)
-        if (pipe.axis(i).limiter().tripped()) return true;
-    return false;
-}
-
 template <int N>
 int run(const EmulationProfile& first, link::DeviceHooks hooks) {
     const auto rate_Hz = static_cast<float>(first.loop_rate_Hz);
@@ -64,20 +54,9 @@ int run(const EmulationProfile& first, link::DeviceHooks hooks) {
     if (!pipe.setup_status().ok()) return 1;
     AxesStage<N>& stage = *new (g_stage_storage) AxesStage<N>();
     if (!stage.configure(g_axes->stage, position, voltage).ok()) return 1;
-    axes_loop().pipe = &pipe;
-    axes_loop().stage = &stage;
     g_restart = &restart_stage_n<N>;
     hooks.restart_stage = &restart_stage;
-    // Before the stored set: its load masks the tick (mask_tick).
-    ServiceLoop& svc = service_loop();
-    svc.ticks = &loop_ticks;
-    svc.running = &loop_running;
-    svc.status = &axes_loop_status;
-    svc.tripped = &loop_tripped<N>;
-    AxesDevice<N>& dev = *new (g_device_storage) AxesDevice<N>(pipe, device_info(), hooks);
-    (void)load_stored_set(dev);
-    if (!start_axes_loop<N>(pipe, stage, &dev, first.loop_rate_Hz, 0, TickTiming::kControlOnly)) return 1;
-    serve(dev);
+    return serve_axes<N>(pipe, stage, g_device_storage, first.loop_rate_Hz, hooks);
 }
 
 }  // namespace

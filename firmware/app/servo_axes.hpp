@@ -26,4 +26,11 @@ Status check_axes_profile(std::span<const uint8_t> blob, const EmulationProfile&
 // restart is added here).
 int run_servo_axes(const EmulationProfile& first, link::DeviceHooks hooks);
 
+// servo_xyz.elf, on a board with converters for three axes (the
+// STM32H743; app/servo_converter_axes.cpp, built into that image only):
+// starts the further converters, builds the axes with the board's full
+// scales and hard limits, loads the stored set, starts the tick and serves
+// the link; returns (non-zero) only if the axes cannot run.
+int run_servo_converter_axes(link::DeviceHooks hooks);
+
 }  // namespace piezoloop::fw

@@ -6,12 +6,16 @@
 Sizes: `arm-none-eabi-size -A` sections placed by the image's memory map
 (the "Memory Configuration" of its .map file): ROM = everything loaded into
 the code region (vector table, code, constants, init arrays, the load image
-of .data); RAM = .data + .bss + the reserved main stack.
+of .data); RAM = .data + .bss + the reserved main stack, per data region
+(the STM32's three-axis image also fills AXI SRAM), each within its region.
 
 Stack: the worst call chain, in bytes, from two roots:
   main    piezoloop_start (reset -> bsp::init -> app_main -> ...), thread mode;
   tick    piezoloop_tick_timer_isr (the control interrupt), whose indirect
-          call to the registered handler is resolved to ControlLoop::tick;
+          call to the registered handler is resolved to every tick handler
+          the image has (ControlLoop::tick<...>, axes_tick<...>), the
+          deepest counting; an image that starts the tick timer but has
+          none of them fails, rather than leaving the tick out;
 plus the exception frame the core pushes when the tick interrupts the main
 loop (8 words, + 18 FPU words on the FPU boards (lazy stacking reserves
 them), + 4 bytes of alignment). Worst total = main + frame + tick: the tick
@@ -39,7 +43,9 @@ import subprocess
 import sys
 from functools import lru_cache
 
-TICK_HANDLER = "_ZN9piezoloop2fw11ControlLoop4tickEv"
+# The handlers the tick interrupt calls through its pointer: the single
+# axis's ControlLoop::tick<TickTiming> and the axes' axes_tick<N, TickTiming, Io>.
+TICK_HANDLER_PREFIXES = ("_ZN9piezoloop2fw11ControlLoop4tickI", "_ZN9piezoloop2fw9axes_tickI")
 FPU_BOARDS = {"qemu-m7", "stm32h743"}
 
 
@@ -148,6 +154,7 @@ class StackGraph:
             for src, dst in edges:
                 self.edges.setdefault(src, []).append(dst)
         self.asm = disassembly_frames(elf)
+        self.tick_handlers = sorted(n for n in self.asm if n.startswith(TICK_HANDLER_PREFIXES))
         self.unresolved_indirect = set()
         self.dynamic = set()
 
@@ -171,8 +178,8 @@ class StackGraph:
             out = []
             for dst in self.edges.get(name, []):
                 if dst == "__indirect_call":
-                    if name == root_isr and TICK_HANDLER in self.asm:
-                        out.append(TICK_HANDLER)
+                    if name == root_isr and self.tick_handlers:
+                        out.extend(self.tick_handlers)
                     else:
                         self.unresolved_indirect.add(name)
                 else:
@@ -224,8 +231,9 @@ def main():
             continue
         map_text = open(map_path).read()
         regions = memory_regions(map_text)
-        rom = ram = stack_reserve = 0
-        rom_region = ram_region = None
+        rom = stack_reserve = 0
+        rom_region = None
+        ram = {}  # data region -> (region, bytes)
         for name, size, addr in sections(elf):
             if size == 0 or addr == 0 and name.startswith((".debug", ".comment", ".ARM.attributes")):
                 continue
@@ -236,8 +244,7 @@ def main():
                 rom += size
                 rom_region = reg
             else:
-                ram += size
-                ram_region = reg
+                ram[reg[0]] = (reg, ram.get(reg[0], (reg, 0))[1] + size)
                 if name == ".data":
                     rom += size  # its load image sits in the code region
                 if name == ".stack_reserve":
@@ -258,15 +265,18 @@ def main():
         if "piezoloop_usb_otg_fs_isr" in g.asm:
             low_bytes, low_chain = g.worst("piezoloop_usb_otg_fs_isr")
         fault_bytes, _ = g.worst("piezoloop_fault_report")
-        has_tick = TICK_HANDLER in g.asm
+        has_tick = bool(g.tick_handlers)
         ok = True
+        ram_text = ", ".join(f"{b} B of {r[2]} B ({r[0]})" for r, b in ram.values())
         line = (f"{image}: ROM {rom} B of {rom_region[2] if rom_region else '?'} B ({rom_region[0] if rom_region else '?'}), "
-                f"RAM {ram} B of {ram_region[2] if ram_region else '?'} B ({ram_region[0] if ram_region else '?'}; "
-                f"incl. {stack_reserve} B reserved stack)")
+                f"RAM {ram_text or '?'} (incl. {stack_reserve} B reserved stack)")
         print(line)
-        if rom_region is None or rom > rom_region[2] or ram_region is None or ram > ram_region[2]:
+        if rom_region is None or rom > rom_region[2] or not ram or any(b > r[2] for r, b in ram.values()):
             ok = False
             print(f"  FAIL {image}: does not fit its memory")
+        if any("tick_timer_start" in n for n in g.asm) and not has_tick:
+            ok = False
+            print(f"  FAIL {image}: starts the tick timer, but no handler named {' or '.join(TICK_HANDLER_PREFIXES)}")
         if main_bytes is None or tick_bytes is None or fault_bytes is None or low_bytes is None:
             ok = False
             print(f"  FAIL {image}: unbounded stack: {main_chain if main_bytes is None else tick_chain}")

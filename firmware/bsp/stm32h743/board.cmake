@@ -7,3 +7,5 @@ set(PIEZOLOOP_BSP_SOURCES ${CMAKE_CURRENT_LIST_DIR}/board.cpp ${CMAKE_CURRENT_LI
 set(PIEZOLOOP_LINKER_SCRIPT ${CMAKE_CURRENT_LIST_DIR}/memory.ld)
 set(PIEZOLOOP_NUM_IRQ 150)       # STM32H743 vector table: IRQ 0..149 (WAKEUP_PIN = 149)
 set(PIEZOLOOP_FW_SAMPLE float)
+# Converters for three axes (board_io.hpp): also build servo_xyz.elf.
+set(PIEZOLOOP_XYZ_IMAGE ON)

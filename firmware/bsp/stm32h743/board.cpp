@@ -17,6 +17,9 @@
 //   DAC       DAC1 channel 1 on PA4, 12 bit, buffered: dac = (code + 32768) >> 4,
 //             written immediately (no trigger): the output changes one APB
 //             cycle after the tick writes it
+//   axes      the three-axis image (servo_xyz.elf) adds ADC2 and ADC3 on the
+//             same trigger, DAC1 channel 2 and an external DAC on SPI3
+//             (board_io.hpp), with its axes in AXI SRAM and the data cache on
 //   timing    DWT CYCCNT (480 MHz) for timestamps and the stopwatch
 //   LEDs      LD1 green PB0: heartbeat; LD3 red PB14: fault / trip
 //   USB       usb_otg_fs.cpp: vendor device on CN13, bulk EP1 OUT/IN; the
@@ -33,6 +36,7 @@
 #include "bsp/cortex-m/nvic.hpp"
 #include "bsp/cortex-m/scb.hpp"
 #include "bsp/cortex-m/semihosting.hpp"
+#include "bsp/stm32h743/dcache.hpp"
 #include "bsp/stm32h743/regs.hpp"
 #include "bsp/stm32h743/usb_otg_fs.hpp"
 #include "piezoloop/emulated_stage.hpp"
@@ -58,6 +62,7 @@ uint32_t g_stopwatch_offset = 0;
 bool g_console_ready = false;
 bool g_usb_ready = false;
 bool g_timer_running = false;
+int g_converter_axes = 1;  // axes whose converters run: 1, or 2 and 3 in the three-axis image
 usb::UniqueIdSerial g_serial{};  // filled on first use (before USB connects)
 
 void enable_clocks() {
@@ -110,14 +115,30 @@ void delay_us(uint32_t us) {
     }
 }
 
-// ADC1 on PA3 (INP15), triggered by TIM6 TRGO; the tick polls end of
+// One axis's ADC: its input pin and channel, and whether its init sets the
+// common prescaler (ADC1 and ADC2 share one, set by ADC1's while both are
+// disabled).
+struct AdcInput {
+    uintptr_t adc;
+    uintptr_t common;
+    bool sets_prescaler;
+    uintptr_t port;
+    int pin;
+    uint32_t channel;
+};
+constexpr AdcInput kAdcX{adc::kAdc1, adc::kCommon12, true, gpio::kPortA, 3, 15};
+constexpr AdcInput kAdcY{adc::kAdc2, adc::kCommon12, false, gpio::kPortC, 0, 10};
+constexpr AdcInput kAdcZ{adc::kAdc3, adc::kCommon3, true, gpio::kPortF, 10, 6};
+constexpr uintptr_t kAdcs[] = {kAdcX.adc, kAdcY.adc, kAdcZ.adc};
+
+// An ADC triggered by TIM6 TRGO (ADC1: PA3, INP15); the tick polls end of
 // conversion (board_io.hpp adc_read), no ADC interrupt.
-bool adc_init() {
+bool adc_init(const AdcInput& in) {
     using namespace adc;
-    const uintptr_t a = kAdc1;
-    gpio::mode(gpio::kPortA, 3, gpio::kModeAnalog);
+    const uintptr_t a = in.adc;
+    gpio::mode(in.port, in.pin, gpio::kModeAnalog);
     // per_ck (HSI 64 MHz) / 2 = 32 MHz: within the 16-bit limit of rev V.
-    reg(kCommon12 + kCcr) = kCcrPrescDiv2;
+    if (in.sets_prescaler) reg(in.common + kCcr) = kCcrPrescDiv2;
     reg(a + kCr) = 0;                        // leave deep power-down
     reg(a + kCr) = kCrAdvregen;              // regulator on
     delay_us(20);                            // TADCVREG_STUP is 10 µs
@@ -130,9 +151,13 @@ bool adc_init() {
     for (uint32_t i = 0; (reg(a + kIsr) & kIsrAdrdy) == 0u; ++i)
         if (i > 10'000'000) return false;
     reg(a + kCfgr) = (kExtselTim6Trgo << kCfgrExtselShift) | kCfgrExtenRising | kCfgrOvrmod;  // 16 bit
-    reg(a + kPcsel) = 1u << 15;
-    reg(a + kSmpr2) = 2u << 15;  // SMP15 = 8.5 cycles
-    reg(a + kSqr1) = 15u << 6;   // one conversion: channel 15
+    reg(a + kPcsel) = 1u << in.channel;
+    // SMPn = 8.5 cycles: channels 0..9 in SMPR1, 10..19 in SMPR2, 3 bits each.
+    if (in.channel < 10)
+        reg(a + kSmpr1) = 2u << (3 * in.channel);
+    else
+        reg(a + kSmpr2) = 2u << (3 * (in.channel - 10));
+    reg(a + kSqr1) = in.channel << 6;  // one conversion: that channel
     reg(a + kIsr) = kIsrEoc | kIsrOvr;
     reg(a + kIer) = 0;
     reg(a + kCr) = reg(a + kCr) | kCrAdstart;  // waits for triggers
@@ -142,12 +167,63 @@ bool adc_init() {
 // DAC1 channel 1 on PA4, buffered output, mid-scale (0 V command) at start.
 void dac_init() {
     gpio::mode(gpio::kPortA, 4, gpio::kModeAnalog);
-    reg(dac::kMcr) = 0;  // channel 1: normal mode, buffer on, to the pin
+    reg(dac::kMcr) = 0;  // channels 1 and 2: normal mode, buffer on, to the pin
     reg(dac::kDhr12r1) = 2048;
     reg(dac::kCr) = dac::kCrEn1;
 }
 
+// SPI3 as the master of z's external DAC (board_io.hpp): 16-bit frames,
+// transmit only, mode 0, the kernel clock pll1_q_ck (48 MHz, the reset
+// choice of SPI123SEL) / 2 = 24 MHz; slave select managed in software, the
+// chip select a GPIO. Left running (CSTART): each frame written to TXDR
+// goes out at once.
+void spi_dac_init() {
+    using namespace spi3;
+    gpio::alternate(gpio::kPortC, 10, 6);  // SPI3_SCK
+    gpio::alternate(gpio::kPortC, 12, 6);  // SPI3_MOSI
+    gpio::speed_very_high(gpio::kPortC, 10);
+    gpio::speed_very_high(gpio::kPortC, 12);
+    gpio::set(gpio::kPortA, 15, true);  // chip select idle high
+    gpio::mode(gpio::kPortA, 15, gpio::kModeOutput);
+    reg(kCr1) = 0;                                      // configured while SPE is 0
+    reg(kCfg1) = kCfg1Dsize16 | (kCfg1Dsize16 << 16);  // 16-bit frames (CRCSIZE alike; CRC off), MBR /2
+    reg(kCfg2) = kCfg2Afcntr | kCfg2Ssm | kCfg2Master | kCfg2CommTx;
+    reg(kCr2) = 0;  // TSIZE 0: frames as they come
+    reg(kCr1) = kCr1Ssi;
+    reg(kCr1) = kCr1Ssi | kCr1Spe;
+    reg(kCr1) = kCr1Ssi | kCr1Spe | kCr1Cstart;
+}
+
+// z's DAC to mid-scale (0 V), waiting for the frame: start and exit only.
+void spi_dac_mid_scale() {
+    spi_dac_start(0);
+    spi_dac_finish();
+}
+
 }  // namespace
+
+bool converter_axes_init(int axes) {
+    if (axes < 2 || axes > 3 || g_timer_running) return false;
+    {
+        using namespace rcc;
+        reg(kAhb4enr) = reg(kAhb4enr) | kAhb4GpioCEn | kAhb4GpioFEn | (axes == 3 ? kAhb4Adc3En : 0u);
+        if (axes == 3) reg(kApb1lenr) = reg(kApb1lenr) | kApb1lSpi3En;
+        const uint32_t readback = reg(kAhb4enr) | reg(kApb1lenr);
+        (void)readback;
+    }
+    if (!adc_init(kAdcY)) return false;
+    if (axes == 3 && !adc_init(kAdcZ)) return false;
+    gpio::mode(gpio::kPortA, 5, gpio::kModeAnalog);
+    reg(dac::kDhr12r2) = 2048;
+    reg(dac::kCr) = reg(dac::kCr) | dac::kCrEn2;
+    if (axes == 3) {
+        spi_dac_init();
+        spi_dac_mid_scale();
+    }
+    dcache_enable();
+    g_converter_axes = axes;
+    return true;
+}
 
 void init() {
     const bool clocks = clock_init();
@@ -166,7 +242,7 @@ void init() {
     const uint32_t s = stopwatch_start();
     g_stopwatch_offset = stopwatch_elapsed(s);
     dac_init();
-    const bool adc_ok = adc_init();
+    const bool adc_ok = adc_init(kAdcX);
     // The serial number is in place before the device connects to the bus.
     g_usb_ready = stm32::usbfs::init(board_serial_number());
     if (!adc_ok) {
@@ -211,7 +287,9 @@ void exit(int status) {
         }
     }
     tick_timer_stop();
-    reg(dac::kDhr12r1) = 2048;  // 0 V command
+    reg(dac::kDhr12r1) = 2048;  // 0 V command, on every axis
+    if (g_converter_axes >= 2) reg(dac::kDhr12r2) = 2048;
+    if (g_converter_axes == 3) spi_dac_mid_scale();
     gpio::set(gpio::kPortB, 14, status != 0);
     // Semihosting only with a debugger attached: without one, BKPT would
     // escalate to a HardFault.
@@ -233,7 +311,7 @@ bool tick_timer_start(uint32_t rate_Hz, TickHandler handler) {
     reg(kEgr) = kEgrUg;         // load PSC/ARR now
     reg(kSr) = 0;
     reg(kDier) = kDierUie;
-    reg(adc::kAdc1 + adc::kIsr) = adc::kIsrEoc | adc::kIsrOvr;
+    for (int i = 0; i < g_converter_axes; ++i) reg(kAdcs[i] + adc::kIsr) = adc::kIsrEoc | adc::kIsrOvr;
     nvic::set_priority(config::kTickIrq, kTickPriority);
     nvic::clear_pending(config::kTickIrq);
     nvic::enable(config::kTickIrq);

@@ -21,8 +21,10 @@ inline constexpr uint32_t kStopwatchResolution = 1;
 inline constexpr uint32_t kTickBudget = 300;
 
 // No multi-axis self-test case here: three pipelines (with their recorders
-// and excitation tables) do not fit beside the servo's in the 128 KiB DTCM,
-// and the board has two DAC channels (docs/boards.md, "Multiple axes").
+// and excitation tables) do not fit beside the self-test's in the 128 KiB
+// DTCM, and in AXI SRAM the cache would time them (docs/boards.md,
+// "Multiple axes"). The three-axis servo image, servo_xyz.elf, keeps its
+// axes in AXI SRAM; its converters are in board_io.hpp.
 inline constexpr int kSelfTestAxes = 0;
 inline constexpr uint32_t kAxesTickBudget = 0;
 inline constexpr uint32_t kAxesWholeTickBudget = 0;
@@ -45,6 +47,9 @@ inline constexpr uint32_t kOverrunTestRate_Hz = 4'000'000;
 // upper-case hex digits (common/piezoloop/usb/serial_number.hpp; read in board.cpp). Boards
 // without a unique ID (QEMU) do not define PIEZOLOOP_BOARD_UNIQUE_SERIAL.
 #define PIEZOLOOP_BOARD_UNIQUE_SERIAL 1
+// Converters for three axes (board_io.hpp, ConverterAxes): the board's
+// servo_xyz.elf (app/servo_axes.cpp).
+#define PIEZOLOOP_BOARD_CONVERTER_AXES 3
 namespace piezoloop::bsp {
 const char* board_serial_number();
 }  // namespace piezoloop::bsp

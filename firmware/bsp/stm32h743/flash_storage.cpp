@@ -25,6 +25,7 @@
 #include <span>
 
 #include "bsp/bsp.hpp"
+#include "bsp/stm32h743/dcache.hpp"
 #include "bsp/stm32h743/regs.hpp"
 #include "piezoloop/storage/param_storage.hpp"
 #include "piezoloop/storage/stored_params.hpp"
@@ -68,6 +69,7 @@ public:
         unlock();
         const Status s = program(padded);
         lock();
+        forget_cached();
         if (!s.ok()) return s;
         const auto* stored = reinterpret_cast<const volatile uint8_t*>(kSectorAddress);
         for (std::size_t i = 0; i < bytes; ++i)
@@ -86,6 +88,7 @@ public:
             reg(fl::kCr2) = reg(fl::kCr2) & ~(fl::kCrSer | fl::kCrSnbMask);
         }
         lock();
+        forget_cached();
         return s;
     }
 
@@ -97,6 +100,9 @@ private:
         reg(fl::kKeyr2) = fl::kKey2;
     }
     static void lock() { reg(fl::kCr2) = reg(fl::kCr2) | fl::kCrLock; }
+    // The sector changed behind the data cache (on in the three-axis image,
+    // dcache.hpp): its next read comes from the flash.
+    static void forget_cached() { stm32::dcache_invalidate(kSectorAddress, kImageBytes); }
 
     // Nothing in progress, earlier error flags cleared.
     static Status wait_idle() {

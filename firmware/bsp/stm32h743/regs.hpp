@@ -1,7 +1,10 @@
 // STM32H743 registers used by this BSP, written from the reference manual
 // RM0433 (rev 8): memory map (§2.3.2), PWR (§6.8), RCC (§8.7), FLASH (§4.9),
 // SYSCFG (§12.3), GPIO (§11.4), TIM6/7 (§39.4), ADC (§25.6), DAC (§26.7),
-// USART (§48.8), OTG (§57.14), device electronic signature (unique ID). No
+// SPI (§50), USART (§48.8), OTG (§57.14), device electronic signature
+// (unique ID); the Cortex-M7's cache maintenance registers from the ARMv7-M
+// Architecture Reference Manual (the system control space's cache
+// maintenance operations) and the Cortex-M7 TRM. No
 // vendor header is used. Only what the
 // firmware touches is named; offsets are from each peripheral's base.
 //
@@ -76,9 +79,11 @@ inline constexpr uint32_t kAdcSelMask = 3u << 16, kAdcSelPerCk = 2u << 16;
 inline constexpr uint32_t kCkperSelMask = 3u << 28;
 
 inline constexpr uint32_t kAhb1Adc12En = 1u << 5, kAhb1Usb2OtgFsEn = 1u << 27;
-inline constexpr uint32_t kAhb4GpioAEn = 1u << 0, kAhb4GpioBEn = 1u << 1, kAhb4GpioDEn = 1u << 3,
-                          kAhb4GpioEEn = 1u << 4;
-inline constexpr uint32_t kApb1lTim6En = 1u << 4, kApb1lUsart3En = 1u << 18, kApb1lDac12En = 1u << 29;
+inline constexpr uint32_t kAhb4GpioAEn = 1u << 0, kAhb4GpioBEn = 1u << 1, kAhb4GpioCEn = 1u << 2,
+                          kAhb4GpioDEn = 1u << 3, kAhb4GpioEEn = 1u << 4, kAhb4GpioFEn = 1u << 5,
+                          kAhb4Adc3En = 1u << 24;
+inline constexpr uint32_t kApb1lTim6En = 1u << 4, kApb1lSpi3En = 1u << 15, kApb1lUsart3En = 1u << 18,
+                          kApb1lDac12En = 1u << 29;
 inline constexpr uint32_t kApb4SyscfgEn = 1u << 1;
 }  // namespace rcc
 
@@ -111,8 +116,10 @@ inline constexpr uint32_t kWordBytes = 32;
 namespace gpio {
 inline constexpr uintptr_t kPortA = 0x58020000;
 inline constexpr uintptr_t kPortB = 0x58020400;
+inline constexpr uintptr_t kPortC = 0x58020800;
 inline constexpr uintptr_t kPortD = 0x58020C00;
 inline constexpr uintptr_t kPortE = 0x58021000;
+inline constexpr uintptr_t kPortF = 0x58021400;
 inline constexpr uintptr_t kModer = 0x00, kOtyper = 0x04, kOspeedr = 0x08, kPupdr = 0x0C, kIdr = 0x10,
                            kOdr = 0x14, kBsrr = 0x18, kAfrl = 0x20, kAfrh = 0x24;
 inline constexpr uint32_t kModeInput = 0, kModeOutput = 1, kModeAlternate = 2, kModeAnalog = 3;
@@ -140,10 +147,13 @@ inline constexpr uint32_t kCr2MmsUpdate = 2u << 4;  // TRGO = update event
 inline constexpr uint32_t kDierUie = 1u << 0, kSrUif = 1u << 0, kEgrUg = 1u << 0;
 }  // namespace tim6
 
-// ---- ADC1 (16-bit) ----------------------------------------------------------
+// ---- ADC1, ADC2, ADC3 (16-bit) ------------------------------------------------
 namespace adc {
 inline constexpr uintptr_t kAdc1 = 0x40022000;
-inline constexpr uintptr_t kCommon12 = 0x40022300;
+inline constexpr uintptr_t kAdc2 = 0x40022100;
+inline constexpr uintptr_t kCommon12 = 0x40022300;  // ADC1 and ADC2's common registers
+inline constexpr uintptr_t kAdc3 = 0x58026000;      // D3 domain, its own common registers
+inline constexpr uintptr_t kCommon3 = 0x58026300;
 inline constexpr uintptr_t kIsr = 0x00, kIer = 0x04, kCr = 0x08, kCfgr = 0x0C, kCfgr2 = 0x10, kSmpr1 = 0x14,
                            kSmpr2 = 0x18, kPcsel = 0x1C, kSqr1 = 0x30, kDr = 0x40;
 inline constexpr uintptr_t kCcr = 0x08;  // common: CKMODE[17:16], PRESC[21:18]
@@ -154,16 +164,38 @@ inline constexpr uint32_t kCrAden = 1u << 0, kCrAddis = 1u << 1, kCrAdstart = 1u
                           kCrDeeppwd = 1u << 29, kCrAdcal = 1u << 31;
 // CFGR: RES[4:2] (0 = 16 bit), EXTSEL[9:5], EXTEN[11:10] (1 = rising), OVRMOD 12.
 inline constexpr uint32_t kCfgrExtselShift = 5, kCfgrExtenRising = 1u << 10, kCfgrOvrmod = 1u << 12;
-inline constexpr uint32_t kExtselTim6Trgo = 13;  // adc_ext_trg13 = tim6_trgo (RM0433, ADC1/2 external triggers)
+// adc_ext_trg13 = tim6_trgo: the one trigger table of ADC1, ADC2 and ADC3
+// on the STM32H742/743/750/753 (RM0433, the ADC chapter's table of external
+// triggers for regular channels).
+inline constexpr uint32_t kExtselTim6Trgo = 13;
 inline constexpr uint32_t kCcrPrescDiv2 = 1u << 18;
 }  // namespace adc
 
-// ---- DAC1 (12-bit) ----------------------------------------------------------
+// ---- DAC1 (12-bit, two channels) ---------------------------------------------
 namespace dac {
 inline constexpr uintptr_t kBase = 0x40007400;
-inline constexpr uintptr_t kCr = kBase + 0x00, kDhr12r1 = kBase + 0x08, kMcr = kBase + 0x3C;
-inline constexpr uint32_t kCrEn1 = 1u << 0;
+inline constexpr uintptr_t kCr = kBase + 0x00, kDhr12r1 = kBase + 0x08, kDhr12r2 = kBase + 0x14,
+                           kMcr = kBase + 0x3C;
+inline constexpr uint32_t kCrEn1 = 1u << 0, kCrEn2 = 1u << 16;
 }  // namespace dac
+
+// ---- SPI3: the external DAC of a third axis ------------------------------------
+namespace spi3 {
+inline constexpr uintptr_t kBase = 0x40003C00;
+inline constexpr uintptr_t kCr1 = kBase + 0x00, kCr2 = kBase + 0x04, kCfg1 = kBase + 0x08, kCfg2 = kBase + 0x0C,
+                           kSr = kBase + 0x14, kIfcr = kBase + 0x18, kTxdr = kBase + 0x20;
+// CR1: SPE 0, CSTART 9, SSI 12. CR2: TSIZE[15:0] (0: no fixed size).
+inline constexpr uint32_t kCr1Spe = 1u << 0, kCr1Cstart = 1u << 9, kCr1Ssi = 1u << 12;
+// CFG1: DSIZE[4:0] (bits per frame - 1), MBR[30:28] (0 = kernel clock / 2).
+inline constexpr uint32_t kCfg1Dsize16 = 15u;
+// CFG2: COMM[18:17] (1 = simplex transmitter), MASTER 22, CPHA 24, CPOL 25
+// (both 0: mode 0), SSM 26 (slave select from SSI), AFCNTR 31 (the pins
+// keep their alternate function while SPE is 0).
+inline constexpr uint32_t kCfg2CommTx = 1u << 17, kCfg2Master = 1u << 22, kCfg2Ssm = 1u << 26,
+                          kCfg2Afcntr = 1u << 31;
+// SR: TXP 1 (room for a frame), TXC 12 (everything queued has been shifted out).
+inline constexpr uint32_t kSrTxp = 1u << 1, kSrTxc = 1u << 12;
+}  // namespace spi3
 
 // ---- USART3 (ST-LINK virtual COM port) -------------------------------------
 namespace usart3 {
@@ -194,6 +226,11 @@ inline constexpr uintptr_t kDemcr = 0xE000EDFC;  // TRCENA bit 24
 inline constexpr uintptr_t kDwtCtrl = 0xE0001000, kDwtCyccnt = 0xE0001004, kDwtLar = 0xE0001FB0;
 inline constexpr uintptr_t kScbCcr = 0xE000ED14;      // IC bit 17, DC bit 16
 inline constexpr uintptr_t kScbIciallu = 0xE000EF50;  // invalidate all I-cache
+inline constexpr uintptr_t kScbDcimvac = 0xE000EF5C;  // invalidate the D-cache line holding an address
+inline constexpr uintptr_t kScbDcisw = 0xE000EF60;    // invalidate a D-cache line by set and way
+inline constexpr uintptr_t kScbCcsidr = 0xE000ED80;   // geometry of the cache CSSELR selects
+inline constexpr uintptr_t kScbCsselr = 0xE000ED84;   // 0: the level-1 data cache
+inline constexpr uint32_t kCcrDc = 1u << 16;
 }  // namespace core
 
 }  // namespace piezoloop::bsp::stm32
