@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Commissioning on every shipped stage: the nine-stage sweep of
+"""Commissioning on every shipped stage: the ten-stage sweep of
 docs/commissioning.md as a benchmark (minutes, so not a ctest).
 
 For each stage (configs/*.json and configs/stages/*.json, each at the range
@@ -33,6 +33,7 @@ STAGES = [
     ("stiff_stack_unipolar", "configs/stages/stiff_stack_unipolar.json", 12),
     ("drifting_stage", "configs/stages/drifting_stage.json", 20),
     ("strong_hysteresis", "configs/stages/strong_hysteresis.json", 28),
+    ("asymmetric_hysteresis", "configs/stages/asymmetric_hysteresis.json", 16),
     ("ahmad2020", "configs/ahmad2020.json", 12),
     ("shan2012", "configs/shan2012.json", 8),
     ("janaideh2016", "configs/janaideh2016.json", 20),
@@ -108,7 +109,7 @@ def main():
     ap.add_argument("--piezoloop", default=os.path.join(ROOT, "build/host/host/piezoloop"))
     ap.add_argument("--board", action="store_true", help="also on an emulated qemu-m7 board")
     ap.add_argument("--image", default="", help="the qemu-m7 servo.elf (default: emulate's own)")
-    ap.add_argument("--only", nargs="*", default=[], help="stage names to run (default: all nine)")
+    ap.add_argument("--only", nargs="*", default=[], help="stage names to run (default: all ten)")
     ap.add_argument("--out", default="", help="where each run's files go (default: a temporary folder)")
     ap.add_argument("--json", default="", help="write every summary here")
     a = ap.parse_args()
