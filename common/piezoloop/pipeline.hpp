@@ -382,6 +382,12 @@ public:
     }
 
     const TickSignals<T>& last() const { return last_; }
+    // For a pipeline that joins a stage already running, before its first
+    // tick (the host simulator carrying a stage on from an earlier run): the
+    // reading the stage gives now. A board's pipeline, ticking all along,
+    // holds its latest reading in last_.y, where a wave's approach starts
+    // from (approach_sample); a new one would start it from 0 instead.
+    void join_at_reading(T y) { last_.y = y; }
     uint32_t tick_count() const { return tick_count_; }
     uint32_t swaps() const { return swaps_; }
     const PipelineParams& params() const { return params_[active_]; }

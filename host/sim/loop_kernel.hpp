@@ -60,12 +60,15 @@ public:
     }
 
     // A stage carried on from an earlier run (sim/carried_stage.hpp): the
-    // kernel's stage takes its state and the first tick reads its reading;
-    // carry_out leaves this run's end there. Null or not started: from rest.
+    // kernel's stage takes its state, the first tick reads its reading and
+    // the pipeline knows it as its latest (a wave's approach starts there,
+    // as on a board); carry_out leaves this run's end there. Null or not
+    // started: from rest.
     void carry_in(const CarriedStage* c) {
         if (!c || !c->started) return;
         stage_ = c->stage;
         loop_.resume(c->reading_um);
+        pipe_.join_at_reading(loop_.reading());
     }
     void carry_out(CarriedStage* c) const {
         if (!c) return;
