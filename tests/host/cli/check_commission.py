@@ -130,6 +130,38 @@ r = subprocess.run([exe, "commission", "--scenario", os.path.join(configs, "stag
 check(r.returncode == 2 and "--range-um" in r.stderr and "hysteresis loop" in r.stderr and "at most" in r.stderr,
       "a range beyond the measured reach: exit 2 naming the loop's reach: %d %s" % (r.returncode, r.stderr[-300:]))
 
+# A bender whose smallest play operator (1.17 V) is wider than the frequency
+# response's excitation (1 V about 0 V): the operators move like backlash, the
+# measured response jumps from line to line far beyond its noise, no model
+# fits it and no candidate passes. Exit 1, and the command says why (the
+# response is not a linear system's at that amplitude) and what to try.
+backlash = {
+    "scenario": "backlash_bender", "title": "a bender whose hysteresis moves like backlash at 1 V",
+    "source": "tests/host/cli/check_commission.py",
+    "loop": {"rate_Hz": 50000, "position_full_scale_um": 49, "voltage_full_scale_V": 16,
+             "hard_limits": {"u_min_V": -10.0, "u_max_V": 10.0, "slew_V_per_s": 1e6}},
+    "plant": {"dac": {"bits": 16, "min": -10.0, "max": 10.0},
+              "amplifier": {"gain": 1, "input_min_V": -10, "input_max_V": 10, "output_min_V": -10, "output_max_V": 10},
+              "hysteresis": {"kind": "pi", "thresholds_V": [1.1684, 2.8769, 4.8735, 7.0837, 9.4677],
+                             "weights_um_per_V": [0.181235, 0.151037, 0.12587, 0.104897, 0.087418],
+                             "p0_um_per_V": 1.253654},
+              "dynamics": {"model": {"zeros": [], "poles": [[-116.269, 20015.616], [-116.269, -20015.616],
+                                                            [-8444.196, 84611.235], [-8444.196, -84611.235]],
+                                     "gain": 1.0}, "normalise_dc": True, "discretisation": "zoh"},
+              "sensor": {"gain_per_um": 0.493501, "noise_rms": 0.00118487, "seed": 23},
+              "adc": {"bits": 16, "min": -10, "max": 10}},
+    "reference": {"nominal_um_per_V": 1.62107, "offset": "bipolar"},
+    "cases": [{"name": "open_loop", "label": "open loop",
+               "controller": {"feedforward": {"kind": "gain", "V_per_um": 0.6169}}}]}
+backlash_file = os.path.join(tmp, "backlash.json")
+json.dump(backlash, open(backlash_file, "w"))
+r = subprocess.run([exe, "commission", "--scenario", backlash_file, "--range-um", "21.7", "--out",
+                    os.path.join(tmp, "backlash")], capture_output=True, text=True)
+check(r.returncode == 1 and "no controller: none of the" in r.stderr and "nothing was loaded or kept" in r.stderr and
+      "does not respond as a linear system" in r.stderr and "--amplitude-v" in r.stderr and
+      "--target-bandwidth-hz" in r.stderr,
+      "no candidate passes on a backlash-like stage: exit 1 saying why and what to try: %d %s" %
+      (r.returncode, r.stderr[-600:]))
 # A stage that does not move (its dynamics' gain 1e-9): the first safety step
 # stops it, exit 1 naming the step and the reason, nothing written.
 dead = json.load(open(os.path.join(configs, "stages", "stiff_stack.json")))
