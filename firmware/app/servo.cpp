@@ -7,7 +7,7 @@
 //   selftest.elf  (PIEZOLOOP_SELFTEST_AUTORUN) runs the self-test once and
 //                 exits with the number of failures (CI, QEMU);
 //   servo_xyz.elf (PIEZOLOOP_SERVO_XYZ, STM32H743) serves three axes on the
-//                 board's converters (app/servo_axes.cpp).
+//                 board's converters (app/servo_converter_axes.cpp).
 //
 // Boot (emulated boards): the emulation profile at kEmulationProfileAddress
 // (common/piezoloop/emulation_profile.hpp), put there by QEMU's generic
