@@ -38,6 +38,11 @@ bool at_rail(const std::vector<double>& y, const measure::RangeUm& rails) {
     return (*lo <= rails.min_um && pinned(*lo)) || (*hi >= rails.max_um && pinned(*hi));
 }
 
+// The same rule on a frequency response's measured periods.
+bool frf_at_rail(const measure::FrfRun& frf, const measure::RangeUm& rails) {
+    return (frf.y_min_um <= rails.min_um && frf.y_at_min >= 10) || (frf.y_max_um >= rails.max_um && frf.y_at_max >= 10);
+}
+
 // The loop's largest gain on the measured band's top 5 % (in frequency). A
 // loop still near 1 there may cross again just beyond the band, where
 // nothing was measured: a stage whose mode sits at the band's edge (a 4 kHz
@@ -110,11 +115,10 @@ std::string no_controller_reason(const Commissioning& c, const ModelFit& fit, bo
     if (rough.change_rel > 0.1 && rough.change_rel > 10.0 * rough.noise_rel)
         s += ". From one line to the next below " + num(rough.to_Hz) + " Hz it changes by " +
              num(100.0 * rough.change_rel) + " % (median), against " + num(100.0 * rough.noise_rel) +
-             " % of noise: at the measurement's amplitude (" + num(c.frf_request.amplitude_V) + " V about " +
-             num(c.frf_request.bias_V) + " V) the stage does not respond as a linear system (hysteresis whose "
-             "play operators move like backlash at that amplitude, a stage still moving, or a rail); measure "
-             "its response alone (`piezoloop measure frf`) at a larger --amplitude-v to see whether it "
-             "becomes one";
+             " % of noise: to the measurement's multisine (" + num(c.frf_request.amplitude_V) + " V about " +
+             num(c.frf_request.bias_V) + " V) the stage did not respond as a linear system (a reading clipped "
+             "where the sensor's range or its converter ends, a lightly damped mode driven into it, a stage "
+             "still moving, hysteresis); `piezoloop measure frf` at other amplitudes shows which";
     s += ". What to try: a lower --target-bandwidth-hz";
     return s;
 }
@@ -703,8 +707,24 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     c.frf_request.bias_V = mid;
     c.frf_request.periods = 4;
     c.frf = stage.frf(c.frf_request);
+    // A lightly damped mode amplifies the multisine's lines near it so much
+    // that the reading can reach the sensor's rail (a 3 kHz mode of ζ 0.006
+    // turns a 1 V multisine into ±20 µm there); the clipped reading is no
+    // linear response anywhere. Measured again at half the amplitude, up
+    // to three times.
+    for (int again = 0; frf_at_rail(c.frf, b.closed_range) && again < 3; ++again) {
+        say(c, "frequency response: the reading sat at the sensor's rail (" + num(c.frf.y_min_um) + " .. " +
+                   num(c.frf.y_max_um) + " um; the sensor reads " + num(b.closed_range.min_um) + " .. " +
+                   num(b.closed_range.max_um) + " um): measured again at half the amplitude, " +
+                   num(0.5 * c.frf_request.amplitude_V) + " V");
+        c.frf_request.amplitude_V *= 0.5;
+        c.frf = stage.frf(c.frf_request);
+    }
     say(c, "frequency response: " + std::to_string(c.frf.estimate.frequency_Hz.size()) + " lines, " +
                num(c.frf_request.from_Hz) + " Hz to " + num(c.frf_request.to_Hz) + " Hz");
+    if (frf_at_rail(c.frf, b.closed_range))
+        say(c, "frequency response: the reading still sat at the sensor's rail at " +
+                   num(c.frf_request.amplitude_V) + " V: the fit describes a clipped response");
     if (const auto& flagged = c.frf.estimate.transient_lines; !flagged.empty())
         say(c, "frequency response: " + std::to_string(flagged.size()) +
                    " lines differ between the first and the second half of the periods beyond their noise (" +

@@ -148,6 +148,13 @@ ExcitationConfig excitation_config(const FrfPlan& plan, const FrfRequest& r) {
 void analyse_frf(const FrfRequest& r, const std::vector<double>& u, const std::vector<double>& y,
                  const std::vector<double>& d, FrfRun& run) {
     const WelchEstimate g = estimate(r, run.plan, u, y);
+    if (!y.empty()) {
+        const auto [lo, hi] = std::minmax_element(y.begin(), y.end());
+        run.y_min_um = *lo;
+        run.y_max_um = *hi;
+        run.y_at_min = static_cast<std::size_t>(std::count(y.begin(), y.end(), *lo));
+        run.y_at_max = static_cast<std::size_t>(std::count(y.begin(), y.end(), *hi));
+    }
     run.coherence = g.coherence;
     run.segments = g.segments;
     run.estimate = static_cast<const FrfEstimate&>(g);

@@ -81,6 +81,11 @@ struct FrfRun {
     // (d added to the controller's output) and T = 1 - S, at the same lines.
     std::vector<cplx> sensitivity, complementary_sensitivity;
     std::vector<std::string> warnings;
+    // The reading's extremes over the measured periods and how many samples
+    // sat exactly at each: a sensor (or ADC) rail holds the reading at one
+    // value, which a caller that knows the rails can tell (commission).
+    double y_min_um = 0.0, y_max_um = 0.0;
+    std::size_t y_at_min = 0, y_at_max = 0;
 };
 
 // The estimate from the measured periods of a recording (u in V, y in um, d
