@@ -130,33 +130,44 @@ r = subprocess.run([exe, "commission", "--scenario", os.path.join(configs, "stag
 check(r.returncode == 2 and "--range-um" in r.stderr and "hysteresis loop" in r.stderr and "at most" in r.stderr,
       "a range beyond the measured reach: exit 2 naming the loop's reach: %d %s" % (r.returncode, r.stderr[-300:]))
 
+# A made-up stage for the two checks below: a PI hysteresis of five
+# operators, two modes (pole pairs, rad/s), a 16-bit ADC of +-10 sensor units,
+# and the loop's command span [u_lo, u_hi] V behind an amplifier of `gain`.
+def random_like_stage(name, rate_Hz, full_scale_um, u_lo, u_hi, gain, thresholds_V, weights, p0, poles, sensor,
+                      nominal_um_per_V, offset):
+    return {"scenario": name, "title": name, "source": "tests/host/cli/check_commission.py",
+            "loop": {"rate_Hz": rate_Hz, "position_full_scale_um": full_scale_um, "voltage_full_scale_V": 16,
+                     "hard_limits": {"u_min_V": u_lo, "u_max_V": u_hi, "slew_V_per_s": 1e6}},
+            "plant": {"dac": {"bits": 16, "min": u_lo, "max": u_hi},
+                      "amplifier": {"gain": gain, "input_min_V": u_lo, "input_max_V": u_hi,
+                                    "output_min_V": u_lo * gain, "output_max_V": u_hi * gain},
+                      "hysteresis": {"kind": "pi", "thresholds_V": thresholds_V, "weights_um_per_V": weights,
+                                     "p0_um_per_V": p0},
+                      "dynamics": {"model": {"zeros": [], "gain": 1.0,
+                                             "poles": [x for re, im in poles for x in ([re, im], [re, -im])]},
+                                   "normalise_dc": True, "discretisation": "zoh"},
+                      "sensor": sensor, "adc": {"bits": 16, "min": -10, "max": 10}},
+            "reference": {"nominal_um_per_V": nominal_um_per_V, "offset": offset},
+            "cases": [{"name": "open_loop", "label": "open loop",
+                       "controller": {"feedforward": {"kind": "gain", "V_per_um": 1.0 / nominal_um_per_V / gain}}}]}
+
+
+def commission_stage(stage, range_um):
+    path = os.path.join(tmp, stage["scenario"] + ".json")
+    json.dump(stage, open(path, "w"))
+    return subprocess.run([exe, "commission", "--scenario", path, "--range-um", str(range_um), "--out",
+                           os.path.join(tmp, stage["scenario"])], capture_output=True, text=True)
+
+
 # A bender with a 3.2 kHz mode of zeta 0.006: the frequency response's 1 V
 # multisine drives the mode past the sensor's +-20 um, and the clipped reading
 # is no linear response anywhere (no model fits it). Commissioning sees the
 # reading at the rail, measures again at half the amplitude and goes on:
 # verified, saying what it did.
-rail_bender = {
-    "scenario": "rail_bender", "title": "a bender whose lightly damped mode drives the reading to its rail",
-    "source": "tests/host/cli/check_commission.py",
-    "loop": {"rate_Hz": 50000, "position_full_scale_um": 49, "voltage_full_scale_V": 16,
-             "hard_limits": {"u_min_V": -10.0, "u_max_V": 10.0, "slew_V_per_s": 1e6}},
-    "plant": {"dac": {"bits": 16, "min": -10.0, "max": 10.0},
-              "amplifier": {"gain": 1, "input_min_V": -10, "input_max_V": 10, "output_min_V": -10, "output_max_V": 10},
-              "hysteresis": {"kind": "pi", "thresholds_V": [1.1684, 2.8769, 4.8735, 7.0837, 9.4677],
-                             "weights_um_per_V": [0.181235, 0.151037, 0.12587, 0.104897, 0.087418],
-                             "p0_um_per_V": 1.253654},
-              "dynamics": {"model": {"zeros": [], "poles": [[-116.269, 20015.616], [-116.269, -20015.616],
-                                                            [-8444.196, 84611.235], [-8444.196, -84611.235]],
-                                     "gain": 1.0}, "normalise_dc": True, "discretisation": "zoh"},
-              "sensor": {"gain_per_um": 0.493501, "noise_rms": 0.00118487, "seed": 23},
-              "adc": {"bits": 16, "min": -10, "max": 10}},
-    "reference": {"nominal_um_per_V": 1.62107, "offset": "bipolar"},
-    "cases": [{"name": "open_loop", "label": "open loop",
-               "controller": {"feedforward": {"kind": "gain", "V_per_um": 0.6169}}}]}
-rail_file = os.path.join(tmp, "rail_bender.json")
-json.dump(rail_bender, open(rail_file, "w"))
-r = subprocess.run([exe, "commission", "--scenario", rail_file, "--range-um", "21.7", "--out",
-                    os.path.join(tmp, "rail_bender")], capture_output=True, text=True)
+r = commission_stage(random_like_stage(
+    "rail_bender", 50000, 49, -10.0, 10.0, 1, [1.1684, 2.8769, 4.8735, 7.0837, 9.4677],
+    [0.181235, 0.151037, 0.12587, 0.104897, 0.087418], 1.253654, [(-116.269, 20015.616), (-8444.196, 84611.235)],
+    {"gain_per_um": 0.493501, "noise_rms": 0.00118487, "seed": 23}, 1.62107, "bipolar"), 21.7)
 s = json.loads(r.stdout) if r.returncode == 0 else {}
 check(r.returncode == 0 and s.get("verified") is True and "sat at the sensor's rail" in r.stderr and
       "measured again at half the amplitude, 0.5 V" in r.stderr,
@@ -168,28 +179,10 @@ check(r.returncode == 0 and s.get("verified") is True and "sat at the sensor's r
 # and no candidate designed without it passes the measured margins, down to
 # a quarter of the automatic bandwidth. Exit 1, saying so (no controller,
 # how far the model is off, nothing kept) and what to try.
-band_edge = {
-    "scenario": "band_edge_stack", "title": "a stack whose second mode sits at the measured band's top",
-    "source": "tests/host/cli/check_commission.py",
-    "loop": {"rate_Hz": 100000, "position_full_scale_um": 172, "voltage_full_scale_V": 16,
-             "hard_limits": {"u_min_V": 0.0, "u_max_V": 10.0, "slew_V_per_s": 1e6}},
-    "plant": {"dac": {"bits": 16, "min": 0.0, "max": 10.0},
-              "amplifier": {"gain": 15, "input_min_V": 0, "input_max_V": 10, "output_min_V": 0, "output_max_V": 150},
-              "hysteresis": {"kind": "pi", "thresholds_V": [8.7629, 21.5767, 36.5514, 53.128, 71.0079],
-                             "weights_um_per_V": [0.026756, 0.020681, 0.015986, 0.012356, 0.009551],
-                             "p0_um_per_V": 0.709389},
-              "dynamics": {"model": {"zeros": [], "poles": [[-1173.723, 45425.650], [-1173.723, -45425.650],
-                                                            [-1453.231, 114174.280], [-1453.231, -114174.280]],
-                                     "gain": 1.0}, "normalise_dc": True, "discretisation": "zoh"},
-              "sensor": {"gain_per_um": 0.07017, "noise_rms": 0.00021794, "seed": 40, "offset_um": -1.5034},
-              "adc": {"bits": 16, "min": -10, "max": 10}},
-    "reference": {"nominal_um_per_V": 0.760057, "offset": "unipolar"},
-    "cases": [{"name": "open_loop", "label": "open loop",
-               "controller": {"feedforward": {"kind": "gain", "V_per_um": 0.087713}}}]}
-edge_file = os.path.join(tmp, "band_edge.json")
-json.dump(band_edge, open(edge_file, "w"))
-r = subprocess.run([exe, "commission", "--scenario", edge_file, "--range-um", "73.3", "--out",
-                    os.path.join(tmp, "band_edge")], capture_output=True, text=True)
+r = commission_stage(random_like_stage(
+    "band_edge_stack", 100000, 172, 0.0, 10.0, 15, [8.7629, 21.5767, 36.5514, 53.128, 71.0079],
+    [0.026756, 0.020681, 0.015986, 0.012356, 0.009551], 0.709389, [(-1173.723, 45425.650), (-1453.231, 114174.280)],
+    {"gain_per_um": 0.07017, "noise_rms": 0.00021794, "seed": 40, "offset_um": -1.5034}, 0.760057, "unipolar"), 73.3)
 check(r.returncode == 1 and "no controller: none of the" in r.stderr and "nothing was loaded or kept" in r.stderr and
       "% RMS (frf.png)" in r.stderr and "a lower --target-bandwidth-hz" in r.stderr,
       "no candidate passes: exit 1 saying why and what to try: %d %s" % (r.returncode, r.stderr[-600:]))
