@@ -31,16 +31,20 @@ std::string num(double v) { return format::significant(v, 4); }
 
 // A sensor at its rail reads one extreme value again and again, at or beyond
 // the range it reads (a moving stage's noise does not repeat its extreme,
-// and a stage's rest near the range's edge is not a rail).
+// and a stage's rest near the range's edge is not a rail): the rule, on a
+// reading's extremes and how many samples sat at each; then on a recording
+// and on a frequency response's measured periods (their extremes,
+// frf_plan.hpp).
+bool at_rail(double lo, std::size_t at_lo, double hi, std::size_t at_hi, const measure::RangeUm& rails) {
+    return (lo <= rails.min_um && at_lo >= 10) || (hi >= rails.max_um && at_hi >= 10);
+}
 bool at_rail(const std::vector<double>& y, const measure::RangeUm& rails) {
     const auto [lo, hi] = std::minmax_element(y.begin(), y.end());
-    const auto pinned = [&](double v) { return std::count(y.begin(), y.end(), v) >= 10; };
-    return (*lo <= rails.min_um && pinned(*lo)) || (*hi >= rails.max_um && pinned(*hi));
+    const auto count = [&](double v) { return static_cast<std::size_t>(std::count(y.begin(), y.end(), v)); };
+    return at_rail(*lo, count(*lo), *hi, count(*hi), rails);
 }
-
-// The same rule on a frequency response's measured periods.
-bool frf_at_rail(const measure::FrfRun& frf, const measure::RangeUm& rails) {
-    return (frf.y_min_um <= rails.min_um && frf.y_at_min >= 10) || (frf.y_max_um >= rails.max_um && frf.y_at_max >= 10);
+bool at_rail(const measure::FrfRun& frf, const measure::RangeUm& rails) {
+    return at_rail(frf.y_min_um, frf.y_at_min, frf.y_max_um, frf.y_at_max, rails);
 }
 
 // The loop's largest gain on the measured band's top 5 % (in frequency). A
@@ -712,7 +716,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     // turns a 1 V multisine into ±20 µm there); the clipped reading is no
     // linear response anywhere. Measured again at half the amplitude, up
     // to three times.
-    for (int again = 0; frf_at_rail(c.frf, b.closed_range) && again < 3; ++again) {
+    for (int again = 0; at_rail(c.frf, b.closed_range) && again < 3; ++again) {
         say(c, "frequency response: the reading sat at the sensor's rail (" + num(c.frf.y_min_um) + " .. " +
                    num(c.frf.y_max_um) + " um; the sensor reads " + num(b.closed_range.min_um) + " .. " +
                    num(b.closed_range.max_um) + " um): measured again at half the amplitude, " +
@@ -722,7 +726,7 @@ Commissioning commission(StageAccess& stage, const CommissionRequest& r,
     }
     say(c, "frequency response: " + std::to_string(c.frf.estimate.frequency_Hz.size()) + " lines, " +
                num(c.frf_request.from_Hz) + " Hz to " + num(c.frf_request.to_Hz) + " Hz");
-    if (frf_at_rail(c.frf, b.closed_range))
+    if (at_rail(c.frf, b.closed_range))
         say(c, "frequency response: the reading still sat at the sensor's rail at " +
                    num(c.frf_request.amplitude_V) + " V: the fit describes a clipped response");
     if (const auto& flagged = c.frf.estimate.transient_lines; !flagged.empty())
