@@ -74,34 +74,6 @@ void check_on_measurement(Candidate& c, const measure::FrfRun& frf, double rate_
     c.passes = c.refusal.empty();
 }
 
-// How much the measured response jumps from one line to the next in its
-// lowest decade, where a linear stage's is smooth (its modes lie higher):
-// the median of |G[i+1] - G[i]| / |G[i]|, and the median noise of those
-// lines (sigma_G / |G|) for comparison.
-struct LowBandRoughness {
-    double change_rel = 0.0, noise_rel = 0.0, to_Hz = 0.0;
-};
-LowBandRoughness low_band_roughness(const measure::FrfEstimate& e) {
-    LowBandRoughness r;
-    if (e.frequency_Hz.size() < 4) return r;
-    r.to_Hz = 10.0 * e.frequency_Hz.front();
-    std::vector<double> change, noise;
-    for (std::size_t i = 0; i + 1 < e.frequency_Hz.size() && e.frequency_Hz[i + 1] <= r.to_Hz; ++i) {
-        const double g = std::abs(e.response[i]);
-        if (!(g > 0.0)) continue;
-        change.push_back(std::abs(e.response[i + 1] - e.response[i]) / g);
-        noise.push_back(std::sqrt(e.var[i]) / g);
-    }
-    auto median = [](std::vector<double> v) {
-        if (v.empty()) return 0.0;
-        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-        return v[v.size() / 2];
-    };
-    r.change_rel = median(change);
-    r.noise_rel = median(noise);
-    return r;
-}
-
 // When no candidate passes the measured checks: what was tried, how well
 // the model describes the measurement, and what the user can do.
 std::string no_controller_reason(const Commissioning& c, const ModelFit& fit, bool bandwidth_asked) {
@@ -112,17 +84,6 @@ std::string no_controller_reason(const Commissioning& c, const ModelFit& fit, bo
                     "; nothing was loaded or kept. The model (" + std::to_string(fit.poles) + "/" +
                     std::to_string(fit.zeros) + ") misses the measured response by " + num(100.0 * fit.rms_rel) +
                     " % RMS (frf.png)";
-    // A response that jumps from line to line far beyond its noise where a
-    // linear stage's is smooth is not a linear system's: no model-based
-    // design can rely on it.
-    const LowBandRoughness rough = low_band_roughness(c.frf.estimate);
-    if (rough.change_rel > 0.1 && rough.change_rel > 10.0 * rough.noise_rel)
-        s += ". From one line to the next below " + num(rough.to_Hz) + " Hz it changes by " +
-             num(100.0 * rough.change_rel) + " % (median), against " + num(100.0 * rough.noise_rel) +
-             " % of noise: to the measurement's multisine (" + num(c.frf_request.amplitude_V) + " V about " +
-             num(c.frf_request.bias_V) + " V) the stage did not respond as a linear system (a reading clipped "
-             "where the sensor's range or its converter ends, a lightly damped mode driven into it, a stage "
-             "still moving, hysteresis); `piezoloop measure frf` at other amplitudes shows which";
     s += ". What to try: a lower --target-bandwidth-hz";
     return s;
 }
