@@ -27,6 +27,11 @@ extern bool g_loopback;
 // sample).
 inline constexpr uint32_t kAdcWaitMax_cycles = config::kCpuClock_Hz / 100'000u;
 
+// Every axis's converters, as codes and samples: the sensor's and the
+// amplifier's full scales (board_config.hpp).
+inline constexpr fw::Converter16 kAdc{config::kPositionFullScale_um};
+inline constexpr fw::Converter16 kDac{config::kVoltageFullScale_V};
+
 // An ADC's data register: 16-bit unsigned, offset binary around mid-scale.
 // Reading it clears the end-of-conversion flag. ADC1 is the single axis's
 // (and x's); ADC2 and ADC3 convert y and z on the same trigger.
@@ -89,8 +94,6 @@ struct ConverterAxes {
     template <class PipelineT>
     void output(PipelineT& pipe) {
         using T = fw::CoreSample;
-        constexpr fw::Converter16 kAdc{config::kPositionFullScale_um};
-        constexpr fw::Converter16 kDac{config::kVoltageFullScale_V};
         std::array<T, N> y{};
         y[0] = kAdc.sample_from_code<T>(adc_read(stm32::adc::kAdc1));
         y[1] = kAdc.sample_from_code<T>(adc_read(stm32::adc::kAdc2));
@@ -114,8 +117,6 @@ inline void control_io(PipelineT& pipe) {
         stm32::g_emulated_stage.output(pipe);
         return;
     }
-    constexpr fw::Converter16 kAdc{config::kPositionFullScale_um};
-    constexpr fw::Converter16 kDac{config::kVoltageFullScale_V};
     const T u = pipe.output(kAdc.sample_from_code<T>(adc_read()));
     dac_write(kDac.code_from_sample(u));
 }
