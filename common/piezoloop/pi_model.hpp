@@ -160,6 +160,14 @@ public:
     void reset() {
         for (Group& g : groups_) g.w.fill(0.0f);
     }
+    // The states after coming up to t from far below (pi_start_state.hpp):
+    // w_j = t - r_j, in the play domain. The next apply() takes them to x.
+    void start_ascended_to(float t) {
+        for (int j = 0; j < model_.count; ++j) {
+            const unsigned i = static_cast<unsigned>(j);
+            groups_[i / 4].w[i % 4] = t - groups_[i / 4].r[i % 4];
+        }
+    }
 
     // Dispatches once on the operator count to a fully unrolled loop (no
     // per-operator loop overhead: -20 % of the tick's largest block on the
@@ -359,6 +367,11 @@ public:
         return ok_status();
     }
     void reset() { w_.fill(Q31{}); }
+    // As the float operator's: w_j = t - r_j, saturated, in Q31 samples of
+    // the play domain.
+    void start_ascended_to(Q31 t) {
+        for (int j = 0; j < count_; ++j) w_[static_cast<unsigned>(j)] = t - r_[static_cast<unsigned>(j)];
+    }
 
     // Dispatches once on the operator count to a fully unrolled loop, as
     // the float operator does.

@@ -78,6 +78,7 @@
 #include "piezoloop/limits.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "piezoloop/pi_model.hpp"
+#include "piezoloop/pi_start_state.hpp"
 #include "piezoloop/pid.hpp"
 #include "piezoloop/recorder.hpp"
 #include "piezoloop/repetitive.hpp"
@@ -193,7 +194,23 @@ public:
     // Armed: the controller drives the output (its states start from rest at
     // the first armed tick). Disarmed: the output ramps, at the slew limit, to
     // the safe value. Requests from the main loop take effect at the next tick.
-    void arm() { armed_.store(true, std::memory_order_release); }
+    // Arming is bumpless for a PI compensator (inverse, compensator, series):
+    // instead of zero states it starts from those whose output at the first
+    // reference is the command in effect (pi_start_state.hpp), so the command
+    // does not step to the compensator's virgin-curve value.
+    void arm() {
+        if (!armed()) plan_arming();
+        arm_as_planned();
+    }
+    // arm() in steps, for a board that arms with its tick masked (several
+    // axes, or a start at one tick boundary): the plan with the tick running
+    // (software double on a Cortex-M3: longer than a tick), then the request.
+    // The plan's first reference: the stage's reading when a wave's approach
+    // starts there, else the held setpoint; plan_arming_from takes it from a
+    // caller that knows what the arming tick will start.
+    void plan_arming() { plan_arming_from(wave_running() ? last_.y : setpoint_); }
+    void plan_arming_from(T first_reference);
+    void arm_as_planned() { armed_.store(true, std::memory_order_release); }
     void disarm() { armed_.store(false, std::memory_order_release); }
     bool armed() const { return armed_.load(std::memory_order_acquire); }
 
@@ -447,7 +464,10 @@ private:
         if (b.pf_count > 0) [[unlikely]] s.r = b.prefilter.apply(s.r);
         s.d = sample_zero<T>();
         if (excite) [[unlikely]] excitation_phase(s);
-        if (armed && !was_armed_) b.reset();
+        if (armed && !was_armed_) {
+            b.reset();
+            if (arm_preset_) b.pi.start_ascended_to(arm_turn_);
+        }
         was_armed_ = armed;
         // The cascade's states as they are before this tick's sample, for its
         // anti-windup: taken here, before the reading, so the copy stays out
@@ -508,6 +528,18 @@ private:
         if (approach_.moving()) return approach_.step();
         return trajectory_.step();
     }
+    // The parameter set the next tick runs: the staged one while a swap is
+    // pending. The tick may swap while this reads; the pending flag read on
+    // both sides of the bank index tells (only the main loop stages).
+    const PipelineParams& params_at_next_tick() const {
+        for (;;) {
+            const bool pending_before = swap_pending_.load(std::memory_order_acquire);
+            const unsigned active = *static_cast<const volatile unsigned*>(&active_);
+            const bool pending_after = swap_pending_.load(std::memory_order_acquire);
+            if (pending_before == pending_after) return params_[pending_after ? active ^ 1u : active];
+        }
+    }
+
     // A start from the stage's reading: the pre-filter, which ran on the
     // held setpoint, is put at its steady state for the reading, so its
     // output starts where the stage is instead of stepping from the
@@ -733,6 +765,8 @@ private:
     TickSignals<T> last_{};
     T setpoint_{};
     T exc_d_{};
+    T arm_turn_{};             // the PI compensator's start state at the next arming
+    bool arm_preset_ = false;  // (written by arm() before armed_)
     uint32_t tick_count_ = 0;
     uint32_t swaps_ = 0;
     unsigned active_ = 0;
@@ -751,5 +785,26 @@ private:
     // the recorder's indices beyond a load's immediate offset.
     Bank banks_[2]{};
 };
+
+// The PI compensator's start state for the next arming (main loop): for the
+// first reference x and the limiter's output. Zero states when no PI
+// compensator runs or theirs already give that output within 1e-4 of the
+// command's full scale.
+template <class T, int RcCapacity, std::size_t RecChannels, std::size_t RecCapacity, std::size_t ExcCapacity>
+void Pipeline<T, RcCapacity, RecChannels, RecCapacity, ExcCapacity>::plan_arming_from(T x) {
+    arm_preset_ = false;
+    const PipelineParams& p = params_at_next_tick();
+    if (p.feedforward != FeedforwardKind::kPiInverse && p.feedforward != FeedforwardKind::kPiCompensator &&
+        p.feedforward != FeedforwardKind::kPiSeries)
+        return;
+    PiModel m = p.pi;
+    if (p.feedforward == FeedforwardKind::kPiInverse && !invert_pi(p.pi, m).ok()) return;
+    const PiStartState start =
+        pi_start_for_output(m, setup_.position.to_physical(x), setup_.voltage.to_physical(limiter_.output()),
+                            1e-4 * static_cast<double>(setup_.voltage.full_scale));
+    if (!start.preset) return;
+    arm_turn_ = setup_.position.template to_sample<T>(static_cast<float>(start.turn));
+    arm_preset_ = true;
+}
 
 }  // namespace piezoloop

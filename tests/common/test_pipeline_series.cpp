@@ -122,6 +122,14 @@ void check_series_equals_clamped_inverse(double tol_V) {
     OutputLimiter<T> lim(su.hard, su.rate_Hz, su.voltage);
     ASSERT_TRUE(lim.configure(p.limits).ok());
     DoublePi dpi{p.pi};
+    // Arming is bumpless (pi_start_state.hpp): the compensator starts from
+    // the states whose output at the held setpoint (0 µm) is the command in
+    // effect (0 V), not from zero states (p0 x the input offset: 0.075 V).
+    const PiStartState start = pi_start_for_output(p.pi, 0.0f, 0.0, 1e-4 * su.voltage.full_scale);
+    ASSERT_TRUE(start.preset);
+    pi.start_ascended_to(sample_of<T>(su.position, static_cast<float>(start.turn)));
+    for (int j = 0; j < p.pi.count; ++j)
+        dpi.w[static_cast<unsigned>(j)] = start.turn - static_cast<double>(p.pi.thresholds[static_cast<unsigned>(j)]);
 
     Drive d;
     int clamped = 0, inside = 0;
@@ -355,12 +363,18 @@ TEST(PipelineSeries, ChangingThePlacementRestartsTheFeedback) {
         dc.plant(uc);
     }
     EXPECT_EQ(c->swaps(), 2u);
-    // Re-arming starts every block from rest: equal to a fresh pipeline's.
+    // Re-arming starts every block from rest (the compensator from the start
+    // state for the held setpoint and the command in effect, both the same
+    // here: the disarmed tick slews to 0 V at once): equal to a fresh
+    // pipeline's.
     auto fresh = std::make_unique<SeriesPipeline<float>>(su);
     ASSERT_TRUE(fresh->stage(series_params()).ok());
     fresh->tick(0.0f);  // swap it in, disarmed
     a->disarm();
     a->tick(0.0f);
+    ASSERT_EQ(a->last().u, 0.0f);
+    a->set_setpoint(d.r_um(k));
+    fresh->set_setpoint(d.r_um(k));
     a->arm();
     fresh->arm();
     for (int n = 0; n < 500; ++n, ++k) {

@@ -465,9 +465,15 @@ private:
     // Every axis at one tick boundary (on one axis, the pipeline's own
     // request already is).
     void arm_all() {
-        if constexpr (N > 1) mask(true);
-        for (PipelineType* p : axes_) p->arm();
-        if constexpr (N > 1) mask(false);
+        if constexpr (N > 1) {
+            for (PipelineType* p : axes_)
+                if (!p->armed()) p->plan_arming();
+            mask(true);
+            for (PipelineType* p : axes_) p->arm_as_planned();
+            mask(false);
+        } else {
+            axes_[0]->arm();
+        }
     }
     void disarm_all() {
         if constexpr (N > 1) mask(true);
@@ -611,7 +617,7 @@ private:
         }
         if (!check_arm_flags(h, f, send)) return;
         // Every wave is configured before any starts: a refused one starts none.
-        start_at_tick(h, f, [&] {
+        start_at_tick(h, f, true, [&] {
             for (int a = first; a <= last; ++a)
                 if (const Status s = axes_[a]->prepare_wave(policies_[a].wave_config()); !s.ok()) return s;
             for (int a = first; a <= last; ++a) axes_[a]->run_wave();
@@ -644,7 +650,7 @@ private:
                 if (why != nullptr) return fail(h, ErrorCode::kBusy, in_group("trajectory", error("waveform", a, why)), send);
             }
             if (!check_arm_flags(h, f, send)) return;
-            start_at_tick(h, f, [&] {
+            start_at_tick(h, f, true, [&] {
                 const bool stays_armed = (f & StartWave::kArmLoop) == 0;
                 std::array<T, 3> from{};
                 std::array<bool, 3> from_reading{};
@@ -684,7 +690,7 @@ private:
         // the start itself is in the masked section.
         if (const Status s = p.prepare_excitation(c); !s.ok())
             return fail(h, ErrorCode::kInvalidParam, s, send);
-        start_at_tick(h, f, [&] {
+        start_at_tick(h, f, false, [&] {
             p.run_excitation();
             return ok_status();
         }, send);
@@ -729,8 +735,18 @@ private:
 
     // The masked section: the stage's restart, start() (a Status), the
     // arms; then the client binding and the reply.
+    // Arming, its plan comes first, with the tick running (Pipeline::arm):
+    // the first reference is the reading (a restarted stage's is zero) when
+    // the start moves the setpoint from there (`from_reading`: a wave's
+    // approach, a scan's), else the held setpoint.
     template <class Start, class Send>
-    void start_at_tick(const FrameHeader& h, uint8_t f, Start&& start, Send& send) {
+    void start_at_tick(const FrameHeader& h, uint8_t f, bool from_reading, Start&& start, Send& send) {
+        if ((f & StartWave::kArmLoop) != 0)
+            for (PipelineType* p : axes_) {
+                const bool restart = (f & StartWave::kRestartStage) != 0;
+                const T x = !from_reading ? p->setpoint() : (restart ? T{} : p->last().y);
+                p->plan_arming_from(x);
+            }
         mask(true);
         if ((f & StartWave::kRestartStage) != 0) {
             if (!hooks_.restart_stage()) {
@@ -745,7 +761,7 @@ private:
             return fail(h, ErrorCode::kInvalidParam, s, send);
         }
         if ((f & StartWave::kArmLoop) != 0)
-            for (PipelineType* p : axes_) p->arm();
+            for (PipelineType* p : axes_) p->arm_as_planned();
         if ((f & StartWave::kArmRecorder) != 0) (void)recorder_.arm();  // configured: cannot fail
         mask(false);
         if ((f & StartWave::kArmRecorder) != 0) log_.restart();
