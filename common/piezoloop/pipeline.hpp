@@ -403,8 +403,13 @@ public:
     // tick (the host simulator carrying a stage on from an earlier run): the
     // reading the stage gives now. A board's pipeline, ticking all along,
     // holds its latest reading in last_.y, where a wave's approach starts
-    // from (approach_sample); a new one would start it from 0 instead.
-    void join_at_reading(T y) { last_.y = y; }
+    // from (approach_sample); a new one would start it from 0 instead. A
+    // loop armed before this first tick plans its arming again, from this
+    // reading (arm()).
+    void join_at_reading(T y) {
+        last_.y = y;
+        if (armed() && !was_armed_) plan_arming();
+    }
     uint32_t tick_count() const { return tick_count_; }
     uint32_t swaps() const { return swaps_; }
     const PipelineParams& params() const { return params_[active_]; }
