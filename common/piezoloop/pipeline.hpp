@@ -15,7 +15,9 @@
 // before the limiter (kCommand: u = limits(u_ff + u_fb + d); open loop, with
 // no feedforward and no feedback, u = limits(d) and d carries the bias). The
 // limiter still acts last; the samples it clamped or slew-limited while the
-// excitation ran are counted. Without an excitation the tick pays one
+// excitation ran are counted. Its first samples blend from where the
+// reference or the command was into d (lead_in.hpp), so it starts without
+// a jump. Without an excitation the tick pays one
 // well-predicted branch per phase and its arithmetic is unchanged (the log
 // hashes do not move).
 //
@@ -75,6 +77,7 @@
 #include "piezoloop/dahl.hpp"
 #include "piezoloop/excitation.hpp"
 #include "piezoloop/anti_windup.hpp"
+#include "piezoloop/lead_in.hpp"
 #include "piezoloop/limits.hpp"
 #include "piezoloop/pi_inverse.hpp"
 #include "piezoloop/pi_model.hpp"
@@ -301,6 +304,11 @@ public:
         excitation_.set_output_scale(c.point == ExcitationPoint::kReference ? setup_.position : setup_.voltage);
         if (const Status s = excitation_.configure(c); !s.ok()) return in_group("excitation", s);
         exc_to_command_ = c.point == ExcitationPoint::kCommand;
+        const uint64_t period = c.signal == ExcitationSignal::kPrbs
+                                    ? ((uint64_t{1} << c.prbs_order) - 1u) * c.prbs_hold
+                                    : uint64_t{c.period_samples};
+        lead_in_.prepare(c.point == ExcitationPoint::kReference ? setup_.position : setup_.voltage, setup_.rate_Hz,
+                         period);
         exc_prepared_ = true;
         return ok_status();
     }
@@ -353,6 +361,8 @@ public:
     uint32_t excitation_clipped_samples() const { return exc_clipped_; }
     // d of the last tick that ran the excitation.
     T excitation_sample() const { return exc_d_; }
+    // Ticks of the running (or last) excitation's lead-in (lead_in.hpp); 0: none.
+    uint32_t excitation_lead_in_ticks() const { return lead_in_.ticks(); }
 
     // One tick: measured displacement in, command out. Bounded time, no
     // allocation, never fails. A tick is three phases, which a board may run
@@ -507,7 +517,7 @@ private:
                 command = s.u_ff + s.u_fb;
             }
             if (exc_active_) [[unlikely]] {
-                s.u = excited_output(command);
+                s.u = excited_output(command, s.d);
             } else {
                 s.u = limiter_.apply(command);
             }
@@ -561,17 +571,27 @@ private:
     // tick that ends it (last period, or a stop request) still applies its d.
     void excitation_phase(TickSignals<T>& s) {
         exc_d_ = excitation_.step();
+        if (!exc_to_command_) {
+            // At the reference d starts from zero: r from where it was.
+            if (lead_in_.pending()) [[unlikely]] lead_in_.begin(sample_zero<T>(), exc_d_);
+            if (lead_in_.active()) [[unlikely]] exc_d_ = lead_in_.blend(exc_d_);
+            s.r = s.r + exc_d_;
+        }
         s.d = exc_d_;
         exc_active_ = true;
-        if (!exc_to_command_) s.r = s.r + exc_d_;
         if (excitation_.done() || (exc_stop_request_.load(std::memory_order_relaxed) &&
                                    exc_stop_request_.exchange(false, std::memory_order_acq_rel)))
             excitation_running_.store(false, std::memory_order_release);
     }
-    // The limiter with the excitation on: d added at the command, and the
+    // The limiter with the excitation on: d added at the command (from the
+    // value that leaves the command where it was: the lead-in), and the
     // samples the limiter changed counted.
-    T excited_output(T command) {
-        if (exc_to_command_) command = command + exc_d_;
+    T excited_output(T command, T& d) {
+        if (exc_to_command_) {
+            if (lead_in_.pending()) [[unlikely]] lead_in_.begin(limiter_.output() - command, exc_d_);
+            if (lead_in_.active()) [[unlikely]] d = exc_d_ = lead_in_.blend(exc_d_);
+            command = command + exc_d_;
+        }
         const uint32_t before = limiter_.clamped_samples() + limiter_.slew_limited_samples();
         const T u = limiter_.apply(command);
         if (limiter_.clamped_samples() + limiter_.slew_limited_samples() != before) ++exc_clipped_;
@@ -782,6 +802,7 @@ private:
     typename OutputLimiter<T>::Setting limits_next_{};  // for the pending swap
     RecorderType recorder_{};
     Excitation excitation_{};
+    LeadIn<T> lead_in_{};  // the excitation's first samples (main loop prepares, tick runs)
     uint32_t exc_clipped_ = 0, exc_ticks_ = 0;
     uint32_t rejected_setpoints_ = 0;
     PipelineParams params_[2]{};

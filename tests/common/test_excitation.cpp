@@ -355,17 +355,31 @@ TEST(ExcitationInPipeline, OpenLoopCommandIsBiasPlusExcitation) {
     c.periods = 2;
     ExcitationGenerator<float, 1024> ref;
     ASSERT_TRUE(ref.configure(c).ok());
-    // Let the output slew up to the bias first (the limiter never jumps).
-    for (int i = 0; i < 10; ++i) (void)pipe->tick(0.0f);
+    for (int i = 0; i < 10; ++i) EXPECT_EQ(pipe->tick(0.0f), 0.0f);  // open loop, no excitation: 0 V
     ASSERT_TRUE(pipe->start_excitation(c).ok());
     EXPECT_FALSE(pipe->start_excitation(c).ok());  // one at a time
+    // The lead-in (lead_in.hpp) from the command in effect (0 V) to the
+    // bias: 3 V at the speed bound (10 full scales of 16 V a second) would
+    // take 563 ticks, so it is capped at a quarter of the 100-sample period.
+    // Its samples are 0 + (d - 0) s(n / 25), s(x) = 10x^3 - 15x^4 + 6x^5 in
+    // double here; tolerance 2e-6 V: the core's s is Q31 integer arithmetic
+    // within 2^-26 of the polynomial, times |d| < 4 V, plus float rounding.
+    // From then on u is d exactly.
     for (int i = 0; i < 200; ++i) {
         const float u = pipe->tick(0.0f);
         const float d = ref.step();
-        if (i > 0) {
-            EXPECT_EQ(u, d) << i;  // tick 0 may still be slewing up to the bias
+        if (i == 0) {
+            EXPECT_EQ(pipe->excitation_lead_in_ticks(), 25u);
         }
-        EXPECT_EQ(pipe->excitation_sample(), d);
+        if (i < 25) {
+            const double x = i / 25.0;
+            const double s = x * x * x * (10.0 - 15.0 * x + 6.0 * x * x);
+            EXPECT_NEAR(u, d * s, 2e-6) << i;
+            EXPECT_EQ(pipe->excitation_sample(), u);  // d as recorded: the blended one
+        } else {
+            EXPECT_EQ(u, d) << i;
+            EXPECT_EQ(pipe->excitation_sample(), d);
+        }
     }
     EXPECT_FALSE(pipe->excitation_running());
     EXPECT_EQ(pipe->excitation_ticks(), 200u);
@@ -456,4 +470,75 @@ TEST(ExcitationInPipeline, ReferencePointAddsToTheSetpointAndStops) {
     (void)pipe->tick(0.0f);
     EXPECT_EQ(pipe->last().r, 5.0f);
     EXPECT_EQ(pipe->last().u, 0.0f);
+}
+
+TEST(ExcitationInPipeline, AReferenceOffsetLeadsInFromTheSetpoint) {
+    // A step at the reference whose level is 2 µm above the held setpoint
+    // (a closed-loop step measured from another point): r moves there along
+    // the lead-in's minimum-jerk path instead of jumping, starting at the
+    // setpoint itself, and is the setpoint plus d once it ends.
+    auto pipe = std::make_unique<Pipeline<float>>(open_loop_setup());
+    ASSERT_TRUE(pipe->stage(open_loop_params()).ok());
+    pipe->set_setpoint(5.0f);
+    pipe->arm();
+    ExcitationConfig c;
+    c.signal = ExcitationSignal::kStep;
+    c.period_samples = 400;
+    c.amplitude = 1.0f;
+    c.offset = 2.0f;  // held at 2 µm, then 3 µm
+    c.point = ExcitationPoint::kReference;
+    c.sample_rate_Hz = 10000.0f;
+    ExcitationGenerator<float, 1024> ref;
+    ref.set_output_scale(open_loop_setup().position);
+    ASSERT_TRUE(ref.configure(c).ok());
+    ASSERT_TRUE(pipe->start_excitation(c).ok());
+    float prev = 5.0f;
+    for (int i = 0; i < 400; ++i) {
+        (void)pipe->tick(0.0f);
+        const float d = ref.step();
+        const float r = pipe->last().r;
+        if (i == 0) {
+            // 2 µm with a peak speed of 10 full scales of 40 µm a second
+            // takes ceil(2 / (8/15 x 400 µm/s / 10 kHz)) = 94 ticks, within
+            // the cap of 100 (a quarter period).
+            EXPECT_EQ(pipe->excitation_lead_in_ticks(), 94u);
+            EXPECT_EQ(r, 5.0f);
+        }
+        if (i < 94) {
+            EXPECT_GE(r, prev) << i;  // rises monotonically, no overshoot
+            EXPECT_LE(r, 7.0f) << i;
+            // No step beyond the speed bound's (2/94 x 15/8 µm a tick at most).
+            EXPECT_LE(r - prev, 2.0f / 94.0f * 15.0f / 8.0f + 1e-5f) << i;
+        } else {
+            EXPECT_EQ(r, 5.0f + d) << i;
+        }
+        prev = r;
+    }
+}
+
+TEST(ExcitationInPipeline, AQ31ExcitationLeadsInAsTheFloatOne) {
+    // The open-loop multisine about 3 V of OpenLoopCommandIsBiasPlusExcitation
+    // in both pipelines: the same lead-in length, and commands within 1e-5 V
+    // (Q31 LSBs of 16 V, 7e-9 V, and the blend's rounding, far below it).
+    auto f = std::make_unique<Pipeline<float>>(open_loop_setup());
+    auto q = std::make_unique<Pipeline<Q31>>(open_loop_setup());
+    ASSERT_TRUE(f->stage(open_loop_params()).ok());
+    ASSERT_TRUE(q->stage(open_loop_params()).ok());
+    f->arm();
+    q->arm();
+    ExcitationConfig c = multisine(100, 1, 20, 0.5f);
+    c.offset = 3.0f;
+    c.periods = 1;
+    (void)f->tick(0.0f);
+    (void)q->tick(Q31{});
+    ASSERT_TRUE(f->start_excitation(c).ok());
+    ASSERT_TRUE(q->start_excitation(c).ok());
+    const SignalScale v = open_loop_setup().voltage;
+    for (int i = 0; i < 100; ++i) {
+        const float uf = f->tick(0.0f);
+        const float uq = v.to_physical(q->tick(Q31{}));
+        EXPECT_NEAR(uq, uf, 1e-5) << i;
+    }
+    EXPECT_EQ(q->excitation_lead_in_ticks(), f->excitation_lead_in_ticks());
+    EXPECT_EQ(f->excitation_lead_in_ticks(), 25u);
 }

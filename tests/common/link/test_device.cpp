@@ -908,7 +908,9 @@ TYPED_TEST(LinkStartWaveFlags, StartExcitationChecksThenRunsAndStops) {
     StatusReply st = r_.request(GetStatus{}).template as<StatusReply>();
     EXPECT_TRUE(st.excitation_running);
     EXPECT_EQ(st.excitation_ticks, 50u);
-    // d is recorded: the first frame is the excitation's sample 0 (the offset).
+    // d is recorded: the first frame is the lead-in's first sample, the
+    // command in effect (the disarmed 0 V), from which d moves to its
+    // offset (lead_in.hpp).
     r_.replies.clear();
     while (r_.device->poll_log(r_.sink())) {}
     ASSERT_FALSE(r_.replies.empty());
@@ -918,7 +920,8 @@ TYPED_TEST(LinkStartWaveFlags, StartExcitationChecksThenRunsAndStops) {
     T d0;
     if constexpr (std::is_same_v<T, float>) d0 = std::bit_cast<float>(b.samples[3]);
     else d0 = Q31::from_raw(static_cast<int32_t>(b.samples[3]));
-    EXPECT_NEAR(r_.pipeline->setup().voltage.to_physical(d0), lim.u_min_V, 1e-6);
+    EXPECT_NEAR(r_.pipeline->setup().voltage.to_physical(d0), 0.0, 1e-6);
+    EXPECT_GT(r_.pipeline->excitation_lead_in_ticks(), 1u);
     EXPECT_EQ(r_.request(StopExcitation{}).type(), MsgType::kAck);
     r_.tick();
     st = r_.request(GetStatus{}).template as<StatusReply>();
