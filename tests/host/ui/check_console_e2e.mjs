@@ -234,11 +234,18 @@ async function frequencyResponse(page, context, url, token) {
   const last = during.length ? during[during.length - 1][1] : -1;
   const ticks = Math.round(res.device_s * res.rate_Hz);
   const contiguous = during.every(([r], k) => k === 0 || Math.abs((r[0] - during[k - 1][0][0]) * res.rate_Hz - 1) < 1e-6);
-  // The excitation's ticks (the recorder runs a few ms past its end).
-  const uIn = during.slice(0, ticks).every(([r]) => Math.abs(r[iu] - frfRequest.bias_V) <= frfRequest.amplitude_V + 1e-6);
+  // The excitation's ticks (the recorder runs a few ms past its end). Its
+  // lead-in, at most a quarter of a period, moves u from the command in
+  // effect into the band; from then on u stays within it.
+  const leadTicks = Math.floor(ticks / (res.transient_periods + res.periods) / 4);
+  const u0 = during.length ? during[0][0][iu] : NaN;
+  const bandLo = frfRequest.bias_V - frfRequest.amplitude_V - 1e-6, bandHi = frfRequest.bias_V + frfRequest.amplitude_V + 1e-6;
+  const uIn = during.slice(0, ticks).every(([r], k) => k < leadTicks
+    ? r[iu] >= Math.min(u0, bandLo) && r[iu] <= Math.max(u0, bandHi)
+    : r[iu] >= bandLo && r[iu] <= bandHi);
   check(during.length >= ticks && last - first + 1 === during.length && contiguous && uIn && first > 0 && last < srows.length - 1 &&
     srows[first][0] > srows[first - 1][0] && srows[last + 1][0] > srows[last][0],
-    'the scope holds the measurement\'s recording, every tick, u within bias ± amplitude over the excitation, between the console\'s own',
+    'the scope holds the measurement\'s recording, every tick, u within bias ± amplitude over the excitation after its lead-in, between the console\'s own',
     `${during.length} rows (the run: ${ticks} ticks), rows ${first}..${last} of ${srows.length}, contiguous ${contiguous}, u in band ${uIn}`);
   console.log(`figure: frequency response ${res.lines} lines ${res.frequency_Hz[0]}-${res.frequency_Hz[res.lines - 1]} Hz, ` +
     `${res.transient_periods}+${res.periods} periods = ${res.device_s} s on the board, measured in ${res.wall_s.toFixed(2)} s ` +
