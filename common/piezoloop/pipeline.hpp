@@ -791,7 +791,7 @@ private:
     T setpoint_{};
     T exc_d_{};
     T arm_turn_{};             // the PI compensator's start state at the next arming
-    bool arm_preset_ = false;  // (written by arm() before armed_)
+    bool arm_preset_ = false;  // (both written by the plan, before armed_ is set)
     uint32_t tick_count_ = 0;
     uint32_t swaps_ = 0;
     unsigned active_ = 0;

@@ -13,28 +13,17 @@
 #include "piezoloop/pi_start_state.hpp"
 #include "piezoloop/pipeline.hpp"
 #include "piezoloop/reference_stage.hpp"
+#include "play_sum_double.hpp"
 
 using namespace piezoloop;
 
 namespace {
 
-// A PI model's play operators in double, written from docs/models.md,
-// 'Prandtl–Ishlinskii model' (not the core's code); affine input only, in
-// float as the operator and the solver take it (so the states' clamps agree).
-struct DoublePlay {
-    PiModel m;
-    std::array<double, kMaxPlayOperators> w{};
-    double apply(float x) {
-        const double f = static_cast<double>(m.input_gain * x + m.input_offset);
-        double y = static_cast<double>(m.p0) * f;
-        for (int j = 0; j < m.count; ++j) {
-            const unsigned i = static_cast<unsigned>(j);
-            const double r = m.thresholds[i];
-            w[i] = std::max(f - r, std::min(f + r, w[i]));
-            y += static_cast<double>(m.weights[i]) * w[i];
-        }
-        return y;
-    }
+// The reference (tests/support) takes the play domain's f: the input map is
+// applied here in float, as the operator and the solver apply it, so the
+// states' clamps agree.
+struct DoublePlay : test::PlaySumDouble {
+    double apply(float x) { return test::PlaySumDouble::apply(static_cast<double>(m.input_gain * x + m.input_offset)); }
 };
 
 PiModel random_model(std::mt19937& rng) {
@@ -70,18 +59,16 @@ TEST(PiStartState, TheStartStatesGiveTheCommandInEffect) {
         const float x = static_cast<float>(10.0 * (unit(rng) - 0.5));
         const double f = static_cast<double>(m.input_gain * x + m.input_offset);
         const double t_drawn = f + 2.0 * m.thresholds[static_cast<unsigned>(m.count - 1)] * unit(rng);
-        DoublePlay drawn{m};
-        for (int j = 0; j < m.count; ++j)
-            drawn.w[static_cast<unsigned>(j)] = t_drawn - m.thresholds[static_cast<unsigned>(j)];
+        DoublePlay drawn{{m}};
+        drawn.ascended_to(t_drawn);
         const double u = drawn.apply(x);
 
         const PiStartState s = pi_start_for_output(m, x, u, 1e-9);
-        DoublePlay fresh{m};
+        DoublePlay fresh{{m}};
         if (std::abs(fresh.apply(x) - u) <= 1e-9) continue;  // zero states already give u
         ASSERT_TRUE(s.preset);
-        DoublePlay ref{m};
-        for (int j = 0; j < m.count; ++j)
-            ref.w[static_cast<unsigned>(j)] = s.turn - m.thresholds[static_cast<unsigned>(j)];
+        DoublePlay ref{{m}};
+        ref.ascended_to(s.turn);
         EXPECT_NEAR(ref.apply(x), u, 1e-9);
         // States a history can leave: within a threshold of the input.
         for (int j = 0; j < m.count; ++j)
@@ -100,7 +87,7 @@ TEST(PiStartState, ZeroStatesStayWhereTheyAlreadyGiveTheCommand) {
     PiModel m = reference::stage_model();
     EXPECT_FALSE(pi_start_for_output(m, 0.0f, 0.0, 1e-9).preset);
     // Within the tolerance, likewise; beyond it, a preset.
-    DoublePlay fresh{m};
+    DoublePlay fresh{{m}};
     const double u0 = fresh.apply(1.0f);
     EXPECT_FALSE(pi_start_for_output(m, 1.0f, u0 + 0.5e-3, 1e-3).preset);
     EXPECT_TRUE(pi_start_for_output(m, 1.0f, u0 + 2e-3, 1e-3).preset);
@@ -125,11 +112,9 @@ TEST(PiStartState, ACommandBeyondTheLoopTakesTheNearestBranch) {
     // Analytic branches at x = 1: ascending w = x - r = (0.5, 0, -1),
     // descending w = x + r capped by the turn: (1.5, 2, 3). Tolerance 1e-7:
     // the weights are floats (0.2f = 0.2 + 3e-9).
-    DoublePlay a{m}, d{m};
-    for (int j = 0; j < 3; ++j) {
-        a.w[static_cast<unsigned>(j)] = up.turn - m.thresholds[static_cast<unsigned>(j)];
-        d.w[static_cast<unsigned>(j)] = down.turn - m.thresholds[static_cast<unsigned>(j)];
-    }
+    DoublePlay a{{m}}, d{{m}};
+    a.ascended_to(up.turn);
+    d.ascended_to(down.turn);
     EXPECT_NEAR(a.apply(x), 1.0 - 0.2 * 0.5 - 0.1 * 0.0 - 0.05 * -1.0, 1e-7);
     EXPECT_NEAR(d.apply(x), 1.0 - 0.2 * 1.5 - 0.1 * 2.0 - 0.05 * 3.0, 1e-7);
 }
@@ -151,7 +136,7 @@ PiModel stack_model() {
 
 // The stage's reading after 0 V -> peak -> 0 V in small steps.
 double remnant_um(float peak_V) {
-    DoublePlay stage{stack_model()};
+    DoublePlay stage{{stack_model()}};
     const int n = 2000;
     double y = 0.0;
     for (int k = 0; k <= 2 * n; ++k) {
@@ -178,7 +163,7 @@ void arming_on_a_remnant_does_not_step_the_command(float peak_V) {
     // (the check below could not pass by accident).
     PiModel inverse{};
     ASSERT_TRUE(invert_pi(p.pi, inverse).ok());
-    DoublePlay virgin{inverse};
+    DoublePlay virgin{{inverse}};
     const double jump_V = virgin.apply(y0);
     EXPECT_GT(std::abs(jump_V), 0.2) << "y0 " << y0;
     // Tolerance 1e-4 V: the float sum of 16 terms (< 0.1 ms of rounding at

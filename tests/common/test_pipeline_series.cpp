@@ -12,6 +12,7 @@
 #include <random>
 
 #include "piezoloop/pipeline.hpp"
+#include "play_sum_double.hpp"
 
 using namespace piezoloop;
 
@@ -67,24 +68,6 @@ PipelineParams series_params(float slew_V_per_s = 1e7f) {
     return p;
 }
 
-// The play-operator sum in double, written from docs/models.md,
-// 'Prandtl–Ishlinskii model' (not the core's code).
-struct DoublePi {
-    PiModel m;
-    std::array<double, kMaxPlayOperators> w{};
-    double apply(double x) {
-        const double f = static_cast<double>(m.input_gain) * x + static_cast<double>(m.input_offset);
-        double y = static_cast<double>(m.p0) * f;
-        for (int j = 0; j < m.count; ++j) {
-            const unsigned i = static_cast<unsigned>(j);
-            const double r = m.thresholds[i];
-            w[i] = std::max(f - r, std::min(f + r, w[i]));
-            y += static_cast<double>(m.weights[i]) * w[i];
-        }
-        return y;
-    }
-};
-
 // Reference r: a 100 Hz triangle from 0 to 9.5 µm (the compensator then asks
 // for up to ~12 V, so the 9 V limit binds near the top) plus a small seeded
 // jitter; plant: a first-order lag with a slope of 0.75 µm/V.
@@ -121,15 +104,14 @@ void check_series_equals_clamped_inverse(double tol_V) {
     ASSERT_TRUE(pi.configure(p.pi, su.position, su.voltage).ok());
     OutputLimiter<T> lim(su.hard, su.rate_Hz, su.voltage);
     ASSERT_TRUE(lim.configure(p.limits).ok());
-    DoublePi dpi{p.pi};
+    test::PlaySumDouble dpi{p.pi};
     // Arming is bumpless (pi_start_state.hpp): the compensator starts from
     // the states whose output at the held setpoint (0 µm) is the command in
     // effect (0 V), not from zero states (p0 x the input offset: 0.075 V).
     const PiStartState start = pi_start_for_output(p.pi, 0.0f, 0.0, 1e-4 * su.voltage.full_scale);
     ASSERT_TRUE(start.preset);
     pi.start_ascended_to(sample_of<T>(su.position, static_cast<float>(start.turn)));
-    for (int j = 0; j < p.pi.count; ++j)
-        dpi.w[static_cast<unsigned>(j)] = start.turn - static_cast<double>(p.pi.thresholds[static_cast<unsigned>(j)]);
+    dpi.ascended_to(start.turn);
 
     Drive d;
     int clamped = 0, inside = 0;
@@ -151,7 +133,7 @@ void check_series_equals_clamped_inverse(double tol_V) {
         // (b) clamp(P^-1(r + u_fb)) in double, slew not binding (1e7 V/s).
         const double x_um = static_cast<double>(su.position.to_physical(r)) +
                             static_cast<double>(su.position.to_physical(s.u_fb));
-        const double v = dpi.apply(x_um);
+        const double v = dpi.apply(static_cast<double>(p.pi.input_gain) * x_um + static_cast<double>(p.pi.input_offset));
         const double expect = std::clamp(v, 0.0, 9.0);
         const double got = su.voltage.to_physical(u);
         ASSERT_NEAR(got, expect, tol_V) << "tick " << k;

@@ -735,10 +735,10 @@ private:
 
     // The masked section: the stage's restart, start() (a Status), the
     // arms; then the client binding and the reply.
-    // Arming, its plan comes first, with the tick running (Pipeline::arm):
-    // the first reference is the reading (a restarted stage's is zero) when
-    // the start moves the setpoint from there (`from_reading`: a wave's
-    // approach, a scan's), else the held setpoint.
+    // With the arm flag, each axis plans its arming first, with the tick
+    // running (Pipeline::arm): from the reading (a restarted stage's is zero)
+    // when the start moves the reference from there (`from_reading`: a
+    // wave's approach, a scan's), else from the held setpoint.
     template <class Start, class Send>
     void start_at_tick(const FrameHeader& h, uint8_t f, bool from_reading, Start&& start, Send& send) {
         if ((f & StartWave::kArmLoop) != 0)
