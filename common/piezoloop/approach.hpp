@@ -58,6 +58,19 @@ constexpr int64_t min_jerk_q31(uint32_t p) {
     return static_cast<int64_t>((x3 * poly) >> 29);
 }
 
+// from + (to - from) s for the weight s of min_jerk_q31 (Q31 raw in
+// [0, 2^31]): float as written; Q31 the convex combination
+// from (1 - s) + to s in 64 bits, rounded (within [from, to]).
+template <class T>
+constexpr T blend(T from, T to, int64_t s) {
+    if constexpr (std::is_same_v<T, float>) {
+        return from + (to - from) * (static_cast<float>(s) * 0x1p-31f);
+    } else {
+        const int64_t v = int64_t{from.raw()} * ((int64_t{1} << 31) - s) + int64_t{to.raw()} * s;
+        return Q31::from_raw(static_cast<int32_t>((v + (int64_t{1} << 30)) >> 31));
+    }
+}
+
 }  // namespace approach_detail
 
 template <class T>
@@ -118,7 +131,6 @@ public:
         }
         from_ = from;
         to_ = to;
-        if constexpr (kFloat) span_ = to - from;
         ramp_ = trajectory_detail::make_ramp(n);
         ticks_ = n;
         n_ = 0;
@@ -132,12 +144,7 @@ public:
         if (n_ + 1 >= ticks_) state_ = State::kIdle;
         const int64_t s = approach_detail::min_jerk_q31(
             static_cast<uint32_t>(trajectory_detail::apply_ramp(ramp_, n_)));
-        if constexpr (kFloat) {
-            return from_ + span_ * (static_cast<float>(s) * 0x1p-31f);
-        } else {
-            const int64_t v = int64_t{from_.raw()} * ((int64_t{1} << 31) - s) + int64_t{to_.raw()} * s;
-            return Q31::from_raw(static_cast<int32_t>((v + (int64_t{1} << 30)) >> 31));
-        }
+        return approach_detail::blend(from_, to_, s);
     }
 
     constexpr uint32_t ticks() const { return ticks_; }  // N of the last move begun
@@ -150,7 +157,6 @@ private:
     enum class State : uint8_t { kIdle, kPending, kMoving };
     std::conditional_t<kFloat, float, uint32_t> unit_{};
     T from_{}, to_{};
-    float span_ = 0.0f;  // float: to - from
     trajectory_detail::Ramp ramp_{};
     uint32_t ticks_ = 0, n_ = 0;
     State state_ = State::kIdle;

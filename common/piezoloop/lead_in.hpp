@@ -17,12 +17,11 @@
 // of the loops' cycles). N <= 1 means no lead-in: the excitation starts at
 // once with the arithmetic it always had.
 //
-// The blend's weight is the approach's, in Q31 integers; float
-// from + (d - from) s, Q31 from (1 - s) + d s in 64 bits, rounded.
+// The blend is the approach's (approach_detail::blend), its weight in Q31
+// integers.
 #pragma once
 
 #include <cstdint>
-#include <type_traits>
 
 #include "piezoloop/approach.hpp"
 #include "piezoloop/q31.hpp"
@@ -33,8 +32,6 @@ namespace piezoloop {
 
 template <class T>
 class LeadIn {
-    static constexpr bool kFloat = std::is_same_v<T, float>;
-
 public:
     // The next excitation's: its output scale, the loop rate, and its
     // period in samples (0: none, and so no lead-in). Main loop, while no
@@ -69,12 +66,7 @@ public:
         const int64_t s =
             approach_detail::min_jerk_q31(static_cast<uint32_t>(trajectory_detail::apply_ramp(ramp_, n_)));
         ++n_;
-        if constexpr (kFloat) {
-            return from_ + (d - from_) * (static_cast<float>(s) * 0x1p-31f);
-        } else {
-            const int64_t v = int64_t{from_.raw()} * ((int64_t{1} << 31) - s) + int64_t{d.raw()} * s;
-            return Q31::from_raw(static_cast<int32_t>((v + (int64_t{1} << 30)) >> 31));
-        }
+        return approach_detail::blend(from_, d, s);
     }
 
 private:

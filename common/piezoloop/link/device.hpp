@@ -741,12 +741,10 @@ private:
     // wave's approach, a scan's), else from the held setpoint.
     template <class Start, class Send>
     void start_at_tick(const FrameHeader& h, uint8_t f, bool from_reading, Start&& start, Send& send) {
-        if ((f & StartWave::kArmLoop) != 0)
-            for (PipelineType* p : axes_) {
-                const bool restart = (f & StartWave::kRestartStage) != 0;
-                const T x = !from_reading ? p->setpoint() : (restart ? T{} : p->last().y);
-                p->plan_arming_from(x);
-            }
+        if ((f & StartWave::kArmLoop) != 0) {
+            const bool restart = (f & StartWave::kRestartStage) != 0;
+            for (PipelineType* p : axes_) p->plan_arming_from(!from_reading ? p->setpoint() : (restart ? T{} : p->last().y));
+        }
         mask(true);
         if ((f & StartWave::kRestartStage) != 0) {
             if (!hooks_.restart_stage()) {
